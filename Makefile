@@ -1,0 +1,38 @@
+# Two commands on a fresh machine with nothing but Python:
+#   make demo   run the main job (a BeltSorter-v0 episode with metrics and a rendered frame)
+#   make test   run the whole default test suite
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test lint bench clean install
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml Makefile
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+	# torch: the pinned CPU build where it is available locally, else the registry's CPU build.
+	$(PIP) install --quiet torch==2.13.0 || \
+	  $(PIP) install --quiet torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
+	$(PIP) install --quiet -e ".[dev,torch]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	MPLBACKEND=Agg $(PY) examples/belt_sorter_episode.py --steps 500 --png demo_frame.png
+
+test: $(STAMP) lint
+	MPLBACKEND=Agg SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest -q
+
+lint: $(STAMP)
+	$(PY) -m ruff check track_envs predictors agents tests examples benchmarks
+	$(PY) -m ruff format --check track_envs predictors agents tests examples benchmarks
+	$(PY) -m mypy
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_belt_sorter.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

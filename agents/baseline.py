@@ -1,0 +1,40 @@
+"""The no-tracking baseline: every detection is reported as a track of its own."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.report import pack_report
+from track_envs.types import SensorSpec
+
+
+class DetectionsAgent:
+    """Reports each detection of a frame as a fresh track (new id every frame).
+
+    The floor every tracker should beat: positions are as good as the sensor (GOSPA reflects
+    only noise, misses and clutter), but no identity survives a frame, so every association
+    metric is at its worst. Works on every point environment.
+    """
+
+    def __init__(self) -> None:
+        self._spec: SensorSpec | None = None
+        self._next_id = 0
+
+    def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
+        """Start a new episode with the sensor ``spec`` (``seed`` is unused: the agent is deterministic)."""
+        self._spec = spec
+        self._next_id = 0
+
+    def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
+        """Report the masked-in detections of ``obs`` as tracks."""
+        if self._spec is None:
+            raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
+        rows = np.flatnonzero(np.asarray(obs["mask"]) == 1)
+        positions = np.asarray(obs["detections"])[rows]
+        n = min(len(rows), self._spec.max_tracks)
+        ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
+        self._next_id += n
+        return pack_report(ids, positions[:n], rows[:n], self._spec.max_tracks)

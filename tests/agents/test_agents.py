@@ -1,0 +1,48 @@
+"""Behaviour tests parametrised over every registered agent, and the registry."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import track_envs
+from agents import available_agents, make_agent
+
+
+def test_unknown_agent_lists_the_valid_names():
+    with pytest.raises(ValueError, match=r"valid names are \['detections'"):
+        make_agent("kalman-magic")
+
+
+@pytest.mark.parametrize("name", available_agents())
+@pytest.mark.parametrize("env_id", track_envs.ENV_IDS)
+def test_agent_reports_valid_actions_on_every_point_env(name, env_id):
+    env = gym.make(env_id)
+    agent = make_agent(name)
+    obs, _ = env.reset(seed=0)
+    agent.reset(env.unwrapped.sensor_spec, seed=0)
+    rewards = []
+    for _ in range(30):
+        report = agent.act(obs)
+        assert env.action_space.contains(report)
+        obs, reward, terminated, truncated, _ = env.step(report)
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    assert np.all(np.isfinite(rewards))
+
+
+@pytest.mark.parametrize("name", available_agents())
+def test_act_before_reset_is_an_error(name):
+    with pytest.raises(RuntimeError, match="reset"):
+        make_agent(name).act({"detections": np.zeros((4, 2), np.float32), "mask": np.zeros(4, np.int8)})
+
+
+def test_detections_agent_matches_the_sensor_exactly_at_zero_noise():
+    env = gym.make("BeltSorter-v0", noise_std=0.0)
+    agent = make_agent("detections")
+    obs, _ = env.reset(seed=0)
+    agent.reset(env.unwrapped.sensor_spec)
+    _, reward, *_ = env.step(agent.act(obs))
+    assert reward == pytest.approx(0.0, abs=1e-6)

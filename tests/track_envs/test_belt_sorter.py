@@ -1,0 +1,173 @@
+"""BeltSorter-v0: calibration against the DEM figures, walls, sensor model, arguments."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import track_envs  # noqa: F401
+from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
+from track_envs.envs.belt_statistics import DEM_FIGURES, belt_statistics
+from track_envs.report import empty_report
+
+# DEM figures per data set (paper 000's authors' three belts): entry speed, exit speed.
+KIND_FIGURES = {
+    "sphere": {"entry_speed": 1.12, "exit_speed": 1.44, "frames_seen": 31.0},
+    "cylinder": {"entry_speed": 1.00, "exit_speed": 1.43, "frames_seen": 33.0},
+    "cuboid": {"entry_speed": 1.00, "exit_speed": 1.43, "frames_seen": 33.0},
+}
+
+
+def within(value: float, low: float, high: float, tol: float = 0.15) -> bool:
+    return low * (1 - tol) <= value <= high * (1 + tol)
+
+
+@pytest.fixture(scope="module")
+def default_stats():
+    return belt_statistics(gym.make("BeltSorter-v0"), n_frames=1500, seed=0)
+
+
+@pytest.mark.parametrize("name", list(DEM_FIGURES))
+def test_default_flow_matches_the_dem_figures_within_15_percent(default_stats, name):
+    low, high = DEM_FIGURES[name]
+    assert within(default_stats[name], low, high), (name, default_stats[name], (low, high))
+
+
+@pytest.mark.parametrize("kind", list(KIND_FIGURES))
+def test_each_particle_kind_matches_its_own_data_set(kind):
+    stats = belt_statistics(gym.make("BeltSorter-v0", particle_kind=kind), n_frames=600, seed=1)
+    for name, figure in KIND_FIGURES[kind].items():
+        assert within(stats[name], figure, figure), (kind, name, stats[name], figure)
+    assert within(stats["acceleration"], 1.57, 1.57)
+    assert within(stats["lateral_speed_p98"], 0.07, 0.09)
+
+
+def test_spheres_enter_faster_than_cylinders():
+    fast = belt_statistics(gym.make("BeltSorter-v0", particle_kind="sphere"), n_frames=300, seed=0)
+    slow = belt_statistics(gym.make("BeltSorter-v0", particle_kind="cylinder"), n_frames=300, seed=0)
+    assert fast["entry_speed"] > slow["entry_speed"] + 0.05
+
+
+def test_no_particle_ever_crosses_a_wall():
+    world = BeltWorld(BeltParams(), resolve_mixture("mixture"), np.random.default_rng(5), 0.01)
+    world.warm_up()
+    width = world.params.window_width
+    half_min = min(0.5 * min(k.length, k.width) for k in world.kinds)
+    worst = np.inf
+    for _ in range(1500):
+        world.step()
+        y = world.state().position[:, 1]
+        worst = min(worst, float(np.min(np.minimum(y, width - y))))
+    # centroids stay inside the walls, and overlap with a wall never exceeds half the smallest half-size
+    assert worst > 0.5 * half_min
+
+
+def test_belt_is_in_steady_state_at_the_first_frame():
+    env = gym.make("BeltSorter-v0")
+    _, info = env.reset(seed=0)
+    truth = info["truth"]
+    live = truth["ids"] >= 0
+    assert live.sum() > 20
+    assert truth["positions"][live, 0].max() > 0.35, "particles already reach the window end"
+    assert np.all(truth["velocities"][live, 0] > 0.5)
+
+
+def test_truth_velocities_match_position_differences():
+    env = gym.make("BeltSorter-v0")
+    _, a = env.reset(seed=0)
+    _, _, _, _, b = env.step(empty_report(256, (2,)))
+    ids_a, ids_b = a["truth"]["ids"], b["truth"]["ids"]
+    common, ia, ib = np.intersect1d(ids_a[ids_a >= 0], ids_b[ids_b >= 0], return_indices=True)
+    dx = b["truth"]["positions"][ib] - a["truth"]["positions"][ia]
+    v = b["truth"]["velocities"][ib]
+    assert len(common) > 20
+    np.testing.assert_allclose(dx / 0.01, v, atol=0.05)
+
+
+def test_measurement_noise_has_the_requested_std():
+    env = gym.make("BeltSorter-v0", noise_std=3e-4)
+    obs, info = env.reset(seed=0)
+    errors = []
+    for _ in range(100):
+        truth = dict(zip(info["truth"]["ids"].tolist(), info["truth"]["positions"], strict=True))
+        rows = np.flatnonzero(obs["mask"])
+        errors.append(obs["detections"][rows] - np.array([truth[i] for i in info["detection_ids"][rows]]))
+        obs, _, _, _, info = env.step(empty_report(256, (2,)))
+    errors = np.concatenate(errors)
+    assert len(errors) > 3000
+    np.testing.assert_allclose(errors.std(axis=0), 3e-4, rtol=0.05)
+    np.testing.assert_allclose(errors.mean(axis=0), 0.0, atol=3e-5)
+
+
+def test_detection_probability_and_clutter_rate():
+    env = gym.make("BeltSorter-v0", p_detect=0.7, clutter_rate=3.0)
+    obs, info = env.reset(seed=0)
+    detected = visible = clutter = 0
+    frames = 200
+    for _ in range(frames):
+        src = info["detection_ids"][obs["mask"] == 1]
+        detected += int((src >= 0).sum())
+        clutter += int((src == -1).sum())
+        visible += int((info["truth"]["ids"] >= 0).sum())
+        obs, _, _, _, info = env.step(empty_report(256, (2,)))
+    rate = detected / visible
+    sigma = np.sqrt(0.7 * 0.3 / visible)
+    assert abs(rate - 0.7) < 4 * sigma
+    assert abs(clutter / frames - 3.0) < 4 * np.sqrt(3.0 / frames)
+
+
+def test_overfull_frames_warn_once_and_count_what_they_drop():
+    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30)
+    with (
+        pytest.warns(RuntimeWarning, match="max_detections=20"),
+        pytest.warns(RuntimeWarning, match="max_targets=30"),
+    ):
+        _, info = env.reset(seed=0)
+    assert info["dropped_detections"] > 0 and info["dropped_targets"] > 0
+    assert (info["truth"]["ids"] >= 0).sum() == 30
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"noise_std": -1.0}, "noise_std"),
+        ({"p_detect": 1.5}, "p_detect"),
+        ({"clutter_rate": -0.1}, "clutter_rate"),
+        ({"max_detections": 0}, "max_detections"),
+        ({"max_tracks": 2.5}, "max_tracks"),
+        ({"particle_kind": "pebble"}, "particle_kind must be one of"),
+        ({"particle_kind": {"sphere": 1.0, "rock": 1.0}}, "unknown kinds"),
+        ({"feed_rate": -5.0}, "feed_rate"),
+        ({"belt_speed": 0.0}, "belt_speed"),
+        ({"gospa_c": 0.0}, "gospa_c"),
+        ({"physics": {"belt_speed": 1.0}}, "BeltParams"),
+    ],
+)
+def test_bad_arguments_name_the_problem(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make("BeltSorter-v0", **kwargs)
+
+
+def test_mixture_carries_every_kind():
+    env = gym.make("BeltSorter-v0", particle_kind={"sphere": 1, "cuboid": 3})
+    _, info = env.reset(seed=0)
+    kinds = info["truth"]["kinds"][info["truth"]["ids"] >= 0]
+    names = np.array(env.unwrapped.kind_names)[kinds]
+    assert set(names) == {"sphere", "cuboid"}
+    assert (names == "cuboid").mean() > 0.5
+
+
+def test_reward_is_zero_for_a_perfect_report_and_negative_otherwise():
+    env = gym.make("BeltSorter-v0", noise_std=0.0)
+    _, info = env.reset(seed=0)
+    live = info["truth"]["ids"] >= 0
+    report = empty_report(256, (2,))
+    n = int(live.sum())
+    report["positions"][:n] = info["truth"]["positions"][live]
+    report["ids"][:n] = info["truth"]["ids"][live]
+    report["mask"][:n] = 1
+    _, reward, *_ = env.step(report)
+    assert reward == pytest.approx(0.0, abs=1e-6)
+    _, reward, *_ = env.step(empty_report(256, (2,)))
+    assert reward < -0.01

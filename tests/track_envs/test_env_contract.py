@@ -1,0 +1,200 @@
+"""Conformance tests run over every registered environment id."""
+
+from __future__ import annotations
+
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import track_envs
+from track_envs.report import empty_report
+
+ENV_IDS = list(track_envs.ENV_IDS)
+# check_env recommends a normalised Box action space for RL policies; a report holds positions in
+# sensor units by design, so that one recommendation is expected.
+EXPECTED_WARNINGS = ("symmetric and normalized space",)
+
+
+def rollout(env_id: str, seed: int, steps: int, **kwargs):
+    env = gym.make(env_id, **kwargs)
+    spec = env.unwrapped.sensor_spec
+    obs, info = env.reset(seed=seed)
+    frames = [(obs, info)]
+    report = empty_report(spec.max_tracks, env.unwrapped.position_shape)
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(report)
+        frames.append((obs, info, reward))
+        if terminated or truncated:
+            break
+    return frames
+
+
+def assert_tree_equal(a, b):
+    if isinstance(a, dict):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert_tree_equal(a[k], b[k])
+    elif isinstance(a, tuple | list):
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            assert_tree_equal(x, y)
+    else:
+        np.testing.assert_array_equal(a, b)
+
+
+def test_registration_is_idempotent():
+    before = {k for k in gym.registry if k in ENV_IDS}
+    track_envs.register_envs()
+    track_envs.register_envs()
+    assert before == set(ENV_IDS)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_check_env_has_no_unexpected_warnings(env_id):
+    env = gym.make(env_id).unwrapped
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    unexpected = [str(w.message) for w in caught if not any(e in str(w.message) for e in EXPECTED_WARNINGS)]
+    assert unexpected == []
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_same_seed_gives_bitwise_equal_rollouts(env_id):
+    a = rollout(env_id, seed=3, steps=200)
+    b = rollout(env_id, seed=3, steps=200)
+    assert len(a) == len(b) >= 2
+    assert_tree_equal(a, b)
+    c = rollout(env_id, seed=4, steps=5)
+    assert not all(np.array_equal(x[0]["detections"], y[0]["detections"]) for x, y in zip(a, c, strict=False))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_pickle_round_trip_keeps_the_state(env_id):
+    env = gym.make(env_id)
+    spec = env.unwrapped.sensor_spec
+    env.reset(seed=1)
+    report = empty_report(spec.max_tracks, env.unwrapped.position_shape)
+    for _ in range(20):
+        env.step(report)
+    clone = pickle.loads(pickle.dumps(env))
+    assert clone.unwrapped.sensor_spec == spec
+    assert clone.unwrapped.np_random.bit_generator.state == env.unwrapped.np_random.bit_generator.state
+    assert_tree_equal(clone.unwrapped._current_truth.positions, env.unwrapped._current_truth.positions)
+    a = env.step(report)
+    b = clone.step(report)
+    assert_tree_equal(a[4]["truth"]["ids"], b[4]["truth"]["ids"])
+    if env_id == "BeltReplay-v0":
+        assert_tree_equal(a, b)
+    else:
+        # pymunk rebuilds its contact caches on load, so physics continues to within float noise
+        np.testing.assert_allclose(a[4]["truth"]["positions"], b[4]["truth"]["positions"], atol=1e-4)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_observation_info_and_truth_follow_the_contract(env_id):
+    env = gym.make(env_id, noise_std=0.0)
+    spec = env.unwrapped.sensor_spec
+    obs, info = env.reset(seed=0)
+    report = empty_report(spec.max_tracks, env.unwrapped.position_shape)
+    for _ in range(5):
+        assert env.observation_space.contains(obs)
+        det, mask = obs["detections"], obs["mask"]
+        assert det.dtype == np.float32 and mask.dtype == np.int8
+        assert np.all(det[mask == 0] == 0), "padding rows are zero"
+        assert np.all(mask[: mask.sum()] == 1), "real rows come first"
+        ids = info["detection_ids"]
+        assert ids.shape == (spec.max_detections,) and ids.dtype == np.int64
+        assert np.all(ids[mask == 0] == -1)
+        truth = info["truth"]
+        assert truth["ids"].shape == (env.unwrapped.max_targets,)
+        assert truth["positions"].shape == (env.unwrapped.max_targets, spec.dim)
+        assert truth["visible"].dtype == bool
+        # at zero noise each detection is its particle's true position (float32)
+        lookup = {int(i): p for i, p in zip(truth["ids"], truth["positions"], strict=True) if i >= 0}
+        for row in np.flatnonzero(mask):
+            np.testing.assert_array_equal(det[row], lookup[int(ids[row])].astype(np.float32))
+        assert isinstance(info["t"], float)
+        obs, reward, _, _, info = env.step(report)
+        assert isinstance(reward, float) and reward <= 0
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_detection_rows_are_shuffled(env_id):
+    env = gym.make(env_id, noise_std=0.0)
+    _, info = env.reset(seed=0)
+    sorted_frames = 0
+    for _ in range(10):
+        ids = info["detection_ids"][info["detection_ids"] >= 0]
+        sorted_frames += bool(np.all(np.diff(ids) > 0))
+        _, _, _, _, info = env.step(empty_report(env.unwrapped.sensor_spec.max_tracks, (2,)))
+    assert sorted_frames < 2
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_step_before_reset_is_an_error(env_id):
+    env = gym.make(env_id, disable_env_checker=True).unwrapped
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(empty_report(env.sensor_spec.max_tracks, (2,)))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_malformed_reports_are_rejected_with_the_reason(env_id):
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    n = env.sensor_spec.max_tracks
+    good = empty_report(n, (2,))
+    with pytest.raises(ValueError, match="keys"):
+        env.step({k: v for k, v in good.items() if k != "mask"})
+    with pytest.raises(ValueError, match=r"report\['positions'\] must have shape"):
+        env.step({**good, "positions": np.zeros((n, 3), np.float32)})
+    with pytest.raises(ValueError, match=r"report\['ids'\] must hold integers"):
+        env.step({**good, "ids": np.zeros(n, np.float64)})
+    bad = {k: v.copy() for k, v in good.items()}
+    bad["mask"][2] = 1
+    bad["positions"][2] = np.nan
+    with pytest.raises(ValueError, match=r"non-finite values in masked-in rows \[2\]"):
+        env.step(bad)
+    with pytest.raises(ValueError, match="report dict"):
+        env.step(np.zeros(3))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_random_action_samples_are_valid_reports(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    for _ in range(3):
+        _, reward, _, _, _ = env.step(env.action_space.sample())
+        assert np.isfinite(reward)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_rgb_array_rendering_draws_the_scene(env_id):
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 10
+    env.step(env.action_space.sample())
+    assert env.render().shape == frame.shape
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_human_rendering_runs_headless(env_id):
+    pytest.importorskip("pygame")
+    env = gym.make(env_id, render_mode="human")
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    env.close()
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_bad_render_mode_is_named(env_id):
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make(env_id, render_mode="video")

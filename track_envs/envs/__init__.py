@@ -1,0 +1,1 @@
+"""Environment classes. Make them with ``gymnasium.make`` after ``import track_envs``."""

@@ -1,0 +1,294 @@
+"""The shared plumbing of every tracking environment: padding, shuffling, truth, report, reward.
+
+A concrete environment only simulates and senses. It implements
+
+* :meth:`TrackingEnv._reset_scene` — build the scene from ``self.np_random``;
+* :meth:`TrackingEnv._advance` — move the scene one frame on, return ``True`` when it has ended;
+* :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
+* :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each;
+* :meth:`TrackingEnv._draw` — the scene onto a :class:`~track_envs.rendering.Canvas`;
+
+and this base class does the rest of the contract of ARCHITECTURE.md: the ``Dict`` observation
+(padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
+reveals identity), the report action and its validation, ``info`` with the truth and the
+per-detection ``detection_ids``, the per-frame reward, rendering of detections and reported tracks.
+
+Step semantics: ``obs_t = reset()`` or ``step()`` shows frame ``t``; ``step(report_t)`` scores
+``report_t`` against the truth of frame ``t`` (the reward), advances to frame ``t + 1`` and returns
+its observation. When the scene has ended, ``step`` returns ``terminated=True`` with an empty
+observation and empty truth.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from track_envs.report import Report, report_space, validate_report
+from track_envs.types import SensorSpec
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The targets of one frame (unpadded).
+
+    Attributes:
+        ids: (m,) int64 truth ids.
+        positions: (m, *P) float64 positions (P = (D,) for point targets).
+        visible: (m,) bool, whether each target is in view of the sensor.
+        extra: Further per-target arrays (m, ...) that go into ``info["truth"]`` by name
+            (e.g. ``"velocities"``).
+    """
+
+    ids: NDArray[np.int64]
+    positions: NDArray[np.float64]
+    visible: NDArray[np.bool_]
+    extra: dict[str, NDArray] = field(default_factory=dict)
+
+
+class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
+    """Base class of the tracking environments (see the module docstring).
+
+    Subclasses call :meth:`_setup_spaces` once in ``__init__`` after they know their sensor.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}  # noqa: RUF012
+
+    sensor_spec: SensorSpec
+    max_targets: int
+    position_shape: tuple[int, ...]
+    detection_shape: tuple[int, ...]
+    truth_extra_shapes: dict[str, tuple[int, ...]]
+    gospa_c: float
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _setup_spaces(
+        self,
+        spec: SensorSpec,
+        *,
+        max_targets: int,
+        obs_low: NDArray,
+        obs_high: NDArray,
+        position_shape: tuple[int, ...] | None = None,
+        detection_shape: tuple[int, ...] | None = None,
+        truth_extra_shapes: dict[str, tuple[int, ...]] | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
+            )
+        if not (isinstance(max_targets, int | np.integer) and max_targets >= 1):
+            raise ValueError(f"max_targets must be an integer >= 1, got {max_targets!r}")
+        self.render_mode = render_mode
+        self.sensor_spec = spec
+        self.max_targets = int(max_targets)
+        self.position_shape = position_shape or (spec.dim,)
+        self.detection_shape = detection_shape or (spec.dim,)
+        self.truth_extra_shapes = truth_extra_shapes or {}
+        det_shape = (spec.max_detections, *self.detection_shape)
+        self._obs_low = np.broadcast_to(np.asarray(obs_low, dtype=np.float32), det_shape)
+        self._obs_high = np.broadcast_to(np.asarray(obs_high, dtype=np.float32), det_shape)
+        self.observation_space = spaces.Dict(
+            {
+                "detections": spaces.Box(self._obs_low, self._obs_high, dtype=np.float32),
+                "mask": spaces.Box(0, 1, shape=(spec.max_detections,), dtype=np.int8),
+            }
+        )
+        lo = np.asarray(spec.region_low)
+        hi = np.asarray(spec.region_high)
+        span = hi - lo
+        self.action_space = report_space(
+            spec.max_tracks, self.position_shape, lo - span, hi + span, spec.max_detections
+        )
+        self._frame = -1
+        self._mask = np.zeros(spec.max_detections, dtype=np.int8)
+        self._current_truth: Truth | None = None
+        self._last_report: Report | None = None
+        self._last_detections: NDArray[Any] = np.zeros((0, *self.detection_shape))
+        self._dropped_detections = 0
+        self._dropped_targets = 0
+        self._window: Any = None
+
+    # -- hooks for subclasses -----------------------------------------------------------------
+    def _reset_scene(self) -> None:
+        raise NotImplementedError
+
+    def _advance(self) -> bool:
+        raise NotImplementedError
+
+    def _truth(self) -> Truth:
+        raise NotImplementedError
+
+    def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        raise NotImplementedError
+
+    def _score(self, truth: Truth, report: Report) -> float:
+        """Reward of ``report``: −GOSPA (c = ``gospa_c``, p = 2, α = 2) against the visible targets."""
+        from track_envs.metrics.gospa import gospa
+
+        visible = truth.positions[truth.visible]
+        return -gospa(visible, report.positions, self.gospa_c, 2.0).distance
+
+    def _draw(self, canvas: Any) -> None:
+        raise NotImplementedError
+
+    def _canvas(self) -> Any:
+        raise NotImplementedError
+
+    def _draw_overlay(self, canvas: Any) -> None:
+        """Detections as black crosses, the last report's tracks as rings in their id colours."""
+        from track_envs.rendering import identity_colors
+
+        if len(self._last_detections):
+            canvas.crosses(self._last_detections, 4, (0, 0, 0))
+        report = self._last_report
+        if report is not None and len(report):
+            canvas.rings(report.positions, 7, identity_colors(report.ids), thickness_px=2)
+
+    # -- gymnasium API ------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray], dict[str, Any]]:
+        super().reset(seed=seed)
+        self._frame = 0
+        self._last_report = None
+        self._dropped_detections = 0
+        self._dropped_targets = 0
+        self._reset_scene()
+        obs, info = self._observe()
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(
+        self, action: dict[str, NDArray]
+    ) -> tuple[dict[str, NDArray], float, bool, bool, dict[str, Any]]:
+        if self._frame < 0 or self._current_truth is None:
+            raise RuntimeError("step() called before reset(); call env.reset(seed=...) first")
+        report = validate_report(action, self.sensor_spec.max_tracks, self.position_shape, self._mask)
+        reward = float(self._score(self._current_truth, report))
+        self._last_report = report
+        terminated = bool(self._advance())
+        self._frame += 1
+        obs, info = self._observe(ended=terminated)
+        if terminated:
+            self._current_truth = None
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    # -- observation and info -----------------------------------------------------------------
+    def _observe(self, ended: bool = False) -> tuple[dict[str, NDArray], dict[str, Any]]:
+        spec = self.sensor_spec
+        if ended:
+            truth = self._empty_truth()
+            z = np.zeros((0, *self.detection_shape))
+            source = np.zeros(0, dtype=np.int64)
+        else:
+            truth = self._truth()
+            z, source = self._sense(truth)
+        order = self.np_random.permutation(len(z))
+        if len(order) > spec.max_detections:
+            if not self._dropped_detections:
+                warnings.warn(
+                    f"{len(order)} detections in frame {self._frame} exceed max_detections="
+                    f"{spec.max_detections}; the surplus (random rows) is dropped and counted in "
+                    "info['dropped_detections'] (warned once per episode)",
+                    RuntimeWarning,
+                    stacklevel=3,
+                )
+            self._dropped_detections += len(order) - spec.max_detections
+            order = order[: spec.max_detections]
+        k = len(order)
+        detections = np.zeros((spec.max_detections, *self.detection_shape), dtype=np.float32)
+        detections[:k] = np.clip(z[order], self._obs_low[:k], self._obs_high[:k])
+        mask = np.zeros(spec.max_detections, dtype=np.int8)
+        mask[:k] = 1
+        detection_ids = np.full(spec.max_detections, -1, dtype=np.int64)
+        detection_ids[:k] = source[order]
+        self._mask = mask
+        self._current_truth = truth
+        self._last_detections = detections[:k]
+        obs: dict[str, NDArray[Any]] = {"detections": detections, "mask": mask}
+        info: dict[str, Any] = {
+            "t": self._frame * spec.dt,
+            "frame": self._frame,
+            "truth": self._pack_truth(truth),
+            "detection_ids": detection_ids,
+            "dropped_detections": self._dropped_detections,
+            "dropped_targets": self._dropped_targets,
+        }
+        return obs, info
+
+    def _empty_truth(self) -> Truth:
+        return Truth(
+            ids=np.zeros(0, dtype=np.int64),
+            positions=np.zeros((0, *self.position_shape)),
+            visible=np.zeros(0, dtype=bool),
+            extra={k: np.zeros((0, *s)) for k, s in self.truth_extra_shapes.items()},
+        )
+
+    def _pack_truth(self, truth: Truth) -> dict[str, NDArray]:
+        m = len(truth.ids)
+        cap = self.max_targets
+        if m > cap:
+            if not self._dropped_targets:
+                warnings.warn(
+                    f"{m} targets in frame {self._frame} exceed max_targets={cap}; info['truth'] holds the "
+                    f"first {cap} by id and the rest is counted in info['dropped_targets'] (warned once "
+                    "per episode)",
+                    RuntimeWarning,
+                    stacklevel=4,
+                )
+            self._dropped_targets += m - cap
+            m = cap
+        ids = np.full(cap, -1, dtype=np.int64)
+        ids[:m] = truth.ids[:m]
+        positions = np.zeros((cap, *self.position_shape), dtype=np.float64)
+        positions[:m] = truth.positions[:m]
+        visible = np.zeros(cap, dtype=bool)
+        visible[:m] = truth.visible[:m]
+        packed = {"ids": ids, "positions": positions, "visible": visible}
+        for name, shape in self.truth_extra_shapes.items():
+            arr = np.zeros((cap, *shape), dtype=np.asarray(truth.extra[name]).dtype)
+            arr[:m] = truth.extra[name][:m]
+            packed[name] = arr
+        return packed
+
+    # -- rendering ----------------------------------------------------------------------------
+    def render(self) -> NDArray[np.uint8] | None:
+        """Draw the current frame: the scene, the detections (crosses), the last report (rings)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")
+            return None
+        if self._frame < 0:
+            raise RuntimeError("render() called before reset()")
+        canvas = self._canvas()
+        self._draw(canvas)
+        self._draw_overlay(canvas)
+        frame = canvas.to_array()
+        if self.render_mode == "human":
+            if self._window is None:
+                from track_envs.rendering import HumanWindow
+
+                self._window = HumanWindow(type(self).__name__, int(self.metadata["render_fps"]))
+            self._window.show(frame)
+            return None
+        return frame
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_window"] = None
+        return state

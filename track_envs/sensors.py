@@ -1,0 +1,83 @@
+"""Point sensor model: missed detections, additive Gaussian noise, uniform clutter.
+
+For targets at true positions ``x_i`` (n, D) one frame of detections is drawn as
+
+* target ``i`` is detected with probability ``p_detect`` (independent Bernoulli trials);
+* a detection of target ``i`` is ``z = x_i + v``, ``v ~ N(0, noise_std² I_D)``;
+* ``K ~ Poisson(clutter_rate)`` clutter detections, uniform over the clutter box.
+
+Every draw comes from the generator passed in (the environment's ``np_random``) in a fixed
+order, so a seed fixes the frame bit for bit. Rows are returned unshuffled; the environment
+shuffles them so that row order never reveals identity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+CLUTTER_ID = -1
+
+
+def check_probability(name: str, value: float) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if not in [0, 1]."""
+    if not (np.isfinite(value) and 0.0 <= value <= 1.0):
+        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
+    return float(value)
+
+
+def check_non_negative(name: str, value: float) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if negative or not finite."""
+    if not (np.isfinite(value) and value >= 0.0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def check_positive(name: str, value: float) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if not > 0 and finite."""
+    if not (np.isfinite(value) and value > 0.0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def sense_points(
+    positions: NDArray[np.floating],
+    ids: NDArray[np.integer],
+    rng: np.random.Generator,
+    *,
+    noise_std: float,
+    p_detect: float,
+    clutter_rate: float,
+    clutter_low: NDArray[np.floating],
+    clutter_high: NDArray[np.floating],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Draw one frame of point detections.
+
+    Args:
+        positions: True positions of the targets in view, (n, D).
+        ids: Truth ids of those targets, (n,).
+        rng: The generator every draw comes from.
+        noise_std: Noise standard deviation per axis, >= 0.
+        p_detect: Detection probability in [0, 1].
+        clutter_rate: Mean number of clutter detections per frame, >= 0.
+        clutter_low: Lower corner of the clutter box, (D,).
+        clutter_high: Upper corner of the clutter box, (D,).
+
+    Returns:
+        ``(z, source)``: detections (k, D) and the truth id behind each row (k,), with
+        :data:`CLUTTER_ID` (-1) for clutter. Target detections come first, clutter last.
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    n, dim = x.shape
+    detected = rng.random(n) < p_detect
+    noise = rng.normal(0.0, 1.0, size=(n, dim)) * noise_std
+    z = (x + noise)[detected]
+    source = np.asarray(ids, dtype=np.int64)[detected]
+    k = int(rng.poisson(clutter_rate)) if clutter_rate > 0 else 0
+    if k:
+        lo = np.asarray(clutter_low, dtype=np.float64)
+        hi = np.asarray(clutter_high, dtype=np.float64)
+        clutter = lo + rng.random((k, dim)) * (hi - lo)
+        z = np.concatenate([z, clutter])
+        source = np.concatenate([source, np.full(k, CLUTTER_ID, dtype=np.int64)])
+    return z, source
