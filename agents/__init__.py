@@ -14,34 +14,32 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-_REGISTRY: dict[str, Callable[..., Any]] = {}
+from track_envs.registry import Registry
+
+AGENTS = Registry("agent")
 
 
 def register_agent(name: str, factory: Callable[..., Any]) -> None:
     """Register ``factory`` under ``name`` (re-registering a name replaces it)."""
-    _REGISTRY[name] = factory
+    AGENTS.register(name, factory)
 
 
 def available_agents() -> list[str]:
     """Names accepted by :func:`make_agent`."""
-    return sorted(_REGISTRY)
+    return AGENTS.names()
 
 
 def make_agent(name: str, **kwargs: Any) -> Any:
-    """Build the agent registered as ``name``.
-
-    Raises:
-        ValueError: for an unknown name, listing the valid names.
-    """
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown agent {name!r}; valid names are {available_agents()}")
-    return _REGISTRY[name](**kwargs)
+    """Build the agent registered as ``name`` (an unknown name raises ``ValueError`` listing them)."""
+    return AGENTS.make(name, **kwargs)
 
 
 def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
+    from agents.gnn import GnnAgent
 
     register_agent("detections", DetectionsAgent)
+    register_agent("gnn", GnnAgent)
 
 
 _register_builtin()

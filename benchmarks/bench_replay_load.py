@@ -117,6 +117,17 @@ def main(argv: list[str] | None = None) -> None:
         if not same:
             raise SystemExit("loaded positions differ from the generated ones")
 
+        import gymnasium as gym
+
+        import track_envs  # noqa: F401
+
+        t0 = time.perf_counter()
+        env = gym.make("BeltReplay-v0", path=str(path))
+        env.reset(seed=0)
+        make_s = time.perf_counter() - t0
+        print(f"gym.make('BeltReplay-v0', path=...) + reset: {make_s:.2f} s")
+        del env
+
         t0 = time.perf_counter()
         write_track_csv(Path(tmp) / "written.csv", positions)
         own_write_s = time.perf_counter() - t0

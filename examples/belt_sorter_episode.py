@@ -13,6 +13,7 @@ from tqdm import tqdm
 
 import track_envs  # noqa: F401  (registers the environments)
 from agents import available_agents, make_agent
+from track_envs.wrappers import TrackingMetrics
 
 
 def best_available_agent() -> str:
@@ -35,12 +36,14 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--png", default=None, help="write the last frame, rendered, to this PNG")
     args = parser.parse_args(argv)
 
-    env = gym.make(
-        "BeltSorter-v0",
-        noise_std=args.noise_std,
-        particle_kind=args.particle_kind,
-        render_mode="rgb_array",
-        max_episode_steps=args.steps,
+    env = TrackingMetrics(
+        gym.make(
+            "BeltSorter-v0",
+            noise_std=args.noise_std,
+            particle_kind=args.particle_kind,
+            render_mode="rgb_array",
+            max_episode_steps=args.steps,
+        )
     )
     agent_name = args.agent or best_available_agent()
     agent = make_agent(agent_name)
@@ -58,12 +61,21 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         if terminated or truncated:
             break
 
+    metrics = info["episode_metrics"]
     summary = {
         "frames": float(len(gospa)),
         "mean particles in window": float(np.mean(visible)),
         "peak particles in window": float(np.max(visible)),
         "mean detections per frame": float(np.mean(detections)),
         "mean reported tracks": float(np.mean(tracks)),
+        "tracks started": metrics["n_tracks"],
+        "particles seen": metrics["n_particles"],
+        "e1 (tracks mixing particles)": metrics["e1"],
+        "e2 (particles split or lost)": metrics["e2"],
+        "e_mean": metrics["e_mean"],
+        "MOTA": metrics["mota"],
+        "IDF1": metrics["idf1"],
+        "ID switches": metrics["id_switches"],
         "mean GOSPA (mm)": 1e3 * float(np.mean(gospa)),
     }
     print(
@@ -71,7 +83,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     )
     width = max(len(k) for k in summary)
     for key, value in summary.items():
-        print(f"  {key:<{width}}  {value:10.3f}")
+        print(f"  {key:<{width}}  {value:10.4g}")
     if args.png:
         import matplotlib.pyplot as plt
 

@@ -9,25 +9,34 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-_REGISTRY: dict[str, Callable[..., Any]] = {}
+from track_envs.registry import Registry
+
+PREDICTORS = Registry("predictor")
 
 
 def register_predictor(name: str, factory: Callable[..., Any]) -> None:
     """Register ``factory`` under ``name`` (re-registering a name replaces it)."""
-    _REGISTRY[name] = factory
+    PREDICTORS.register(name, factory)
 
 
 def available_predictors() -> list[str]:
     """Names accepted by :func:`make_predictor`."""
-    return sorted(_REGISTRY)
+    return PREDICTORS.names()
 
 
 def make_predictor(name: str, **kwargs: Any) -> Any:
-    """Build the predictor registered as ``name``.
+    """Build the predictor registered as ``name`` (an unknown name raises ``ValueError`` listing them)."""
+    return PREDICTORS.make(name, **kwargs)
 
-    Raises:
-        ValueError: for an unknown name, listing the valid names.
-    """
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown predictor {name!r}; valid names are {available_predictors()}")
-    return _REGISTRY[name](**kwargs)
+
+def _register_builtin() -> None:
+    from functools import partial
+
+    from predictors.kalman import KalmanPredictor
+
+    register_predictor("kf-cv", partial(KalmanPredictor, "cv"))
+    register_predictor("kf-ca", partial(KalmanPredictor, "ca"))
+    register_predictor("random-walk", partial(KalmanPredictor, "random-walk"))
+
+
+_register_builtin()

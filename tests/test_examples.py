@@ -20,5 +20,6 @@ def test_belt_sorter_episode_prints_metrics_and_writes_a_png(tmp_path, capsys):
     summary = load("belt_sorter_episode").main(["--steps", "40", "--png", str(png)])
     assert summary["frames"] == 40
     assert summary["mean particles in window"] > 10
+    assert summary["e_mean"] < 0.05 and summary["MOTA"] > 0.9
     assert png.stat().st_size > 1000
     assert "mean GOSPA" in capsys.readouterr().out

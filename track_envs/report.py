@@ -148,27 +148,25 @@ def validate_report(
         raise ValueError(
             f"the action must be a report dict with keys {REPORT_KEYS}, got {type(report).__name__}"
         )
-    missing = [k for k in REPORT_KEYS if k not in report]
-    extra = [k for k in report if k not in REPORT_KEYS]
-    if missing or extra:
+    if len(report) != len(REPORT_KEYS) or any(k not in report for k in REPORT_KEYS):
+        missing = [k for k in REPORT_KEYS if k not in report]
+        extra = [k for k in report if k not in REPORT_KEYS]
         raise ValueError(f"report keys must be {REPORT_KEYS}; missing {missing}, unexpected {extra}")
     mask = _require(report, "mask", (max_tracks,), "iub", "0/1 integers")
-    if np.any((mask != 0) & (mask != 1)):
-        bad = np.flatnonzero((mask != 0) & (mask != 1))
+    live = mask != 0
+    if mask.dtype.kind != "b" and np.any(mask[live] != 1):
+        bad = np.flatnonzero(live & (mask != 1))
         raise ValueError(f"report['mask'] must be 0 or 1; rows {bad[:10].tolist()} are not")
     ids = _require(report, "ids", (max_tracks,), "iu", "integers")
     positions = _require(report, "positions", (max_tracks, *position_shape), "f", "floats")
     detection = _require(report, "detection", (max_tracks,), "iu", "integers")
-    live = mask.astype(bool)
     pos = positions[live].astype(np.float64)
-    finite = np.isfinite(pos).reshape(len(pos), -1).all(axis=1) if pos.size else np.ones(len(pos), bool)
-    if not finite.all():
+    if not np.isfinite(pos).all():
+        finite = np.isfinite(pos).reshape(len(pos), -1).all(axis=1)
         rows = np.flatnonzero(live)[~finite]
         raise ValueError(f"report['positions'] has non-finite values in masked-in rows {rows[:10].tolist()}")
     det = detection[live].astype(np.int64)
-    n_det = len(detection_mask)
-    in_range = (det >= 0) & (det < n_det)
-    valid = in_range.copy()
-    valid[in_range] = detection_mask[det[in_range]] == 1
-    det = np.where(valid, det, -1)
+    # a row index out of range, or pointing at a padding row, means "coasted" (-1)
+    padded = np.append(detection_mask, np.int8(0)) == 1
+    det = np.where(padded[np.clip(det, -1, len(detection_mask))], det, -1)
     return Report(ids=ids[live].astype(np.int64), positions=pos, detection=det)

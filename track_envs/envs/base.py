@@ -6,7 +6,8 @@ A concrete environment only simulates and senses. It implements
 * :meth:`TrackingEnv._advance` — move the scene one frame on, return ``True`` when it has ended;
 * :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
 * :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each;
-* :meth:`TrackingEnv._draw` — the scene onto a :class:`~track_envs.rendering.Canvas`;
+* :meth:`TrackingEnv._snapshot` — what :meth:`TrackingEnv._draw` needs of the current frame;
+* :meth:`TrackingEnv._draw` — a snapshot onto a :class:`~track_envs.rendering.Canvas`;
 
 and this base class does the rest of the contract of ARCHITECTURE.md: the ``Dict`` observation
 (padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
@@ -115,6 +116,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self._dropped_detections = 0
         self._dropped_targets = 0
         self._window: Any = None
+        self._render_frame: tuple[Any, NDArray, Report | None] | None = None
 
     # -- hooks for subclasses -----------------------------------------------------------------
     def _reset_scene(self) -> None:
@@ -127,7 +129,23 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         raise NotImplementedError
 
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        raise NotImplementedError
+        """Point sensor over the visible targets, clutter uniform over the observed region.
+
+        Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
+        """
+        from track_envs.sensors import sense_points
+
+        spec = self.sensor_spec
+        return sense_points(
+            truth.positions[truth.visible],
+            truth.ids[truth.visible],
+            self.np_random,
+            noise_std=spec.noise_std,
+            p_detect=spec.p_detect,
+            clutter_rate=spec.clutter_rate,
+            clutter_low=np.asarray(spec.region_low),
+            clutter_high=np.asarray(spec.region_high),
+        )
 
     def _score(self, truth: Truth, report: Report) -> float:
         """Reward of ``report``: −GOSPA (c = ``gospa_c``, p = 2, α = 2) against the visible targets."""
@@ -136,21 +154,29 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         visible = truth.positions[truth.visible]
         return -gospa(visible, report.positions, self.gospa_c, 2.0).distance
 
-    def _draw(self, canvas: Any) -> None:
+    def _snapshot(self) -> Any:
+        """Whatever :meth:`_draw` needs of the current frame (copied: the scene moves on)."""
+        return self._current_truth
+
+    def _draw(self, canvas: Any, snapshot: Any) -> None:
         raise NotImplementedError
 
     def _canvas(self) -> Any:
         raise NotImplementedError
 
-    def _draw_overlay(self, canvas: Any) -> None:
-        """Detections as black crosses, the last report's tracks as rings in their id colours."""
+    def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
+        """Detections as black crosses, the report's tracks as rings in their id colours."""
         from track_envs.rendering import identity_colors
 
-        if len(self._last_detections):
-            canvas.crosses(self._last_detections, 4, (0, 0, 0))
-        report = self._last_report
+        if len(detections):
+            canvas.crosses(detections, 4, (0, 0, 0))
         if report is not None and len(report):
             canvas.rings(report.positions, 7, identity_colors(report.ids), thickness_px=2)
+
+    def _keep_for_rendering(self, report: Report | None) -> None:
+        """Remember the current frame and the report that answers it (only when rendering)."""
+        if self.render_mode is not None:
+            self._render_frame = (self._snapshot(), self._last_detections.copy(), report)
 
     # -- gymnasium API ------------------------------------------------------------------------
     def reset(
@@ -163,6 +189,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self._dropped_targets = 0
         self._reset_scene()
         obs, info = self._observe()
+        self._keep_for_rendering(None)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -175,6 +202,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         report = validate_report(action, self.sensor_spec.max_tracks, self.position_shape, self._mask)
         reward = float(self._score(self._current_truth, report))
         self._last_report = report
+        self._keep_for_rendering(report)
         terminated = bool(self._advance())
         self._frame += 1
         obs, info = self._observe(ended=terminated)
@@ -264,15 +292,20 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
     # -- rendering ----------------------------------------------------------------------------
     def render(self) -> NDArray[np.uint8] | None:
-        """Draw the current frame: the scene, the detections (crosses), the last report (rings)."""
+        """Draw the last frame reported on: its scene, its detections (crosses) and the tracks of
+        the report that answered it (rings); before the first step, the first frame."""
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")
             return None
         if self._frame < 0:
             raise RuntimeError("render() called before reset()")
+        if self._render_frame is None:
+            self._keep_for_rendering(None)
+        assert self._render_frame is not None
+        snapshot, detections, report = self._render_frame
         canvas = self._canvas()
-        self._draw(canvas)
-        self._draw_overlay(canvas)
+        self._draw(canvas, snapshot)
+        self._draw_overlay(canvas, detections, report)
         frame = canvas.to_array()
         if self.render_mode == "human":
             if self._window is None:

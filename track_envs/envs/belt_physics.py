@@ -528,9 +528,13 @@ class BeltWorld:
         for _ in range(round(self.params.warmup_time / self.dt)):
             self.step()
 
-    def state(self) -> BeltState:
-        """Every particle on the belt, ordered by truth id."""
-        rows = np.flatnonzero(self._row_truth >= 0)
+    def state(self, x_range: tuple[float, float] | None = None) -> BeltState:
+        """Every particle on the belt (or with ``x_low <= x <= x_high``), ordered by truth id."""
+        on_belt = self._row_truth >= 0
+        if x_range is not None:
+            x = self._rows[:, _X]
+            on_belt &= (x >= x_range[0]) & (x <= x_range[1])
+        rows = np.flatnonzero(on_belt)
         order = rows[np.argsort(self._row_truth[rows])]
         r = self._rows[order]
         return BeltState(

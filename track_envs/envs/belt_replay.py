@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.sensors import check_non_negative, check_positive, check_probability, sense_points
+from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.track_csv import load_track_csv
 from track_envs.types import SensorSpec
 
@@ -164,19 +164,6 @@ class BeltReplayEnv(TrackingEnv):
             },
         )
 
-    def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        spec = self.sensor_spec
-        return sense_points(
-            truth.positions,
-            truth.ids,
-            self.np_random,
-            noise_std=spec.noise_std,
-            p_detect=spec.p_detect,
-            clutter_rate=spec.clutter_rate,
-            clutter_low=np.asarray(spec.region_low),
-            clutter_high=np.asarray(spec.region_high),
-        )
-
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
         from track_envs.rendering import Canvas
@@ -188,13 +175,11 @@ class BeltReplayEnv(TrackingEnv):
         height = int(np.clip(round(width * size[1] / size[0]), 100, 900))
         return Canvas(width, height, tuple(lo), tuple(hi), (150, 150, 150))
 
-    def _draw(self, canvas: Any) -> None:
+    def _draw(self, canvas: Any, snapshot: Any) -> None:
         from track_envs.rendering import identity_colors
 
-        if self._current_truth is None or self._index >= self.n_frames:
-            return
-        truth = self._current_truth
-        canvas.discs(truth.positions, 4, identity_colors(truth.ids))
+        if snapshot is not None:
+            canvas.discs(snapshot.positions, 4, identity_colors(snapshot.ids))
 
 
 def _finite_difference_velocities(

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
-from track_envs.sensors import check_non_negative, check_positive, check_probability, sense_points
+from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -136,40 +136,20 @@ class BeltSorterEnv(TrackingEnv):
     def _reset_scene(self) -> None:
         self.world = BeltWorld(self.physics, self.kinds, self.np_random, self.sensor_spec.dt)
         self.world.warm_up()
-        self._state = self.world.state()
 
     def _advance(self) -> bool:
         assert self.world is not None
         self.world.step()
-        self._state = self.world.state()
         return False
 
     def _truth(self) -> Truth:
-        s = self._state
-        x = s.position
-        in_window = (x[:, 0] >= 0.0) & (x[:, 0] <= self.physics.window_length)
+        assert self.world is not None
+        s = self.world.state((0.0, self.physics.window_length))
         return Truth(
-            ids=s.ids[in_window],
-            positions=x[in_window],
-            visible=np.ones(int(in_window.sum()), dtype=bool),
-            extra={
-                "velocities": s.velocity[in_window],
-                "angles": s.angle[in_window],
-                "kinds": s.kind[in_window],
-            },
-        )
-
-    def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        spec = self.sensor_spec
-        return sense_points(
-            truth.positions,
-            truth.ids,
-            self.np_random,
-            noise_std=spec.noise_std,
-            p_detect=spec.p_detect,
-            clutter_rate=spec.clutter_rate,
-            clutter_low=np.asarray(spec.region_low),
-            clutter_high=np.asarray(spec.region_high),
+            ids=s.ids,
+            positions=s.position,
+            visible=np.ones(len(s.ids), dtype=bool),
+            extra={"velocities": s.velocity, "angles": s.angle, "kinds": s.kind},
         )
 
     # -- rendering ----------------------------------------------------------------------------
@@ -184,7 +164,10 @@ class BeltSorterEnv(TrackingEnv):
             round((high[0] - low[0]) * scale), round((high[1] - low[1]) * scale), low, high, (235, 235, 235)
         )
 
-    def _draw(self, canvas: Any) -> None:
+    def _snapshot(self) -> Any:
+        return self.world.state() if self.world is not None else None
+
+    def _draw(self, canvas: Any, snapshot: Any) -> None:
         from track_envs.rendering import identity_colors
 
         p = self.physics
@@ -197,7 +180,9 @@ class BeltSorterEnv(TrackingEnv):
             [[0, 0], [p.window_length, 0], [p.window_length, p.window_width], [0, p.window_width]]
         )
         canvas.segments(corners, np.roll(corners, -1, axis=0), _WINDOW, thickness_px=2)
-        s = self._state
+        if self.world is None or snapshot is None:
+            return
+        s = snapshot
         colors = identity_colors(s.ids)
         kinds = self.world.kinds if self.world is not None else []
         for k, kind in enumerate(kinds):

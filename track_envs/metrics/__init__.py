@@ -1,5 +1,21 @@
 """Streaming, vectorised scorers of tracker reports against ground truth."""
 
+from track_envs.metrics.base import Metric
+from track_envs.metrics.belt import AssociationErrors
+from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
+from track_envs.metrics.gospa_stream import GospaMetric
+from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 
-__all__ = ["GospaResult", "gospa"]
+__all__ = [
+    "AssociationErrors",
+    "ClearMot",
+    "GospaMetric",
+    "GospaResult",
+    "Metric",
+    "Nees",
+    "PredictionError",
+    "Reliability",
+    "gospa",
+    "mahalanobis_sq",
+]

@@ -1,0 +1,263 @@
+"""Global nearest neighbour (GNN) multi-target tracker with a pluggable predictor (paper 000's tracker).
+
+Every frame, for the ``n`` live tracks and the ``m`` detections of the observation:
+
+1. **predict**: ``predictor.predict`` gives each track's predicted measurement ``N(ŷ_i, S_i)``;
+2. **gate and associate**: squared Mahalanobis costs, χ² gate at ``p_gate``, Hungarian (or greedy)
+   assignment with a per-track miss cost (:mod:`agents.association`);
+   Tracks and detections left over get a second chance with every predicted covariance scaled by
+   ``recovery_inflation``, so that a particle kicked out of its gate by a collision keeps its track;
+3. **update / coast**: assigned tracks are corrected with their detection, the others coast;
+4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks whose predicted
+   measurement has left the sensor's observed region (grown by ``region_margin``);
+5. **initiate**: a new track from every detection left unassigned. Its velocity prior is learnt
+   online (``velocity_prior="auto"``): the median and spread of the frame-to-frame velocities of
+   young tracks (updated 3–6 times in a row), smoothed over frames — on a belt this is the flow
+   where particles enter, so a track's second measurement is predicted where the flow takes it.
+
+The report holds every live track at its current (posterior) estimate, and the detection row it
+was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.association import ASSIGNERS, chi2_gate, mahalanobis_cost
+from predictors import make_predictor
+from track_envs.report import pack_report
+from track_envs.types import Gaussian, SensorSpec
+
+
+def check_observation(obs: Mapping[str, NDArray], spec: SensorSpec) -> tuple[NDArray[np.intp], NDArray]:
+    """Validate a point observation; return the masked-in rows and their detections (m, D).
+
+    Raises:
+        ValueError: naming the key, expected shape or dtype, or the rows holding NaN or inf.
+    """
+    for key in ("detections", "mask"):
+        if key not in obs:
+            raise ValueError(f"observation lacks {key!r}; expected keys 'detections' and 'mask'")
+    det = np.asarray(obs["detections"])
+    mask = np.asarray(obs["mask"])
+    if det.shape != (spec.max_detections, spec.dim) or det.dtype.kind != "f":
+        raise ValueError(
+            f"observation['detections'] must be a float array of shape ({spec.max_detections}, {spec.dim}), "
+            f"got {det.dtype} {det.shape}"
+        )
+    if mask.shape != (spec.max_detections,) or mask.dtype.kind not in "iub":
+        raise ValueError(
+            f"observation['mask'] must be an integer array of shape ({spec.max_detections},), "
+            f"got {mask.dtype} {mask.shape}"
+        )
+    rows = np.flatnonzero(mask)
+    z = det[rows].astype(np.float64)
+    finite = np.isfinite(z).all(axis=1)
+    if not finite.all():
+        raise ValueError(f"masked-in detection rows {rows[~finite][:10].tolist()} hold NaN or inf")
+    return rows, z
+
+
+class GnnAgent:
+    """GNN multi-target tracker (see the module docstring).
+
+    Args:
+        predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an
+            object implementing the Predictor protocol.
+        p_gate: Gate probability of the χ² gate (paper 000: 0.999).
+        assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
+        max_misses: A track is deleted after more than this many consecutive misses.
+        region_margin: Tracks are deleted when their prediction leaves the observed region grown
+            by this much (sensor units) on every side.
+        velocity_prior: ``"auto"`` (learnt online, see the module docstring), ``None`` (the
+            predictor's own default) or a fixed velocity (D,).
+        recovery_inflation: Covariance scale of the second-chance association of leftover tracks
+            and detections (1 turns it off).
+        **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name.
+    """
+
+    def __init__(
+        self,
+        predictor: str | Any = "kf-ca",
+        *,
+        p_gate: float = 0.999,
+        assignment: str = "hungarian",
+        max_misses: int = 2,
+        region_margin: float = 0.0,
+        velocity_prior: str | NDArray | None = "auto",
+        recovery_inflation: float = 25.0,
+        **predictor_kwargs: Any,
+    ):
+        if assignment not in ASSIGNERS:
+            raise ValueError(f"assignment must be one of {sorted(ASSIGNERS)}, got {assignment!r}")
+        if not (isinstance(max_misses, int) and max_misses >= 0):
+            raise ValueError(f"max_misses must be an integer >= 0, got {max_misses!r}")
+        if not (np.isfinite(region_margin) and region_margin >= 0):
+            raise ValueError(f"region_margin must be a finite number >= 0, got {region_margin!r}")
+        if isinstance(velocity_prior, str) and velocity_prior != "auto":
+            raise ValueError(
+                f"velocity_prior must be 'auto', None or a velocity vector, got {velocity_prior!r}"
+            )
+        self.predictor = (
+            make_predictor(predictor, **predictor_kwargs) if isinstance(predictor, str) else predictor
+        )
+        self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
+        self.p_gate = p_gate
+        self.assignment = assignment
+        self._assign = ASSIGNERS[assignment]
+        self.max_misses = max_misses
+        self.region_margin = region_margin
+        self.velocity_prior = velocity_prior
+        if not (np.isfinite(recovery_inflation) and recovery_inflation >= 1.0):
+            raise ValueError(f"recovery_inflation must be a finite number >= 1, got {recovery_inflation!r}")
+        self.recovery_inflation = float(recovery_inflation)
+        self._gate = chi2_gate(p_gate, 1)  # re-derived for the sensor's dimension in reset()
+        self._spec: SensorSpec | None = None
+
+    # -- episode ------------------------------------------------------------------------------
+    def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
+        """Start an episode with sensor ``spec`` (the tracker is deterministic; ``seed`` is unused)."""
+        self._spec = spec
+        self.predictor.reset(spec)
+        self._gate = chi2_gate(self.p_gate, spec.dim)
+        self._state: Any = None
+        self._ids = np.zeros(0, dtype=np.int64)
+        self._misses = np.zeros(0, dtype=np.int64)
+        self._streak = np.zeros(0, dtype=np.int64)
+        self._last = np.zeros((0, spec.dim))
+        self._next_id = 0
+        self._flow_mean: NDArray | None = None
+        self._flow_var: NDArray | None = None
+        if self.velocity_prior is not None and not isinstance(self.velocity_prior, str):
+            v = np.asarray(self.velocity_prior, dtype=np.float64)
+            if v.shape != (spec.dim,):
+                raise ValueError(f"velocity_prior must have shape ({spec.dim},), got {v.shape}")
+            self._flow_mean = v
+        lo = np.asarray(spec.region_low) - self.region_margin
+        hi = np.asarray(spec.region_high) + self.region_margin
+        self._region = (lo, hi)
+        self.last_prediction: Gaussian | None = None
+        self.last_prediction_ids = np.zeros(0, dtype=np.int64)
+        self.last_prediction_detection = np.zeros(0, dtype=np.int64)
+
+    @property
+    def n_tracks(self) -> int:
+        """Live tracks."""
+        return len(self._ids)
+
+    # -- one frame ----------------------------------------------------------------------------
+    def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
+        """Consume one observation and report the live tracks."""
+        if self._spec is None:
+            raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
+        spec = self._spec
+        rows, z = check_observation(obs, spec)
+        n = self.n_tracks
+        det_of_track = np.full(n, -1, dtype=np.int64)
+        used = np.zeros(len(z), dtype=bool)
+        if n:
+            self._state, prediction = self.predictor.predict(self._state)
+            self.last_prediction = prediction
+            track_rows, det_cols = self._assign(mahalanobis_cost(prediction, z), self._gate)
+            det_of_track[track_rows] = det_cols
+            used[det_cols] = True
+            self._recover(prediction, z, det_of_track, used)
+            seen = det_of_track >= 0
+            z_tracks = np.zeros((n, spec.dim))
+            z_tracks[seen] = z[det_of_track[seen]]
+            self._state = self.predictor.update(self._state, z_tracks, seen)
+            self._misses = np.where(seen, 0, self._misses + 1)
+            self._streak = np.where(seen, self._streak + 1, 0)
+            # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
+            # and the observation row it was then updated with (-1: coasted)
+            self.last_prediction_ids = self._ids.copy()
+            self.last_prediction_detection = np.where(seen, rows[np.maximum(det_of_track, 0)], -1)
+            inside = np.all(
+                (prediction.mean >= self._region[0]) & (prediction.mean <= self._region[1]), axis=1
+            )
+            keep = (self._misses <= self.max_misses) & inside
+            estimate = np.asarray(self.predictor.estimate(self._state).mean)
+            self._learn_flow(estimate, seen)
+            if not keep.all():
+                self._state = self._state.take(keep)
+                self._ids, self._misses, self._streak = (
+                    self._ids[keep],
+                    self._misses[keep],
+                    self._streak[keep],
+                )
+                det_of_track, estimate = det_of_track[keep], estimate[keep]
+            self._last = estimate
+        new = np.flatnonzero(~used)
+        if len(new):
+            self._initiate(z[new])
+            det_of_track = np.concatenate([det_of_track, new])
+        positions = self._last
+        detection_rows = np.where(det_of_track >= 0, rows[np.maximum(det_of_track, 0)], -1)
+        return pack_report(self._ids, positions, detection_rows, spec.max_tracks)
+
+    def _recover(
+        self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64], used: NDArray
+    ) -> None:
+        """Second-chance association of the tracks and detections left over, with inflated gates.
+
+        A collision or a kick moves a particle outside its track's gate; before that detection
+        starts a new track, the leftovers are matched once more with every predicted covariance
+        scaled by ``recovery_inflation`` (in place on ``det_of_track`` and ``used``).
+        """
+        if self.recovery_inflation <= 1.0:
+            return
+        tracks = np.flatnonzero(det_of_track < 0)
+        dets = np.flatnonzero(~used)
+        if len(tracks) == 0 or len(dets) == 0:
+            return
+        loose = Gaussian(prediction.mean[tracks], prediction.cov[tracks] * self.recovery_inflation)
+        rows, cols = self._assign(mahalanobis_cost(loose, z[dets]), self._gate)
+        det_of_track[tracks[rows]] = dets[cols]
+        used[dets[cols]] = True
+
+    def _initiate(self, z: NDArray[np.float64]) -> None:
+        """New tracks at detections ``z`` (k, D), with the learnt velocity prior when there is one."""
+        k = len(z)
+        if self.velocity_prior is not None and self._flow_mean is not None:
+            mean = np.broadcast_to(self._flow_mean, z.shape).copy()
+            cov = None
+            if self._flow_var is not None:
+                # the spread of young tracks, doubled, with a floor of 10% of the flow speed: the
+                # prior must admit the particle that deviates, not just the typical one
+                var = 4.0 * self._flow_var + (0.1 * np.linalg.norm(self._flow_mean)) ** 2
+                cov = np.broadcast_to(np.diag(var), (k, len(var), len(var))).copy()
+            born = self.predictor.start(z, velocity=mean, velocity_cov=cov)
+        else:
+            born = self.predictor.start(z)
+        self._state = (
+            born if self._state is None or self.n_tracks == 0 else type(born).concat([self._state, born])
+        )
+        self._ids = np.concatenate([self._ids, np.arange(self._next_id, self._next_id + k, dtype=np.int64)])
+        self._next_id += k
+        self._misses = np.concatenate([self._misses, np.zeros(k, dtype=np.int64)])
+        self._streak = np.concatenate([self._streak, np.ones(k, dtype=np.int64)])
+        self._last = np.concatenate([self._last, z])
+
+    def _learn_flow(self, estimate: NDArray[np.float64], seen: NDArray[np.bool_]) -> None:
+        """Update the velocity prior from young tracks (updated 3–6 frames in a row).
+
+        New tracks are born where young tracks were born a few frames ago, so the velocities of
+        young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
+        """
+        if self.velocity_prior != "auto" or self._spec is None:
+            return
+        steady = seen & (self._streak >= 3) & (self._streak <= 6)
+        if steady.sum() < 3:
+            return
+        v = (estimate[steady] - self._last[steady]) / self._spec.dt
+        median = np.median(v, axis=0)
+        spread = (1.4826 * np.median(np.abs(v - median), axis=0)) ** 2  # robust variance (MAD)
+        if self._flow_mean is None or self._flow_var is None:
+            self._flow_mean, self._flow_var = median, spread
+        else:
+            self._flow_mean = 0.9 * self._flow_mean + 0.1 * median
+            self._flow_var = 0.9 * self._flow_var + 0.1 * spread

@@ -1,0 +1,92 @@
+"""BeltSorter-v0 frames per second against a naive pymunk implementation, in the same run.
+
+    python benchmarks/bench_belt_sorter.py [--frames 2000]
+
+Both run the same scene (cylinders, steady feed so that ≈150 or ≈500 particles are in the
+window) on one core; the library env is stepped through ``gym.make`` with an empty report, the
+naive reference (``benchmarks/naive_belt.py``: per-body joints for belt friction, per-body Python
+read-out) through its own loop. Prints frames/s for both and the ratio; timings are the best of
+three repetitions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from naive_belt import NaiveBelt
+
+import track_envs  # noqa: F401
+from track_envs.envs.belt_physics import BeltParams
+from track_envs.report import empty_report
+
+# feed rates (particles/s) that keep ≈150 and ≈500 cylinders in the window with a steady feed
+LOADS = {150: 470.0, 500: 1560.0}
+
+
+def time_env(feed_rate: float, frames: int, seed: int) -> tuple[float, float]:
+    params = BeltParams(feed_rate=feed_rate, feed_burstiness=0.0)
+    env = gym.make("BeltSorter-v0", physics=params, max_detections=1024, max_tracks=1024, max_targets=1024)
+    report = empty_report(1024, (2,))
+    best = np.inf
+    visible = []
+    for rep in range(3):
+        env.reset(seed=seed + rep)
+        start = time.perf_counter()
+        for _ in range(frames):
+            obs, *_ = env.step(report)
+            if rep == 0:
+                visible.append(int(obs["mask"].sum()))
+        best = min(best, time.perf_counter() - start)
+    return frames / best, float(np.mean(visible))
+
+
+def time_naive(feed_rate: float, frames: int, seed: int) -> tuple[float, float]:
+    params = BeltParams(feed_rate=feed_rate, feed_burstiness=0.0)
+    best = np.inf
+    visible = []
+    for rep in range(3):
+        belt = NaiveBelt(params, "cylinder", seed + rep)
+        start = time.perf_counter()
+        for _ in range(frames):
+            detections, _, _ = belt.step()
+            if rep == 0:
+                visible.append(len(detections))
+        best = min(best, time.perf_counter() - start)
+    return frames / best, float(np.mean(visible))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--frames", type=int, default=2000)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    rows = []
+    for target, feed in LOADS.items():
+        frames = args.frames if target == 150 else max(args.frames // 3, 200)
+        env_fps, env_visible = time_env(feed, frames, args.seed)
+        naive_fps, naive_visible = time_naive(feed, frames, args.seed)
+        rows.append((target, env_visible, naive_visible, env_fps, naive_fps, env_fps / naive_fps))
+        print(
+            f"≈{target} in window: BeltSorter-v0 {env_fps:8.0f} frames/s ({env_visible:.0f} visible), "
+            f"naive pymunk {naive_fps:7.0f} frames/s ({naive_visible:.0f} visible), "
+            f"ratio {env_fps / naive_fps:.1f}x"
+        )
+    print("\n| particles in window | BeltSorter-v0 frames/s | naive pymunk frames/s | ratio |")
+    print("|---|---|---|---|")
+    for target, vis, _, env_fps, naive_fps, ratio in rows:
+        print(f"| ≈{target} (measured {vis:.0f}) | {env_fps:.0f} | {naive_fps:.0f} | {ratio:.1f}x |")
+
+
+if __name__ == "__main__":
+    main()

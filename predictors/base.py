@@ -1,0 +1,84 @@
+"""The Predictor protocol and the batched state value every predictor keeps per track.
+
+A predictor is a motion model with uncertainty, batched over ``n`` tracks. The tracker owns the
+state (an immutable value) and calls, each frame,
+
+1. ``predict(state) -> (state, Gaussian)``: move every track one frame on and return the predicted
+   measurement ``N(mean (n, D), cov (n, D, D))`` used for gating and association;
+2. ``update(state, z, seen) -> state``: correct the tracks with ``seen[i]`` True by ``z[i]``; the
+   others coast (their predicted state is kept);
+3. ``estimate(state) -> Gaussian``: the current estimate, which the tracker reports;
+4. ``start(z) -> state`` for new tracks, ``state.take(rows)`` for survivors and
+   ``type(state).concat([a, b])`` to append births.
+
+``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.types.SensorSpec`
+(frame period, measurement noise, dimension) before the first ``start``.
+
+The same five calls fit a Kalman filter (mean and covariance per track), an LSTM (hidden state
+per track, carried and never re-run over a window), an MC-dropout LSTM (dropout masks fixed per
+track inside the state), an NLL-LSTM (predicted variance) and a per-keypoint particle predictor:
+each keeps whatever it needs per track in the fields of its :class:`BatchState`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from typing import Any, Protocol, Self, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.types import Gaussian, SensorSpec
+
+
+@dataclass(frozen=True)
+class BatchState:
+    """Base of per-track predictor states: every field is an array whose first axis is the track.
+
+    Subclasses only declare fields; :meth:`take`, :meth:`concat` and ``len`` work on all of them.
+    """
+
+    def __len__(self) -> int:
+        first = fields(self)[0]
+        return int(np.shape(getattr(self, first.name))[0])
+
+    def take(self, rows: NDArray[np.integer] | NDArray[np.bool_]) -> Self:
+        """The tracks at ``rows`` (integer indices or a boolean mask)."""
+        return type(self)(**{f.name: np.asarray(getattr(self, f.name))[rows] for f in fields(self)})
+
+    @classmethod
+    def concat(cls, states: Sequence[Self]) -> Self:
+        """The tracks of ``states`` one after another (all of this class)."""
+        if not states:
+            raise ValueError(f"{cls.__name__}.concat needs at least one state")
+        return cls(**{f.name: np.concatenate([getattr(s, f.name) for s in states]) for f in fields(cls)})
+
+
+@runtime_checkable
+class Predictor(Protocol):
+    """Batched motion model with uncertainty (see the module docstring for the call order)."""
+
+    def reset(self, spec: SensorSpec) -> None:
+        """Bind to a sensor: frame period, dimension and measurement noise."""
+        ...
+
+    def start(self, z: NDArray[np.floating]) -> Any:
+        """States of new tracks from their first measurements ``z`` (n, D).
+
+        Kinematic predictors may also accept ``velocity=`` (n, D) and ``velocity_cov=`` (n, D, D)
+        keywords, a tracker's prior on the velocity of new tracks.
+        """
+        ...
+
+    def predict(self, state: Any) -> tuple[Any, Gaussian]:
+        """Move every track one frame on; the predicted measurement of each."""
+        ...
+
+    def update(self, state: Any, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> Any:
+        """Correct the tracks with ``seen`` True by their rows of ``z`` (n, D); the rest coast."""
+        ...
+
+    def estimate(self, state: Any) -> Gaussian:
+        """Current (posterior) estimate of every track in measurement space, what a tracker reports."""
+        ...

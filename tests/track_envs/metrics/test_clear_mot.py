@@ -1,0 +1,206 @@
+"""CLEAR MOT / IDF1 parity with py-motmetrics: random distance matrices and the TUD sequences.
+
+motmetrics 1.4 on numpy 2: ``motmetrics.distances.iou_matrix`` calls ``np.asfarray`` (removed in
+numpy 2.0), so ``compare_to_groundtruth(..., 'iou')`` fails; the TUD test swaps in an IoU distance
+computed here exactly as motmetrics' ``boxiou`` does. Its accumulator and metrics run unchanged.
+motmetrics also raises ``KeyError`` when a *new* truth id appears twice in one frame, so the
+random sequences repeat track ids only (truth ids are unique per frame in every environment).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linear_sum_assignment
+
+from track_envs.metrics import ClearMot, Metric
+from track_envs.metrics.clear_mot import max_weight_matching
+
+mm = pytest.importorskip("motmetrics")
+
+MM_NAMES = {  # ours -> motmetrics
+    "mota": "mota",
+    "motp": "motp",
+    "id_switches": "num_switches",
+    "idf1": "idf1",
+    "num_misses": "num_misses",
+    "num_false_positives": "num_false_positives",
+    "num_matches": "num_matches",
+    "num_objects": "num_objects",
+    "num_predictions": "num_predictions",
+    "num_fragmentations": "num_fragmentations",
+    "idtp": "idtp",
+    "idfp": "idfp",
+    "idfn": "idfn",
+    "idp": "idp",
+    "idr": "idr",
+}
+
+
+def motmetrics_summary(acc) -> dict[str, float]:
+    out = mm.metrics.create().compute(acc, metrics=list(MM_NAMES.values()), return_dataframe=False)
+    return {ours: float(out[theirs]) for ours, theirs in MM_NAMES.items()}
+
+
+def assert_same(ours: dict[str, float], theirs: dict[str, float]) -> None:
+    for key, value in theirs.items():
+        assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12, nan_ok=True), key
+
+
+def random_sequence(rng: np.random.Generator, repeat_track_ids: bool):
+    frames = []
+    for _ in range(rng.integers(1, 20)):
+        no, nh = rng.integers(0, 6, size=2)
+        oids = rng.choice(8, no, replace=False)  # ids drawn from a small pool: reuse across frames
+        hids = rng.integers(0, 8, nh) if repeat_track_ids else rng.choice(8, nh, replace=False)
+        if rng.random() < 0.3:  # ties
+            dists = rng.choice([0.0, 0.25, 0.5, 1.0], size=(no, nh))
+        else:
+            dists = rng.random((no, nh))
+        dists[rng.random((no, nh)) < 0.4] = np.nan
+        frames.append((oids, hids, dists))
+    return frames
+
+
+@pytest.mark.parametrize("repeat_track_ids", [False, True])
+@pytest.mark.parametrize("seed", range(12))
+def test_random_sequences_match_motmetrics(seed, repeat_track_ids):
+    rng = np.random.default_rng([seed, repeat_track_ids])
+    acc, ours = mm.MOTAccumulator(auto_id=True), ClearMot(threshold=1.0)
+    for oids, hids, dists in random_sequence(rng, repeat_track_ids):
+        acc.update(oids, hids, dists)
+        ours.update_distances(oids, hids, dists)
+    assert_same(ours.compute(), motmetrics_summary(acc))
+
+
+def test_empty_frames_and_nothing_at_all():
+    acc, ours = mm.MOTAccumulator(auto_id=True), ClearMot(threshold=1.0)
+    for oids, hids in [([], []), ([1, 2], []), ([], [5]), ([1], [5])]:
+        dists = np.full((len(oids), len(hids)), 0.5)
+        acc.update(oids, hids, dists)
+        ours.update_distances(np.asarray(oids, np.int64), np.asarray(hids, np.int64), dists)
+    assert_same(ours.compute(), motmetrics_summary(acc))
+    empty = ClearMot(threshold=1.0).compute()
+    assert np.isnan(empty["mota"]) and np.isnan(empty["idf1"]) and empty["num_objects"] == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_rowwise_path_equals_vectorised_path(seed):
+    """The slow path for duplicate ids gives the same events as the vectorised one on unique ids."""
+    rng = np.random.default_rng(seed)
+    fast, slow = ClearMot(threshold=1.0), ClearMot(threshold=1.0)
+    slow._assign = slow._assign_rowwise  # type: ignore[method-assign]
+    for oids, hids, dists in random_sequence(rng, repeat_track_ids=False):
+        fast.update_distances(oids, hids, dists)
+        slow.update_distances(oids, hids, dists)
+    assert fast.compute() == pytest.approx(slow.compute(), nan_ok=True)
+
+
+def test_update_builds_the_thresholded_point_distance_matrix():
+    truth = {
+        "ids": np.array([7, 8, 9, -1]),
+        "positions": np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [0.0, 0.0]]),
+        "visible": np.array([True, True, False, False]),  # truth 9 is out of view, row 3 padding
+    }
+    report: dict[str, np.ndarray] = {
+        "ids": np.array([1, 2, 3, 4], np.int64),
+        "positions": np.array([[0.0, 1.0], [13.0, 4.0], [20.0, 0.0], [50.0, 0.0]], np.float32),
+        "detection": np.full(4, -1, np.int64),
+        "mask": np.array([1, 1, 1, 0], np.int8),
+    }
+    ours = ClearMot(threshold=5.0)
+    assert isinstance(ours, Metric)
+    ours.update(truth, np.full(3, -1), report)
+    ref = ClearMot(threshold=5.0)
+    # (10,0)-(13,4) is exactly at the threshold 5: still possible, as in motmetrics
+    ref.update_distances(
+        np.array([7, 8]), np.array([1, 2, 3]), [[1.0, np.nan, np.nan], [np.nan, 5.0, np.nan]]
+    )
+    assert ours.compute() == ref.compute()
+    out = ours.compute()
+    assert (out["num_matches"], out["num_false_positives"], out["num_misses"]) == (2, 1, 0)
+    assert out["motp"] == pytest.approx(3.0)
+    with pytest.raises(ValueError, match="threshold"):
+        ClearMot(threshold=0.0)
+
+
+def test_id_switch_and_fragmentation_by_hand():
+    ours = ClearMot(threshold=1.0)
+    frames = [([1], [10], [[0.1]]), ([1], [11], [[0.1]]), ([1], [], None), ([1], [11], [[0.3]])]
+    for oids, hids, dists in frames:
+        d = np.zeros((len(oids), len(hids))) if dists is None else np.asarray(dists)
+        ours.update_distances(np.asarray(oids), np.asarray(hids, np.int64), d)
+    out = ours.compute()
+    assert (out["id_switches"], out["num_misses"], out["num_fragmentations"]) == (1, 1, 1)
+    assert out["mota"] == pytest.approx(1 - 2 / 4)
+    # IDF1: truth 1 <-> track 11 share 2 frames; 4 truth rows, 3 track rows
+    assert out["idf1"] == pytest.approx(2 * 2 / 7)
+
+
+def tud_iou_distance(objs: np.ndarray, hyps: np.ndarray, max_iou: float = 1.0) -> np.ndarray:
+    """motmetrics' ``iou_matrix`` (1 − IoU of x, y, w, h boxes, NaN above ``max_iou``) without np.asfarray."""
+    try:
+        return mm.distances.iou_matrix(objs, hyps, max_iou=max_iou)
+    except AttributeError:  # numpy >= 2: np.asfarray was removed
+        pass
+    if np.size(objs) == 0 or np.size(hyps) == 0:
+        return np.empty((0, 0))
+    a = np.asarray(objs, dtype=np.float64)[:, None]
+    b = np.asarray(hyps, dtype=np.float64)[None, :]
+    lo, hi = np.maximum(a[..., :2], b[..., :2]), np.minimum(a[..., :2] + a[..., 2:], b[..., :2] + b[..., 2:])
+    inter = np.prod(np.maximum(hi - lo, 0), axis=-1)
+    union = np.prod(np.maximum(a[..., 2:], 0), axis=-1) + np.prod(np.maximum(b[..., 2:], 0), axis=-1) - inter
+    with np.errstate(divide="ignore", invalid="ignore"):
+        iou = np.where(inter == 0, 0.0, inter / union)
+    dist = 1 - iou
+    return np.where(dist > max_iou, np.nan, dist)
+
+
+TUD = {  # name: (MOTA, ID switches, IDF1), motmetrics' own test_motchallenge_files figures
+    "TUD-Campus": (0.526462, 7, 0.557659),
+    "TUD-Stadtmitte": (0.564014, 7, 0.644619),
+}
+
+
+@pytest.mark.filterwarnings("ignore:Operation with tuple is deprecated")  # motmetrics io.py on pandas 3
+@pytest.mark.parametrize("name", sorted(TUD))
+def test_tud_sequences_match_motmetrics(name, monkeypatch):
+    data = Path(mm.__file__).parent / "data" / name
+    gt, dt = mm.io.loadtxt(str(data / "gt.txt")), mm.io.loadtxt(str(data / "test.txt"))
+    ours = ClearMot(threshold=0.5)
+
+    class Tee(mm.MOTAccumulator):  # type: ignore[name-defined]
+        """motmetrics' accumulator that hands every frame's matrix to ours as well."""
+
+        def update(self, oids, hids, dists, frameid=None, vf=""):
+            ours.update_distances(np.asarray(oids), np.asarray(hids), dists)
+            return super().update(oids, hids, dists, frameid=frameid, vf=vf)
+
+    monkeypatch.setattr(mm.utils, "iou_matrix", tud_iou_distance)
+    monkeypatch.setattr(mm.utils, "MOTAccumulator", Tee)
+    acc = mm.utils.compare_to_groundtruth(gt, dt, "iou", distth=0.5)
+    theirs, mine = motmetrics_summary(acc), ours.compute()
+    assert_same(mine, theirs)
+    mota, switches, idf1 = TUD[name]
+    assert mine["mota"] == pytest.approx(mota, abs=5e-7)
+    assert mine["id_switches"] == switches
+    assert mine["idf1"] == pytest.approx(idf1, abs=5e-7)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_component_matching_equals_one_dense_assignment(seed):
+    rng = np.random.default_rng(seed)
+    dense = rng.integers(1, 9, size=rng.integers(1, 9, size=2))
+    dense[rng.random(dense.shape) < rng.uniform(0.3, 0.9)] = 0
+    dense[0, 0] = max(dense[0, 0], 1)  # at least one edge
+    keep_r, keep_c = dense.any(axis=1), dense.any(axis=0)
+    dense = dense[keep_r][:, keep_c]
+    rows, cols = np.nonzero(dense)
+    r, c = linear_sum_assignment(dense, maximize=True)
+    assert max_weight_matching(rows, cols, dense[rows, cols]) == dense[r, c].sum()

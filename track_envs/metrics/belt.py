@@ -1,0 +1,101 @@
+"""Association errors of the first and second kind (e1, e2, e_mean) for bulk-material tracking.
+
+Pfaff, Kurz, Pieper et al., "Improving Multitarget Tracking Using Orientation Estimates for
+Sorting Bulk Materials", MFI 2017 (reference [15] of Pollithy, Reith-Braun, Pfaff, Hanebeck,
+"Estimating Uncertainties of Recurrent Neural Networks in Application to Multitarget Tracking",
+MFI 2020, paper 000 of this project, Sec. V-C). Ideally all measurements of one particle go to one
+track and only they do. Over an episode collect, for every track, the set of particles whose
+measurements it was updated with (clutter ignored) and, for every particle, the set of tracks its
+measurements went to. Then
+
+.. math::
+
+    \\hat e_1 = \\frac{\\#\\{\\text{tracks holding measurements of} > 1 \\text{ particle}\\}}
+        {n_\\text{tracks}},
+    \\qquad
+    \\hat e_2 = \\frac{\\#\\{\\text{particles whose measurements went to} \\ne 1 \\text{ track}\\}}
+        {n_\\text{particles}},
+
+    e_\\text{mean} = \\frac{2 \\hat e_1 \\hat e_2}{\\hat e_1 + \\hat e_2}
+        \\quad (0 \\text{ when both are } 0),
+
+where ``n_tracks`` counts the tracks that were updated with at least one real (non-clutter)
+measurement and ``n_particles`` the particles that produced at least one detection; a particle
+whose measurements were never associated counts as an error of the second kind.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.metrics.base import KeyCounter, live_report
+
+
+class AssociationErrors:
+    """Streaming e1 / e2 / e_mean of an episode (Pfaff et al. 2017; paper 000, Sec. V-C).
+
+    Each frame contributes the (track id, particle id) pairs of the report rows (mask 1) whose
+    ``detection`` row holds a real measurement (``detection_ids[row] >= 0``); coasting rows
+    (−1), rows pointing outside the detections and clutter rows are ignored. Pairs are kept as a
+    streaming set and reduced with :func:`numpy.unique` at :meth:`compute` time.
+
+    Duplicate track ids in one frame are merged: a track is its id, so two rows with the same id
+    are the same track (two particles behind one id make an error of the first kind). A track
+    id reused later for another particle likewise counts as one track holding two particles.
+
+    With no qualifying tracks ``e1`` is 0 (no track is in error), with no particles ``e2`` is 0.
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new episode)."""
+        self._pairs = KeyCounter(2)
+        self._particles = KeyCounter(1)
+
+    def update(
+        self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
+    ) -> None:
+        """Add one frame.
+
+        Args:
+            truth: ``info["truth"]`` of the frame (unused: the particles are known from
+                ``detection_ids``; kept for the :class:`~track_envs.metrics.base.Metric` interface).
+            detection_ids: (max_detections,) truth id behind each detection row, −1 for clutter
+                and padding.
+            report: The report answering the frame.
+        """
+        del truth
+        sources = np.asarray(detection_ids, dtype=np.int64)
+        self._particles.add(np.unique(sources[sources >= 0]))
+        track_ids, _, rows = live_report(report)
+        ok = (rows >= 0) & (rows < len(sources))
+        particle = np.full(len(rows), -1, dtype=np.int64)
+        particle[ok] = sources[rows[ok]]
+        real = particle >= 0
+        self._pairs.add(np.unique(np.stack([track_ids[real], particle[real]], axis=1), axis=0))
+
+    def compute(self) -> dict[str, float]:
+        """``{"e1", "e2", "e_mean", "n_tracks", "n_particles"}`` over every frame added."""
+        pairs, _ = self._pairs.counts()
+        particles = self._particles.counts()[0][:, 0]
+        _, per_track = np.unique(pairs[:, 0], return_counts=True)
+        n_tracks = len(per_track)
+        e1 = float(np.count_nonzero(per_track > 1)) / n_tracks if n_tracks else 0.0
+        assoc_ids, per_particle = np.unique(pairs[:, 1], return_counts=True)
+        tracks_of = np.zeros(len(particles), dtype=np.int64)
+        tracks_of[np.searchsorted(particles, assoc_ids)] = per_particle
+        n_particles = len(particles)
+        e2 = float(np.count_nonzero(tracks_of != 1)) / n_particles if n_particles else 0.0
+        e_mean = 2 * e1 * e2 / (e1 + e2) if e1 + e2 > 0 else 0.0
+        return {
+            "e1": e1,
+            "e2": e2,
+            "e_mean": e_mean,
+            "n_tracks": float(n_tracks),
+            "n_particles": float(n_particles),
+        }

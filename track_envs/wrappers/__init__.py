@@ -1,0 +1,5 @@
+"""Gymnasium wrappers for tracking environments."""
+
+from track_envs.wrappers.tracking_metrics import TrackingMetrics
+
+__all__ = ["TrackingMetrics"]

@@ -1,0 +1,79 @@
+"""TrackingMetrics: score every report of an episode and put the summary into the final ``info``."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, Metric
+
+
+def default_metrics(env: gym.Env) -> list[Metric]:
+    """The metrics that fit an environment's family.
+
+    Point environments (positions of shape (D,)): association errors e1 / e2 / e_mean (paper 000),
+    CLEAR MOT with a match threshold of ``gospa_c`` (MOTA, ID switches, IDF1) and the per-frame
+    GOSPA (c = ``gospa_c``, p = 2, α = 2).
+    """
+    position_shape = env.get_wrapper_attr("position_shape")
+    if len(position_shape) != 1:
+        raise ValueError(
+            f"no default metrics for positions of shape {position_shape}; pass metrics=[...] explicitly"
+        )
+    c = float(env.get_wrapper_attr("gospa_c"))
+    return [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c)]
+
+
+class TrackingMetrics(gym.Wrapper):
+    """Accumulates tracking metrics over an episode; ``info["episode_metrics"]`` on its last step.
+
+    Every ``step(report)`` scores the report against the truth of the frame it answers (the
+    ``info`` of the previous ``reset``/``step``). When the episode ends, terminated or truncated,
+    the step's ``info`` gets ``"episode_metrics"``: one flat ``dict[str, float]`` merging every
+    metric's ``compute()`` (later metrics win on a shared key).
+
+    Args:
+        env: A tracking environment (wrapped or not).
+        metrics: Streaming metrics (see :class:`track_envs.metrics.Metric`); default
+            :func:`default_metrics` for the environment.
+    """
+
+    def __init__(self, env: gym.Env, metrics: Sequence[Metric] | None = None):
+        super().__init__(env)
+        self.metrics: list[Metric] = list(metrics) if metrics is not None else default_metrics(env)
+        self._truth: dict[str, NDArray] | None = None
+        self._detection_ids: NDArray[np.int64] | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        for metric in self.metrics:
+            metric.reset()
+        self._keep(info)
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        if self._truth is None or self._detection_ids is None:
+            raise RuntimeError("step() called before reset(); call env.reset(seed=...) first")
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        for metric in self.metrics:
+            metric.update(self._truth, self._detection_ids, action)
+        self._keep(info)
+        if terminated or truncated:
+            info = dict(info)
+            info["episode_metrics"] = self.episode_metrics()
+        return obs, float(reward), terminated, truncated, info
+
+    def episode_metrics(self) -> dict[str, float]:
+        """The metrics of the episode so far, one flat dict of floats."""
+        merged: dict[str, float] = {}
+        for metric in self.metrics:
+            merged.update({k: float(v) for k, v in metric.compute().items()})
+        return merged
+
+    def _keep(self, info: dict[str, Any]) -> None:
+        self._truth = info["truth"]
+        self._detection_ids = info["detection_ids"]
