@@ -175,7 +175,7 @@ class GnnAgent:
             # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
             # and the observation row it was then updated with (-1: coasted)
             self.last_prediction_ids = self._ids.copy()
-            self.last_prediction_detection = np.where(seen, rows[np.maximum(det_of_track, 0)], -1)
+            self.last_prediction_detection = _rows_of(det_of_track, rows)
             inside = np.all(
                 (prediction.mean >= self._region[0]) & (prediction.mean <= self._region[1]), axis=1
             )
@@ -196,7 +196,7 @@ class GnnAgent:
             self._initiate(z[new])
             det_of_track = np.concatenate([det_of_track, new])
         positions = self._last
-        detection_rows = np.where(det_of_track >= 0, rows[np.maximum(det_of_track, 0)], -1)
+        detection_rows = _rows_of(det_of_track, rows)
         return pack_report(self._ids, positions, detection_rows, spec.max_tracks)
 
     def _recover(
@@ -261,3 +261,11 @@ class GnnAgent:
         else:
             self._flow_mean = 0.9 * self._flow_mean + 0.1 * median
             self._flow_var = 0.9 * self._flow_var + 0.1 * spread
+
+
+def _rows_of(det_index: NDArray[np.int64], rows: NDArray[np.intp]) -> NDArray[np.int64]:
+    """Observation rows of detection indices (-1 stays -1), safe when there are no detections."""
+    out = np.full(len(det_index), -1, dtype=np.int64)
+    hit = det_index >= 0
+    out[hit] = rows[det_index[hit]]
+    return out
