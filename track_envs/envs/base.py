@@ -154,6 +154,15 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         visible = truth.positions[truth.visible]
         return -gospa(visible, report.positions, self.gospa_c, 2.0).distance
 
+    def default_metrics(self) -> list[Any]:
+        """The streaming metrics that fit this environment (used by ``TrackingMetrics``).
+
+        Point environments score association errors, CLEAR MOT and GOSPA; other families override.
+        """
+        from track_envs.wrappers.tracking_metrics import point_metrics
+
+        return point_metrics(self.gospa_c)
+
     def _snapshot(self) -> Any:
         """Whatever :meth:`_draw` needs of the current frame (copied: the scene moves on)."""
         return self._current_truth

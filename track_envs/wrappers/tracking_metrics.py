@@ -12,20 +12,22 @@ from numpy.typing import NDArray
 from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, Metric
 
 
-def default_metrics(env: gym.Env) -> list[Metric]:
-    """The metrics that fit an environment's family.
-
-    Point environments (positions of shape (D,)): association errors e1 / e2 / e_mean (paper 000),
-    CLEAR MOT with a match threshold of ``gospa_c`` (MOTA, ID switches, IDF1) and the per-frame
-    GOSPA (c = ``gospa_c``, p = 2, α = 2).
-    """
-    position_shape = env.get_wrapper_attr("position_shape")
-    if len(position_shape) != 1:
-        raise ValueError(
-            f"no default metrics for positions of shape {position_shape}; pass metrics=[...] explicitly"
-        )
-    c = float(env.get_wrapper_attr("gospa_c"))
+def point_metrics(c: float) -> list[Metric]:
+    """Metrics of multi-target point scenes: association errors e1 / e2 / e_mean (paper 000), CLEAR
+    MOT with match threshold ``c`` (MOTA, ID switches, IDF1) and per-frame GOSPA (c, p = 2, α = 2)."""
     return [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c)]
+
+
+def default_metrics(env: gym.Env) -> list[Metric]:
+    """The metrics that fit an environment's family: its ``default_metrics()`` method if it has one
+    (each environment family names its own), else :func:`point_metrics` with ``c = gospa_c``."""
+    try:
+        factory = env.get_wrapper_attr("default_metrics")
+    except AttributeError:
+        factory = None
+    if callable(factory):
+        return list(factory())
+    return point_metrics(float(env.get_wrapper_attr("gospa_c")))
 
 
 class TrackingMetrics(gym.Wrapper):
