@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
+from track_envs.assignment import EMPTY_PAIRS, Pairs, min_cost_with_misses
 from track_envs.types import Gaussian
 
-Pairs = tuple[NDArray[np.int64], NDArray[np.int64]]
-_EMPTY: Pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+_EMPTY: Pairs = EMPTY_PAIRS
 
 
 def chi2_gate(p_gate: float, dim: int) -> float:
@@ -68,44 +67,13 @@ def mahalanobis_cost(prediction: Gaussian, z: NDArray[np.floating]) -> NDArray[n
 def assign_hungarian(cost: NDArray[np.floating], gate: float) -> Pairs:
     """Optimal assignment of tracks (rows) to detections (columns) with a per-track miss cost ``gate``.
 
+    See :func:`track_envs.assignment.min_cost_with_misses` (lone pairs first, then Hungarian on
+    ``[C | M]`` with finite stand-ins for gated pairs).
+
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs (``cost <= gate``), sorted by row.
     """
-    cost = np.asarray(cost, dtype=np.float64)
-    n, m = cost.shape
-    if n == 0 or m == 0:
-        return _EMPTY
-    admissible = cost <= gate
-    # Pairs alone in both their row and their column need no solver: take them directly, and
-    # solve only what is left (in a dense belt, most tracks have one candidate).
-    row_count = admissible.sum(axis=1)
-    col_count = admissible.sum(axis=0)
-    lone = admissible & (row_count[:, None] == 1) & (col_count[None, :] == 1)
-    lone_rows, lone_cols = np.nonzero(lone)
-    rest_rows = np.flatnonzero((row_count > 0) & ~lone.any(axis=1))
-    rest_cols = np.flatnonzero((col_count > 0) & ~lone.any(axis=0))
-    rows, cols = _solve_with_misses(cost[np.ix_(rest_rows, rest_cols)], gate)
-    rows = np.concatenate([lone_rows, rest_rows[rows]]).astype(np.int64)
-    cols = np.concatenate([lone_cols, rest_cols[cols]]).astype(np.int64)
-    order = np.argsort(rows)
-    return rows[order], cols[order]
-
-
-def _solve_with_misses(cost: NDArray[np.floating], gate: float) -> Pairs:
-    """Hungarian on ``[C | M]`` (module docstring); the admissible assigned pairs."""
-    n, m = cost.shape
-    admissible = cost <= gate
-    if not admissible.any():
-        return _EMPTY
-    big = 2.0 * (gate + 1.0) * (n + 1) + float(cost[admissible].max())
-    full = np.full((n, m + n), big)
-    full[:, :m] = np.where(admissible, cost, big)
-    full[np.arange(n), m + np.arange(n)] = gate
-    rows, cols = linear_sum_assignment(full)
-    keep = cols < m
-    rows, cols = rows[keep], cols[keep]
-    keep = admissible[rows, cols]
-    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
+    return min_cost_with_misses(cost, gate)
 
 
 def assign_greedy(cost: NDArray[np.floating], gate: float) -> Pairs:

@@ -8,8 +8,8 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
    Tracks and detections left over get a second chance with every predicted covariance scaled by
    ``recovery_inflation``, so that a particle kicked out of its gate by a collision keeps its track;
 3. **update / coast**: assigned tracks are corrected with their detection, the others coast;
-4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks whose predicted
-   measurement has left the sensor's observed region (grown by ``region_margin``);
+4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks that were not
+   updated and whose predicted measurement has left the observed region (grown by ``region_margin``);
 5. **initiate**: a new track from every detection left unassigned. Its velocity prior is learnt
    online (``velocity_prior="auto"``): the median and spread of the frame-to-frame velocities of
    young tracks (updated 3–6 times in a row), smoothed over frames — on a belt this is the flow
@@ -179,7 +179,7 @@ class GnnAgent:
             inside = np.all(
                 (prediction.mean >= self._region[0]) & (prediction.mean <= self._region[1]), axis=1
             )
-            keep = (self._misses <= self.max_misses) & inside
+            keep = (self._misses <= self.max_misses) & (inside | seen)
             estimate = np.asarray(self.predictor.estimate(self._state).mean)
             self._learn_flow(estimate, seen)
             if not keep.all():

@@ -76,9 +76,10 @@ def kf_update(
         x^+ = x + K y, \\qquad
         P^+ = (I - K H) P (I - K H)^\\top + K R K^\\top \\quad(\\text{Joseph form}),
 
-    with ``S`` factored by a batched Cholesky and ``K`` obtained by two solves (never an inverse);
-    ``P⁺`` is symmetrised, ``(P⁺ + P⁺ᵀ)/2``. The Joseph form keeps ``P⁺`` positive semi-definite
-    under rounding, unlike ``(I − KH)P``.
+    with ``Kᵀ = S⁻¹ H P`` from a batched Cholesky and two solves (in closed form for D = 2, where
+    ``S⁻¹ = [[c, −b], [−b, a]] / (ac − b²)``); the Joseph form is evaluated expanded as
+    ``P − KHP − (KHP)ᵀ + K S Kᵀ`` (equal to it for any ``K``) and symmetrised. Unlike
+    ``(I − KH)P`` it keeps ``P⁺`` positive semi-definite under rounding.
 
     Args:
         mean: Predicted means ``x``, shape (n, S).
@@ -95,14 +96,33 @@ def kf_update(
     """
     HP = H @ cov  # (n, D, S)
     S = _symmetrise(HP @ H.T + R)  # (n, D, D)
-    L = np.linalg.cholesky(S)
-    Kt = np.linalg.solve(np.swapaxes(L, -1, -2), np.linalg.solve(L, HP))  # (n, D, S) = S⁻¹ H P
+    Kt = _solve_innovation(S, HP)  # (n, D, S) = S⁻¹ H P
     K = np.swapaxes(Kt, -1, -2)  # (n, S, D)
     y = z - mean @ H.T  # (n, D)
     mean_u = mean + (K @ y[..., None])[..., 0]
-    A = np.eye(cov.shape[-1]) - K @ H  # (n, S, S)
-    cov_u = A @ cov @ np.swapaxes(A, -1, -2) + K @ R @ Kt
+    # Joseph form expanded: (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − KHP − (KHP)ᵀ + K S Kᵀ
+    KHP = K @ HP
+    cov_u = cov - KHP - np.swapaxes(KHP, -1, -2) + K @ (S @ Kt)
     return mean_u, _symmetrise(cov_u)
+
+
+def _solve_innovation(S: FloatArray, HP: FloatArray) -> FloatArray:
+    """``S⁻¹ HP`` for a batch of SPD ``S`` (n, D, D): closed form for D = 2, else Cholesky solves.
+
+    Raises:
+        numpy.linalg.LinAlgError: if some ``S`` is not positive definite.
+    """
+    if S.shape[-1] != 2:
+        L = np.linalg.cholesky(S)
+        return np.linalg.solve(np.swapaxes(L, -1, -2), np.linalg.solve(L, HP))
+    a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    det = a * c - b * b
+    if np.any(~(a > 0) | ~(det > 0)):
+        raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+    out = np.empty_like(HP)
+    out[:, 0] = (c[:, None] * HP[:, 0] - b[:, None] * HP[:, 1]) / det[:, None]
+    out[:, 1] = (a[:, None] * HP[:, 1] - b[:, None] * HP[:, 0]) / det[:, None]
+    return out
 
 
 def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: FloatArray) -> Gaussian:

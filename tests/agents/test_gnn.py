@@ -180,7 +180,10 @@ def prediction_error_on_belt(predictor: str, frames: int = 300) -> dict[str, flo
 
 
 def test_constant_acceleration_predicts_the_accelerating_belt_better():
-    ca = prediction_error_on_belt("kf-ca")
-    cv = prediction_error_on_belt("kf-cv")
-    assert ca["n_predictions"] > 5000
-    assert ca["prediction_error"] < cv["prediction_error"]
+    # measured (800 frames, seed 2): per-track mean 0.369 vs 0.390 mm, pooled 0.327 vs 0.367 mm,
+    # RMSE 0.506 vs 0.581 mm for kf-ca vs kf-cv
+    ca = prediction_error_on_belt("kf-ca", frames=800)
+    cv = prediction_error_on_belt("kf-cv", frames=800)
+    assert ca["n_predictions"] > 20000
+    for key in ("prediction_error", "prediction_error_pooled", "prediction_rmse"):
+        assert ca[key] < cv[key], key

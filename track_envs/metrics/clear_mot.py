@@ -47,32 +47,24 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from track_envs.assignment import max_cardinality_min_cost, pairwise_distances
 from track_envs.metrics.base import KeyCounter, live_report, live_truth
 
 _COUNTS = ("frames", "objects", "predictions", "matches", "switches", "misses", "false_positives", "frag")
 
 
 def assign_like_motmetrics(costs: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Min-cost assignment with NaN / inf marking impossible pairs, exactly as motmetrics solves it.
+    """Min-cost assignment with NaN / inf marking impossible pairs, with motmetrics' objective.
 
-    The impossible pairs get motmetrics' large constant ``2 r c + 1`` (``r`` the smaller side,
-    ``c`` one more than the largest finite |cost|), scipy solves the finite problem, and pairs
-    that land on an impossible entry are dropped. Same input, same tie-breaking as motmetrics.
+    motmetrics prices impossible pairs at ``2 r c + 1`` (``r`` the smaller side, ``c`` one more
+    than the largest finite |cost|), which maximises the number of pairs first and then minimises
+    their cost; :func:`track_envs.assignment.max_cardinality_min_cost` solves that objective with
+    lone pairs taken directly, so large sparse frames stay fast.
 
     Returns:
         Row and column indices of the possible assigned pairs, rows ascending.
     """
-    valid = np.isfinite(costs)
-    if costs.size == 0 or not valid.any():
-        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    if valid.all():
-        finite = costs
-    else:
-        large = 2 * min(costs.shape) * (np.abs(costs[valid]).max() + 1) + 1
-        finite = np.where(valid, costs, large)
-    rows, cols = linear_sum_assignment(finite)
-    keep = valid[rows, cols]
-    return rows[keep], cols[keep]
+    return max_cardinality_min_cost(costs)
 
 
 def max_weight_matching(rows: NDArray[np.intp], cols: NDArray[np.intp], weight: NDArray[np.int64]) -> int:
@@ -160,7 +152,7 @@ class ClearMot:
                 "ClearMot scores point reports (max_tracks, D) against truth (max_targets, D); got report "
                 f"positions {np.shape(report['positions'])} and truth {np.shape(truth['positions'])}"
             )
-        d = np.sqrt(((x[:, None, :] - y[None, :, :]) ** 2).sum(-1))
+        d = pairwise_distances(x, y)
         d[d > self.threshold] = np.nan
         self.update_distances(oids, hids, d)
 

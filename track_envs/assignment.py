@@ -1,0 +1,115 @@
+"""Sparse-aware linear assignment shared by the metrics and the trackers.
+
+Tracking problems are sparse: after gating, most rows have one admissible column, and most of
+those columns have only that row. Such *lone pairs* belong to every optimal assignment (for the
+objectives below), so they are taken directly and only the rest goes to
+``scipy.optimize.linear_sum_assignment``. The result is an optimum of the full problem; where
+several assignments are equally good, the one returned may differ from solving the dense matrix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+Pairs = tuple[NDArray[np.int64], NDArray[np.int64]]
+EMPTY_PAIRS: Pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+
+
+def pairwise_distances(x: NDArray[np.floating], y: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Euclidean distances (m, n) between points ``x`` (m, D) and ``y`` (n, D).
+
+    One pass per coordinate (D is small): much faster than reducing an (m, n, D) array over its
+    last axis.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    d2 = np.zeros((len(x), len(y)))
+    for k in range(x.shape[1] if x.ndim == 2 else 0):
+        diff = x[:, k, None] - y[None, :, k]
+        d2 += diff * diff
+    return np.sqrt(d2)
+
+
+def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], NDArray[np.intp]]:
+    """Split an admissibility matrix (n, m) into lone pairs and the rows and columns left to solve.
+
+    Returns:
+        ``((rows, cols), rest_rows, rest_cols)``: the pairs alone in both their row and column,
+        and the rows and columns that have admissible pairs but are not in a lone pair.
+    """
+    row_count = admissible.sum(axis=1)
+    col_count = admissible.sum(axis=0)
+    lone = admissible & (row_count[:, None] == 1) & (col_count[None, :] == 1)
+    rows, cols = np.nonzero(lone)
+    rest_rows = np.flatnonzero((row_count > 0) & ~lone.any(axis=1))
+    rest_cols = np.flatnonzero((col_count > 0) & ~lone.any(axis=0))
+    return (rows.astype(np.int64), cols.astype(np.int64)), rest_rows, rest_cols
+
+
+def _merge(first: Pairs, second: Pairs) -> Pairs:
+    rows = np.concatenate([first[0], second[0]]).astype(np.int64)
+    cols = np.concatenate([first[1], second[1]]).astype(np.int64)
+    order = np.argsort(rows, kind="stable")
+    return rows[order], cols[order]
+
+
+def min_cost_with_misses(cost: NDArray[np.floating], gate: float) -> Pairs:
+    """Minimise Σ cost over assigned pairs + ``gate`` per unassigned row, over pairs with cost <= gate.
+
+    Equivalently, maximise Σ (gate − cost) over a matching of admissible pairs. Solved as the
+    rectangular problem ``[C | M]`` with per-row miss columns (``M`` holds ``gate`` on its diagonal,
+    every inadmissible entry one finite stand-in larger than any feasible total), so it stays
+    feasible when a row or the whole matrix is gated out (never ``inf`` for the solver).
+
+    Returns:
+        ``(rows, cols)`` of the assigned pairs, rows ascending.
+    """
+    cost = np.asarray(cost, dtype=np.float64)
+    n, m = cost.shape
+    if n == 0 or m == 0:
+        return EMPTY_PAIRS
+    admissible = cost <= gate
+    lone, rest_rows, rest_cols = lone_pairs(admissible)
+    sub = cost[np.ix_(rest_rows, rest_cols)]
+    rows, cols = _solve_with_misses(sub, gate)
+    return _merge(lone, (rest_rows[rows].astype(np.int64), rest_cols[cols].astype(np.int64)))
+
+
+def _solve_with_misses(cost: NDArray[np.floating], gate: float) -> Pairs:
+    n, m = cost.shape
+    admissible = cost <= gate
+    if n == 0 or m == 0 or not admissible.any():
+        return EMPTY_PAIRS
+    big = 2.0 * (abs(gate) + 1.0) * (n + 1) + float(np.abs(cost[admissible]).max())
+    full = np.full((n, m + n), big)
+    full[:, :m] = np.where(admissible, cost, big)
+    full[np.arange(n), m + np.arange(n)] = gate
+    rows, cols = linear_sum_assignment(full)
+    keep = cols < m
+    rows, cols = rows[keep], cols[keep]
+    keep = admissible[rows, cols]
+    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
+
+
+def max_cardinality_min_cost(costs: NDArray[np.floating]) -> Pairs:
+    """Most pairs first, then least total cost; NaN or inf marks an impossible pair.
+
+    The objective of py-motmetrics' accumulator (its impossible pairs priced ``2 r c + 1``).
+    """
+    costs = np.asarray(costs, dtype=np.float64)
+    valid = np.isfinite(costs)
+    if costs.size == 0 or not valid.any():
+        return EMPTY_PAIRS
+    lone, rest_rows, rest_cols = lone_pairs(valid)
+    sub = costs[np.ix_(rest_rows, rest_cols)]
+    sub_valid = valid[np.ix_(rest_rows, rest_cols)]
+    if sub.size and sub_valid.any():
+        large = 2 * min(sub.shape) * (np.abs(sub[sub_valid]).max() + 1) + 1
+        r, c = linear_sum_assignment(np.where(sub_valid, sub, large))
+        keep = sub_valid[r, c]
+        rest = (rest_rows[r[keep]].astype(np.int64), rest_cols[c[keep]].astype(np.int64))
+    else:
+        rest = EMPTY_PAIRS
+    return _merge(lone, rest)
