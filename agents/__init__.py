@@ -29,6 +29,16 @@ def available_agents() -> list[str]:
     return AGENTS.names()
 
 
+def agent_applies_to(name: str, position_shape: tuple[int, ...]) -> bool:
+    """Whether agent ``name`` tracks targets whose positions have ``position_shape``.
+
+    An agent class declares ``position_rank``: 1 for point targets (D,), 2 for poses (17, 2);
+    classes without it are point trackers.
+    """
+    factory = AGENTS.factory(name)
+    return int(getattr(factory, "position_rank", 1)) == len(position_shape)
+
+
 def make_agent(name: str, **kwargs: Any) -> Any:
     """Build the agent registered as ``name`` (an unknown name raises ``ValueError`` listing them)."""
     return AGENTS.make(name, **kwargs)
@@ -37,9 +47,11 @@ def make_agent(name: str, **kwargs: Any) -> Any:
 def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
     from agents.gnn import GnnAgent
+    from agents.particle import ParticleFilterAgent
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
+    register_agent("pf", ParticleFilterAgent)
 
 
 _register_builtin()

@@ -15,6 +15,12 @@ ENV_SPECS: dict[str, dict[str, Any]] = {
     "BeltReplay-v0": {
         "entry_point": "track_envs.envs.belt_replay:BeltReplayEnv",
     },
+    "SineTarget-v0": {
+        "entry_point": "track_envs.envs.single_target:SineTargetEnv",
+    },
+    "PiecewiseTarget-v0": {
+        "entry_point": "track_envs.envs.single_target:PiecewiseTargetEnv",
+    },
 }
 
 ENV_IDS: tuple[str, ...] = tuple(ENV_SPECS)

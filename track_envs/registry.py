@@ -25,6 +25,12 @@ class Registry:
         """The registered names, sorted."""
         return sorted(self._factories)
 
+    def factory(self, name: str) -> Callable[..., Any]:
+        """The factory registered as ``name`` (``ValueError`` listing the names if unknown)."""
+        if name not in self._factories:
+            raise ValueError(f"unknown {self.kind} {name!r}; valid names are {self.names()}")
+        return self._factories[name]
+
     def make(self, name: str, **kwargs: Any) -> Any:
         """Build the object registered as ``name`` with ``kwargs``.
 

@@ -6,6 +6,7 @@ from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
+from track_envs.metrics.single_target import SingleTargetError
 
 __all__ = [
     "AssociationErrors",
@@ -16,6 +17,7 @@ __all__ = [
     "Nees",
     "PredictionError",
     "Reliability",
+    "SingleTargetError",
     "gospa",
     "mahalanobis_sq",
 ]

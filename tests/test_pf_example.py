@@ -1,0 +1,29 @@
+"""examples/pf_paper_figures.py runs (quick grid) and writes its figures."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def load(name: str):
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_pf_paper_figures_quick(tmp_path, capsys):
+    out = load("pf_paper_figures").main(["--quick", "--runs", "2", "--out", str(tmp_path)])
+    assert len(out["files"]) == 3
+    for f in out["files"]:
+        assert Path(f).stat().st_size > 1000
+    assert out["error_grid"].shape == (2, 2) and np.isfinite(out["error_grid"]).all()
+    assert out["sigma_n_grid"].shape == (2, 2)
+    # p_detect = 1 tracks better than p_detect = 0.5 at the same σ_p
+    assert np.all(out["error_grid"][1] < out["error_grid"][0])
+    assert "Fig. 7" in capsys.readouterr().out
