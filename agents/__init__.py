@@ -48,9 +48,11 @@ def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
     from agents.gnn import GnnAgent
     from agents.particle import ParticleFilterAgent
+    from agents.pose import PoseBaselineAgent
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
+    register_agent("pose-baseline", PoseBaselineAgent)
     register_agent("pf", ParticleFilterAgent)
 
 

@@ -15,6 +15,10 @@ ENV_SPECS: dict[str, dict[str, Any]] = {
     "BeltReplay-v0": {
         "entry_point": "track_envs.envs.belt_replay:BeltReplayEnv",
     },
+    "KeypointWalkers-v0": {
+        "entry_point": "track_envs.envs.keypoint_walkers:KeypointWalkersEnv",
+        "max_episode_steps": 300,
+    },
     "SineTarget-v0": {
         "entry_point": "track_envs.envs.single_target:SineTargetEnv",
     },

@@ -5,6 +5,7 @@ from track_envs.metrics.belt import AssociationErrors
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric
+from track_envs.metrics.keypoints import KeypointMota, PoseOks, oks, pairwise_oks
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 from track_envs.metrics.single_target import SingleTargetError
 
@@ -13,11 +14,15 @@ __all__ = [
     "ClearMot",
     "GospaMetric",
     "GospaResult",
+    "KeypointMota",
     "Metric",
     "Nees",
+    "PoseOks",
     "PredictionError",
     "Reliability",
     "SingleTargetError",
     "gospa",
     "mahalanobis_sq",
+    "oks",
+    "pairwise_oks",
 ]
