@@ -29,37 +29,9 @@ from numpy.typing import NDArray
 
 from agents.association import ASSIGNERS, chi2_gate, mahalanobis_cost
 from predictors import make_predictor
+from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import Gaussian, SensorSpec
-
-
-def check_observation(obs: Mapping[str, NDArray], spec: SensorSpec) -> tuple[NDArray[np.intp], NDArray]:
-    """Validate a point observation; return the masked-in rows and their detections (m, D).
-
-    Raises:
-        ValueError: naming the key, expected shape or dtype, or the rows holding NaN or inf.
-    """
-    for key in ("detections", "mask"):
-        if key not in obs:
-            raise ValueError(f"observation lacks {key!r}; expected keys 'detections' and 'mask'")
-    det = np.asarray(obs["detections"])
-    mask = np.asarray(obs["mask"])
-    if det.shape != (spec.max_detections, spec.dim) or det.dtype.kind != "f":
-        raise ValueError(
-            f"observation['detections'] must be a float array of shape ({spec.max_detections}, {spec.dim}), "
-            f"got {det.dtype} {det.shape}"
-        )
-    if mask.shape != (spec.max_detections,) or mask.dtype.kind not in "iub":
-        raise ValueError(
-            f"observation['mask'] must be an integer array of shape ({spec.max_detections},), "
-            f"got {mask.dtype} {mask.shape}"
-        )
-    rows = np.flatnonzero(mask)
-    z = det[rows].astype(np.float64)
-    finite = np.isfinite(z).all(axis=1)
-    if not finite.all():
-        raise ValueError(f"masked-in detection rows {rows[~finite][:10].tolist()} hold NaN or inf")
-    return rows, z
 
 
 class GnnAgent:

@@ -38,7 +38,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agents.gnn import check_observation
+from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
 

@@ -34,39 +34,11 @@ from numpy.typing import NDArray
 
 from agents.association import assign_greedy, assign_hungarian
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
+from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
 
 MAX_LIFETIME = 30
-
-
-def check_pose_observation(obs: Mapping[str, NDArray], spec: SensorSpec) -> tuple[NDArray[np.intp], NDArray]:
-    """Validate a keypoint observation; return the masked-in rows and their poses (m, 17, 3).
-
-    Raises:
-        ValueError: naming the key, the expected shape or dtype, or the rows holding NaN or inf.
-    """
-    for key in ("detections", "mask"):
-        if key not in obs:
-            raise ValueError(f"observation lacks {key!r}; expected keys 'detections' and 'mask'")
-    det = np.asarray(obs["detections"])
-    mask = np.asarray(obs["mask"])
-    shape = (spec.max_detections, NUM_KEYPOINTS, 3)
-    if det.shape != shape or det.dtype.kind != "f":
-        raise ValueError(
-            f"observation['detections'] must be a float array of shape {shape}, got {det.dtype} {det.shape}"
-        )
-    if mask.shape != (spec.max_detections,) or mask.dtype.kind not in "iub":
-        raise ValueError(
-            f"observation['mask'] must be an integer array of shape ({spec.max_detections},), "
-            f"got {mask.dtype} {mask.shape}"
-        )
-    rows = np.flatnonzero(mask)
-    z = det[rows].astype(np.float64)
-    finite = np.isfinite(z).all(axis=(1, 2))
-    if not finite.all():
-        raise ValueError(f"masked-in detection rows {rows[~finite][:10].tolist()} hold NaN or inf")
-    return rows, z
 
 
 class PoseBaselineAgent:
@@ -146,7 +118,7 @@ class PoseBaselineAgent:
         spec = self._spec
         if spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
-        rows, z = check_pose_observation(obs, spec)
+        rows, z = check_observation(obs, spec, (NUM_KEYPOINTS, 3))
         found = z[..., 2] > self.keypoint_threshold  # (m, 17)
         count = found.sum(axis=1)
         mean_score = np.where(found, z[..., 2], 0.0).sum(axis=1) / np.maximum(count, 1)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import numpy as np
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -23,3 +25,15 @@ def test_belt_sorter_episode_prints_metrics_and_writes_a_png(tmp_path, capsys):
     assert summary["e_mean"] < 0.05 and summary["MOTA"] > 0.9
     assert png.stat().st_size > 1000
     assert "mean GOSPA" in capsys.readouterr().out
+
+
+def test_pf_paper_figures_quick_grid_writes_three_figures(tmp_path, capsys):
+    out = load("pf_paper_figures").main(["--quick", "--runs", "2", "--out", str(tmp_path)])
+    assert len(out["files"]) == 3
+    for f in out["files"]:
+        assert Path(f).stat().st_size > 1000
+    assert out["error_grid"].shape == (2, 2) and np.isfinite(out["error_grid"]).all()
+    assert out["sigma_n_grid"].shape == (2, 2)
+    # p_detect = 1 tracks better than p_detect = 0.5 at the same σ_p
+    assert np.all(out["error_grid"][1] < out["error_grid"][0])
+    assert "Fig. 7" in capsys.readouterr().out
