@@ -1,5 +1,5 @@
 # Two commands on a fresh machine with nothing but Python:
-#   make demo   run the main job (a BeltSorter-v0 episode with metrics and a rendered frame)
+#   make demo   run the main job: the quick benchmark suite (track-bench) with its table
 #   make test   run the whole default test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -17,11 +17,11 @@ $(STAMP): pyproject.toml Makefile
 	# torch: the pinned CPU build where it is available locally, else the registry's CPU build.
 	$(PIP) install --quiet torch==2.13.0 || \
 	  $(PIP) install --quiet torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
-	$(PIP) install --quiet -e ".[dev,torch]"
+	$(PIP) install --quiet -e ".[dev,torch,ray]"
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(PY) examples/belt_sorter_episode.py --steps 500 --png demo_frame.png
+	MPLBACKEND=Agg $(PY) -m agents.bench run --suite quick --out results/quick
 
 test: $(STAMP) lint
 	MPLBACKEND=Agg SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest -q

@@ -29,14 +29,18 @@ def available_agents() -> list[str]:
     return AGENTS.names()
 
 
-def agent_applies_to(name: str, position_shape: tuple[int, ...]) -> bool:
-    """Whether agent ``name`` tracks targets whose positions have ``position_shape``.
+def agent_applies_to(name: str, position_shape: tuple[int, ...], max_targets: int | None = None) -> bool:
+    """Whether agent ``name`` tracks targets with positions of ``position_shape`` (and up to
+    ``max_targets`` of them at once, when given).
 
     An agent class declares ``position_rank``: 1 for point targets (D,), 2 for poses (17, 2);
-    classes without it are point trackers.
+    classes without it are point trackers. A single-target tracker declares ``max_targets = 1``.
     """
     factory = AGENTS.factory(name)
-    return int(getattr(factory, "position_rank", 1)) == len(position_shape)
+    if int(getattr(factory, "position_rank", 1)) != len(position_shape):
+        return False
+    limit = getattr(factory, "max_targets", None)
+    return limit is None or max_targets is None or max_targets <= limit
 
 
 def make_agent(name: str, **kwargs: Any) -> Any:

@@ -337,6 +337,9 @@ class ParticleFilterAgent:
         max_misses: With clutter, restart after this many gated-out frames in a row (default 10).
     """
 
+    #: tracks one target: applies to single-target scenes only (see agents.agent_applies_to)
+    max_targets = 1
+
     def __init__(
         self,
         *,

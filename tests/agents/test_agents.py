@@ -19,8 +19,8 @@ def test_unknown_agent_lists_the_valid_names():
 @pytest.mark.parametrize("env_id", track_envs.ENV_IDS)
 def test_agent_reports_valid_actions_on_every_env_it_applies_to(name, env_id):
     env = gym.make(env_id)
-    if not agent_applies_to(name, env.unwrapped.position_shape):
-        pytest.skip(f"{name} does not track targets of shape {env.unwrapped.position_shape}")
+    if not agent_applies_to(name, env.unwrapped.position_shape, env.unwrapped.max_targets):
+        pytest.skip(f"{name} does not apply to {env_id}")
     agent = make_agent(name)
     obs, _ = env.reset(seed=0)
     agent.reset(env.unwrapped.sensor_spec, seed=0)
@@ -48,3 +48,11 @@ def test_detections_agent_matches_the_sensor_exactly_at_zero_noise():
     agent.reset(env.unwrapped.sensor_spec)
     _, reward, *_ = env.step(agent.act(obs))
     assert reward == pytest.approx(0.0, abs=1e-6)
+
+
+def test_applicability_follows_position_shape_and_target_count():
+    assert agent_applies_to("gnn", (2,), 256)
+    assert not agent_applies_to("gnn", (17, 2))
+    assert agent_applies_to("pose-baseline", (17, 2))
+    assert agent_applies_to("pf", (2,), 1)
+    assert not agent_applies_to("pf", (2,), 256)

@@ -1,0 +1,32 @@
+"""The benchmark runner and the ``track-bench`` CLI (``python -m agents.bench``).
+
+Runs agents × predictors × envs × seeds as cells, one atomically written JSON record per cell,
+on a local process pool (default) or Ray, and builds tables and plots from the records::
+
+    from agents.bench import expand, load_suite, run_cells, load_records, write_report
+    cells = expand(load_suite("quick"))
+    run_cells(cells, "results/quick", workers=2)
+    write_report(load_records("results/quick"), "results/quick")
+"""
+
+from __future__ import annotations
+
+from agents.bench.cells import NO_PREDICTOR, SUITES, Cell, Group, expand, load_suite
+from agents.bench.report import aggregate, terminal_table, write_report
+from agents.bench.runner import load_records, run_cell, run_cells, write_record
+
+__all__ = [
+    "NO_PREDICTOR",
+    "SUITES",
+    "Cell",
+    "Group",
+    "aggregate",
+    "expand",
+    "load_records",
+    "load_suite",
+    "run_cell",
+    "run_cells",
+    "terminal_table",
+    "write_record",
+    "write_report",
+]

@@ -1,0 +1,269 @@
+"""Cells, suites and applicability: what the benchmark runs.
+
+A **cell** is one unit of work: (env id, env kwargs, agent, predictor, seed) plus the episode
+budget (episodes, steps per episode). Its :attr:`Cell.key` is a stable hash of exactly those
+fields, so the record file of a cell has the same name on every machine and every run.
+
+A **suite** is a list of :class:`Group` s; a group is a cartesian product (envs × agents ×
+predictors × sweep values × seeds) that :func:`expand` turns into the cells that *apply*:
+
+- an agent applies to an env when its position rank matches the env's ``position_shape``
+  (:func:`agents.agent_applies_to`: point trackers on point envs, pose trackers on keypoints);
+- a predictor applies to an agent that takes a ``predictor`` argument (``"gnn"``); an agent
+  without one (``"detections"``, ``"pf"``, ``"pose-baseline"``) runs once with predictor ``"-"``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import itertools
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from functools import cache
+from typing import Any
+
+import gymnasium as gym
+
+import track_envs
+from agents import AGENTS, agent_applies_to, available_agents
+from predictors import available_predictors
+
+#: The predictor column of a cell whose agent takes no predictor.
+NO_PREDICTOR = "-"
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One benchmark run: ``episodes`` episodes of ``env_id`` with one agent/predictor and seed.
+
+    Attributes:
+        env_id: A registered env id, e.g. ``"BeltSorter-v0"``.
+        agent: A registered agent name.
+        predictor: A registered predictor name, or ``"-"`` for agents that take none.
+        seed: Seed of the first episode (env and agent); later episodes derive theirs from it.
+        env_kwargs: Keyword arguments for ``gym.make`` as sorted ``(name, value)`` pairs.
+        episodes: Episodes to run; the record's metrics are their mean.
+        steps: ``max_episode_steps`` for ``gym.make``; ``None`` keeps the env's own length.
+    """
+
+    env_id: str
+    agent: str
+    predictor: str
+    seed: int
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    episodes: int = 1
+    steps: int | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (``env_kwargs`` as a dict)."""
+        out = asdict(self)
+        out["env_kwargs"] = dict(self.env_kwargs)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Cell:
+        """Inverse of :meth:`to_dict`."""
+        kwargs = tuple(sorted(dict(data.get("env_kwargs", {})).items()))
+        return cls(
+            env_id=data["env_id"],
+            agent=data["agent"],
+            predictor=data["predictor"],
+            seed=int(data["seed"]),
+            env_kwargs=kwargs,
+            episodes=int(data.get("episodes", 1)),
+            steps=None if data.get("steps") is None else int(data["steps"]),
+        )
+
+    @property
+    def key(self) -> str:
+        """Stable 16-hex-digit hash of the cell (sha256 of its canonical JSON)."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @property
+    def filename(self) -> str:
+        """Record file name: readable prefix plus :attr:`key`."""
+        return f"{self.env_id}_{self.agent}_{self.predictor}_s{self.seed}_{self.key}.json"
+
+
+@dataclass(frozen=True)
+class Group:
+    """A cartesian product of cells (one table of a suite file).
+
+    Attributes:
+        envs: Env ids; empty means every registered env.
+        agents: Agent names; empty means every registered agent.
+        predictors: Predictor names for agents that take one; empty means every registered one.
+        seeds: Seeds of the cells.
+        episodes: Episodes per cell.
+        steps: Steps per episode (``None``: the env's own length).
+        env_kwargs: Fixed env kwargs for every cell.
+        sweep: Env kwarg name → values; one cell per value (several names: every combination).
+    """
+
+    envs: tuple[str, ...] = ()
+    agents: tuple[str, ...] = ()
+    predictors: tuple[str, ...] = ()
+    seeds: tuple[int, ...] = (0, 1)
+    episodes: int = 1
+    steps: int | None = None
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    sweep: tuple[tuple[str, tuple[Any, ...]], ...] = field(default=())
+
+
+#: Paper 000 Fig. 7 sweeps the measurement noise on the belt from 0 to 0.5 mm.
+NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
+
+SUITES: dict[str, tuple[Group, ...]] = {
+    # every env × every agent/predictor that applies × 2 seeds, short episodes.
+    "quick": (Group(seeds=(0, 1), steps=100),),
+    # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of paper 000.
+    "full": (
+        Group(envs=tuple(e for e in track_envs.ENV_IDS if e != "BeltSorter-v0"), seeds=tuple(range(10))),
+        Group(envs=("BeltSorter-v0",), seeds=tuple(range(10)), sweep=(("noise_std", NOISE_SWEEP),)),
+    ),
+}
+
+
+def check_names(kind: str, names: Iterable[str], valid: Sequence[str]) -> None:
+    """Raise ``ValueError`` naming every unknown entry of ``names`` and listing ``valid``."""
+    unknown = [n for n in names if n not in valid]
+    if unknown:
+        raise ValueError(f"unknown {kind} {', '.join(map(repr, unknown))}; valid names are {list(valid)}")
+
+
+def agent_takes_predictor(agent: str) -> bool:
+    """Whether the agent's factory has a ``predictor`` parameter."""
+    try:
+        params = inspect.signature(AGENTS.factory(agent)).parameters
+    except (TypeError, ValueError):
+        return False
+    return "predictor" in params
+
+
+@cache
+def env_position_shape(env_id: str) -> tuple[int, ...]:
+    """``position_shape`` of an env (built once per process with default kwargs)."""
+    return env_shape(env_id)[0]
+
+
+@cache
+def env_shape(env_id: str) -> tuple[tuple[int, ...], int]:
+    """``(position_shape, max_targets)`` of an env built with default kwargs."""
+    env = gym.make(env_id)
+    try:
+        unwrapped: Any = env.unwrapped
+        return tuple(unwrapped.position_shape), int(unwrapped.max_targets)
+    finally:
+        env.close()
+
+
+def env_kwarg_names(env_id: str) -> list[str] | None:
+    """Keyword arguments the env's constructor takes, or ``None`` when it takes ``**kwargs``."""
+    from gymnasium.envs.registration import load_env_creator
+
+    entry = gym.spec(env_id).entry_point
+    creator: Any = load_env_creator(entry) if isinstance(entry, str) else entry
+    params = inspect.signature(creator).parameters.values()
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
+        return None
+    return [p.name for p in params if p.name != "render_mode"]
+
+
+def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
+    """Predictor column values for ``agent`` on ``env_id``: ``[]`` if the agent does not apply,
+    ``["-"]`` if it takes no predictor, else ``predictors``."""
+    if not agent_applies_to(agent, *env_shape(env_id)):
+        return []
+    return list(predictors) if agent_takes_predictor(agent) else [NO_PREDICTOR]
+
+
+def validate_group(group: Group) -> None:
+    """Raise ``ValueError`` for unknown env, agent, predictor or sweep names (listing valid ones)."""
+    check_names("env", group.envs, track_envs.ENV_IDS)
+    check_names("agent", group.agents, available_agents())
+    check_names("predictor", group.predictors, available_predictors())
+    if group.episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {group.episodes}")
+    if group.steps is not None and group.steps < 1:
+        raise ValueError(f"steps must be >= 1, got {group.steps}")
+    if not group.seeds:
+        raise ValueError("no seeds given")
+    names = [n for n, _ in group.env_kwargs] + [n for n, _ in group.sweep]
+    for env_id in group.envs or track_envs.ENV_IDS:
+        valid = env_kwarg_names(env_id)
+        if valid is not None:
+            check_names(f"env kwarg for {env_id}", names, valid)
+
+
+def expand(groups: Iterable[Group]) -> list[Cell]:
+    """Every applicable cell of ``groups``, in order, without duplicates."""
+    cells: dict[str, Cell] = {}
+    for group in groups:
+        validate_group(group)
+        sweep_names = [n for n, _ in group.sweep]
+        sweep_values = list(itertools.product(*(v for _, v in group.sweep)))
+        for env_id in group.envs or track_envs.ENV_IDS:
+            for agent in group.agents or available_agents():
+                for predictor in applicable(env_id, agent, group.predictors or available_predictors()):
+                    for values in sweep_values:
+                        kwargs = dict(group.env_kwargs) | dict(zip(sweep_names, values, strict=True))
+                        for seed in group.seeds:
+                            items = tuple(sorted(kwargs.items()))
+                            cell = Cell(
+                                env_id, agent, predictor, int(seed), items, group.episodes, group.steps
+                            )
+                            cells.setdefault(cell.key, cell)
+    return list(cells.values())
+
+
+def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
+    """``groups`` with the non-``None`` ``changes`` applied to every group (CLI flags over a suite)."""
+    changes = {k: v for k, v in changes.items() if v is not None}
+    return tuple(replace(g, **changes) for g in groups)
+
+
+def load_suite(source: str) -> tuple[Group, ...]:
+    """A suite by name (``"quick"``, ``"full"``) or from a TOML file.
+
+    A TOML suite holds one or more ``[[group]]`` tables (or the group's keys at the top level)::
+
+        [[group]]
+        envs = ["BeltSorter-v0"]      # default: every env
+        agents = ["gnn"]              # default: every agent that applies
+        predictors = ["kf-cv", "kf-ca"]
+        seeds = 5                     # a count (0..4) or a list of seeds
+        episodes = 1
+        steps = 200                   # omit for the env's own episode length
+        env_kwargs = { particle_kind = "sphere" }
+        sweep = { noise_std = [0.0, 2e-4, 4e-4] }
+    """
+    if source in SUITES:
+        return SUITES[source]
+    if not source.endswith(".toml"):
+        raise ValueError(f"unknown suite {source!r}; valid names are {sorted(SUITES)} or a .toml file")
+    import tomllib
+
+    with open(source, "rb") as fh:
+        data = tomllib.load(fh)
+    tables = data.get("group", [data])
+    return tuple(group_from_mapping(t) for t in tables)
+
+
+def group_from_mapping(data: Mapping[str, Any]) -> Group:
+    """A :class:`Group` from a TOML table (see :func:`load_suite`)."""
+    allowed = {"envs", "agents", "predictors", "seeds", "episodes", "steps", "env_kwargs", "sweep"}
+    check_names("suite key", data, sorted(allowed))
+    seeds = data.get("seeds", 2)
+    return Group(
+        envs=tuple(data.get("envs", ())),
+        agents=tuple(data.get("agents", ())),
+        predictors=tuple(data.get("predictors", ())),
+        seeds=tuple(range(seeds)) if isinstance(seeds, int) else tuple(int(s) for s in seeds),
+        episodes=int(data.get("episodes", 1)),
+        steps=data.get("steps"),
+        env_kwargs=tuple(sorted(dict(data.get("env_kwargs", {})).items())),
+        sweep=tuple((k, tuple(v)) for k, v in dict(data.get("sweep", {})).items()),
+    )

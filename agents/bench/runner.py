@@ -1,0 +1,305 @@
+"""Run cells, write one record per cell, skip finished cells; local and Ray engines.
+
+A record is one JSON file in the out dir (name: :attr:`Cell.filename`, from a stable hash of the
+cell)::
+
+    {"schema": 1, "key": "<hash>", "cell": {...},
+     "metrics": {"e1": ..., "mota": ..., ...},          # mean over the cell's episodes
+     "episode_metrics": [{...}, ...],                  # only when episodes > 1
+     "timing": {"wall_s": ..., "episode_s": ..., "frames": ..., "frames_per_s": ..., "host": ...},
+     "versions": {"track-envs": ..., "numpy": ..., "gymnasium": ..., "pymunk": ..., "python": ...}}
+
+Everything but ``"timing"`` depends only on the cell and the versions: the same seeds give the
+same metrics on every engine. Non-finite metric values are stored as the strings ``"nan"``,
+``"inf"``, ``"-inf"`` (strict JSON) and read back as floats.
+
+Each record is written atomically by the driver process: a temporary file in the out dir, flushed
+and fsynced, then ``os.replace`` d onto its name. A killed or interrupted run therefore leaves
+only whole records, and a rerun with the same out dir computes just the cells without one.
+
+Engines:
+    ``local``: ``--workers 1`` runs the cells in this process; more workers use a
+    ``concurrent.futures.ProcessPoolExecutor`` (forkserver processes, SIGINT ignored in the
+    workers; Ctrl-C in the driver cancels the pending cells).
+    ``ray``: one remote task per cell on ``ray.init()`` (a local instance) or
+    ``ray.init(address=...)`` (a cluster; every node needs track-envs installed). Records
+    come back to the driver, so the nodes need no shared file system.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import socket
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from functools import cache
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from tqdm import tqdm
+
+import track_envs  # noqa: F401  (registers the environments)
+from agents import make_agent
+from agents.bench.cells import NO_PREDICTOR, Cell
+from track_envs.wrappers import TrackingMetrics
+
+SCHEMA = 1
+ENGINES = ("local", "ray")
+RAY_HINT = 'the ray engine needs ray: pip install "track-envs[ray]" (or pip install "ray>=2.40")'
+
+
+@cache
+def versions() -> dict[str, str]:
+    """Versions of the packages that decide a record's values."""
+    out = {}
+    for dist in ("track-envs", "numpy", "gymnasium", "pymunk"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[dist] = "not installed"
+    out["python"] = platform.python_version()
+    return out
+
+
+def episode_seed(seed: int, episode: int) -> int:
+    """Seed of episode ``episode`` of a cell: the cell's seed first, then derived ones."""
+    if episode == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+
+
+def _json_float(value: Any) -> float | str:
+    value = float(value)
+    return value if math.isfinite(value) else str(value)
+
+
+def make_env(cell: Cell) -> gym.Env:
+    """The cell's env wrapped in :class:`TrackingMetrics`."""
+    kwargs = dict(cell.env_kwargs)
+    if cell.steps is not None:
+        kwargs["max_episode_steps"] = cell.steps
+    return TrackingMetrics(gym.make(cell.env_id, **kwargs))
+
+
+def make_cell_agent(cell: Cell) -> Any:
+    """The cell's agent (with its predictor, if it takes one)."""
+    if cell.predictor == NO_PREDICTOR:
+        return make_agent(cell.agent)
+    return make_agent(cell.agent, predictor=cell.predictor)
+
+
+def run_episode(env: gym.Env, agent: Any, seed: int) -> tuple[dict[str, float], int]:
+    """One episode of the loop; its ``episode_metrics`` and its number of frames."""
+    obs, info = env.reset(seed=seed)
+    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
+    frames = 0
+    while True:
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        frames += 1
+        if terminated or truncated:
+            return dict(info["episode_metrics"]), frames
+
+
+def run_cell(cell: Cell) -> dict[str, Any]:
+    """Run every episode of ``cell``; return its record (see the module docstring)."""
+    start = time.perf_counter()
+    env = make_env(cell)
+    agent = make_cell_agent(cell)
+    episodes, frames, episode_s = [], 0, 0.0
+    try:
+        for k in range(cell.episodes):
+            t0 = time.perf_counter()
+            metrics, n = run_episode(env, agent, episode_seed(cell.seed, k))
+            episode_s += time.perf_counter() - t0
+            episodes.append(metrics)
+            frames += n
+    finally:
+        env.close()
+    wall = time.perf_counter() - start
+    keys = list(dict.fromkeys(k for m in episodes for k in m))
+    mean = {k: _json_float(np.mean([m.get(k, np.nan) for m in episodes])) for k in keys}
+    record: dict[str, Any] = {"schema": SCHEMA, "key": cell.key, "cell": cell.to_dict(), "metrics": mean}
+    if cell.episodes > 1:
+        record["episode_metrics"] = [{k: _json_float(v) for k, v in m.items()} for m in episodes]
+    record["timing"] = {
+        "wall_s": wall,
+        "episode_s": episode_s,
+        "frames": frames,
+        "frames_per_s": frames / episode_s if episode_s > 0 else float("nan"),
+        "host": socket.gethostname(),
+    }
+    record["versions"] = versions()
+    return record
+
+
+def write_record(out_dir: str | os.PathLike[str], record: dict[str, Any]) -> Path:
+    """Write ``record`` atomically (temporary file in ``out_dir``, fsync, ``os.replace``)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    target = out / Cell.from_dict(record["cell"]).filename
+    fd, tmp = tempfile.mkstemp(dir=out, prefix=".tmp-", suffix=".part")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(record, fh, indent=1, allow_nan=False)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A record from its file, with non-finite metric strings turned back into floats."""
+    with open(path) as fh:
+        record = json.load(fh)
+    record["metrics"] = {k: float(v) for k, v in record["metrics"].items()}
+    return record
+
+
+def load_records(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Every record in ``out_dir`` (temporary and foreign JSON files are ignored), sorted by file name."""
+    records = []
+    for path in sorted(Path(out_dir).glob("*.json")):
+        try:
+            record = read_record(path)
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if record.get("schema") == SCHEMA:
+            records.append(record)
+    return records
+
+
+def is_finished(out_dir: Path, cell: Cell) -> bool:
+    """Whether ``out_dir`` holds a whole record of ``cell``."""
+    path = out_dir / cell.filename
+    if not path.exists():
+        return False
+    try:
+        return read_record(path)["key"] == cell.key
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What :func:`run_cells` did."""
+
+    total: int
+    computed: int
+    skipped: int
+    wall_s: float
+    out_dir: Path
+
+
+OnRecord = Callable[[dict[str, Any]], None]
+
+
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _local_engine(cells: Sequence[Cell], workers: int, on_record: OnRecord) -> None:
+    if workers <= 1 or len(cells) <= 1:
+        for cell in cells:
+            on_record(run_cell(cell))
+        return
+    import multiprocessing as mp
+
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["agents.bench.runner"])
+    pool = ProcessPoolExecutor(min(workers, len(cells)), mp_context=ctx, initializer=_ignore_sigint)
+    pending: set[Future[dict[str, Any]]] = {pool.submit(run_cell, cell) for cell in cells}
+    try:
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                on_record(future.result())
+    except BaseException:
+        for future in pending:
+            future.cancel()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
+def _ray_engine(cells: Sequence[Cell], address: str | None, on_record: OnRecord) -> None:
+    try:
+        import ray
+    except ImportError as exc:
+        raise RuntimeError(RAY_HINT) from exc
+    started = not ray.is_initialized()
+    if started:
+        ray.init(address=address) if address else ray.init()
+    remote = ray.remote(num_cpus=1)(run_cell)
+    pending = {remote.remote(cell): cell for cell in cells}
+    try:
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                pending.pop(ref)
+                on_record(ray.get(ref))
+    except BaseException:
+        for ref in pending:
+            ray.cancel(ref)
+        raise
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def run_cells(
+    cells: Iterable[Cell],
+    out_dir: str | os.PathLike[str],
+    *,
+    engine: str = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    progress: bool = True,
+) -> RunResult:
+    """Run every cell of ``cells`` that has no record in ``out_dir`` yet and write its record.
+
+    Args:
+        cells: The cells (see :func:`agents.bench.cells.expand`).
+        out_dir: Directory of the records (created if missing).
+        engine: ``"local"`` (process pool, or in-process with ``workers=1``) or ``"ray"``.
+        workers: Local processes (default: the CPU count); ignored by ``"ray"``.
+        address: Ray cluster address (``ray.init(address=...)``); ``None`` starts a local Ray.
+        progress: Show a tqdm bar over the cells.
+
+    Returns:
+        Counts of computed and skipped cells and the wall time.
+    """
+    if engine not in ENGINES:
+        raise ValueError(f"unknown engine {engine!r}; valid names are {list(ENGINES)}")
+    start = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cells = list(cells)
+    todo = [c for c in cells if not is_finished(out, c)]
+    bar = tqdm(total=len(todo), unit="cell", desc=f"track-bench ({engine})", disable=not progress)
+
+    def on_record(record: dict[str, Any]) -> None:
+        write_record(out, record)
+        bar.update()
+
+    try:
+        if engine == "ray":
+            _ray_engine(todo, address, on_record)
+        else:
+            _local_engine(todo, workers or os.cpu_count() or 1, on_record)
+    finally:
+        bar.close()
+    return RunResult(len(cells), len(todo), len(cells) - len(todo), time.perf_counter() - start, out)

@@ -1,0 +1,126 @@
+"""Cell expansion, applicability, suites and name checking."""
+
+from __future__ import annotations
+
+import pytest
+
+import track_envs
+from agents import available_agents
+from agents.bench import NO_PREDICTOR, Cell, Group, expand, load_suite
+from agents.bench.cells import applicable, override
+from agents.bench.cli import main
+from predictors import available_predictors
+
+
+def test_quick_suite_covers_every_applicable_combination_with_two_seeds():
+    cells = expand(load_suite("quick"))
+    combos = {(c.env_id, c.agent, c.predictor) for c in cells}
+    assert {c.env_id for c in cells} == set(track_envs.ENV_IDS)
+    assert len(cells) == 2 * len(combos)
+    assert {c.seed for c in cells} == {0, 1}
+    # keypoints: only the pose tracker, without a predictor
+    assert {(a, p) for e, a, p in combos if e == "KeypointWalkers-v0"} == {("pose-baseline", NO_PREDICTOR)}
+    # gnn runs once per predictor on every point env; predictor-free agents once with "-"
+    for env_id in set(track_envs.ENV_IDS) - {"KeypointWalkers-v0"}:
+        assert {p for e, a, p in combos if e == env_id and a == "gnn"} == set(available_predictors())
+        assert {p for e, a, p in combos if e == env_id and a in ("detections", "pf")} == {NO_PREDICTOR}
+        assert "pose-baseline" not in {a for e, a, _ in combos if e == env_id}
+    assert all(c.steps is not None and c.steps <= 100 for c in cells)
+
+
+def test_applicability():
+    assert applicable("KeypointWalkers-v0", "gnn", ["kf-cv"]) == []
+    assert applicable("BeltSorter-v0", "pose-baseline", ["kf-cv"]) == []
+    assert applicable("BeltSorter-v0", "gnn", ["kf-cv", "kf-ca"]) == ["kf-cv", "kf-ca"]
+    assert applicable("SineTarget-v0", "pf", ["kf-cv"]) == [NO_PREDICTOR]
+
+
+def test_full_suite_has_ten_seeds_and_the_noise_sweep():
+    cells = expand(load_suite("full"))
+    belt = [c for c in cells if c.env_id == "BeltSorter-v0" and c.agent == "gnn" and c.predictor == "kf-ca"]
+    assert {dict(c.env_kwargs)["noise_std"] for c in belt} == {0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4}
+    assert {c.seed for c in cells} == set(range(10))
+    assert all(c.steps is None for c in cells)
+
+
+def test_sweep_and_override_expand_to_the_product():
+    groups = override(
+        load_suite("quick"), envs=("SineTarget-v0",), agents=("gnn", "pf"), predictors=("kf-cv",),
+        seeds=(3, 4, 5), sweep=(("p_detect", (0.9, 0.7)),),
+    )  # fmt: skip
+    cells = expand(groups)
+    assert len(cells) == 2 * 2 * 3  # (gnn/kf-cv, pf) x 2 values x 3 seeds
+    assert {dict(c.env_kwargs)["p_detect"] for c in cells} == {0.9, 0.7}
+
+
+def test_cell_key_is_stable_and_names_the_file():
+    a = Cell("BeltSorter-v0", "gnn", "kf-ca", 3, (("noise_std", 1e-4),), 1, 50)
+    b = Cell.from_dict(a.to_dict())
+    assert a == b and a.key == b.key and len(a.key) == 16
+    assert a.key != Cell("BeltSorter-v0", "gnn", "kf-ca", 4, (("noise_std", 1e-4),), 1, 50).key
+    assert a.filename.endswith(f"_{a.key}.json") and a.filename.startswith("BeltSorter-v0_gnn_kf-ca_s3")
+    # the hash must not change between releases: finished records would be recomputed
+    assert Cell("SineTarget-v0", "pf", "-", 0).key == Cell("SineTarget-v0", "pf", "-", 0).key
+
+
+@pytest.mark.parametrize(
+    ("group", "valid"),
+    [
+        (Group(envs=("Nope-v0",)), "BeltSorter-v0"),
+        (Group(agents=("kalman",)), "pose-baseline"),
+        (Group(predictors=("lstm9",)), "kf-ca"),
+        (Group(envs=("BeltSorter-v0",), sweep=(("noise_stdd", (1.0,)),)), "noise_std"),
+    ],
+)
+def test_unknown_names_list_the_valid_ones(group, valid):
+    with pytest.raises(ValueError, match="valid names are") as err:
+        expand([group])
+    assert valid in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "valid"),
+    [("--envs", "Nope-v0", track_envs.ENV_IDS), ("--agents", "gnn,nope", available_agents())],
+)
+def test_cli_unknown_names_list_the_valid_ones(capsys, flag, value, valid):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", flag, value, "--out", "unused"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "nope" in err.lower() and all(v in err for v in valid)
+
+
+def test_cli_unknown_suite_and_sweep_name(capsys, tmp_path):
+    assert main(["run", "--suite", "huge", "--out", str(tmp_path)]) == 2
+    assert "quick" in capsys.readouterr().err
+    assert main(["run", "--envs", "SineTarget-v0", "--sweep", "nois=1", "--out", str(tmp_path)]) == 2
+    assert "noise_std" in capsys.readouterr().err
+
+
+def test_toml_suite(tmp_path):
+    path = tmp_path / "suite.toml"
+    path.write_text(
+        '[[group]]\nenvs = ["SineTarget-v0"]\nagents = ["pf"]\nseeds = 3\nsteps = 20\n'
+        "sweep = { p_detect = [0.9, 0.8] }\n"
+        '[[group]]\nenvs = ["BeltSorter-v0"]\nagents = ["gnn"]\npredictors = ["kf-cv"]\nseeds = [7]\n'
+    )
+    cells = expand(load_suite(str(path)))
+    assert len(cells) == 3 * 2 + 1
+    assert Cell("BeltSorter-v0", "gnn", "kf-cv", 7) in cells
+
+
+def test_help_is_complete(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = capsys.readouterr().out
+    for flag in ("--suite", "--envs", "--agents", "--predictors", "--seeds", "--episodes", "--steps"):
+        assert flag in out
+    for flag in ("--sweep", "--workers", "--engine", "--address", "--out", "examples:", "track-bench report"):
+        assert flag in out
+
+
+def test_list_names_everything(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in (*track_envs.ENV_IDS, *available_agents(), *available_predictors()):
+        assert name in out
