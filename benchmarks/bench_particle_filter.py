@@ -48,18 +48,6 @@ def make_filter(n_targets: int, n_particles: int, seed: int) -> BatchParticleFil
     )
 
 
-def time_single(n_particles: int, z: np.ndarray, seen: np.ndarray, repeats: int = 3) -> float:
-    """Best steps/s of one filter over the frames of ``z`` (F, 1, 2)."""
-    best = 0.0
-    for r in range(repeats):
-        pf = make_filter(1, n_particles, r)
-        t0 = time.perf_counter()
-        for f in range(len(z)):
-            pf.step(z[f], seen[f])
-        best = max(best, len(z) / (time.perf_counter() - t0))
-    return best
-
-
 def time_batched(z: np.ndarray, seen: np.ndarray, n_particles: int, repeats: int = 3) -> float:
     """Best frames/s of one filter over all targets of ``z`` (F, T, 2)."""
     best = 0.0
@@ -91,7 +79,7 @@ def main() -> dict[str, float]:
     rows = []
     results: dict[str, float] = {}
     for n in (100, 1_000, 10_000):
-        rate = time_single(n, z1, s1)
+        rate = time_batched(z1, s1, n)
         results[f"steps_per_s_N{n}"] = rate
         rows.append(
             f"| 1 × {n:,} (one filter) | {rate:,.0f} steps/s | {rate * n / 1e6:.1f} M particle-steps/s |"
