@@ -35,7 +35,7 @@ from track_envs.types import Gaussian, SensorSpec
 
 
 class GnnAgent:
-    """GNN multi-target tracker (see the module docstring).
+    """Global nearest neighbour multi-target tracker: χ² gate, Hungarian, pluggable predictor (paper 000).
 
     Args:
         predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an

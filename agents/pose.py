@@ -42,7 +42,7 @@ MAX_LIFETIME = 30
 
 
 class PoseBaselineAgent:
-    """Single-hypothesis pose tracker (see the module docstring).
+    """Single-hypothesis pose tracker (paper 004 baseline): constant keypoint velocity, OKS, Hungarian.
 
     Args:
         oks_threshold: Smallest OKS at which a predicted and a detected pose may be matched.

@@ -29,14 +29,31 @@ def make_predictor(name: str, **kwargs: Any) -> Any:
     return PREDICTORS.make(name, **kwargs)
 
 
-def _register_builtin() -> None:
-    from functools import partial
-
+def kf_cv(**kwargs: Any) -> Any:
+    """Constant-velocity Kalman filter (white-noise acceleration of intensity q), batched over tracks."""
     from predictors.kalman import KalmanPredictor
 
-    register_predictor("kf-cv", partial(KalmanPredictor, "cv"))
-    register_predictor("kf-ca", partial(KalmanPredictor, "ca"))
-    register_predictor("random-walk", partial(KalmanPredictor, "random-walk"))
+    return KalmanPredictor("cv", **kwargs)
+
+
+def kf_ca(**kwargs: Any) -> Any:
+    """Constant-acceleration Kalman filter (white-noise jerk of intensity q), batched over tracks."""
+    from predictors.kalman import KalmanPredictor
+
+    return KalmanPredictor("ca", **kwargs)
+
+
+def random_walk(**kwargs: Any) -> Any:
+    """Position-only random-walk Kalman filter (white-noise velocity of intensity q), batched."""
+    from predictors.kalman import KalmanPredictor
+
+    return KalmanPredictor("random-walk", **kwargs)
+
+
+def _register_builtin() -> None:
+    register_predictor("kf-cv", kf_cv)
+    register_predictor("kf-ca", kf_ca)
+    register_predictor("random-walk", random_walk)
 
 
 _register_builtin()
