@@ -175,18 +175,21 @@ class ClearMot:
         d = np.atleast_2d(np.asarray(dist_matrix, dtype=np.float64)).reshape(no, nh).copy()
         possible_i, possible_j = np.nonzero(np.isfinite(d))
         self._pairs.add(np.stack([oids[possible_i], hids[possible_j]], axis=1))
-        self._truth_frames.add(np.unique(oids))
-        self._track_frames.add(np.unique(hids))
-        rows = self._rows(oids)
-        if len(np.unique(oids)) == no and len(np.unique(hids)) == nh:
+        unique_oids, unique_hids = np.unique(oids), np.unique(hids)
+        self._truth_frames.add(unique_oids)
+        self._track_frames.add(unique_hids)
+        rows = self._rows(unique_oids, oids)
+        if len(unique_oids) == no and len(unique_hids) == nh:
             mi, mj, switch = self._assign(rows, hids, d)
         else:
             mi, mj, switch = self._assign_rowwise(rows, hids, d)
         self._count(rows, mi, mj, switch, d, no, nh)
 
-    def _rows(self, oids: NDArray[np.int64]) -> NDArray[np.intp]:
-        """Rows of ``oids`` in the per-truth state, adding unseen ids."""
-        new = np.setdiff1d(oids, self._ids)
+    def _rows(self, unique_oids: NDArray[np.int64], oids: NDArray[np.int64]) -> NDArray[np.intp]:
+        """Rows of ``oids`` in the per-truth state (sorted by id), adding unseen ids first."""
+        at = np.minimum(np.searchsorted(self._ids, unique_oids), max(len(self._ids) - 1, 0))
+        known = self._ids[at] == unique_oids if len(self._ids) else np.zeros(len(unique_oids), dtype=bool)
+        new = unique_oids[~known]
         if len(new):
             order = np.argsort(np.concatenate([self._ids, new]), kind="stable")
             self._ids = np.concatenate([self._ids, new])[order]
@@ -213,10 +216,13 @@ class ClearMot:
         _, first = np.unique(cj, return_index=True)
         i1, j1 = ci[first], cj[first]
         # 2. min-cost assignment of the rest
-        free = d.copy()
-        free[i1, :] = np.nan
-        free[:, j1] = np.nan
-        i2, j2 = assign_like_motmetrics(free)
+        free_row = np.ones(no, dtype=bool)
+        free_row[i1] = False
+        free_col = np.ones(nh, dtype=bool)
+        free_col[j1] = False
+        free_i, free_j = np.flatnonzero(free_row), np.flatnonzero(free_col)
+        i2, j2 = assign_like_motmetrics(d[np.ix_(free_i, free_j)])
+        i2, j2 = free_i[i2], free_j[j2]
         switch = seen[i2] & (last[i2] != hids[j2])
         self._last[rows[i2]] = hids[j2]
         self._matched[rows[i2]] = True
