@@ -95,8 +95,25 @@ class KeyCounter:
         new = np.concatenate(self._pending)
         keys = np.concatenate([self._keys, new])
         weights = np.concatenate([self._counts, np.ones(len(new), dtype=np.int64)])
-        self._keys, inverse = np.unique(keys, axis=0, return_inverse=True)
-        self._counts = np.bincount(inverse.reshape(-1), weights=weights, minlength=len(self._keys)).astype(
-            np.int64
-        )
+        self._keys, inverse = _unique_rows(keys)
+        self._counts = np.bincount(inverse, weights=weights, minlength=len(self._keys)).astype(np.int64)
         self._pending = []
+
+
+_PACK_LIMIT = 1 << 31
+
+
+def _unique_rows(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.intp]]:
+    """Distinct rows of ``keys`` (sorted lexicographically) and the inverse map.
+
+    Rows of two non-negative columns below 2³¹ are packed into one int64 (``a·2³² + b``, same
+    order), which sorts an order of magnitude faster than ``np.unique(axis=0)``.
+    """
+    if keys.shape[1] == 1:
+        unique, inverse = np.unique(keys[:, 0], return_inverse=True)
+        return unique[:, None], inverse.reshape(-1)
+    if keys.shape[1] == 2 and len(keys) and keys.min() >= 0 and keys.max() < _PACK_LIMIT:
+        packed, inverse = np.unique((keys[:, 0] << 32) | keys[:, 1], return_inverse=True)
+        return np.stack([packed >> 32, packed & (_PACK_LIMIT * 2 - 1)], axis=1), inverse.reshape(-1)
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    return unique, inverse.reshape(-1)
