@@ -12,24 +12,19 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
+from scipy.spatial.distance import cdist
 
 Pairs = tuple[NDArray[np.int64], NDArray[np.int64]]
 EMPTY_PAIRS: Pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
 
 def pairwise_distances(x: NDArray[np.floating], y: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Euclidean distances (m, n) between points ``x`` (m, D) and ``y`` (n, D).
-
-    One pass per coordinate (D is small): much faster than reducing an (m, n, D) array over its
-    last axis.
-    """
+    """Euclidean distances (m, n) between points ``x`` (m, D) and ``y`` (n, D) (scipy's cdist)."""
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    d2 = np.zeros((len(x), len(y)))
-    for k in range(x.shape[1] if x.ndim == 2 else 0):
-        diff = x[:, k, None] - y[None, :, k]
-        d2 += diff * diff
-    return np.sqrt(d2)
+    if len(x) == 0 or len(y) == 0:
+        return np.zeros((len(x), len(y)))
+    return cdist(x, y)
 
 
 def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], NDArray[np.intp]]:
@@ -39,12 +34,18 @@ def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], 
         ``((rows, cols), rest_rows, rest_cols)``: the pairs alone in both their row and column,
         and the rows and columns that have admissible pairs but are not in a lone pair.
     """
-    row_count = admissible.sum(axis=1)
-    col_count = admissible.sum(axis=0)
-    lone = admissible & (row_count[:, None] == 1) & (col_count[None, :] == 1)
-    rows, cols = np.nonzero(lone)
-    rest_rows = np.flatnonzero((row_count > 0) & ~lone.any(axis=1))
-    rest_cols = np.flatnonzero((col_count > 0) & ~lone.any(axis=0))
+    row_count = np.count_nonzero(admissible, axis=1)
+    col_count = np.count_nonzero(admissible, axis=0)
+    single = np.flatnonzero(row_count == 1)
+    only_col = np.argmax(admissible[single], axis=1)  # the one admissible column of those rows
+    alone = col_count[only_col] == 1
+    rows, cols = single[alone], only_col[alone]
+    row_done = np.zeros(len(row_count), dtype=bool)
+    row_done[rows] = True
+    col_done = np.zeros(len(col_count), dtype=bool)
+    col_done[cols] = True
+    rest_rows = np.flatnonzero((row_count > 0) & ~row_done)
+    rest_cols = np.flatnonzero((col_count > 0) & ~col_done)
     return (rows.astype(np.int64), cols.astype(np.int64)), rest_rows, rest_cols
 
 
