@@ -234,3 +234,17 @@ def test_track_envs_imports_neither_predictors_nor_agents():
         "assert 'agents' not in sys.modules and 'predictors' not in sys.modules, sorted(sys.modules)\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_padding_fits_the_spaces_when_the_region_excludes_the_origin(tmp_path):
+    """Regression: a replay whose region starts above 0 put zero padding outside the Box bounds."""
+    from track_envs.track_csv import write_track_csv
+
+    tracks = np.full((5, 3, 2), np.nan)
+    tracks[:, :2] = 10.0 + np.arange(10, dtype=float).reshape(5, 2, 1)
+    path = tmp_path / "far.csv"
+    write_track_csv(path, tracks)
+    env = gym.make("BeltReplay-v0", path=str(path), max_detections=8, max_tracks=8)
+    obs, _ = env.reset(seed=0)
+    assert obs["mask"].sum() == 2 and env.observation_space.contains(obs)
+    assert env.action_space.contains(empty_for(env))

@@ -94,8 +94,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self.detection_shape = detection_shape or (spec.dim,)
         self.truth_extra_shapes = truth_extra_shapes or {}
         det_shape = (spec.max_detections, *self.detection_shape)
-        self._obs_low = np.broadcast_to(np.asarray(obs_low, dtype=np.float32), det_shape)
-        self._obs_high = np.broadcast_to(np.asarray(obs_high, dtype=np.float32), det_shape)
+        # the bounds always contain 0: padding rows are zero
+        self._obs_low = np.broadcast_to(np.minimum(np.asarray(obs_low, dtype=np.float32), 0), det_shape)
+        self._obs_high = np.broadcast_to(np.maximum(np.asarray(obs_high, dtype=np.float32), 0), det_shape)
         self.observation_space = spaces.Dict(
             {
                 "detections": spaces.Box(self._obs_low, self._obs_high, dtype=np.float32),
@@ -106,7 +107,11 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         hi = np.asarray(spec.region_high)
         span = hi - lo
         self.action_space = report_space(
-            spec.max_tracks, self.position_shape, lo - span, hi + span, spec.max_detections
+            spec.max_tracks,
+            self.position_shape,
+            np.minimum(lo - span, 0),
+            np.maximum(hi + span, 0),
+            spec.max_detections,
         )
         self._frame = -1
         self._mask = np.zeros(spec.max_detections, dtype=np.int8)
