@@ -220,7 +220,8 @@ class GnnAgent:
         New tracks are born where young tracks were born a few frames ago, so the velocities of
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
         """
-        if self.velocity_prior != "auto" or self._spec is None:
+        learning = isinstance(self.velocity_prior, str) and self.velocity_prior == "auto"
+        if not learning or self._spec is None:
             return
         steady = seen & (self._streak >= 3) & (self._streak <= 6)
         if steady.sum() < 3:

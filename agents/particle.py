@@ -250,6 +250,9 @@ class BatchParticleFilter:
             self.particles[rows] = cloud + z[rows, None, :]
             self.weights[rows] = 1.0 / self.N
             self.started |= new
+            # a (re)started target has no past: the displacement models must not read the lost
+            # track's estimates as its history
+            self._history[rows, : self.length] = np.nan
         estimate = self.estimate
         self._append(estimate)
         self._resample()
@@ -314,6 +317,18 @@ def make_displacement_model(model: str | DisplacementModel, sigma_p: ArrayLike, 
             f"model must be a name in {sorted(DISPLACEMENT_MODELS)} or have propose(), got {model!r}"
         )
     return model
+
+
+def agent_rng(seed: int | None) -> np.random.Generator:
+    """The agent's own generator for ``seed``.
+
+    Gymnasium seeds ``env.np_random`` as ``PCG64(SeedSequence(seed))``, which is exactly
+    ``np.random.default_rng(seed)``: an agent reset with the same seed as its env would replay the
+    env's measurement noise. A spawn key keeps the two streams independent.
+    """
+    if seed is None:
+        return np.random.default_rng()
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0xA6E7,)))
 
 
 class ParticleFilterAgent:
@@ -384,7 +399,7 @@ class ParticleFilterAgent:
         self.filter: BatchParticleFilter | None = None
 
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
-        """Start a new episode with the sensor ``spec``; every draw comes from ``default_rng(seed)``."""
+        """Start a new episode with the sensor ``spec``; every draw comes from :func:`agent_rng` (seed)."""
         if spec.dim != 2:
             raise ValueError(f"the particle filter tracks 2-D points, got a sensor of dim {spec.dim}")
         self._spec = spec
@@ -399,7 +414,7 @@ class ParticleFilterAgent:
             self.model,
             sigma_m=sm,
             sigma_0=s0,
-            rng=np.random.default_rng(seed),
+            rng=agent_rng(seed),
             resample_threshold=self.resample_threshold,
         )
 

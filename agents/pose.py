@@ -73,8 +73,11 @@ class PoseBaselineAgent:
         smoothing: float = 0.5,
         report_coasting: bool = False,
     ) -> None:
-        if not 0.0 <= oks_threshold < 1.0:
-            raise ValueError(f"oks_threshold must be in [0, 1), got {oks_threshold!r}")
+        if not 0.0 < oks_threshold < 1.0:
+            raise ValueError(
+                f"oks_threshold must be in (0, 1) (at 0 poses with nothing in common would match), "
+                f"got {oks_threshold!r}"
+            )
         if assignment not in ("hungarian", "greedy"):
             raise ValueError(f"assignment must be 'hungarian' or 'greedy', got {assignment!r}")
         if not 0.0 <= keypoint_threshold < 1.0:

@@ -164,6 +164,8 @@ def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
     with open(path) as fh:
         record = json.load(fh)
     record["metrics"] = {k: float(v) for k, v in record["metrics"].items()}
+    if "episode_metrics" in record:
+        record["episode_metrics"] = [{k: float(v) for k, v in m.items()} for m in record["episode_metrics"]]
     return record
 
 
@@ -181,12 +183,21 @@ def load_records(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
 
 
 def is_finished(out_dir: Path, cell: Cell) -> bool:
-    """Whether ``out_dir`` holds a whole record of ``cell``."""
+    """Whether ``out_dir`` holds a whole record of ``cell`` made by this schema and these versions.
+
+    A record from other package versions is stale: the cell is computed again and its record
+    overwritten, so a table never mixes results of different code.
+    """
     path = out_dir / cell.filename
     if not path.exists():
         return False
     try:
-        return read_record(path)["key"] == cell.key
+        record = read_record(path)
+        return bool(
+            record["key"] == cell.key
+            and record.get("schema") == SCHEMA
+            and record.get("versions") == versions()
+        )
     except (OSError, ValueError, KeyError, TypeError):
         return False
 

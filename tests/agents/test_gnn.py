@@ -187,3 +187,10 @@ def test_constant_acceleration_predicts_the_accelerating_belt_better():
     assert ca["n_predictions"] > 20000
     for key in ("prediction_error", "prediction_error_pooled", "prediction_rmse"):
         assert ca[key] < cv[key], key
+
+
+def test_a_fixed_velocity_prior_array_is_accepted():
+    """Regression: an array velocity_prior crashed on the first frame with tracks."""
+    env = gym.make("BeltReplay-v0")
+    result = run(env, make_agent("gnn", predictor="kf-cv", velocity_prior=np.array([1.2, 0.0])), 40)
+    assert result["e2"] < 0.05

@@ -164,3 +164,26 @@ def test_batch_filter_bad_arguments_are_named():
         BatchParticleFilter(1, 0, Brownian(), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng())
     with pytest.raises(ValueError, match="sigma_m"):
         BatchParticleFilter(1, 5, Brownian(), sigma_m=0.0, sigma_0=0.1, rng=np.random.default_rng())
+
+
+def test_agent_draws_are_independent_of_the_env_stream_for_the_same_seed():
+    """Regression: default_rng(seed) is the env's own np_random stream for that seed."""
+    from agents.particle import agent_rng
+
+    env_stream = np.random.default_rng(7).standard_normal(6)
+    assert not np.allclose(agent_rng(7).standard_normal(6), env_stream)
+    assert np.array_equal(agent_rng(7).standard_normal(6), agent_rng(7).standard_normal(6))
+
+
+def test_restart_forgets_the_lost_track_history():
+    """Regression: after a restart the constant-velocity model read the jump as a velocity."""
+    from agents.particle import BatchParticleFilter, ConstantVelocity
+
+    pf = BatchParticleFilter(
+        1, 200, ConstantVelocity(), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0)
+    )
+    for _ in range(5):
+        pf.step(np.zeros((1, 2)), np.array([True]))
+    pf.started[:] = False  # what the agent does when it restarts a target
+    estimates = [pf.step(np.array([[20.0, 0.0]]), np.array([True]))[0] for _ in range(4)]
+    assert np.allclose(estimates, [20.0, 0.0], atol=0.5)

@@ -110,7 +110,8 @@ def test_batched_oks_equals_a_per_pair_loop():
 
 @pytest.mark.parametrize(
     ("kwargs", "name"),
-    [({"oks_threshold": 1.0}, "oks_threshold"), ({"assignment": "auction"}, "assignment"),
+    [({"oks_threshold": 1.0}, "oks_threshold"), ({"oks_threshold": 0.0}, "oks_threshold"),
+     ({"assignment": "auction"}, "assignment"),
      ({"smoothing": 0.0}, "smoothing"), ({"min_keypoints": 0}, "min_keypoints")],
 )  # fmt: skip
 def test_bad_arguments_and_observations_are_named(kwargs, name):

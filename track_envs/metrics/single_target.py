@@ -3,10 +3,12 @@
 For one target with true positions ``x_t`` and the tracker's estimates ``x̂_t`` over the frames
 ``t`` of an episode that have an estimate:
 
-* mean error ``ē = mean_t ||x̂_t − x_t||_2`` (the quantity of paper 001, Figs. 4, 5 and 7a);
+* mean error ``ē = mean_t ||x̂_t − x_t||_2`` of the reported (weighted-mean) estimate. Paper 001's
+  Figs. 4, 5 and 7a average the error over the particles instead, which a metric that sees only
+  the report cannot compute; the two agree closely once the particle cloud is tight;
 * ``rmse = sqrt(mean_t ||x̂_t − x_t||²)``;
-* ``lost = 1`` if ``ē > 5`` (paper 001, Sec. IV-B4: "a track is lost if the average estimation
-  error exceeds 5", in trajectory units), else 0; an episode without any estimate is lost;
+* ``lost = 1`` if ``ē > 5`` trajectory units (paper 001, Sec. IV-B4 calls such a track lost), else
+  0; an episode without any estimate is lost;
 * ``occlusion_error``: ``ē`` restricted to the frames of the occlusion interval (NaN if none).
 
 Which row is the estimate: the report's first masked-in row (a single-target tracker reports one

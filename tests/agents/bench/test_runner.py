@@ -146,3 +146,21 @@ def test_killed_run_resumes_with_only_the_missing_cells(tmp_path):
     clean = run_cells(cells, tmp_path / "clean", workers=1, progress=False)
     assert clean.computed == len(cells)
     assert metrics_by_key(load_records(out)) == metrics_by_key(load_records(tmp_path / "clean"))
+
+
+def test_records_from_other_versions_are_recomputed(tmp_path):
+    """Regression: a stale record (other package versions) counted as finished on resume."""
+    import json
+
+    from agents.bench.cells import Cell
+    from agents.bench.runner import is_finished, run_cell, write_record
+
+    cell = Cell(env_id="SineTarget-v0", agent="detections", predictor="-", seed=0, steps=10)
+    record = run_cell(cell)
+    write_record(tmp_path, record)
+    assert is_finished(tmp_path, cell)
+    path = tmp_path / cell.filename
+    stale = json.loads(path.read_text())
+    stale["versions"]["numpy"] = "0.0-stale"
+    path.write_text(json.dumps(stale))
+    assert not is_finished(tmp_path, cell)
