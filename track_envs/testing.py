@@ -1,0 +1,136 @@
+"""Public conformance checks for third-party environments, agents and predictors.
+
+Each check raises ``AssertionError`` with a message naming what broke the contract of
+ARCHITECTURE.md (the observation, the report, ``info``, seeding; the Predictor and Agent
+protocols). Use them in your own tests::
+
+    from track_envs.testing import check_agent, check_predictor, check_tracking_env
+
+    check_tracking_env(gym.make("MyScene-v0"))
+    check_agent(MyTracker(), gym.make("BeltSorter-v0"))
+    check_predictor(MyPredictor(), env.unwrapped.sensor_spec)
+
+Nothing here imports ``predictors`` or ``agents``: the objects under test are passed in.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from track_envs.report import empty_report, validate_report
+from track_envs.types import Gaussian, SensorSpec
+
+
+def _equal(a: Any, b: Any) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+
+
+def check_tracking_env(env: gym.Env, steps: int = 20, seed: int = 0) -> None:
+    """Check the tracking-env contract: spaces, padding, info shapes, detection ids, seeding.
+
+    Args:
+        env: The environment (wrapped or not).
+        steps: Frames to step with empty reports.
+        seed: Seed of the two compared rollouts.
+    """
+    base: Any = env.unwrapped
+    spec = base.sensor_spec
+    assert isinstance(spec, SensorSpec), "env.unwrapped.sensor_spec must be a track_envs.types.SensorSpec"
+    report = empty_report(spec.max_tracks, tuple(base.position_shape))
+    assert env.action_space.contains(report), "the empty report must lie in the action space"
+
+    def rollout() -> list[Any]:
+        obs, info = env.reset(seed=seed)
+        frames = [(obs, info)]
+        for _ in range(steps):
+            obs, reward, terminated, truncated, info = env.step(report)
+            assert np.isfinite(float(reward)), f"reward must be finite, got {reward!r}"
+            frames.append((obs, info))
+            if terminated or truncated:
+                break
+        return frames
+
+    frames = rollout()
+    for t, (obs, info) in enumerate(frames):
+        assert env.observation_space.contains(obs), f"frame {t}: observation outside the observation space"
+        mask = obs["mask"]
+        real = int(mask.sum())
+        assert np.all(mask[:real] == 1) and np.all(mask[real:] == 0), f"frame {t}: real rows must come first"
+        assert np.all(obs["detections"][real:] == 0), f"frame {t}: padding rows must be zero"
+        ids = info["detection_ids"]
+        assert ids.shape == mask.shape and ids.dtype == np.int64, f"frame {t}: detection_ids shape/dtype"
+        assert np.all(ids[mask == 0] == -1), f"frame {t}: padding rows must have detection id -1"
+        truth = info["truth"]
+        for key in ("ids", "positions", "visible"):
+            assert key in truth, f"frame {t}: info['truth'] lacks {key!r}"
+        known = set(truth["ids"][truth["ids"] >= 0].tolist())
+        assert set(ids[ids >= 0].tolist()) <= known, (
+            f"frame {t}: a detection's truth id is not in info['truth']"
+        )
+        assert isinstance(info["t"], float), f"frame {t}: info['t'] must be a float"
+    again = rollout()
+    assert len(frames) == len(again) and all(
+        _equal(a[0], b[0]) and _equal(a[1]["detection_ids"], b[1]["detection_ids"])
+        for a, b in zip(frames, again, strict=True)
+    ), "the same seed must give bitwise equal rollouts"
+
+
+def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
+    """Check an agent on an environment: valid reports, detection rows, determinism under a seed."""
+    spec = env.unwrapped.sensor_spec  # type: ignore[attr-defined]
+
+    def rollout() -> list[dict[str, Any]]:
+        obs, _ = env.reset(seed=seed)
+        agent.reset(spec, seed=seed)
+        reports = []
+        for _ in range(steps):
+            report = agent.act(obs)
+            assert env.action_space.contains(report), "the report must lie in the env's action space"
+            live = validate_report(report, spec.max_tracks, tuple(env.unwrapped.position_shape), obs["mask"])  # type: ignore[attr-defined]
+            used = report["detection"][report["mask"] == 1]
+            assert np.all((used == -1) | (obs["mask"][np.maximum(used, 0)] == 1)), (
+                "a report's detection rows must point at masked-in detections or be -1"
+            )
+            assert len(live.ids) == len(set(live.ids.tolist())), "track ids must be unique within a report"
+            reports.append(report)
+            obs, _, terminated, truncated, _ = env.step(report)
+            if terminated or truncated:
+                break
+        return reports
+
+    first, second = rollout(), rollout()
+    assert len(first) == len(second) and all(_equal(a, b) for a, b in zip(first, second, strict=True)), (
+        "an agent reset with the same seed must report the same tracks"
+    )
+
+
+def check_predictor(predictor: Any, spec: SensorSpec, n: int = 5, seed: int = 0) -> None:
+    """Check a predictor against the Predictor protocol: shapes, coasting, take/concat, empty batches."""
+    rng = np.random.default_rng(seed)
+    predictor.reset(spec)
+    d = spec.dim
+    lo, size = np.asarray(spec.region_low), spec.region_size
+    z = lo + rng.random((n, d)) * size
+    state = predictor.start(z)
+    assert len(state) == n, f"start(z) with {n} rows must give a state of {n} tracks, got {len(state)}"
+    state, prediction = predictor.predict(state)
+    assert isinstance(prediction, Gaussian), "predict must return (state, track_envs.types.Gaussian)"
+    assert prediction.mean.shape == (n, d) and prediction.cov.shape == (n, d, d), "prediction shapes"
+    assert np.all(np.linalg.eigvalsh(prediction.cov) > 0), "predicted covariances must be positive definite"
+    seen = np.arange(n) % 2 == 0
+    z_new = np.where(seen[:, None], z + 0.01 * size, np.nan)
+    updated = predictor.update(state, z_new, seen)
+    estimate = predictor.estimate(updated)
+    assert estimate.mean.shape == (n, d) and np.all(np.isfinite(estimate.mean)), "estimate of every track"
+    coasted = predictor.estimate(state)
+    assert np.array_equal(estimate.mean[~seen], coasted.mean[~seen]), "rows not seen must coast unchanged"
+    both = type(updated).concat([updated.take(np.arange(2)), updated.take(np.arange(2, n))])
+    assert _equal(predictor.estimate(both).mean, estimate.mean), "take + concat must keep every track"
+    empty = updated.take(np.zeros(n, dtype=bool))
+    _, empty_prediction = predictor.predict(empty)
+    assert empty_prediction.mean.shape == (0, d), "an empty batch must predict an empty Gaussian"
