@@ -98,7 +98,8 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
             )
             assert len(live.ids) == len(set(live.ids.tolist())), "track ids must be unique within a report"
             reports.append(report)
-            obs, _, terminated, truncated, _ = env.step(report)
+            obs, reward, terminated, truncated, _ = env.step(report)
+            assert np.isfinite(float(reward)), f"reward must be finite, got {reward!r}"
             if terminated or truncated:
                 break
         return reports

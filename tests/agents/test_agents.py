@@ -8,6 +8,7 @@ import pytest
 
 import track_envs
 from agents import agent_applies_to, available_agents, make_agent
+from track_envs.testing import check_agent
 
 
 def test_unknown_agent_lists_the_valid_names():
@@ -21,18 +22,8 @@ def test_agent_reports_valid_actions_on_every_env_it_applies_to(name, env_id):
     env = gym.make(env_id)
     if not agent_applies_to(name, env.unwrapped.position_shape, env.unwrapped.max_targets):
         pytest.skip(f"{name} does not apply to {env_id}")
-    agent = make_agent(name)
-    obs, _ = env.reset(seed=0)
-    agent.reset(env.unwrapped.sensor_spec, seed=0)
-    rewards = []
-    for _ in range(30):
-        report = agent.act(obs)
-        assert env.action_space.contains(report)
-        obs, reward, terminated, truncated, _ = env.step(report)
-        rewards.append(reward)
-        if terminated or truncated:
-            break
-    assert np.all(np.isfinite(rewards))
+    # valid reports, detection rows of real detections, unique ids, finite rewards, determinism
+    check_agent(make_agent(name), env, steps=30)
 
 
 @pytest.mark.parametrize("name", available_agents())
