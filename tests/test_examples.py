@@ -37,3 +37,16 @@ def test_pf_paper_figures_quick_grid_writes_three_figures(tmp_path, capsys):
     # p_detect = 1 tracks better than p_detect = 0.5 at the same σ_p
     assert np.all(out["error_grid"][1] < out["error_grid"][0])
     assert "Fig. 7" in capsys.readouterr().out
+
+
+def test_track_any_env_runs_every_family(tmp_path, capsys):
+    example = load("track_any_env")
+    poses = example.main(["--env", "KeypointWalkers-v0", "--steps", "30", "--png", str(tmp_path / "p.png")])
+    assert 0 < poses["mota"] <= 1 and (tmp_path / "p.png").stat().st_size > 1000
+    single = example.main(
+        ["--env", "SineTarget-v0", "--agent", "pf", "--steps", "50", "--kwargs", "p_detect=1.0"]
+    )
+    assert single["mean_error"] < 1.0
+    belt = example.main(["--env", "BeltReplay-v0", "--predictor", "kf-cv", "--steps", "40"])
+    assert belt["e2"] < 0.05
+    assert "SineTarget-v0 + pf" in capsys.readouterr().out
