@@ -80,6 +80,14 @@ def test_no_detection_inside_the_occlusion(env_id):
     assert np.all(counts[:40] == 1) and np.all(counts[70:] == 1)
 
 
+@pytest.mark.parametrize("env_id", ["SineTarget-v0", "PiecewiseTarget-v0"])
+def test_occlusion_silences_the_clutter_too(env_id):
+    _, dets, _ = episode(env_id, 2, p_detect=1.0, occlusion_start=40, occlusion_length=30, clutter_rate=3.0)
+    counts = np.array([len(d) for d in dets])
+    assert np.all(counts[40:70] == 0)
+    assert counts[:40].mean() > 3.0 and counts[70:100].mean() > 3.0
+
+
 def test_measurement_noise_is_sigma_m_times_delta():
     truth, dets, _ = episode("SineTarget-v0", 5, p_detect=1.0, sigma_m=2.0)
     err = np.concatenate(dets) - truth

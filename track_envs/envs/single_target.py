@@ -229,7 +229,9 @@ class SingleTargetEnv(TrackingEnv):
         """The target's detection (:func:`draw_detections`) and clutter, drawn locally, then mapped.
 
         Clutter: ``K ~ Poisson(clutter_rate)`` points uniform over the square of half-width
-        ``clutter_half_width`` centred on the target's true position.
+        ``clutter_half_width`` centred on the target's true position. During the occlusion the
+        sensor reports nothing at all, clutter included (the draws are still made, so the random
+        stream does not depend on the occlusion).
         """
         spec = self.sensor_spec
         rng = self.np_random
@@ -243,8 +245,10 @@ class SingleTargetEnv(TrackingEnv):
         if k:
             w = self.clutter_half_width
             clutter = here + rng.uniform(-w, w, size=(k, 2))
+            if self.occluded(self._index):
+                clutter = clutter[:0]
             z = np.concatenate([z, clutter])
-            source = np.concatenate([source, np.full(k, CLUTTER_ID, dtype=np.int64)])
+            source = np.concatenate([source, np.full(len(clutter), CLUTTER_ID, dtype=np.int64)])
         return to_world(z, self.rotation_deg, self.offset), source
 
     def default_metrics(self) -> list[Any]:
