@@ -66,7 +66,7 @@ class BeltSorterEnv(TrackingEnv):
     - ``clutter_rate``: mean clutter detections per frame (default 0.0).
     - ``max_detections``: detection rows (default 256); ``max_tracks``: report rows (default 256);
       ``max_targets``: truth rows in ``info`` (default 256).
-    - ``feed_rate``: particles per second (default 200); ``belt_speed``: m/s (default 1.44).
+    - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
     - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else.
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
