@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 from numpy.typing import NDArray
 
 REPORT_KEYS = ("ids", "positions", "detection", "mask")
@@ -153,20 +154,63 @@ def validate_report(
         extra = [k for k in report if k not in REPORT_KEYS]
         raise ValueError(f"report keys must be {REPORT_KEYS}; missing {missing}, unexpected {extra}")
     mask = _require(report, "mask", (max_tracks,), "iub", "0/1 integers")
-    live = mask != 0
-    if mask.dtype.kind != "b" and np.any(mask[live] != 1):
-        bad = np.flatnonzero(live & (mask != 1))
-        raise ValueError(f"report['mask'] must be 0 or 1; rows {bad[:10].tolist()} are not")
     ids = _require(report, "ids", (max_tracks,), "iu", "integers")
     positions = _require(report, "positions", (max_tracks, *position_shape), "f", "floats")
     detection = _require(report, "detection", (max_tracks,), "iu", "integers")
-    pos = positions[live].astype(np.float64)
-    if not np.isfinite(pos).all():
-        finite = np.isfinite(pos).reshape(len(pos), -1).all(axis=1)
-        rows = np.flatnonzero(live)[~finite]
-        raise ValueError(f"report['positions'] has non-finite values in masked-in rows {rows[:10].tolist()}")
-    det = detection[live].astype(np.int64)
-    # a row index out of range, or pointing at a padding row, means "coasted" (-1)
-    padded = np.append(detection_mask, np.int8(0)) == 1
-    det = np.where(padded[np.clip(det, -1, len(detection_mask))], det, -1)
-    return Report(ids=ids[live].astype(np.int64), positions=pos, detection=det)
+    flat = positions.reshape(max_tracks, -1)
+    ok, live_ids, live_positions, live_detection = _live_rows(
+        mask, ids, flat, detection, np.asarray(detection_mask)
+    )
+    if not ok:
+        _raise_bad_rows(mask, flat)
+    return Report(
+        ids=live_ids,
+        positions=live_positions.reshape(len(live_ids), *position_shape),
+        detection=live_detection,
+    )
+
+
+@njit(cache=True)
+def _live_rows(
+    mask: NDArray, ids: NDArray, positions: NDArray, detection: NDArray, detection_mask: NDArray
+) -> tuple[bool, NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+    """The masked-in rows of a report (positions flattened to (max_tracks, F)) in one pass.
+
+    Returns ``ok = False`` (and empty arrays) if a mask value is not 0/1 or a live position is not
+    finite. A ``detection`` index outside ``[0, len(detection_mask))`` or on a padding row reads as -1.
+    """
+    n_rows, n_cols = positions.shape
+    n = 0
+    for r in range(n_rows):
+        if mask[r] != 0:
+            if mask[r] != 1:
+                return False, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
+            for c in range(n_cols):
+                if not np.isfinite(positions[r, c]):
+                    return False, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
+            n += 1
+    out_ids = np.empty(n, np.int64)
+    out_positions = np.empty((n, n_cols), np.float64)
+    out_detection = np.empty(n, np.int64)
+    k = 0
+    n_detections = len(detection_mask)
+    for r in range(n_rows):
+        if mask[r] != 0:
+            out_ids[k] = ids[r]
+            for c in range(n_cols):
+                out_positions[k, c] = positions[r, c]
+            d = detection[r]
+            out_detection[k] = d if 0 <= d < n_detections and detection_mask[d] == 1 else -1
+            k += 1
+    return True, out_ids, out_positions, out_detection
+
+
+def _raise_bad_rows(mask: NDArray, positions: NDArray) -> None:
+    """Name the rows :func:`_live_rows` refused: mask values other than 0/1, or non-finite positions."""
+    live = mask != 0
+    bad = np.flatnonzero(live & (mask != 1))
+    if mask.dtype.kind != "b" and len(bad):
+        raise ValueError(f"report['mask'] must be 0 or 1; rows {bad[:10].tolist()} are not")
+    finite = np.isfinite(positions).all(axis=1)
+    rows = np.flatnonzero(live & ~finite)
+    raise ValueError(f"report['positions'] has non-finite values in masked-in rows {rows[:10].tolist()}")

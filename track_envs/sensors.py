@@ -14,6 +14,7 @@ shuffles them so that row order never reveals identity.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 CLUTTER_ID = -1
@@ -69,10 +70,9 @@ def sense_points(
     """
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
-    detected = rng.random(n) < p_detect
-    noise = rng.normal(0.0, 1.0, size=(n, dim)) * noise_std
-    z = (x + noise)[detected]
-    source = np.asarray(ids, dtype=np.int64)[detected]
+    uniform = rng.random(n)
+    noise = rng.standard_normal(size=(n, dim))
+    z, source = _detect(x, np.asarray(ids, dtype=np.int64), uniform, noise, p_detect, noise_std)
     k = int(rng.poisson(clutter_rate)) if clutter_rate > 0 else 0
     if k:
         lo = np.asarray(clutter_low, dtype=np.float64)
@@ -80,4 +80,31 @@ def sense_points(
         clutter = lo + rng.random((k, dim)) * (hi - lo)
         z = np.concatenate([z, clutter])
         source = np.concatenate([source, np.full(k, CLUTTER_ID, dtype=np.int64)])
+    return z, source
+
+
+@njit(cache=True)
+def _detect(
+    x: NDArray[np.float64],
+    ids: NDArray[np.int64],
+    uniform: NDArray[np.float64],
+    noise: NDArray[np.float64],
+    p_detect: float,
+    noise_std: float,
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Rows ``x_i + noise_std ε_i`` and ids of the targets with ``uniform_i < p_detect``."""
+    n, dim = x.shape
+    count = 0
+    for i in range(n):
+        if uniform[i] < p_detect:
+            count += 1
+    z = np.empty((count, dim))
+    source = np.empty(count, np.int64)
+    k = 0
+    for i in range(n):
+        if uniform[i] < p_detect:
+            for d in range(dim):
+                z[k, d] = x[i, d] + noise[i, d] * noise_std
+            source[k] = ids[i]
+            k += 1
     return z, source

@@ -29,6 +29,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.report import Report, report_space, validate_report
@@ -97,6 +98,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         # the bounds always contain 0: padding rows are zero
         self._obs_low = np.broadcast_to(np.minimum(np.asarray(obs_low, dtype=np.float32), 0), det_shape)
         self._obs_high = np.broadcast_to(np.maximum(np.asarray(obs_high, dtype=np.float32), 0), det_shape)
+        self._row_low = np.ascontiguousarray(self._obs_low[0].reshape(-1), dtype=np.float64)
+        self._row_high = np.ascontiguousarray(self._obs_high[0].reshape(-1), dtype=np.float64)
         self.observation_space = spaces.Dict(
             {
                 "detections": spaces.Box(self._obs_low, self._obs_high, dtype=np.float32),
@@ -249,12 +252,15 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             self._dropped_detections += len(order) - spec.max_detections
             order = order[: spec.max_detections]
         k = len(order)
-        detections = np.zeros((spec.max_detections, *self.detection_shape), dtype=np.float32)
-        detections[:k] = np.clip(z[order], self._obs_low[:k], self._obs_high[:k])
-        mask = np.zeros(spec.max_detections, dtype=np.int8)
-        mask[:k] = 1
-        detection_ids = np.full(spec.max_detections, -1, dtype=np.int64)
-        detection_ids[:k] = source[order]
+        flat, mask, detection_ids = _padded_rows(
+            np.asarray(z, dtype=np.float64).reshape(len(z), len(self._row_low)),
+            np.asarray(source, dtype=np.int64),
+            order,
+            self._row_low,
+            self._row_high,
+            spec.max_detections,
+        )
+        detections = flat.reshape(spec.max_detections, *self.detection_shape)
         self._mask = mask
         self._current_truth = truth
         self._last_detections = detections[:k]
@@ -291,17 +297,14 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                 )
             self._dropped_targets += m - cap
             m = cap
-        ids = np.full(cap, -1, dtype=np.int64)
-        ids[:m] = truth.ids[:m]
-        positions = np.zeros((cap, *self.position_shape), dtype=np.float64)
-        positions[:m] = truth.positions[:m]
-        visible = np.zeros(cap, dtype=bool)
-        visible[:m] = truth.visible[:m]
-        packed = {"ids": ids, "positions": positions, "visible": visible}
+        packed = {
+            "ids": _padded(truth.ids, m, (cap,), -1, np.int64),
+            "positions": _padded(truth.positions, m, (cap, *self.position_shape), 0, np.float64),
+            "visible": _padded(truth.visible, m, (cap,), False, np.bool_),
+        }
         for name, shape in self.truth_extra_shapes.items():
-            arr = np.zeros((cap, *shape), dtype=np.asarray(truth.extra[name]).dtype)
-            arr[:m] = truth.extra[name][:m]
-            packed[name] = arr
+            arr = np.asarray(truth.extra[name])
+            packed[name] = _padded(arr, m, (cap, *shape), 0, arr.dtype)
         return packed
 
     # -- rendering ----------------------------------------------------------------------------
@@ -339,3 +342,35 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         state = self.__dict__.copy()
         state["_window"] = None
         return state
+
+
+def _padded(values: NDArray, m: int, shape: tuple[int, ...], fill: Any, dtype: Any) -> NDArray:
+    """The first ``m`` rows of ``values`` in a new array of ``shape``, the rest ``fill``."""
+    out = np.empty(shape, dtype=dtype)
+    out[:m] = values[:m]
+    out[m:] = fill
+    return out
+
+
+@njit(cache=True)
+def _padded_rows(
+    z: NDArray[np.float64],
+    source: NDArray[np.int64],
+    order: NDArray[np.int64],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    max_rows: int,
+) -> tuple[NDArray[np.float32], NDArray[np.int8], NDArray[np.int64]]:
+    """Rows ``z[order]`` clipped to ``[low, high]`` and zero-padded to ``max_rows`` (float32), with
+    the mask and the truth id behind each row (-1 on padding)."""
+    n_cols = z.shape[1]
+    detections = np.zeros((max_rows, n_cols), dtype=np.float32)
+    mask = np.zeros(max_rows, dtype=np.int8)
+    ids = np.full(max_rows, -1, dtype=np.int64)
+    for i in range(len(order)):
+        row = order[i]
+        for c in range(n_cols):
+            detections[i, c] = min(max(z[row, c], low[c]), high[c])
+        mask[i] = 1
+        ids[i] = source[row]
+    return detections, mask, ids

@@ -13,11 +13,19 @@ velocity ``u = v − (v_belt, 0)`` a particle of kind ``k`` decelerates relative
     u \\leftarrow u \\, \\max\\big(0, 1 − μ_k g h / |u|\\big),
 
 and its spin decays likewise, ``|ω| \\leftarrow \\max(0, |ω| − μ_k g h / r_k)``. This update is applied
-to all particles at once in numpy through pymunk's batch API (``pymunk.batch``); collisions between
-particles and with the walls are resolved by pymunk.
+to all particles at once in compiled code (:mod:`track_envs.envs.belt_kernels`) through pymunk's
+batch API (``pymunk.batch``); collisions between particles and with the walls are resolved by pymunk.
+
+The space moves with the belt: pymunk simulates in the belt's rest frame, where the walls (one
+kinematic body) slide upstream at ``−v_belt`` and a particle's velocity is its slip over the belt.
+The physics is the same as in the ground frame (Galilean invariance; wall friction acts on the
+relative velocity either way), but particles that have caught up with the belt are nearly at rest,
+so pymunk's velocity-swept bounding boxes stay tight and the broad phase does less work. Every
+state the world hands out is in the ground frame: ``x = x_belt + s(t)``, ``v_x = v_x,belt + v_belt``
+with the belt's travel ``s(t) = v_belt t``.
 
 No per-body Python runs in a frame: a frame is one batch write, one ``Space.step`` and one
-batch read per substep, with the belt friction, births and deaths computed in numpy. A particle
+batch read per substep, with the belt friction, births and deaths computed in compiled kernels. A particle
 that leaves past the belt end parks its body far from the belt (a row write), and a landing
 particle takes a parked body of its kind (another row write), so pymunk's body order stays
 fixed. Only when a burst needs more bodies than are parked, or too many are parked, are bodies
@@ -26,6 +34,7 @@ added to or removed from the space (Python once per body, then one re-labelling 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -33,6 +42,18 @@ import numpy as np
 import pymunk
 import pymunk.batch as pb
 from numpy.typing import NDArray
+
+from track_envs.envs.belt_kernels import (
+    NOT_PARTICLE,
+    PARK_ORIGIN,
+    PARKED,
+    belt_friction,
+    land,
+    park_exits,
+    park_row,
+    take_parked,
+    window_state,
+)
 
 GRAVITY = 9.81
 _STATE_FIELDS = (
@@ -42,12 +63,6 @@ _READ_FIELDS = pb.BodyFields.BODY_ID | _STATE_FIELDS
 _WRITE_FIELDS = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 # Columns of one row of the batch buffer for _STATE_FIELDS.
 _X, _Y, _ANGLE, _VX, _VY, _SPIN = range(6)
-# Row labels besides truth ids >= 0.
-_PARKED = -1
-_NOT_PARTICLE = -2
-_PARK_ORIGIN = 1000.0
-_PARK_SPACING = 0.1
-_PARK_COLUMNS = 64
 
 
 @dataclass(frozen=True)
@@ -248,9 +263,10 @@ class BeltWorld:
     """The pymunk world of the belt: particle bodies, side walls, feed, belt friction.
 
     Rows: ``_rows`` (m, 6) holds every body of the space in pymunk's iteration order (x, y,
-    angle, vx, vy, spin), and ``_row_truth`` labels each row with the truth id of the particle on
-    it, :data:`_PARKED` for a parked body or :data:`_NOT_PARTICLE` for the static wall body;
-    ``_row_kind`` gives the kind of each particle body.
+    angle, vx, vy, spin) in the belt's rest frame, and ``_row_truth`` labels each row with the
+    truth id of the particle on it, :data:`PARKED` for a parked body or :data:`NOT_PARTICLE` for
+    the kinematic wall body; ``_row_kind`` gives the kind of each particle body. ``travel`` is the
+    belt's travel ``s(t)`` that maps belt-frame to ground-frame positions.
 
     Args:
         params: Geometry and operating point.
@@ -275,6 +291,7 @@ class BeltWorld:
         self.rng = rng
         self.dt = dt
         self.time = 0.0
+        self.travel = 0.0
         self.max_parked = max_parked
         self._decel = np.array([k.belt_friction * GRAVITY for k in self.kinds])
         self._spin_decel = np.array([k.belt_friction * GRAVITY / k.radius for k in self.kinds])
@@ -291,15 +308,19 @@ class BeltWorld:
         p = self.params
         space = pymunk.Space()
         space.gravity = (0.0, 0.0)
-        space.iterations = 10
+        space.iterations = 5
         space.collision_slop = 5e-5
         space.collision_bias = 1e-9
         space.sleep_time_threshold = float("inf")
+        # The walls are fixed to the ground, so in the belt's rest frame they slide upstream.
+        walls = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        walls.velocity = (-p.belt_speed, 0.0)
+        space.add(walls)
         thickness = 0.01
         x0 = p.drop_x - p.drop_spread - 0.05
         x1 = p.window_length + p.exit_margin + 0.05
         for y in (-thickness, p.window_width + thickness):
-            wall = pymunk.Segment(space.static_body, (x0, y), (x1, y), thickness)
+            wall = pymunk.Segment(walls, (x0, y), (x1, y), thickness)
             wall.friction = 0.3
             wall.elasticity = 0.3
             space.add(wall)
@@ -351,10 +372,11 @@ class BeltWorld:
         self._buf.clear()
         pb.get_space_bodies(self.space, _READ_FIELDS, self._buf)
         ptrs = np.frombuffer(self._buf.int_buf(), dtype=np.uint64).copy()
+        current = np.frombuffer(self._buf.float_buf(), dtype=np.float64).reshape(-1, 6)
         source = np.array([by_ptr.get(p, -1) for p in ptrs.tolist()], dtype=np.int64)
         self._row_ptr = ptrs
-        self._rows = np.where(source[:, None] >= 0, old_rows[source], 0.0)
-        self._row_truth = np.where(source >= 0, old_truth[source], _NOT_PARTICLE)
+        self._rows = np.where(source[:, None] >= 0, old_rows[source], current)
+        self._row_truth = np.where(source >= 0, old_truth[source], NOT_PARTICLE)
         self._row_kind = np.array([self._handles[p][2] if p in self._handles else 0 for p in ptrs.tolist()])
         self._write(poses=True)
 
@@ -368,19 +390,20 @@ class BeltWorld:
     def _relabel(self) -> None:
         """After bodies were added or removed: take pymunk's new order, carry rows over by pointer.
 
-        ``_rows`` stays authoritative (it may hold landings not yet written); bodies new to the
-        space are parked.
+        ``_rows`` stays authoritative (it may hold landings not yet written); the wall body
+        takes its state from pymunk, bodies new to the space are parked.
         """
         old_ptr, old_truth, old_rows = self._row_ptr, self._row_truth, self._rows
         self._buf.clear()
-        pb.get_space_bodies(self.space, pb.BodyFields.BODY_ID, self._buf)
+        pb.get_space_bodies(self.space, _READ_FIELDS, self._buf)
         ptrs = np.frombuffer(self._buf.int_buf(), dtype=np.uint64).copy()
+        current = np.frombuffer(self._buf.float_buf(), dtype=np.float64).reshape(-1, 6)
         table_ptr, table_kind = self._body_table
         at = np.minimum(np.searchsorted(table_ptr, ptrs), max(len(table_ptr) - 1, 0))
         particle = table_ptr[at] == ptrs if len(table_ptr) else np.zeros(len(ptrs), dtype=bool)
         self._row_kind = np.where(particle, table_kind[at] if len(table_ptr) else 0, 0)
-        self._rows = np.zeros((len(ptrs), 6))
-        self._row_truth = np.where(particle, _PARKED, _NOT_PARTICLE)
+        self._rows = current.copy()
+        self._row_truth = np.where(particle, PARKED, NOT_PARTICLE)
         if len(old_ptr):
             order = np.argsort(old_ptr)
             at = order[np.minimum(np.searchsorted(old_ptr[order], ptrs), len(old_ptr) - 1)]
@@ -388,7 +411,10 @@ class BeltWorld:
             self._rows[known] = old_rows[at[known]]
             self._row_truth[known] = old_truth[at[known]]
         self._row_ptr = ptrs
-        self._park(self._row_truth == _PARKED)
+        parked = np.flatnonzero(self._row_truth == PARKED)
+        for r in parked.tolist():
+            park_row(self._rows, self._row_truth, r)
+        self._n_parked = len(parked)
 
     @property
     def _body_table(self) -> tuple[NDArray[np.uint64], NDArray[np.int64]]:
@@ -408,30 +434,22 @@ class BeltWorld:
             pb.set_space_bodies(self.space, _WRITE_FIELDS, self._set_buf)
 
     # -- parking, births and deaths -----------------------------------------------------------
-    def _park(self, rows: NDArray[np.bool_]) -> None:
-        """Move the bodies of ``rows`` at rest to their own spot far from the belt."""
-        idx = np.flatnonzero(rows)
-        self._rows[idx] = 0.0
-        self._rows[idx, _X] = _PARK_ORIGIN + _PARK_SPACING * (idx % _PARK_COLUMNS)
-        self._rows[idx, _Y] = _PARK_ORIGIN + _PARK_SPACING * (idx // _PARK_COLUMNS)
-        self._row_truth[idx] = _PARKED
-
     def _add_bodies(self, kind_index: int, count: int) -> None:
         """Put ``count`` more bodies of a kind into the space, parked (Python per body; rare)."""
         for _ in range(count):
             body, shape = (
                 self._pool[kind_index].pop() if self._pool[kind_index] else self._new_body(kind_index)
             )
-            body.position = (_PARK_ORIGIN, _PARK_ORIGIN - 1.0)
+            body.position = (2 * PARK_ORIGIN, 2 * PARK_ORIGIN)
             self.space.add(body, shape)
             self._handles[body.id] = (body, shape, kind_index)
         self._relabel()
 
     def _trim_parking(self) -> None:
         """Above ``max_parked`` parked bodies, take half of them out of the space (Python per body; rare)."""
-        parked = np.flatnonzero(self._row_truth == _PARKED)
-        if len(parked) <= self.max_parked:
+        if self._n_parked <= self.max_parked:
             return
+        parked = np.flatnonzero(self._row_truth == PARKED)
         for ptr in self._row_ptr[parked[self.max_parked // 2 :]].tolist():
             body, shape, kind = self._handles.pop(ptr)
             self.space.remove(body, shape)
@@ -441,10 +459,10 @@ class BeltWorld:
     def _feed_count(self) -> int:
         """Particles landing in this frame: Poisson with a log-normal AR(1) intensity."""
         p = self.params
-        a = np.exp(-self.dt / p.feed_correlation_time)
-        self._feed_log_intensity = a * self._feed_log_intensity + np.sqrt(1 - a * a) * self.rng.normal()
+        a = math.exp(-self.dt / p.feed_correlation_time)
+        self._feed_log_intensity = a * self._feed_log_intensity + math.sqrt(1 - a * a) * self.rng.normal()
         sigma = p.feed_burstiness
-        intensity = p.feed_rate * self.dt * np.exp(sigma * self._feed_log_intensity - 0.5 * sigma * sigma)
+        intensity = p.feed_rate * self.dt * math.exp(sigma * self._feed_log_intensity - 0.5 * sigma * sigma)
         return int(self.rng.poisson(intensity))
 
     def _drop(self, count: int) -> None:
@@ -455,71 +473,60 @@ class BeltWorld:
             if len(self.kinds) > 1
             else np.zeros(count, dtype=np.int64)
         )
-        u = rng.random((count, 2))
+        uniform = rng.random((count, 2))
         normal = rng.normal(size=(count, 3))
-        c = self._landing[kind_idx]
-        half = self._half_size[kind_idx]
-        landing = np.zeros((count, 6))
-        landing[:, _X] = p.drop_x - p.drop_spread * u[:, 0]
-        landing[:, _Y] = half + (p.window_width - 2 * half) * u[:, 1]
-        landing[:, _VX] = c[:, 0] + c[:, 1] * normal[:, 0]
-        landing[:, _VY] = c[:, 2] * normal[:, 1]
-        landing[:, _ANGLE] = c[:, 3] * normal[:, 2]
-        rows = self._free_rows(kind_idx)
-        self._rows[rows] = landing
-        self._row_truth[rows] = np.arange(self._next_id, self._next_id + count)
+        targets = self._free_rows(kind_idx)
+        land(
+            self._rows,
+            self._row_truth,
+            targets,
+            kind_idx,
+            uniform,
+            normal,
+            self._landing,
+            self._half_size,
+            p.drop_x,
+            p.drop_spread,
+            p.window_width,
+            self.travel,
+            p.belt_speed,
+            self._next_id,
+        )
         self._next_id += count
+        self._n_parked -= count
 
     def _free_rows(self, kind_idx: NDArray[np.int64]) -> NDArray[np.int64]:
         """Rows of parked bodies for particles of kinds ``kind_idx``, adding bodies if needed."""
+        kind_idx = np.asarray(kind_idx, dtype=np.int64)
         while True:
-            rows = np.empty(len(kind_idx), dtype=np.int64)
-            for k in np.unique(kind_idx).tolist():
-                want = kind_idx == k
-                need = int(want.sum())
-                free = np.flatnonzero((self._row_truth == _PARKED) & (self._row_kind == k))
-                if len(free) < need:
-                    self._add_bodies(k, need - len(free) + self.max_parked // (2 * len(self.kinds)))
-                    break
-                rows[want] = free[:need]
-            else:
+            rows = take_parked(self._row_truth, self._row_kind, kind_idx)
+            missing = rows < 0
+            if not missing.any():
                 return rows
+            for k in np.unique(kind_idx[missing]).tolist():
+                need = int(np.count_nonzero(kind_idx[missing] == k))
+                self._add_bodies(k, need + self.max_parked // (2 * len(self.kinds)))
 
     # -- dynamics -----------------------------------------------------------------------------
-    def _apply_belt_friction(self, h: float) -> None:
-        """Coulomb belt friction over a step ``h`` for every particle on the belt at once."""
-        r = self._rows
-        on_belt = self._row_truth >= 0
-        decel = np.where(on_belt, self._decel[self._row_kind], 0.0) * h
-        spin_decel = np.where(on_belt, self._spin_decel[self._row_kind], 0.0) * h
-        slip_x = r[:, _VX] - self.params.belt_speed
-        slip_y = r[:, _VY]
-        keep = np.maximum(0.0, 1.0 - decel / np.maximum(np.hypot(slip_x, slip_y), 1e-12))
-        r[:, _VX] = np.where(on_belt, self.params.belt_speed + slip_x * keep, r[:, _VX])
-        r[:, _VY] = slip_y * np.where(on_belt, keep, 1.0)
-        spin = r[:, _SPIN]
-        r[:, _SPIN] = np.copysign(np.maximum(0.0, np.abs(spin) - spin_decel), spin)
-
     def step(self) -> None:
         """Advance one camera frame: parking past the end, feed, belt friction, collisions."""
-        gone = (self._row_truth >= 0) & (
-            self._rows[:, _X] > self.params.window_length + self.params.exit_margin
-        )
-        poses = bool(gone.any())
-        if poses:
-            self._park(gone)
+        p = self.params
+        exits = park_exits(self._rows, self._row_truth, p.window_length + p.exit_margin - self.travel)
+        self._n_parked += exits
+        poses = exits > 0
         count = self._feed_count()
         if count:
             self._drop(count)
             poses = True
         self._trim_parking()
-        h = self.dt / self.params.substeps
-        for i in range(self.params.substeps):
+        h = self.dt / p.substeps
+        for i in range(p.substeps):
             if i:
                 self._read()
-            self._apply_belt_friction(h)
+            belt_friction(self._rows, self._row_truth, self._row_kind, self._decel, self._spin_decel, h)
             self._write(poses=poses and i == 0)
             self.space.step(h)
+            self.travel += p.belt_speed * h
         self._read()
         self.time += self.dt
 
@@ -529,18 +536,10 @@ class BeltWorld:
             self.step()
 
     def state(self, x_range: tuple[float, float] | None = None) -> BeltState:
-        """Every particle on the belt (or with ``x_low <= x <= x_high``), ordered by truth id."""
-        on_belt = self._row_truth >= 0
-        if x_range is not None:
-            x = self._rows[:, _X]
-            on_belt &= (x >= x_range[0]) & (x <= x_range[1])
-        rows = np.flatnonzero(on_belt)
-        order = rows[np.argsort(self._row_truth[rows])]
-        r = self._rows[order]
-        return BeltState(
-            ids=self._row_truth[order],
-            position=r[:, _X : _Y + 1],
-            velocity=r[:, _VX : _VY + 1],
-            angle=r[:, _ANGLE],
-            kind=self._row_kind[order],
+        """Every particle on the belt (or with ``x_low <= x <= x_high``), ordered by truth id,
+        in the ground frame."""
+        low, high = (-np.inf, np.inf) if x_range is None else x_range
+        ids, position, velocity, angle, kind = window_state(
+            self._rows, self._row_truth, self._row_kind, low, high, self.travel, self.params.belt_speed
         )
+        return BeltState(ids=ids, position=position, velocity=velocity, angle=angle, kind=kind)

@@ -1,0 +1,102 @@
+"""The compiled belt kernels against plain numpy statements of the same formulas."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import track_envs  # noqa: F401
+from track_envs.envs.belt_kernels import (
+    NOT_PARTICLE,
+    PARKED,
+    belt_friction,
+    park_exits,
+    take_parked,
+    window_state,
+)
+from track_envs.report import empty_report
+
+
+def _random_rows(rng: np.random.Generator, m: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rows = rng.normal(size=(m, 6)) * [0.1, 0.05, 1.0, 0.5, 0.1, 20.0]
+    truth = rng.permutation(m).astype(np.int64)
+    truth[rng.random(m) < 0.2] = PARKED
+    truth[0] = NOT_PARTICLE
+    kind = rng.integers(0, 3, size=m)
+    return rows, truth, kind
+
+
+def test_belt_friction_equals_the_coulomb_formula() -> None:
+    rng = np.random.default_rng(0)
+    rows, truth, kind = _random_rows(rng)
+    decel = np.array([1.5, 2.0, 3.0])
+    spin_decel = np.array([300.0, 400.0, 500.0])
+    h = 0.01
+    expected = rows.copy()
+    on = truth >= 0
+    u = rows[:, 3:5]
+    speed = np.linalg.norm(u, axis=1)
+    keep = np.maximum(0.0, 1.0 - decel[kind] * h / np.maximum(speed, 1e-12))
+    expected[on, 3:5] = u[on] * keep[on, None]
+    spin = rows[:, 5]
+    expected[on, 5] = (np.sign(spin) * np.maximum(0.0, np.abs(spin) - spin_decel[kind] * h))[on]
+    belt_friction(rows, truth, kind, decel, spin_decel, h)
+    np.testing.assert_allclose(rows, expected, rtol=0, atol=1e-15)
+
+
+def test_friction_stops_slip_exactly_and_never_reverses_it() -> None:
+    rows = np.zeros((2, 6))
+    rows[:, 3] = [-0.004, -0.5]  # slip against the belt: small and large
+    truth = np.array([0, 1])
+    belt_friction(rows, truth, np.zeros(2, np.int64), np.array([1.57]), np.array([300.0]), 0.01)
+    assert rows[0, 3] == 0.0  # 0.004 m/s < a h = 0.0157 m/s: the particle sticks to the belt
+    assert rows[1, 3] == pytest.approx(-0.5 + 0.0157)
+
+
+def test_exits_park_only_particles_past_the_line() -> None:
+    rng = np.random.default_rng(1)
+    rows, truth, _ = _random_rows(rng)
+    before = truth.copy()
+    past = (before >= 0) & (rows[:, 0] > 0.05)
+    assert park_exits(rows, truth, 0.05) == past.sum()
+    assert (truth[past] == PARKED).all()
+    np.testing.assert_array_equal(truth[~past], before[~past])
+    assert (rows[past, 0] >= 1000.0).all() and (rows[past, 3:] == 0).all()
+
+
+def test_take_parked_gives_distinct_rows_of_the_right_kind_or_minus_one() -> None:
+    truth = np.array([PARKED, 3, PARKED, PARKED, NOT_PARTICLE, PARKED])
+    kind = np.array([0, 0, 1, 0, 0, 1])
+    got = take_parked(truth, kind, np.array([0, 1, 0, 1, 1, 0]))
+    assert got.tolist() == [0, 2, 3, 5, -1, -1]
+
+
+def test_window_state_selects_sorts_and_moves_to_the_ground_frame() -> None:
+    rng = np.random.default_rng(2)
+    rows, truth, kind = _random_rows(rng)
+    travel, speed = 3.25, 1.44
+    ids, position, velocity, angle, kinds = window_state(rows, truth, kind, 3.2, 3.3, travel, speed)
+    x = rows[:, 0] + travel
+    picked = np.flatnonzero((truth >= 0) & (x >= 3.2) & (x <= 3.3))
+    picked = picked[np.argsort(truth[picked])]
+    assert len(picked) > 10
+    np.testing.assert_array_equal(ids, truth[picked])
+    np.testing.assert_array_equal(kinds, kind[picked])
+    np.testing.assert_allclose(position, np.column_stack([x[picked], rows[picked, 1]]))
+    np.testing.assert_allclose(velocity, np.column_stack([rows[picked, 3] + speed, rows[picked, 4]]))
+    np.testing.assert_allclose(angle, rows[picked, 2])
+
+
+def test_walls_travel_with_the_ground_frame_and_stay_in_place() -> None:
+    env = gym.make("BeltSorter-v0")
+    env.reset(seed=0)
+    world = env.unwrapped.world
+    report = empty_report(256, (2,))
+    for _ in range(300):
+        env.step(report)
+    walls = next(b for b in world.space.bodies if b.body_type == b.KINEMATIC)
+    # wall body at -s(t) in the belt frame, i.e. fixed to the ground
+    assert walls.position.x == pytest.approx(-world.travel, abs=1e-9)
+    assert world.travel == pytest.approx(world.params.belt_speed * world.time, rel=1e-9)
+    assert walls.velocity.x == -world.params.belt_speed

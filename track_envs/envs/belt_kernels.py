@@ -1,0 +1,166 @@
+"""Compiled per-frame kernels of the belt world (numba): belt friction, exits, parking, read-out.
+
+Every kernel works on the world's row table ``rows`` (m, 6) — one row per pymunk body in the
+space's iteration order, columns ``x, y, angle, vx, vy, spin`` in the frame that moves with the
+belt — and on the row labels ``truth`` (m,) (truth id >= 0 for a particle on the belt,
+:data:`PARKED` for a parked body, :data:`NOT_PARTICLE` for the wall body) and ``kind`` (m,).
+
+In the belt frame a particle's velocity *is* its slip over the belt, so Coulomb friction with
+deceleration ``a_k = μ_k g`` over a step ``h`` is
+
+.. math::
+
+    u \\leftarrow u \\, \\max\\big(0, 1 − a_k h / |u|\\big), \\qquad
+    |ω| \\leftarrow \\max\\big(0, |ω| − (a_k / r_k) h\\big).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+PARKED = -1
+NOT_PARTICLE = -2
+PARK_ORIGIN = 1000.0
+PARK_SPACING = 0.1
+PARK_COLUMNS = 64
+
+
+@njit(cache=True)
+def park_row(rows: NDArray[np.float64], truth: NDArray[np.int64], r: int) -> None:
+    """Put the body of row ``r`` at rest on its own parking spot far from the belt."""
+    rows[r, :] = 0.0
+    rows[r, 0] = PARK_ORIGIN + PARK_SPACING * (r % PARK_COLUMNS)
+    rows[r, 1] = PARK_ORIGIN + PARK_SPACING * (r // PARK_COLUMNS)
+    truth[r] = PARKED
+
+
+@njit(cache=True)
+def park_exits(rows: NDArray[np.float64], truth: NDArray[np.int64], x_exit: float) -> int:
+    """Park every particle with belt-frame ``x > x_exit``; return how many were parked."""
+    parked = 0
+    for r in range(rows.shape[0]):
+        if truth[r] >= 0 and rows[r, 0] > x_exit:
+            park_row(rows, truth, r)
+            parked += 1
+    return parked
+
+
+@njit(cache=True)
+def belt_friction(
+    rows: NDArray[np.float64],
+    truth: NDArray[np.int64],
+    kind: NDArray[np.int64],
+    decel: NDArray[np.float64],
+    spin_decel: NDArray[np.float64],
+    h: float,
+) -> None:
+    """Coulomb belt friction over a step ``h`` on every particle row (belt-frame velocities)."""
+    for r in range(rows.shape[0]):
+        if truth[r] < 0:
+            continue
+        k = kind[r]
+        ux, uy = rows[r, 3], rows[r, 4]
+        speed = np.sqrt(ux * ux + uy * uy)
+        keep = max(0.0, 1.0 - decel[k] * h / max(speed, 1e-12))
+        rows[r, 3] = ux * keep
+        rows[r, 4] = uy * keep
+        spin = rows[r, 5]
+        rows[r, 5] = np.copysign(max(0.0, abs(spin) - spin_decel[k] * h), spin)
+
+
+@njit(cache=True)
+def take_parked(truth: NDArray[np.int64], row_kind: NDArray[np.int64], kinds: NDArray[np.int64]) -> NDArray:
+    """Rows of parked bodies for new particles of ``kinds`` (in order), or ``-1`` where none is left."""
+    out = np.full(len(kinds), -1, dtype=np.int64)
+    taken = np.zeros(len(truth), dtype=np.bool_)
+    for i in range(len(kinds)):
+        for r in range(len(truth)):
+            if truth[r] == PARKED and row_kind[r] == kinds[i] and not taken[r]:
+                taken[r] = True
+                out[i] = r
+                break
+    return out
+
+
+@njit(cache=True)
+def window_rows(
+    rows: NDArray[np.float64], truth: NDArray[np.int64], x_low: float, x_high: float
+) -> NDArray[np.int64]:
+    """Rows of the particles with belt-frame ``x_low <= x <= x_high``, ordered by truth id."""
+    n = 0
+    picked = np.empty(len(truth), dtype=np.int64)
+    for r in range(len(truth)):
+        if truth[r] >= 0 and x_low <= rows[r, 0] <= x_high:
+            picked[n] = r
+            n += 1
+    picked = picked[:n]
+    return picked[np.argsort(truth[picked], kind="mergesort")]
+
+
+@njit(cache=True)
+def window_state(
+    rows: NDArray[np.float64],
+    truth: NDArray[np.int64],
+    kind: NDArray[np.int64],
+    x_low: float,
+    x_high: float,
+    travel: float,
+    belt_speed: float,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray]:
+    """Ground-frame ids, positions (n, 2), velocities (n, 2), angles and kinds of the particles with
+    ground-frame ``x_low <= x <= x_high``, ordered by truth id (``x = x_belt + travel``,
+    ``v_x = v_x,belt + belt_speed``)."""
+    picked = window_rows(rows, truth, x_low - travel, x_high - travel)
+    n = len(picked)
+    ids = np.empty(n, np.int64)
+    position = np.empty((n, 2))
+    velocity = np.empty((n, 2))
+    angle = np.empty(n)
+    kinds = np.empty(n, np.int64)
+    for i in range(n):
+        r = picked[i]
+        ids[i] = truth[r]
+        position[i, 0] = rows[r, 0] + travel
+        position[i, 1] = rows[r, 1]
+        angle[i] = rows[r, 2]
+        velocity[i, 0] = rows[r, 3] + belt_speed
+        velocity[i, 1] = rows[r, 4]
+        kinds[i] = kind[r]
+    return ids, position, velocity, angle, kinds
+
+
+@njit(cache=True)
+def land(
+    rows: NDArray[np.float64],
+    truth: NDArray[np.int64],
+    targets: NDArray[np.int64],
+    kinds: NDArray[np.int64],
+    uniform: NDArray[np.float64],
+    normal: NDArray[np.float64],
+    landing: NDArray[np.float64],
+    half_size: NDArray[np.float64],
+    drop_x: float,
+    drop_spread: float,
+    width: float,
+    travel: float,
+    belt_speed: float,
+    first_id: int,
+) -> None:
+    """Land particle ``i`` (kind ``kinds[i]``, truth id ``first_id + i``) on row ``targets[i]``.
+
+    Ground frame: ``x = drop_x − drop_spread u₀``, ``y`` uniform between the walls less the
+    half-size, ``v_x ~ N(chute_speed, chute_speed_std²)``, ``v_y ~ N(0, lateral_speed_std²)``,
+    angle ``~ N(0, angle_std²)`` (``landing[k]`` holds those four figures); stored belt-frame.
+    """
+    for i in range(len(targets)):
+        r, k = targets[i], kinds[i]
+        half = half_size[k]
+        rows[r, 0] = drop_x - drop_spread * uniform[i, 0] - travel
+        rows[r, 1] = half + (width - 2 * half) * uniform[i, 1]
+        rows[r, 2] = landing[k, 3] * normal[i, 2]
+        rows[r, 3] = landing[k, 0] + landing[k, 1] * normal[i, 0] - belt_speed
+        rows[r, 4] = landing[k, 2] * normal[i, 1]
+        rows[r, 5] = 0.0
+        truth[r] = first_id + i
