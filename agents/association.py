@@ -17,16 +17,22 @@ holds ``γ`` on its diagonal, and every inadmissible entry (gated pairs and the 
 ``M``) holds one finite stand-in ``B`` larger than any feasible total. Each row can always take
 its miss column, so the problem stays feasible when a row or the whole frame is gated out —
 ``linear_sum_assignment`` never sees ``inf`` (the failure of Stone Soup issue 824).
+
+The trackers call the one-pass :data:`ASSOCIATORS` (prediction, detections, gate → pairs): the
+costs, the gate and the split into lone pairs and competing rows and columns come from one
+compiled loop (:mod:`agents._association_kernels`); :data:`ASSIGNERS` take a cost matrix.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
+from agents import _association_kernels as _kernels
 from track_envs.assignment import EMPTY_PAIRS, Pairs, min_cost_with_misses
-from track_envs.types import Gaussian
+from track_envs.types import FloatArray, Gaussian
 
 _EMPTY: Pairs = EMPTY_PAIRS
 
@@ -44,24 +50,37 @@ def chi2_gate(p_gate: float, dim: int) -> float:
     return float(chi2.ppf(p_gate, dim))
 
 
+def _f64(a: NDArray[np.floating]) -> NDArray[np.float64]:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _prepared(prediction: Gaussian, z: NDArray[np.floating]) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Means, covariances and detections for the kernels (float64, C order), shapes checked."""
+    mean, cov, zz = _f64(prediction.mean), _f64(prediction.cov), _f64(z)
+    D = mean.shape[1]
+    if zz.ndim != 2 or zz.shape[1] != D:
+        raise ValueError(f"z must have shape (m, D={D}) like the predictions, got {zz.shape}")
+    return mean, cov, zz
+
+
+def _checked(bad: int) -> None:
+    if bad >= 0:
+        raise np.linalg.LinAlgError(f"predicted covariance S of track {bad} is not positive definite")
+
+
 def mahalanobis_cost(prediction: Gaussian, z: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Squared Mahalanobis distances (n, m) of detections ``z`` (m, D) to ``n`` predicted measurements."""
-    mean = np.asarray(prediction.mean, dtype=np.float64)
-    z = np.asarray(z, dtype=np.float64)
-    if len(mean) == 0 or len(z) == 0:
-        return np.zeros((len(mean), len(z)))
-    # S = L Lᵀ, d² = |L⁻¹ (z − ŷ)|²: one small triangular inverse per track; then, for each of
-    # the D² entries of L⁻¹, one multiply-add over all (n, m) pairs (D is 2 or 3)
-    chol_inv = np.linalg.inv(np.linalg.cholesky(np.asarray(prediction.cov, dtype=np.float64)))
-    dim = mean.shape[1]
-    diff = [z[None, :, k] - mean[:, k, None] for k in range(dim)]  # D arrays (n, m)
-    d2 = np.zeros((len(mean), len(z)))
-    for i in range(dim):
-        y = chol_inv[:, i, 0, None] * diff[0]
-        for k in range(1, i + 1):  # L⁻¹ is lower triangular
-            y += chol_inv[:, i, k, None] * diff[k]
-        d2 += y * y
-    return d2
+    """Squared Mahalanobis distances (n, m) of detections ``z`` (m, D) to ``n`` predicted measurements.
+
+    ``S_i = L_i L_iᵀ`` (Cholesky), ``d²_ij = |L_i⁻¹ (z_j − ŷ_i)|²``: one compiled loop over the
+    pairs (:func:`agents._association_kernels.mahalanobis_costs`).
+
+    Raises:
+        ValueError: if ``z`` is not (m, D).
+        numpy.linalg.LinAlgError: if some ``S_i`` is not positive definite.
+    """
+    cost, bad = _kernels.mahalanobis_costs(*_prepared(prediction, z))
+    _checked(bad)
+    return cost
 
 
 def assign_hungarian(cost: NDArray[np.floating], gate: float) -> Pairs:
@@ -110,3 +129,40 @@ def assign_greedy(cost: NDArray[np.floating], gate: float) -> Pairs:
 
 
 ASSIGNERS = {"hungarian": assign_hungarian, "greedy": assign_greedy}
+
+
+def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
+    """Gate and assign in one pass; the same pairs as
+    ``assign_hungarian(mahalanobis_cost(prediction, z), gate)``.
+
+    The costs and the lone-pair split of the admissible pairs come from one compiled kernel
+    (:func:`agents._association_kernels.gated_costs`); only the rows and columns that compete go
+    to ``scipy.optimize.linear_sum_assignment``, as the problem ``[C | M]`` of
+    :func:`track_envs.assignment.min_cost_with_misses`.
+
+    Returns:
+        ``(rows, cols)`` of the assigned admissible pairs, sorted by row.
+
+    Raises:
+        ValueError: if ``z`` is not (m, D).
+        numpy.linalg.LinAlgError: if some predicted covariance is not positive definite.
+    """
+    cost, lone_rows, lone_cols, rest_rows, rest_cols, bad = _kernels.gated_costs(
+        *_prepared(prediction, z), float(gate)
+    )
+    _checked(bad)
+    if len(rest_rows) == 0:
+        return lone_rows, lone_cols
+    rows, cols = linear_sum_assignment(_kernels.rest_problem(cost, gate, rest_rows, rest_cols))
+    return _kernels.merge_solution(
+        cost, gate, lone_rows, lone_cols, rest_rows, rest_cols, rows.astype(np.int64), cols.astype(np.int64)
+    )
+
+
+def associate_greedy(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
+    """``assign_greedy(mahalanobis_cost(prediction, z), gate)``."""
+    return assign_greedy(mahalanobis_cost(prediction, z), gate)
+
+
+#: Gate-and-assign functions ``(prediction, z, gate) -> (rows, cols)`` by assignment name.
+ASSOCIATORS = {"hungarian": associate_hungarian, "greedy": associate_greedy}

@@ -16,7 +16,11 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
    where particles enter, so a track's second measurement is predicted where the flow takes it.
 
 The report holds every live track at its current (posterior) estimate, and the detection row it
-was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections.
+was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections:
+with the Kalman predictors, the filter steps, the gated costs and the per-track bookkeeping are
+each one compiled loop (numba: :mod:`predictors._kalman_kernels`,
+:mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`), so a frame is a few dozen calls
+whatever the number of tracks.
 """
 
 from __future__ import annotations
@@ -27,11 +31,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.association import ASSIGNERS, chi2_gate, mahalanobis_cost
+from agents import _gnn_kernels as _kernels
+from agents.association import ASSOCIATORS, chi2_gate
 from predictors import make_predictor
 from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import Gaussian, SensorSpec
+
+#: Update streaks (consecutive updates) of the young tracks the velocity prior is learnt from.
+YOUNG_STREAK = (3, 6)
+#: Fewest young tracks in a frame for it to update the velocity prior.
+MIN_YOUNG_TRACKS = 3
 
 
 class GnnAgent:
@@ -64,8 +74,8 @@ class GnnAgent:
         recovery_inflation: float = 25.0,
         **predictor_kwargs: Any,
     ):
-        if assignment not in ASSIGNERS:
-            raise ValueError(f"assignment must be one of {sorted(ASSIGNERS)}, got {assignment!r}")
+        if assignment not in ASSOCIATORS:
+            raise ValueError(f"assignment must be one of {sorted(ASSOCIATORS)}, got {assignment!r}")
         if not (isinstance(max_misses, int) and max_misses >= 0):
             raise ValueError(f"max_misses must be an integer >= 0, got {max_misses!r}")
         if not (np.isfinite(region_margin) and region_margin >= 0):
@@ -80,7 +90,7 @@ class GnnAgent:
         self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
         self.p_gate = p_gate
         self.assignment = assignment
-        self._assign = ASSIGNERS[assignment]
+        self._associate = ASSOCIATORS[assignment]
         self.max_misses = max_misses
         self.region_margin = region_margin
         self.velocity_prior = velocity_prior
@@ -109,8 +119,8 @@ class GnnAgent:
             if v.shape != (spec.dim,):
                 raise ValueError(f"velocity_prior must have shape ({spec.dim},), got {v.shape}")
             self._flow_mean = v
-        lo = np.asarray(spec.region_low) - self.region_margin
-        hi = np.asarray(spec.region_high) + self.region_margin
+        lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
+        hi = np.asarray(spec.region_high, dtype=np.float64) + self.region_margin
         self._region = (lo, hi)
         self.last_prediction: Gaussian | None = None
         self.last_prediction_ids = np.zeros(0, dtype=np.int64)
@@ -128,68 +138,73 @@ class GnnAgent:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
         spec = self._spec
         rows, z = check_observation(obs, spec)
-        n = self.n_tracks
-        det_of_track = np.full(n, -1, dtype=np.int64)
-        used = np.zeros(len(z), dtype=bool)
-        if n:
+        m = len(z)
+        n = len(self._ids)
+        if n == 0:
+            new = np.arange(m)
+            detection_rows = rows
+        else:
             self._state, prediction = self.predictor.predict(self._state)
             self.last_prediction = prediction
-            track_rows, det_cols = self._assign(mahalanobis_cost(prediction, z), self._gate)
+            det_of_track = np.full(n, -1, dtype=np.int64)
+            track_rows, det_cols = self._associate(prediction, z, self._gate)
             det_of_track[track_rows] = det_cols
-            used[det_cols] = True
-            self._recover(prediction, z, det_of_track, used)
-            seen = det_of_track >= 0
-            z_tracks = np.zeros((n, spec.dim))
-            z_tracks[seen] = z[det_of_track[seen]]
+            if len(track_rows) < min(n, m):  # tracks and detections left over on both sides
+                self._recover(prediction, z, det_of_track)
+            seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
+                det_of_track,
+                self._misses,
+                self._streak,
+                np.ascontiguousarray(prediction.mean, dtype=np.float64),
+                self._region[0],
+                self._region[1],
+                self.max_misses,
+                YOUNG_STREAK,
+                m,
+            )
+            # rows of coasting tracks (detection −1) are never read by the update
+            z_tracks = z[det_of_track] if m else np.zeros((n, spec.dim))
             self._state = self.predictor.update(self._state, z_tracks, seen)
-            self._misses = np.where(seen, 0, self._misses + 1)
-            self._streak = np.where(seen, self._streak + 1, 0)
             # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
             # and the observation row it was then updated with (-1: coasted)
             self.last_prediction_ids = self._ids.copy()
-            self.last_prediction_detection = _rows_of(det_of_track, rows)
-            inside = np.all(
-                (prediction.mean >= self._region[0]) & (prediction.mean <= self._region[1]), axis=1
-            )
-            keep = (self._misses <= self.max_misses) & (inside | seen)
+            self.last_prediction_detection = _observation_rows(det_of_track, rows)
             estimate = np.asarray(self.predictor.estimate(self._state).mean)
-            self._learn_flow(estimate, seen)
-            if not keep.all():
+            if n_young >= MIN_YOUNG_TRACKS:
+                self._learn_flow(estimate, young)
+            detection_rows = self.last_prediction_detection
+            if n_keep < n:
                 self._state = self._state.take(keep)
                 self._ids, self._misses, self._streak = (
                     self._ids[keep],
                     self._misses[keep],
                     self._streak[keep],
                 )
-                det_of_track, estimate = det_of_track[keep], estimate[keep]
+                detection_rows, estimate = detection_rows[keep], estimate[keep]
             self._last = estimate
-        new = np.flatnonzero(~used)
+            if len(new):
+                detection_rows = np.concatenate([detection_rows, rows[new]])
         if len(new):
             self._initiate(z[new])
-            det_of_track = np.concatenate([det_of_track, new])
-        positions = self._last
-        detection_rows = _rows_of(det_of_track, rows)
-        return pack_report(self._ids, positions, detection_rows, spec.max_tracks)
+        return pack_report(self._ids, self._last, detection_rows, spec.max_tracks)
 
-    def _recover(
-        self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64], used: NDArray
-    ) -> None:
+    def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
         """Second-chance association of the tracks and detections left over, with inflated gates.
 
         A collision or a kick moves a particle outside its track's gate; before that detection
         starts a new track, the leftovers are matched once more with every predicted covariance
-        scaled by ``recovery_inflation`` (in place on ``det_of_track`` and ``used``).
+        scaled by ``recovery_inflation`` (in place on ``det_of_track``). Called when there are
+        leftovers on both sides.
         """
         if self.recovery_inflation <= 1.0:
             return
+        used = np.zeros(len(z), dtype=bool)
+        used[det_of_track[det_of_track >= 0]] = True
         tracks = np.flatnonzero(det_of_track < 0)
         dets = np.flatnonzero(~used)
-        if len(tracks) == 0 or len(dets) == 0:
-            return
         loose = Gaussian(prediction.mean[tracks], prediction.cov[tracks] * self.recovery_inflation)
-        rows, cols = self._assign(mahalanobis_cost(loose, z[dets]), self._gate)
+        rows, cols = self._associate(loose, z[dets], self._gate)
         det_of_track[tracks[rows]] = dets[cols]
-        used[dets[cols]] = True
 
     def _initiate(self, z: NDArray[np.float64]) -> None:
         """New tracks at detections ``z`` (k, D), with the learnt velocity prior when there is one."""
@@ -214,8 +229,8 @@ class GnnAgent:
         self._streak = np.concatenate([self._streak, np.ones(k, dtype=np.int64)])
         self._last = np.concatenate([self._last, z])
 
-    def _learn_flow(self, estimate: NDArray[np.float64], seen: NDArray[np.bool_]) -> None:
-        """Update the velocity prior from young tracks (updated 3–6 frames in a row).
+    def _learn_flow(self, estimate: NDArray[np.float64], young: NDArray[np.bool_]) -> None:
+        """Update the velocity prior from the ``young`` tracks (updated 3–6 frames in a row).
 
         New tracks are born where young tracks were born a few frames ago, so the velocities of
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
@@ -223,10 +238,7 @@ class GnnAgent:
         learning = isinstance(self.velocity_prior, str) and self.velocity_prior == "auto"
         if not learning or self._spec is None:
             return
-        steady = seen & (self._streak >= 3) & (self._streak <= 6)
-        if steady.sum() < 3:
-            return
-        v = (estimate[steady] - self._last[steady]) / self._spec.dt
+        v = (estimate[young] - self._last[young]) / self._spec.dt
         median = np.median(v, axis=0)
         spread = (1.4826 * np.median(np.abs(v - median), axis=0)) ** 2  # robust variance (MAD)
         if self._flow_mean is None or self._flow_var is None:
@@ -236,9 +248,9 @@ class GnnAgent:
             self._flow_var = 0.9 * self._flow_var + 0.1 * spread
 
 
-def _rows_of(det_index: NDArray[np.int64], rows: NDArray[np.intp]) -> NDArray[np.int64]:
+def _observation_rows(det_index: NDArray[np.int64], rows: NDArray[np.intp]) -> NDArray[np.int64]:
     """Observation rows of detection indices (-1 stays -1), safe when there are no detections."""
-    out = np.full(len(det_index), -1, dtype=np.int64)
-    hit = det_index >= 0
-    out[hit] = rows[det_index[hit]]
-    return out
+    row_of = np.empty(len(rows) + 1, dtype=np.int64)
+    row_of[:-1] = rows
+    row_of[-1] = -1  # what index -1 picks
+    return row_of[det_index]

@@ -1,6 +1,6 @@
 """Tracker frame time at 150 tracks × 150 detections, and the whole BeltSorter loop.
 
-    python benchmarks/bench_tracker.py [--frames 300]
+    python benchmarks/bench_tracker.py [--frames 300] [--tracker-only]
 
 1. **Tracker**: the batched GNN tracker (``gnn`` + ``kf-cv`` and ``kf-ca``) against the common
    reference implementation — one ``filterpy.kalman.KalmanFilter`` object per track, a vectorised
@@ -167,11 +167,19 @@ def time_loop(frames: int, with_metrics: bool) -> tuple[float, float]:
     return frames / best, float(np.mean(visible))
 
 
+def _print_tracker_table(rows: list[tuple[str, float, int, float]]) -> None:
+    print("\n| tracker, 150 tracks × 150 detections | frames/s | tracks | vs reference |")
+    print("|---|---|---|---|")
+    for name, fps, tracks, ratio in rows:
+        print(f"| {name} | {fps:.0f} | {tracks} | {ratio:.1f}x |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--frames", type=int, default=300)
+    parser.add_argument("--tracker-only", action="store_true", help="skip the whole-loop part (2.)")
     args = parser.parse_args()
     observations = synthetic_observations(args.frames + 20, seed=0)
     ref_fps, ref_tracks = time_tracker(FilterpyGnn, observations, 20)
@@ -184,6 +192,9 @@ def main() -> None:
         fps, tracks = time_tracker(make_gnn(predictor), observations, 20)
         rows.append((f"gnn + {predictor} (batched)", fps, tracks, fps / ref_fps))
         print(f"gnn + {predictor}: {fps:8.0f} frames/s, {tracks} tracks, {fps / ref_fps:.1f}x the reference")
+    if args.tracker_only:
+        _print_tracker_table(rows)
+        return
     loop_fps, visible = time_loop(args.frames, with_metrics=True)
     bare_fps, _ = time_loop(args.frames, with_metrics=False)
     share = 1.0 - loop_fps / bare_fps
@@ -192,10 +203,7 @@ def main() -> None:
         f"({visible:.0f} visible)"
     )
     print(f"same loop without metrics: {bare_fps:.0f} frames/s; metrics' share of the frame {share:.0%}")
-    print("\n| tracker, 150 tracks × 150 detections | frames/s | tracks | vs reference |")
-    print("|---|---|---|---|")
-    for name, fps, tracks, ratio in rows:
-        print(f"| {name} | {fps:.0f} | {tracks} | {ratio:.1f}x |")
+    _print_tracker_table(rows)
     print("\n| whole loop (≈150 in view) | frames/s |")
     print("|---|---|")
     print(f"| BeltSorter-v0 + gnn (kf-ca) + TrackingMetrics | {loop_fps:.0f} |")

@@ -6,8 +6,10 @@ walk), so every model matrix is ``A_axis ⊗ I_D`` for a per-axis block ``A_axis
 is the position, ``H = [I_D, 0]``.
 
 The pure functions :func:`kf_predict`, :func:`kf_update` and :func:`measurement_prediction` work
-on ``n`` tracks at once (matmul / solve over the leading axis, no Python loop over tracks);
-:class:`KalmanPredictor` wraps them in the :class:`~predictors.base.Predictor` protocol.
+on ``n`` tracks at once, each one compiled loop over the tracks (:mod:`predictors._kalman_kernels`,
+no Python per track); :class:`KalmanPredictor` wraps the same kernels in the
+:class:`~predictors.base.Predictor` protocol, its ``predict`` fusing the prediction and the
+predicted measurement into one call.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from predictors import _kalman_kernels as _kernels
 from predictors.base import BatchState
 from track_envs.types import FloatArray, Gaussian, SensorSpec
 
@@ -36,8 +39,29 @@ DEFAULT_Q: dict[str, float] = {"cv": 1.0, "ca": 300.0, "random-walk": 0.02}
 R_FLOOR = 1e-12
 
 
-def _symmetrise(cov: FloatArray) -> FloatArray:
-    return 0.5 * (cov + np.swapaxes(cov, -1, -2))
+def _f64(a: NDArray[np.floating]) -> FloatArray:
+    """``a`` as a C-contiguous float64 array (no copy when it already is one), for the kernels."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _checked_shapes(
+    mean: FloatArray,
+    cov: FloatArray,
+    model: dict[str, FloatArray],
+    z: FloatArray | None = None,
+) -> None:
+    """Raise ``ValueError`` unless ``mean`` (n, S), ``cov`` (n, S, S), the ``model`` matrices
+    (``F``, ``Q``: (S, S); ``H``: (D, S); ``R``: (D, D)) and ``z`` (n, D) agree."""
+    if mean.ndim != 2 or cov.shape != (len(mean), mean.shape[1], mean.shape[1]):
+        raise ValueError(f"mean must be (n, S) and cov (n, S, S), got {mean.shape} and {cov.shape}")
+    n, S = mean.shape
+    D = model["H"].shape[0] if "H" in model else 0
+    expected = {"F": (S, S), "Q": (S, S), "H": (D, S), "R": (D, D)}
+    for name, matrix in model.items():
+        if matrix.shape != expected[name]:
+            raise ValueError(f"{name} must have shape {expected[name]} for S={S}, got {matrix.shape}")
+    if z is not None and z.shape != (n, D):
+        raise ValueError(f"z must have shape ({n}, {D}), got {z.shape}")
 
 
 def kf_predict(
@@ -56,11 +80,11 @@ def kf_predict(
         Q: Process-noise covariance per step, shape (S, S).
 
     Returns:
-        ``(x⁻ (n, S), P⁻ (n, S, S))``; ``P⁻`` is symmetrised, ``(P⁻ + P⁻ᵀ)/2``.
+        ``(x⁻ (n, S), P⁻ (n, S, S))``; ``P⁻`` is exactly symmetric (its upper triangle mirrored).
     """
-    mean_p = mean @ F.T
-    cov_p = F @ cov @ F.T + Q
-    return mean_p, _symmetrise(cov_p)
+    mean, cov, F, Q = _f64(mean), _f64(cov), _f64(F), _f64(Q)
+    _checked_shapes(mean, cov, {"F": F, "Q": Q})
+    return _kernels.predict_tracks(mean, cov, F, Q)
 
 
 def kf_update(
@@ -76,15 +100,15 @@ def kf_update(
         x^+ = x + K y, \\qquad
         P^+ = (I - K H) P (I - K H)^\\top + K R K^\\top \\quad(\\text{Joseph form}),
 
-    with ``Kᵀ = S⁻¹ H P`` from a batched Cholesky and two solves (in closed form for D = 2, where
-    ``S⁻¹ = [[c, −b], [−b, a]] / (ac − b²)``); the Joseph form is evaluated expanded as
-    ``P − KHP − (KHP)ᵀ + K S Kᵀ`` (equal to it for any ``K``) and symmetrised. Unlike
-    ``(I − KH)P`` it keeps ``P⁺`` positive semi-definite under rounding.
+    with ``Kᵀ = S⁻¹ H P`` from a Cholesky factor and two triangular solves per track; the Joseph
+    form is evaluated expanded as ``P − KHP − (KHP)ᵀ + K S Kᵀ`` (equal to it for any ``K``) and
+    symmetrised. Unlike ``(I − KH)P`` it keeps ``P⁺`` positive semi-definite under rounding.
+    (One compiled loop over the tracks, :func:`predictors._kalman_kernels.update_tracks`.)
 
     Args:
         mean: Predicted means ``x``, shape (n, S).
         cov: Predicted covariances ``P``, shape (n, S, S), symmetric.
-        z: Measurements, shape (n, D).
+        z: Measurements, shape (n, D), finite.
         H: Measurement matrix, shape (D, S).
         R: Measurement-noise covariance, shape (D, D), positive definite.
 
@@ -92,37 +116,24 @@ def kf_update(
         ``(x⁺ (n, S), P⁺ (n, S, S))``.
 
     Raises:
+        ValueError: if the shapes disagree or a row of ``z`` holds NaN or inf.
         numpy.linalg.LinAlgError: if some innovation covariance ``S`` is not positive definite.
     """
-    HP = H @ cov  # (n, D, S)
-    S = _symmetrise(HP @ H.T + R)  # (n, D, D)
-    Kt = _solve_innovation(S, HP)  # (n, D, S) = S⁻¹ H P
-    K = np.swapaxes(Kt, -1, -2)  # (n, S, D)
-    y = z - mean @ H.T  # (n, D)
-    mean_u = mean + (K @ y[..., None])[..., 0]
-    # Joseph form expanded: (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − KHP − (KHP)ᵀ + K S Kᵀ
-    KHP = K @ HP
-    cov_u = cov - KHP - np.swapaxes(KHP, -1, -2) + K @ (S @ Kt)
-    return mean_u, _symmetrise(cov_u)
+    mean, cov, z, H, R = _f64(mean), _f64(cov), _f64(z), _f64(H), _f64(R)
+    _checked_shapes(mean, cov, {"H": H, "R": R}, z)
+    return _checked_update(mean, cov, z, np.ones(len(z), dtype=np.bool_), H, R)
 
 
-def _solve_innovation(S: FloatArray, HP: FloatArray) -> FloatArray:
-    """``S⁻¹ HP`` for a batch of SPD ``S`` (n, D, D): closed form for D = 2, else Cholesky solves.
-
-    Raises:
-        numpy.linalg.LinAlgError: if some ``S`` is not positive definite.
-    """
-    if S.shape[-1] != 2:
-        L = np.linalg.cholesky(S)
-        return np.linalg.solve(np.swapaxes(L, -1, -2), np.linalg.solve(L, HP))
-    a, b, c = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-    det = a * c - b * b
-    if np.any(~(a > 0) | ~(det > 0)):
-        raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
-    out = np.empty_like(HP)
-    out[:, 0] = (c[:, None] * HP[:, 0] - b[:, None] * HP[:, 1]) / det[:, None]
-    out[:, 1] = (a[:, None] * HP[:, 1] - b[:, None] * HP[:, 0]) / det[:, None]
-    return out
+def _checked_update(
+    mean: FloatArray, cov: FloatArray, z: FloatArray, seen: NDArray[np.bool_], H: FloatArray, R: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`~predictors._kalman_kernels.update_tracks`, its status turned into an exception."""
+    mean_u, cov_u, status, row = _kernels.update_tracks(mean, cov, z, seen, H, R)
+    if status == _kernels.UPDATE_NONFINITE_Z:
+        raise ValueError(f"z must be finite in the rows where seen is True; row {row} is {z[row].tolist()}")
+    if status == _kernels.UPDATE_NOT_PD:
+        raise np.linalg.LinAlgError(f"innovation covariance S of track {row} is not positive definite")
+    return mean_u, cov_u
 
 
 def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: FloatArray) -> Gaussian:
@@ -135,9 +146,14 @@ def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: 
         R: Measurement-noise covariance, shape (D, D).
 
     Returns:
-        A :class:`~track_envs.types.Gaussian` with mean (n, D) and cov (n, D, D) (symmetrised).
+        A :class:`~track_envs.types.Gaussian` with mean (n, D) and cov (n, D, D) (exactly symmetric).
+
+    Raises:
+        ValueError: if the shapes disagree.
     """
-    return Gaussian(mean @ H.T, _symmetrise(H @ cov @ H.T + R))
+    mean, cov, H, R = _f64(mean), _f64(cov), _f64(H), _f64(R)
+    _checked_shapes(mean, cov, {"H": H, "R": R})
+    return Gaussian(*_kernels.project_tracks(mean, cov, H, R))
 
 
 def _check_model_args(dim: int, dt: float, q: float) -> None:
@@ -332,8 +348,10 @@ class KalmanPredictor:
         if self._v0 is not None and self._v0.shape != (spec.dim,):
             raise ValueError(f"initial_velocity must have length D={spec.dim}, got shape {self._v0.shape}")
         D = spec.dim
-        self.F, self.Q, self.H = _kinematic_model(self.order, D, spec.dt, self.q)
+        F, Q, H = _kinematic_model(self.order, D, spec.dt, self.q)
+        self.F, self.Q, self.H = _f64(F), _f64(Q), _f64(H)
         self.R: FloatArray = np.eye(D) * max(spec.noise_std**2, R_FLOOR)
+        self._no_noise = np.zeros((D, D))
         self.dim = D
         self.state_dim = self.order * D
         self._spec = spec
@@ -349,15 +367,18 @@ class KalmanPredictor:
             raise ValueError(f"z must have shape ({rows}, D={self.dim}), got {zz.shape}")
         return zz
 
-    def _check_state(self, state: KalmanState) -> None:
+    def _check_state(self, state: KalmanState) -> tuple[FloatArray, FloatArray]:
+        """``state``'s mean and covariance as C-contiguous float64, after checking their shapes."""
         if not isinstance(state, KalmanState):
             raise ValueError(f"state must be a KalmanState, got {type(state).__name__}")
-        n, S = len(state), self.state_dim
-        if state.mean.shape != (n, S) or state.cov.shape != (n, S, S):
+        mean, cov = _f64(state.mean), _f64(state.cov)
+        S = self.state_dim
+        if mean.ndim != 2 or mean.shape[1] != S or cov.shape != (mean.shape[0], S, S):
             raise ValueError(
                 f"state must have mean (n, {S}) and cov (n, {S}, {S}) for model {self.model!r} "
-                f"in D={self.dim}, got {state.mean.shape} and {state.cov.shape}"
+                f"in D={self.dim}, got {mean.shape} and {cov.shape}"
             )
+        return mean, cov
 
     def start(
         self,
@@ -405,9 +426,8 @@ class KalmanPredictor:
     def estimate(self, state: KalmanState) -> Gaussian:
         """Current measurement-space estimate of every track, ``N(H x, H P Hᵀ)`` (no noise added)."""
         self._need_reset()
-        self._check_state(state)
-        H = self.H
-        return Gaussian(state.mean @ H.T, H @ state.cov @ H.T)
+        mean, cov = self._check_state(state)
+        return Gaussian(*_kernels.project_tracks(mean, cov, self.H, self._no_noise))
 
     def predict(self, state: KalmanState) -> tuple[KalmanState, Gaussian]:
         """Move every track one frame on (:func:`kf_predict`).
@@ -416,9 +436,11 @@ class KalmanPredictor:
             The predicted state and the predicted measurement ``N(H x⁻, H P⁻ Hᵀ + R)``.
         """
         self._need_reset()
-        self._check_state(state)
-        mean, cov = kf_predict(state.mean, state.cov, self.F, self.Q)
-        return KalmanState(mean, cov), measurement_prediction(mean, cov, self.H, self.R)
+        mean, cov = self._check_state(state)
+        mean_p, cov_p, z_mean, z_cov = _kernels.predict_and_project_tracks(
+            mean, cov, self.F, self.Q, self.H, self.R
+        )
+        return KalmanState(mean_p, cov_p), Gaussian(z_mean, z_cov)
 
     def update(self, state: KalmanState, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> KalmanState:
         """Correct the tracks with ``seen`` True by their rows of ``z`` (:func:`kf_update`).
@@ -432,18 +454,10 @@ class KalmanPredictor:
             seen: Boolean mask, shape (n,).
         """
         self._need_reset()
-        self._check_state(state)
-        n = len(state)
-        zz = self._check_z(z, n)
-        mask = np.asarray(seen)
+        mean, cov = self._check_state(state)
+        n = mean.shape[0]
+        zz = _f64(self._check_z(z, n))
+        mask = np.ascontiguousarray(seen)
         if mask.shape != (n,) or mask.dtype != np.bool_:
             raise ValueError(f"seen must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
-        rows = np.flatnonzero(mask)
-        z_seen = zz[rows]
-        if not np.all(np.isfinite(z_seen)):
-            raise ValueError("z must be finite in the rows where seen is True")
-        mean = np.array(state.mean, dtype=np.float64, copy=True)
-        cov = np.array(state.cov, dtype=np.float64, copy=True)
-        if rows.size:
-            mean[rows], cov[rows] = kf_update(mean[rows], cov[rows], z_seen, self.H, self.R)
-        return KalmanState(mean, cov)
+        return KalmanState(*_checked_update(mean, cov, zz, mask, self.H, self.R))

@@ -70,7 +70,7 @@ def sense_points(
     """
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
-    uniform = rng.random(n)
+    uniform = rng.random(size=(n,))
     noise = rng.standard_normal(size=(n, dim))
     z, source = _detect(x, np.asarray(ids, dtype=np.int64), uniform, noise, p_detect, noise_std)
     k = int(rng.poisson(clutter_rate)) if clutter_rate > 0 else 0

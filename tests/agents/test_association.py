@@ -1,4 +1,5 @@
-"""Association: cost against a direct formula, gating, Hungarian vs brute force, greedy, edge cases."""
+"""Association: cost against a direct formula, gating, Hungarian vs brute force, greedy, edge cases,
+and the compiled one-pass gate-and-assign against the two-step numpy path."""
 
 from __future__ import annotations
 
@@ -10,7 +11,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
 
-from agents.association import assign_greedy, assign_hungarian, chi2_gate, mahalanobis_cost
+from agents import _association_kernels
+from agents.association import (
+    assign_greedy,
+    assign_hungarian,
+    associate_greedy,
+    associate_hungarian,
+    chi2_gate,
+    mahalanobis_cost,
+)
+from track_envs.assignment import lone_pairs
 from track_envs.types import Gaussian
 
 
@@ -107,3 +117,107 @@ def test_greedy_can_be_worse_than_hungarian():
     greedy_total = cost[r, c].sum()
     r, c = assign_hungarian(cost, 20.0)
     assert cost[r, c].sum() < greedy_total
+
+
+# -- the compiled gate-and-assign path -------------------------------------------------------
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_mahalanobis_cost_matches_the_formula_in_every_dimension(dim):
+    rng = np.random.default_rng(dim)
+    pred = random_gaussians(rng, 6, dim)
+    z = rng.normal(size=(5, dim))
+    cost = mahalanobis_cost(pred, z)
+    ref = np.einsum(
+        "nmi,nij,nmj->nm", z[None] - pred.mean[:, None], np.linalg.inv(pred.cov), z[None] - pred.mean[:, None]
+    )
+    np.testing.assert_allclose(cost, ref, rtol=1e-10)
+
+
+def test_mahalanobis_cost_names_a_covariance_that_is_not_positive_definite():
+    pred = random_gaussians(np.random.default_rng(0), 3)
+    pred.cov[1] = -pred.cov[1]
+    with pytest.raises(np.linalg.LinAlgError, match="track 1 is not positive definite"):
+        mahalanobis_cost(pred, np.zeros((2, 2)))
+    with pytest.raises(np.linalg.LinAlgError, match="track 1"):
+        associate_hungarian(pred, np.zeros((2, 2)), 1.0)
+
+
+def clustered_frame(rng, n, m, dim, spread):
+    """Predictions and detections around 1–12 centres: clusters where rows compete for columns,
+    lone pairs where a centre has one of each."""
+    k = int(rng.integers(1, 13))
+    centres = rng.uniform(size=(k, dim))
+    pred = Gaussian(
+        centres[rng.integers(k, size=n)] + rng.normal(scale=spread, size=(n, dim)),
+        np.broadcast_to(np.eye(dim) * spread**2, (n, dim, dim)) * rng.uniform(0.5, 2.0, size=(n, 1, 1)),
+    )
+    z = centres[rng.integers(k, size=m)] + rng.normal(scale=spread, size=(m, dim))
+    return pred, z
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    n=st.integers(0, 12),
+    m=st.integers(0, 12),
+    dim=st.sampled_from([1, 2, 3]),
+    spread=st.sampled_from([1e-3, 0.05, 0.3]),
+    seed=st.integers(0, 10_000),
+)
+def test_gated_costs_split_the_pairs_as_lone_pairs_does(n, m, dim, spread, seed):
+    pred, z = clustered_frame(np.random.default_rng(seed), n, m, dim, spread)
+    gate = chi2_gate(0.999, dim)
+    cost, lone_rows, lone_cols, rest_rows, rest_cols, bad = _association_kernels.gated_costs(
+        np.ascontiguousarray(pred.mean), np.ascontiguousarray(pred.cov), z, gate
+    )
+    assert bad == -1
+    np.testing.assert_array_equal(cost, mahalanobis_cost(pred, z))
+    if n and m:
+        (ref_rows, ref_cols), ref_rest_rows, ref_rest_cols = lone_pairs(mahalanobis_cost(pred, z) <= gate)
+    else:  # lone_pairs needs both sides; nothing is admissible
+        ref_rows = ref_cols = ref_rest_rows = ref_rest_cols = np.zeros(0, dtype=np.int64)
+    for got, ref in [
+        (lone_rows, ref_rows),
+        (lone_cols, ref_cols),
+        (rest_rows, ref_rest_rows),
+        (rest_cols, ref_rest_cols),
+    ]:
+        np.testing.assert_array_equal(got, ref)
+    if len(rest_rows):  # the solver's problem [C | M] with one finite stand-in for gated entries
+        sub = cost[np.ix_(rest_rows, rest_cols)]
+        k, ok = len(rest_rows), sub <= gate
+        big = 2.0 * (gate + 1.0) * (k + 1) + np.abs(sub[ok]).max()
+        expected = np.hstack([np.where(ok, sub, big), np.where(np.eye(k, dtype=bool), gate, big)])
+        problem = _association_kernels.rest_problem(cost, gate, rest_rows, rest_cols)
+        np.testing.assert_array_equal(problem, expected)
+    # and the one-pass association gives the pairs of the two-step one, exactly
+    for associate, assign in [(associate_hungarian, assign_hungarian), (associate_greedy, assign_greedy)]:
+        rows, cols = associate(pred, z, gate)
+        ref_r, ref_c = assign(mahalanobis_cost(pred, z), gate)
+        np.testing.assert_array_equal(rows, ref_r)
+        np.testing.assert_array_equal(cols, ref_c)
+        assert rows.dtype == cols.dtype == np.int64
+
+
+@pytest.mark.parametrize(("n", "m"), [(0, 0), (0, 4), (4, 0)])
+def test_one_pass_association_of_empty_frames(n, m):
+    pred = random_gaussians(np.random.default_rng(0), n)
+    for associate in (associate_hungarian, associate_greedy):
+        rows, cols = associate(pred, np.zeros((m, 2)), 13.8)
+        assert rows.shape == cols.shape == (0,)
+
+
+def test_one_pass_association_of_an_all_gated_frame():
+    pred = Gaussian(np.zeros((3, 2)), np.broadcast_to(np.eye(2) * 1e-6, (3, 2, 2)))
+    rows, cols = associate_hungarian(pred, np.full((4, 2), 5.0), 13.8)
+    assert len(rows) == len(cols) == 0
+
+
+def test_detections_of_another_dimension_are_named():
+    pred = random_gaussians(np.random.default_rng(0), 3)
+    for call in (
+        lambda: mahalanobis_cost(pred, np.zeros((4, 3))),
+        lambda: associate_hungarian(pred, np.zeros(4), 1.0),
+    ):
+        with pytest.raises(ValueError, match=r"z must have shape \(m, D=2\)"):
+            call()

@@ -9,10 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import track_envs  # noqa: F401
-from agents import make_agent
+from agents import _gnn_kernels, make_agent
+from agents.gnn import YOUNG_STREAK
 from predictors import available_predictors
+from predictors.kalman import KalmanPredictor
 from track_envs.metrics.belt import AssociationErrors
-from track_envs.types import SensorSpec
+from track_envs.types import Gaussian, SensorSpec
 
 
 def run(env, agent, frames, seed=0):
@@ -193,4 +195,54 @@ def test_a_fixed_velocity_prior_array_is_accepted():
     """Regression: an array velocity_prior crashed on the first frame with tracks."""
     env = gym.make("BeltReplay-v0")
     result = run(env, make_agent("gnn", predictor="kf-cv", velocity_prior=np.array([1.2, 0.0])), 40)
+    assert result["e2"] < 0.05
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 8), m=st.integers(0, 8), max_misses=st.integers(0, 3), seed=st.integers(0, 10_000))
+def test_frame_upkeep_kernel_equals_the_numpy_formulation(n, m, max_misses, seed):
+    rng = np.random.default_rng(seed)
+    det = np.full(n, -1, dtype=np.int64)
+    k = int(rng.integers(0, min(n, m) + 1))
+    det[rng.choice(n, size=k, replace=False)] = rng.choice(m, size=k, replace=False)
+    misses = rng.integers(0, 4, size=n)
+    streak = rng.integers(0, 8, size=n)
+    predicted = rng.uniform(-0.5, 1.5, size=(n, 2))
+    low, high = np.zeros(2), np.ones(2)
+    seen, new_misses, new_streak, keep, n_keep, young, n_young, unused = _gnn_kernels.frame_upkeep(
+        det, misses, streak, predicted, low, high, max_misses, YOUNG_STREAK, m
+    )
+    ref_seen = det >= 0
+    ref_misses = np.where(ref_seen, 0, misses + 1)
+    ref_streak = np.where(ref_seen, streak + 1, 0)
+    inside = np.all((predicted >= low) & (predicted <= high), axis=1)
+    ref_keep = (ref_misses <= max_misses) & (inside | ref_seen)
+    ref_young = ref_seen & (ref_streak >= YOUNG_STREAK[0]) & (ref_streak <= YOUNG_STREAK[1])
+    used = np.zeros(m, dtype=bool)
+    used[det[ref_seen]] = True
+    for got, ref in [
+        (seen, ref_seen),
+        (new_misses, ref_misses),
+        (new_streak, ref_streak),
+        (keep, ref_keep),
+        (young, ref_young),
+        (unused, np.flatnonzero(~used)),
+    ]:
+        np.testing.assert_array_equal(got, ref)
+        assert got.dtype == ref.dtype
+    assert (n_keep, n_young) == (ref_keep.sum(), ref_young.sum())
+
+
+class Float32Predictions(KalmanPredictor):
+    """A protocol predictor whose predicted measurements are float32 and not contiguous."""
+
+    def predict(self, state):
+        state, prediction = super().predict(state)
+        mean = np.asfortranarray(prediction.mean.astype(np.float32))
+        return state, Gaussian(mean, prediction.cov.astype(np.float32).transpose(0, 2, 1))
+
+
+def test_any_protocol_predictor_works_with_the_compiled_frame():
+    env = gym.make("BeltReplay-v0")
+    result = run(env, make_agent("gnn", predictor=Float32Predictions("cv")), 60)
     assert result["e2"] < 0.05
