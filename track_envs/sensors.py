@@ -2,7 +2,8 @@
 
 For targets at true positions ``x_i`` (n, D) one frame of detections is drawn as
 
-* target ``i`` is detected with probability ``p_detect`` (independent Bernoulli trials);
+* target ``i`` is detected with probability ``p_detect`` (independent Bernoulli trials, no draw
+  when ``p_detect = 1``);
 * a detection of target ``i`` is ``z = x_i + v``, ``v ~ N(0, noise_std² I_D)``;
 * ``K ~ Poisson(clutter_rate)`` clutter detections, uniform over the clutter box.
 
@@ -70,7 +71,8 @@ def sense_points(
     """
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
-    uniform = rng.random(size=(n,))
+    # a certain detection needs no draw
+    uniform = rng.random(size=(n,)) if p_detect < 1.0 else np.zeros(n)
     noise = rng.standard_normal(size=(n, dim))
     z, source = _detect(x, np.asarray(ids, dtype=np.int64), uniform, noise, p_detect, noise_std)
     k = int(rng.poisson(clutter_rate)) if clutter_rate > 0 else 0

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.optimize import linear_sum_assignment
+from scipy.spatial.distance import cdist
 
 from track_envs.metrics.gospa import gospa
 
@@ -50,8 +52,61 @@ def test_matches_the_definition(m, n, seed, c):
     assert gospa(x, y, c).distance == pytest.approx(brute_force(x, y, c, 2.0), rel=1e-9, abs=1e-12)
 
 
+def dense_oracle(x, y, c, p):
+    """GOSPA^p = c^p/2 (m + n) + min over matchings of Σ (d^p − c^p) over pairs with d < c, solved
+    densely by scipy (pairs at d >= c priced 0, i.e. left unassigned).
+
+    Returns (GOSPA, Σ d^p over the assigned close pairs, their number)."""
+    m, n = len(x), len(y)
+    if m == 0 or n == 0:
+        return (c**p / 2 * (m + n)) ** (1 / p), 0.0, 0
+    d = cdist(x, y)
+    gain = np.where(d < c, d**p - c**p, 0.0)
+    rows, cols = linear_sum_assignment(gain)
+    total = c**p / 2 * (m + n) + gain[rows, cols].sum()
+    close = d[rows, cols] < c
+    return max(total, 0.0) ** (1 / p), float((d[rows, cols][close] ** p).sum()), int(close.sum())
+
+
+def point_sets(rng, kind):
+    m, n, dims = rng.integers(0, 60), rng.integers(0, 60), rng.integers(1, 4)
+    if kind == 0:  # crowded: every truth has several estimates within c
+        x = rng.uniform(0, 3, (m, dims))
+        return x, rng.uniform(0, 3, (n, dims))
+    if kind == 1:  # a grid: ties, and pairs exactly at the cut-off
+        return rng.integers(0, 6, (m, dims)) * 0.5, rng.integers(0, 6, (n, dims)) * 0.5
+    if kind == 2:  # tracking-like: estimates near their truths, some clutter and misses
+        x = rng.uniform(0, 30, (m, dims))
+        near = x[rng.permutation(m)[: min(m, n)]] + rng.normal(0, 0.2, (min(m, n), dims))
+        return x, np.concatenate([near, rng.uniform(0, 30, (n - len(near), dims))])
+    return rng.uniform(0, 1, (m, dims)), rng.uniform(100, 101, (n, dims))  # all far apart
+
+
+@settings(max_examples=120, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(0, 3),
+    st.sampled_from([0.5, 1.0]),
+    st.sampled_from([1.0, 2.0, 3.0]),
+)
+def test_sparse_gospa_equals_a_dense_assignment(seed, kind, c, p):
+    """Lone pairs taken directly, the rest assigned: the optimum of the dense problem."""
+    x, y = point_sets(np.random.default_rng(seed), kind)
+    result = gospa(x, y, c, p)
+    expected, loc, pairs = dense_oracle(x, y, c, p)
+    assert result.distance == pytest.approx(expected, rel=1e-12, abs=1e-12)
+    assert result.missed - result.false == len(x) - len(y)
+    if kind != 1:  # without ties the optimum, hence the decomposition, is unique
+        assert (result.missed, result.false) == (len(x) - pairs, len(y) - pairs)
+        assert result.localisation == pytest.approx(loc, rel=1e-12, abs=1e-15)
+
+
 def test_bad_parameters_are_named():
     with pytest.raises(ValueError, match="cut-off c"):
         gospa(np.zeros((1, 2)), np.zeros((1, 2)), c=0.0)
+    with pytest.raises(ValueError, match="cut-off c"):
+        gospa(np.zeros((1, 2)), np.zeros((1, 2)), c=np.inf)
     with pytest.raises(ValueError, match="order p"):
         gospa(np.zeros((1, 2)), np.zeros((1, 2)), c=1.0, p=0.5)
+    with pytest.raises(ValueError, match="same D"):
+        gospa(np.zeros((1, 2)), np.zeros((1, 3)), c=1.0)

@@ -346,9 +346,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
 def _padded(values: NDArray, m: int, shape: tuple[int, ...], fill: Any, dtype: Any) -> NDArray:
     """The first ``m`` rows of ``values`` in a new array of ``shape``, the rest ``fill``."""
-    out = np.empty(shape, dtype=dtype)
+    out = np.zeros(shape, dtype=dtype) if fill == 0 else np.full(shape, fill, dtype=dtype)
     out[:m] = values[:m]
-    out[m:] = fill
     return out
 
 

@@ -43,6 +43,41 @@ class Metric(Protocol):
         ...
 
 
+def truth_arrays(
+    truth: Mapping[str, NDArray],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
+    """The padded ``info["truth"]`` arrays as compiled kernels take them: ids (max_targets,) int64,
+    positions (max_targets, D) C-contiguous float64, visible (max_targets,) bool (no copies when
+    they already are)."""
+    return (
+        np.ascontiguousarray(truth["ids"], dtype=np.int64),
+        np.ascontiguousarray(truth["positions"], dtype=np.float64),
+        np.ascontiguousarray(truth["visible"], dtype=np.bool_),
+    )
+
+
+def report_arrays(
+    report: Mapping[str, NDArray],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int8]]:
+    """The padded report arrays as compiled kernels take them: ids (max_tracks,) int64, positions
+    (max_tracks, *P) C-contiguous float64, detection (max_tracks,) int64, mask (max_tracks,) int8
+    (see :func:`report_mask`)."""
+    return (
+        np.ascontiguousarray(report["ids"], dtype=np.int64),
+        np.ascontiguousarray(report["positions"], dtype=np.float64),
+        np.ascontiguousarray(report["detection"], dtype=np.int64),
+        report_mask(report),
+    )
+
+
+def report_mask(report: Mapping[str, NDArray]) -> NDArray[np.int8]:
+    """``report["mask"]`` as a contiguous int8 array that is 1 exactly where the mask equals 1."""
+    mask = np.asarray(report["mask"])
+    if mask.dtype != np.int8:
+        mask = (mask == 1).astype(np.int8)
+    return np.ascontiguousarray(mask)
+
+
 def live_truth(truth: Mapping[str, NDArray]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Ids (m,) and positions (m, D) of the real, visible truth rows of ``info["truth"]``."""
     ids = np.asarray(truth["ids"], dtype=np.int64)
@@ -59,61 +94,3 @@ def live_report(
     positions = np.asarray(report["positions"], dtype=np.float64)[keep]
     detection = np.asarray(report["detection"], dtype=np.int64)[keep]
     return ids, positions, detection
-
-
-class KeyCounter:
-    """A streaming multiset of integer key rows (``width`` int64 columns) with their counts.
-
-    Frames append arrays; they are merged with :func:`numpy.unique` lazily (when read, or once
-    ``compact_every`` arrays are pending), so memory grows with the number of distinct keys,
-    not with the number of frames.
-    """
-
-    def __init__(self, width: int, compact_every: int = 256) -> None:
-        self.width = width
-        self.compact_every = compact_every
-        self._keys = np.zeros((0, width), dtype=np.int64)
-        self._counts = np.zeros(0, dtype=np.int64)
-        self._pending: list[NDArray[np.int64]] = []
-
-    def add(self, keys: NDArray[np.integer]) -> None:
-        """Count each row of ``keys`` (n, width) once; a 1-D array is read as one column."""
-        arr = np.asarray(keys, dtype=np.int64).reshape(-1, self.width)
-        if len(arr):
-            self._pending.append(arr)
-            if len(self._pending) >= self.compact_every:
-                self._compact()
-
-    def counts(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """Distinct key rows (m, width), sorted lexicographically, and how often each was added (m,)."""
-        self._compact()
-        return self._keys, self._counts
-
-    def _compact(self) -> None:
-        if not self._pending:
-            return
-        new = np.concatenate(self._pending)
-        keys = np.concatenate([self._keys, new])
-        weights = np.concatenate([self._counts, np.ones(len(new), dtype=np.int64)])
-        self._keys, inverse = _unique_rows(keys)
-        self._counts = np.bincount(inverse, weights=weights, minlength=len(self._keys)).astype(np.int64)
-        self._pending = []
-
-
-_PACK_LIMIT = 1 << 31
-
-
-def _unique_rows(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.intp]]:
-    """Distinct rows of ``keys`` (sorted lexicographically) and the inverse map.
-
-    Rows of two non-negative columns below 2³¹ are packed into one int64 (``a·2³² + b``, same
-    order), which sorts an order of magnitude faster than ``np.unique(axis=0)``.
-    """
-    if keys.shape[1] == 1:
-        unique, inverse = np.unique(keys[:, 0], return_inverse=True)
-        return unique[:, None], inverse.reshape(-1)
-    if keys.shape[1] == 2 and len(keys) and keys.min() >= 0 and keys.max() < _PACK_LIMIT:
-        packed, inverse = np.unique((keys[:, 0] << 32) | keys[:, 1], return_inverse=True)
-        return np.stack([packed >> 32, packed & (_PACK_LIMIT * 2 - 1)], axis=1), inverse.reshape(-1)
-    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-    return unique, inverse.reshape(-1)

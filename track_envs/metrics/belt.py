@@ -29,9 +29,33 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import KeyCounter, live_report
+from track_envs.metrics.base import report_mask
+from track_envs.metrics.key_table import KeyTable, add_entry
+
+
+@njit(cache=True)
+def _add_frame(
+    sources: NDArray[np.int64],
+    track_ids: NDArray[np.int64],
+    rows: NDArray[np.int64],
+    mask: NDArray[np.int8],
+    particle_index: NDArray[np.int64],
+    particle_entries: NDArray[np.int64],
+    pair_index: NDArray[np.int64],
+    pair_entries: NDArray[np.int64],
+) -> None:
+    """Add the frame's particles and (track id, particle id) pairs to the two key sets."""
+    n_sources = len(sources)
+    for s in sources:
+        if s >= 0:
+            add_entry(particle_index, particle_entries, s, 0)
+    for k in range(len(mask)):
+        r = rows[k]
+        if mask[k] == 1 and 0 <= r < n_sources and sources[r] >= 0:
+            add_entry(pair_index, pair_entries, track_ids[k], sources[r])
 
 
 class AssociationErrors:
@@ -39,8 +63,9 @@ class AssociationErrors:
 
     Each frame contributes the (track id, particle id) pairs of the report rows (mask 1) whose
     ``detection`` row holds a real measurement (``detection_ids[row] >= 0``); coasting rows
-    (−1), rows pointing outside the detections and clutter rows are ignored. Pairs are kept as a
-    streaming set and reduced with :func:`numpy.unique` at :meth:`compute` time.
+    (−1), rows pointing outside the detections and clutter rows are ignored. Pairs and particles
+    are kept as hash sets (:class:`~track_envs.metrics.key_table.KeyTable`) updated by a compiled
+    kernel per frame, so memory grows with the number of distinct pairs, not frames.
 
     Duplicate track ids in one frame are merged: a track is its id, so two rows with the same id
     are the same track (two particles behind one id make an error of the first kind). A track
@@ -54,8 +79,8 @@ class AssociationErrors:
 
     def reset(self) -> None:
         """Forget every frame (start a new episode)."""
-        self._pairs = KeyCounter(2)
-        self._particles = KeyCounter(1)
+        self._pairs = KeyTable(n_values=0)  # (track id, particle id)
+        self._particles = KeyTable(n_values=0)  # (particle id, 0)
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
@@ -70,19 +95,27 @@ class AssociationErrors:
             report: The report answering the frame.
         """
         del truth
-        sources = np.asarray(detection_ids, dtype=np.int64)
-        self._particles.add(np.unique(sources[sources >= 0]))
-        track_ids, _, rows = live_report(report)
-        ok = (rows >= 0) & (rows < len(sources))
-        particle = np.full(len(rows), -1, dtype=np.int64)
-        particle[ok] = sources[rows[ok]]
-        real = particle >= 0
-        self._pairs.add(np.unique(np.stack([track_ids[real], particle[real]], axis=1), axis=0))
+        sources = np.ascontiguousarray(detection_ids, dtype=np.int64).reshape(-1)
+        track_ids = np.ascontiguousarray(report["ids"], dtype=np.int64)
+        rows = np.ascontiguousarray(report["detection"], dtype=np.int64)
+        mask = report_mask(report)
+        self._particles.reserve(len(sources))
+        self._pairs.reserve(len(mask))
+        _add_frame(
+            sources,
+            track_ids,
+            rows,
+            mask,
+            self._particles.index,
+            self._particles.entries,
+            self._pairs.index,
+            self._pairs.entries,
+        )
 
     def compute(self) -> dict[str, float]:
         """``{"e1", "e2", "e_mean", "n_tracks", "n_particles"}`` over every frame added."""
-        pairs, _ = self._pairs.counts()
-        particles = self._particles.counts()[0][:, 0]
+        pairs = self._pairs.stored_keys()
+        particles = np.sort(self._particles.stored_keys()[:, 0])
         _, per_track = np.unique(pairs[:, 0], return_counts=True)
         n_tracks = len(per_track)
         e1 = float(np.count_nonzero(per_track > 1)) / n_tracks if n_tracks else 0.0

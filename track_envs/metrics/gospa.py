@@ -9,10 +9,22 @@ and estimates ``Y`` (n points) is
     d_p^{(c,2)}(X, Y) = \\Big( \\min_{\\gamma} \\sum_{(i,j) \\in \\gamma} d(x_i, y_j)^p
         + \\frac{c^p}{2} \\big(|X| + |Y| - 2|\\gamma|\\big) \\Big)^{1/p}
 
-where ``γ`` ranges over partial assignments whose pairs are closer than ``c``. Equivalently (and
-how it is computed here) assign ``min(m, n)`` pairs optimally with cost ``min(d, c)^p`` and add
-``c^p / 2 · |m − n|``: a pair at ``d ≥ c`` costs ``c^p``, exactly one miss plus one false target.
-Track identities play no part, so duplicate ids are distinct hypotheses.
+where ``γ`` ranges over partial assignments whose pairs are closer than ``c``. Equivalently,
+with ``γ`` ranging over matchings of the admissible pairs (``d^p <= c^p``; a pair at
+``d^p = c^p`` gains nothing either way),
+
+.. math::
+
+    d_p^{(c,2)}(X, Y)^p = \\frac{c^p}{2} (m + n) - \\max_{\\gamma} \\sum_{(i,j) \\in \\gamma}
+        \\big(c^p - d(x_i, y_j)^p\\big).
+
+Computed sparsely (:mod:`track_envs.metrics.close_pairs`): only pairs within ``c`` exist. A pair
+alone in its row and its column (a *lone pair*) is in every optimal assignment, since taking it
+gains ``c^p − d^p >= 0`` and blocks nothing; only the rows and columns left with several
+admissible partners go to a dense min-cost assignment with one miss column per row
+(``[C | diag(c^p)]``, inadmissible entries a finite stand-in larger than any feasible total),
+solved by :func:`~track_envs.metrics.shortest_augmenting_path.linear_sum_assignment`. Track
+identities play no part, so duplicate ids are distinct hypotheses.
 """
 
 from __future__ import annotations
@@ -20,9 +32,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
-from track_envs.assignment import min_cost_with_misses, pairwise_distances
+from track_envs.metrics.close_pairs import close_pairs
+from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
+from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
+from track_envs.metrics.summation import numpy_sum
+
+# pairs are searched slightly beyond c, then kept by the exact test d^p <= c^p
+_SEARCH_MARGIN = 1e-9
 
 
 @dataclass(frozen=True)
@@ -42,6 +61,154 @@ class GospaResult:
     false: int
 
 
+@njit(cache=True)
+def _solve_rest(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    cost: NDArray[np.float64],
+    rest_rows: NDArray[np.int64],
+    rest_cols: NDArray[np.int64],
+    n_cols: int,
+    gate: float,
+    col_of: NDArray[np.int64],
+) -> None:
+    """Assign the non-lone rows by ``[C | diag(gate)]`` (C: costs of admissible pairs, else ``big``)."""
+    nr, nc = len(rest_rows), len(rest_cols)
+    sub_col = np.full(n_cols, -1, dtype=np.int64)
+    for k in range(nc):
+        sub_col[rest_cols[k]] = k
+    largest = 0.0
+    for r in range(nr):
+        i = rest_rows[r]
+        for e in range(ptr[i], ptr[i + 1]):
+            if sub_col[cols[e]] >= 0:
+                largest = max(largest, abs(cost[e]))
+    big = 2.0 * (abs(gate) + 1.0) * (nr + 1) + largest
+    full = np.full((nr, nc + nr), big)
+    admissible = np.zeros((nr, nc), dtype=np.bool_)
+    for r in range(nr):
+        i = rest_rows[r]
+        for e in range(ptr[i], ptr[i + 1]):
+            k = sub_col[cols[e]]
+            if k >= 0:
+                full[r, k] = cost[e]
+                admissible[r, k] = True
+        full[r, nc + r] = gate
+    rows, picked = linear_sum_assignment(full)
+    for t in range(len(rows)):
+        r, k = rows[t], picked[t]
+        if k < nc and admissible[r, k]:
+            col_of[rest_rows[r]] = rest_cols[k]
+
+
+@njit(cache=True)
+def gospa_core(
+    x: NDArray[np.float64], y: NDArray[np.float64], c: float, p: float, cp: float
+) -> tuple[float, int]:
+    """Localisation ``Σ d^p`` and number of assigned pairs closer than ``c`` (``cp = c ** p``)."""
+    m, n = x.shape[0], y.shape[0]
+    if m == 0 or n == 0:
+        return 0.0, 0
+    ptr, cols, dist = close_pairs(x, y, c * (1.0 + _SEARCH_MARGIN))
+    # keep the admissible pairs (d^p <= c^p), compacting the row-major lists in place
+    cost = np.empty(len(dist))
+    kept = 0
+    start = 0
+    for i in range(m):
+        end = ptr[i + 1]
+        for e in range(start, end):
+            d = dist[e]
+            w = d * d if p == 2.0 else d**p
+            if w <= cp:
+                cols[kept] = cols[e]
+                dist[kept] = d
+                cost[kept] = w
+                kept += 1
+        start = end
+        ptr[i + 1] = kept
+    row_count = np.zeros(m, dtype=np.int64)
+    col_count = np.zeros(n, dtype=np.int64)
+    for i in range(m):
+        row_count[i] = ptr[i + 1] - ptr[i]
+        for e in range(ptr[i], ptr[i + 1]):
+            col_count[cols[e]] += 1
+    # lone pairs: alone in their row and their column
+    col_of = np.full(m, -1, dtype=np.int64)
+    col_lone = np.zeros(n, dtype=np.bool_)
+    n_rest = 0
+    for i in range(m):
+        if row_count[i] == 1 and col_count[cols[ptr[i]]] == 1:
+            col_of[i] = cols[ptr[i]]
+            col_lone[cols[ptr[i]]] = True
+        elif row_count[i] > 0:
+            n_rest += 1
+    if n_rest:
+        rest_rows = np.empty(n_rest, dtype=np.int64)
+        k = 0
+        for i in range(m):
+            if row_count[i] > 0 and col_of[i] < 0:
+                rest_rows[k] = i
+                k += 1
+        n_rest_cols = 0
+        for j in range(n):
+            if col_count[j] > 0 and not col_lone[j]:
+                n_rest_cols += 1
+        rest_cols = np.empty(n_rest_cols, dtype=np.int64)
+        k = 0
+        for j in range(n):
+            if col_count[j] > 0 and not col_lone[j]:
+                rest_cols[k] = j
+                k += 1
+        _solve_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
+    # Σ d^p over the assigned pairs closer than c, in row order (numpy's summation order)
+    close_cost = np.empty(m)
+    n_close = 0
+    for i in range(m):
+        j = col_of[i]
+        if j < 0:
+            continue
+        for e in range(ptr[i], ptr[i + 1]):
+            if cols[e] == j:
+                if dist[e] < c:
+                    close_cost[n_close] = cost[e]
+                    n_close += 1
+                break
+    return numpy_sum(close_cost[:n_close]), n_close
+
+
+@njit(cache=True)
+def gospa_frame(
+    truth_ids: NDArray[np.int64],
+    truth_positions: NDArray[np.float64],
+    visible: NDArray[np.bool_],
+    report_ids: NDArray[np.int64],
+    report_positions: NDArray[np.float64],
+    report_mask: NDArray[np.int8],
+    c: float,
+    p: float,
+    cp: float,
+) -> tuple[float, int, int, int]:
+    """GOSPA terms of a padded frame: ``(Σ d^p, pairs, m visible truths, n reported rows)``."""
+    _, x = live_truth_rows(truth_ids, truth_positions, visible)
+    _, y = live_report_rows(report_ids, report_positions, report_mask)
+    loc, pairs = gospa_core(x, y, c, p, cp)
+    return loc, pairs, x.shape[0], y.shape[0]
+
+
+def check_gospa_parameters(c: float, p: float) -> None:
+    """Raise ``ValueError`` naming ``c`` or ``p`` unless ``0 < c < inf`` and ``1 <= p < inf``."""
+    if not 0 < c < np.inf:
+        raise ValueError(f"GOSPA cut-off c must be > 0 and finite, got {c!r}")
+    if not 1 <= p < np.inf:
+        raise ValueError(f"GOSPA order p must be >= 1 and finite, got {p!r}")
+
+
+def gospa_result(loc: float, pairs: int, m: int, n: int, c: float, p: float) -> GospaResult:
+    """Assemble :class:`GospaResult` from the localisation sum and the number of close pairs."""
+    total = loc + c**p / 2 * (m + n - 2 * pairs)
+    return GospaResult(total ** (1 / p), loc, m - pairs, n - pairs)
+
+
 def gospa(
     truth: NDArray[np.floating], estimates: NDArray[np.floating], c: float, p: float = 2.0
 ) -> GospaResult:
@@ -50,27 +217,20 @@ def gospa(
     Args:
         truth: True positions, (m, D).
         estimates: Estimated positions, (n, D).
-        c: Cut-off distance, > 0.
-        p: Order, >= 1.
+        c: Cut-off distance, > 0 and finite.
+        p: Order, >= 1 and finite.
+
+    Raises:
+        ValueError: on a bad ``c`` or ``p``, or (both sets non-empty) points that are not (m, D)
+            and (n, D) with the same D.
     """
-    if not c > 0:
-        raise ValueError(f"GOSPA cut-off c must be > 0, got {c!r}")
-    if not p >= 1:
-        raise ValueError(f"GOSPA order p must be >= 1, got {p!r}")
-    x = np.asarray(truth, dtype=np.float64)
-    y = np.asarray(estimates, dtype=np.float64)
+    check_gospa_parameters(c, p)
+    x = np.ascontiguousarray(truth, dtype=np.float64)
+    y = np.ascontiguousarray(estimates, dtype=np.float64)
     m, n = len(x), len(y)
-    cp = c**p
     if m == 0 or n == 0:
-        total = cp / 2 * (m + n)
-        return GospaResult(total ** (1 / p), 0.0, m, n)
-    d = pairwise_distances(x, y)
-    cost = d * d if p == 2 else d**p
-    # pairs at d >= c cost as much as a miss plus a false target: assign only closer pairs,
-    # each worth c^p − d^p (the objective of min_cost_with_misses with gate c^p)
-    rows, cols = min_cost_with_misses(cost, cp)
-    close = d[rows, cols] < c
-    loc = float(cost[rows, cols][close].sum())
-    n_pairs = int(close.sum())
-    total = loc + cp / 2 * (m + n - 2 * n_pairs)
-    return GospaResult(total ** (1 / p), loc, m - n_pairs, n - n_pairs)
+        return gospa_result(0.0, 0, m, n, c, p)
+    if x.ndim != 2 or y.ndim != 2 or x.shape[1] != y.shape[1]:
+        raise ValueError(f"GOSPA needs points (m, D) and (n, D) with the same D, got {x.shape} and {y.shape}")
+    loc, pairs = gospa_core(x, y, float(c), float(p), float(c) ** float(p))
+    return gospa_result(loc, pairs, m, n, c, p)

@@ -20,8 +20,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import live_report, live_truth
-from track_envs.metrics.gospa import gospa
+from track_envs.metrics.base import report_arrays, truth_arrays
+from track_envs.metrics.gospa import check_gospa_parameters, gospa_frame
 
 
 class GospaMetric:
@@ -30,22 +30,20 @@ class GospaMetric:
     Track identities play no part: duplicate ids are distinct estimates.
 
     Args:
-        c: Cut-off distance in sensor units, > 0.
-        p: Order, >= 1.
+        c: Cut-off distance in sensor units, > 0 and finite.
+        p: Order, >= 1 and finite.
     """
 
     def __init__(self, c: float, p: float = 2.0) -> None:
-        if not c > 0:
-            raise ValueError(f"GOSPA cut-off c must be > 0, got {c!r}")
-        if not p >= 1:
-            raise ValueError(f"GOSPA order p must be >= 1, got {p!r}")
+        check_gospa_parameters(c, p)
         self.c = float(c)
         self.p = float(p)
+        self._cp = self.c**self.p
         self.reset()
 
     def reset(self) -> None:
         """Forget every frame (start a new episode)."""
-        self._sums = np.zeros(4)  # distance, localisation, missed, false
+        self._sums = [0.0, 0.0, 0.0, 0.0]  # distance, localisation, missed, false
         self._frames = 0
 
     def update(
@@ -53,16 +51,26 @@ class GospaMetric:
     ) -> None:
         """Add one frame from ``info["truth"]`` and the report (``detection_ids`` is unused)."""
         del detection_ids
-        _, x = live_truth(truth)
-        _, y, _ = live_report(report)
-        r = gospa(x, y, self.c, self.p)
-        self._sums += (r.distance, r.localisation, r.missed, r.false)
+        truth_ids, x, visible = truth_arrays(truth)
+        report_ids, y, _, mask = report_arrays(report)
+        if x.ndim != 2 or y.ndim != 2 or x.shape[1] != y.shape[1]:
+            raise ValueError(
+                "GospaMetric scores point reports (max_tracks, D) against truth (max_targets, D); got "
+                f"report positions {y.shape} and truth {x.shape}"
+            )
+        loc, pairs, m, n = gospa_frame(truth_ids, x, visible, report_ids, y, mask, self.c, self.p, self._cp)
+        total = loc + self._cp / 2 * (m + n - 2 * pairs)  # as gospa_result, without the dataclass
+        sums = self._sums
+        sums[0] += total ** (1 / self.p)
+        sums[1] += loc
+        sums[2] += m - pairs
+        sums[3] += n - pairs
         self._frames += 1
 
     def compute(self) -> dict[str, float]:
         """``gospa``, ``gospa_localisation``, ``gospa_missed``, ``gospa_false`` (means per frame),
         ``n_frames``; the means are NaN before the first frame."""
-        mean = self._sums / self._frames if self._frames else np.full(4, np.nan)
+        mean = np.asarray(self._sums) / self._frames if self._frames else np.full(4, np.nan)
         return {
             "gospa": float(mean[0]),
             "gospa_localisation": float(mean[1]),

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from track_envs.metrics import AssociationErrors, Metric
 
@@ -144,3 +146,24 @@ def test_streaming_matches_set_oracle_and_reset():
     assert 0 < e1 < 1 and 0 < e2 < 1
     metric.reset()
     assert metric.compute()["n_tracks"] == 0.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_random_streams_match_the_set_oracle(seed):
+    """Clutter, coasting, out-of-range rows, duplicate track ids, reused ids, empty frames."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for _ in range(rng.integers(0, 40)):
+        n_sources = rng.integers(0, MAX_DET + 1)
+        sources = np.where(rng.random(n_sources) < 0.2, -1, rng.choice(30, n_sources, replace=False))
+        tracks = [
+            (int(rng.integers(0, 8)), int(rng.integers(-1, MAX_DET + 3)))
+            for _ in range(rng.integers(0, MAX_TRACKS + 1))
+        ]
+        frames.append((sources, tracks))
+    out = score(frames)
+    e1, e2, n_tracks, n_particles = by_sets(frames)
+    assert (out["e1"], out["e2"], out["n_tracks"], out["n_particles"]) == pytest.approx(
+        (e1, e2, n_tracks, n_particles), rel=1e-15
+    )

@@ -41,3 +41,15 @@ def test_streaming_gospa_is_the_mean_of_per_frame_gospa():
     assert np.isnan(metric.compute()["gospa"])
     with pytest.raises(ValueError, match="cut-off"):
         GospaMetric(c=0.0)
+
+
+def test_reports_that_are_not_points_are_rejected():
+    truth = {"ids": np.arange(3), "positions": np.zeros((3, 2)), "visible": np.ones(3, bool)}
+    report: dict[str, np.ndarray] = {
+        "ids": np.arange(2),
+        "positions": np.zeros((2, 17, 2)),
+        "detection": np.full(2, -1),
+        "mask": np.ones(2, np.int8),
+    }
+    with pytest.raises(ValueError, match=r"point reports .*\(2, 17, 2\)"):
+        GospaMetric(c=1.0).update(truth, np.full(4, -1), report)

@@ -1,0 +1,288 @@
+"""The per-frame CLEAR MOT events of py-motmetrics' ``MOTAccumulator.update``, as one compiled kernel.
+
+The frame arrives as truth ids ``oids`` (m,), track ids ``hids`` (n,) and its *possible* pairs in
+row-major sparse form (``ptr``, ``cols``, ``dist``: row ``i``'s possible tracks and distances; every
+other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetrics v1.4:
+
+1. **Carry over**: in row order, a truth matched before takes the first not yet taken track
+   carrying its last matched id, if that pair is possible.
+2. **Assign the rest**: the remaining rows and columns are matched maximising the number of pairs,
+   then minimising their summed distance (motmetrics prices impossible pairs at
+   ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
+   m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
+   column belongs to every such optimum, so when all remaining possible pairs are lone pairs the
+   optimum is unique and is taken directly. Otherwise the matrix motmetrics builds is solved by
+   the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`), so ties are broken as
+   motmetrics breaks them. In row order, a match whose truth was last matched to another id is
+   an ID switch.
+3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
+   missed since its previous match is a fragmentation.
+
+State lives in two :class:`~track_envs.metrics.key_table.KeyTable` tables: per truth id the last
+matched track id, matched-ever, missed-since-match and the last frame it appeared in; per (truth
+id, track id) the number of frames the pair was possible (for IDF1). Counters are one int64 array
+(:data:`COUNTERS`) and the summed match distance a compensated sum.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from track_envs.metrics.key_table import add_entry, free_entries, hash_slot
+from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
+from track_envs.metrics.summation import neumaier_add
+
+COUNTERS = (
+    "frames",
+    "objects",
+    "predictions",
+    "matches",
+    "switches",
+    "misses",
+    "false_positives",
+    "frag",
+    "truth_frames",  # Σ over frames of the distinct truth ids in the frame
+    "track_frames",  # Σ over frames of the distinct track ids in the frame
+)
+(
+    FRAMES,
+    OBJECTS,
+    PREDICTIONS,
+    MATCHES,
+    SWITCHES,
+    MISSES,
+    FALSE_POSITIVES,
+    FRAG,
+    TRUTH_FRAMES,
+    TRACK_FRAMES,
+) = range(len(COUNTERS))
+# payload columns of the truth table (entries[:, 2:]): last track id, matched ever, missed since
+# the last match, last frame seen; and of the pair table: frames the pair was possible
+TRUTH_VALUES = 4
+_LAST, _MATCHED, _GAP, _SEEN = 2, 3, 4, 5
+_TOGETHER = 2
+
+
+@njit(cache=True)
+def _columns_by_id(hids: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
+    """A per-frame hash index of the track ids: ``(head, next_col, distinct)``.
+
+    ``head`` (open addressing over ``len(head)`` slots, a power of two) holds, for each distinct
+    id, its first column; ``next_col[j]`` is the next column with the same id as column ``j``
+    (−1 after the last), so the columns of an id are visited in ascending order.
+    """
+    n = len(hids)
+    n_slots = 2
+    while n_slots < 2 * n:
+        n_slots *= 2
+    mask = n_slots - 1
+    head = np.full(n_slots, -1, dtype=np.int64)
+    next_col = np.full(n, -1, dtype=np.int64)
+    distinct = 0
+    for j in range(n - 1, -1, -1):
+        h = hids[j]
+        s = hash_slot(h, 0, mask)
+        while head[s] >= 0 and hids[head[s]] != h:
+            s = (s + 1) & mask
+        if head[s] >= 0:
+            next_col[j] = head[s]
+        else:
+            distinct += 1
+        head[s] = j
+    return head, next_col, distinct
+
+
+@njit(cache=True)
+def _first_free_column(
+    hids: NDArray[np.int64],
+    head: NDArray[np.int64],
+    next_col: NDArray[np.int64],
+    col_taken: NDArray[np.bool_],
+    h: int,
+) -> int:
+    """The first column carrying track id ``h`` that is not taken yet, −1 if there is none."""
+    mask = len(head) - 1
+    s = hash_slot(h, 0, mask)
+    while head[s] >= 0 and hids[head[s]] != h:
+        s = (s + 1) & mask
+    j = head[s]
+    while j >= 0 and col_taken[j]:
+        j = next_col[j]
+    return j
+
+
+@njit(cache=True)
+def _possible(ptr: NDArray[np.int64], cols: NDArray[np.int64], i: int, j: int) -> int:
+    """Position of pair (i, j) in the row-major lists, −1 if it is impossible."""
+    for e in range(ptr[i], ptr[i + 1]):
+        if cols[e] == j:
+            return e
+    return -1
+
+
+@njit(cache=True)
+def _assign_like_motmetrics(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    row_taken: NDArray[np.bool_],
+    col_taken: NDArray[np.bool_],
+    n_cols: int,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Step 2 on the whole matrix as motmetrics builds it: possible pairs of free rows and columns.
+
+    Returns the possible pairs of scipy's assignment, rows ascending.
+    """
+    m = len(row_taken)
+    valid = np.zeros((m, n_cols), dtype=np.bool_)
+    costs = np.zeros((m, n_cols))
+    n_valid = 0
+    largest = 0.0
+    for i in range(m):
+        if row_taken[i]:
+            continue
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                valid[i, cols[e]] = True
+                costs[i, cols[e]] = dist[e]
+                n_valid += 1
+                largest = max(largest, abs(dist[e]))
+    if n_valid < m * n_cols:  # motmetrics' add_expensive_edges
+        large = float(2 * min(m, n_cols)) * (largest + 1.0) + 1.0
+        for i in range(m):
+            for j in range(n_cols):
+                if not valid[i, j]:
+                    costs[i, j] = large
+    rows, picked = linear_sum_assignment(costs)
+    keep = np.zeros(len(rows), dtype=np.bool_)
+    for t in range(len(rows)):
+        keep[t] = valid[rows[t], picked[t]]
+    return rows[keep], picked[keep]
+
+
+@njit(cache=True)
+def frame_events(
+    oids: NDArray[np.int64],
+    hids: NDArray[np.int64],
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    truth_index: NDArray[np.int64],
+    truth_entries: NDArray[np.int64],
+    pair_index: NDArray[np.int64],
+    pair_entries: NDArray[np.int64],
+    counts: NDArray[np.int64],
+    dist_sum: NDArray[np.float64],
+) -> int:
+    """Add one frame's events to the state.
+
+    Returns:
+        −1 when done; otherwise nothing was changed and the value is the number of possible pairs
+        (the pair table needs that many free entries, the truth table ``len(oids)``).
+    """
+    m, n = len(oids), len(hids)
+    nnz = ptr[m]
+    if free_entries(truth_index, truth_entries) < m or free_entries(pair_index, pair_entries) < nnz:
+        return nnz
+    frame = counts[FRAMES] + 1
+    # truth rows in the state; each distinct truth id counted once per frame
+    slot = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        s = add_entry(truth_index, truth_entries, oids[i], 0)
+        slot[i] = s
+        if truth_entries[s, _SEEN] != frame:
+            truth_entries[s, _SEEN] = frame
+            counts[TRUTH_FRAMES] += 1
+    # track ids by id (each distinct one counted once per frame)
+    head, next_col, distinct = _columns_by_id(hids)
+    counts[TRACK_FRAMES] += distinct
+    # co-occurrences of possible pairs (IDF1)
+    for i in range(m):
+        for e in range(ptr[i], ptr[i + 1]):
+            p = add_entry(pair_index, pair_entries, oids[i], hids[cols[e]])
+            pair_entries[p, _TOGETHER] += 1
+    match_i = np.empty(min(m, n), dtype=np.int64)
+    match_e = np.empty(min(m, n), dtype=np.int64)
+    n_match = 0
+    n_switch = 0
+    row_taken = np.zeros(m, dtype=np.bool_)
+    col_taken = np.zeros(n, dtype=np.bool_)
+    if m > 0 and n > 0:
+        # 1. carry over previous matches
+        for i in range(m):
+            s = slot[i]
+            if truth_entries[s, _MATCHED] == 0:
+                continue
+            j = _first_free_column(hids, head, next_col, col_taken, truth_entries[s, _LAST])
+            if j < 0:
+                continue
+            e = _possible(ptr, cols, i, j)
+            if e >= 0:
+                row_taken[i] = True
+                col_taken[j] = True
+                match_i[n_match] = i
+                match_e[n_match] = e
+                n_match += 1
+        # 2. the rest: lone pairs directly, anything else as motmetrics solves it
+        col_free_count = np.zeros(n, dtype=np.int64)
+        for i in range(m):
+            if not row_taken[i]:
+                for e in range(ptr[i], ptr[i + 1]):
+                    if not col_taken[cols[e]]:
+                        col_free_count[cols[e]] += 1
+        all_lone = True
+        lone_e = np.full(m, -1, dtype=np.int64)
+        for i in range(m):
+            if row_taken[i]:
+                continue
+            n_free = 0
+            for e in range(ptr[i], ptr[i + 1]):
+                if not col_taken[cols[e]]:
+                    n_free += 1
+                    lone_e[i] = e
+            if n_free > 1 or (n_free == 1 and col_free_count[cols[lone_e[i]]] > 1):
+                all_lone = False
+                break
+        if all_lone:
+            rest_i = np.flatnonzero(lone_e >= 0)
+            rest_e = lone_e[rest_i]
+        else:
+            rows, picked = _assign_like_motmetrics(ptr, cols, dist, row_taken, col_taken, n)
+            rest_i = rows
+            rest_e = np.empty(len(rows), dtype=np.int64)
+            for t in range(len(rows)):
+                rest_e[t] = _possible(ptr, cols, rows[t], picked[t])
+        for t in range(len(rest_i)):
+            i, e = rest_i[t], rest_e[t]
+            s = slot[i]
+            h = hids[cols[e]]
+            if truth_entries[s, _MATCHED] == 1 and truth_entries[s, _LAST] != h:
+                n_switch += 1
+            truth_entries[s, _LAST] = h
+            truth_entries[s, _MATCHED] = 1
+            row_taken[i] = True
+            match_i[n_match] = i
+            match_e[n_match] = e
+            n_match += 1
+    # 3. counts, distances, fragmentations
+    counts[FRAMES] = frame
+    counts[OBJECTS] += m
+    counts[PREDICTIONS] += n
+    counts[SWITCHES] += n_switch
+    counts[MATCHES] += n_match - n_switch
+    counts[MISSES] += m - n_match
+    counts[FALSE_POSITIVES] += n - n_match
+    for t in range(n_match):
+        neumaier_add(dist_sum, dist[match_e[t]])
+        s = slot[match_i[t]]
+        if truth_entries[s, _GAP] == 1:
+            counts[FRAG] += 1
+            truth_entries[s, _GAP] = 0
+    for i in range(m):
+        if not row_taken[i]:
+            s = slot[i]
+            if truth_entries[s, _MATCHED] == 1:
+                truth_entries[s, _GAP] = 1
+    return -1
