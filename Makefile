@@ -42,3 +42,4 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache
+	find track_envs predictors agents -name '*.nbi' -o -name '*.nbc' | xargs rm -f

@@ -1,4 +1,4 @@
-"""Sparse-aware linear assignment shared by the metrics and the trackers.
+"""Sparse-aware linear assignment with misses, for the trackers.
 
 Tracking problems are sparse: after gating, most rows have one admissible column, and most of
 those columns have only that row. Such *lone pairs* belong to every optimal assignment (for the
@@ -12,19 +12,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
-from scipy.spatial.distance import cdist
 
 Pairs = tuple[NDArray[np.int64], NDArray[np.int64]]
 EMPTY_PAIRS: Pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-
-
-def pairwise_distances(x: NDArray[np.floating], y: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Euclidean distances (m, n) between points ``x`` (m, D) and ``y`` (n, D) (scipy's cdist)."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(x) == 0 or len(y) == 0:
-        return np.zeros((len(x), len(y)))
-    return cdist(x, y)
 
 
 def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], NDArray[np.intp]]:
@@ -92,25 +82,3 @@ def _solve_with_misses(cost: NDArray[np.floating], gate: float) -> Pairs:
     rows, cols = rows[keep], cols[keep]
     keep = admissible[rows, cols]
     return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
-
-
-def max_cardinality_min_cost(costs: NDArray[np.floating]) -> Pairs:
-    """Most pairs first, then least total cost; NaN or inf marks an impossible pair.
-
-    The objective of py-motmetrics' accumulator (its impossible pairs priced ``2 r c + 1``).
-    """
-    costs = np.asarray(costs, dtype=np.float64)
-    valid = np.isfinite(costs)
-    if costs.size == 0 or not valid.any():
-        return EMPTY_PAIRS
-    lone, rest_rows, rest_cols = lone_pairs(valid)
-    sub = costs[np.ix_(rest_rows, rest_cols)]
-    sub_valid = valid[np.ix_(rest_rows, rest_cols)]
-    if sub.size and sub_valid.any():
-        large = 2 * min(sub.shape) * (np.abs(sub[sub_valid]).max() + 1) + 1
-        r, c = linear_sum_assignment(np.where(sub_valid, sub, large))
-        keep = sub_valid[r, c]
-        rest = (rest_rows[r[keep]].astype(np.int64), rest_cols[c[keep]].astype(np.int64))
-    else:
-        rest = EMPTY_PAIRS
-    return _merge(lone, rest)
