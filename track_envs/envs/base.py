@@ -297,6 +297,11 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                 )
             self._dropped_targets += m - cap
             m = cap
+        return self._padded_truth(truth, m)
+
+    def _padded_truth(self, truth: Truth, m: int) -> dict[str, NDArray]:
+        """The first ``m`` targets of ``truth`` padded to ``max_targets`` rows (ids -1, the rest 0)."""
+        cap = self.max_targets
         packed = {
             "ids": _padded(truth.ids, m, (cap,), -1, np.int64),
             "positions": _padded(truth.positions, m, (cap, *self.position_shape), 0, np.float64),

@@ -164,3 +164,33 @@ def land(
         rows[r, 4] = landing[k, 2] * normal[i, 1]
         rows[r, 5] = 0.0
         truth[r] = first_id + i
+
+
+@njit(cache=True)
+def padded_state(
+    ids: NDArray[np.int64],
+    position: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    angle: NDArray[np.float64],
+    kind: NDArray[np.int64],
+    m: int,
+    rows: int,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_], NDArray, NDArray, NDArray]:
+    """The first ``m`` particles padded to ``rows``: ids (-1 on padding), positions, visible,
+    velocities, angles, kinds (0 on padding)."""
+    out_ids = np.full(rows, -1, np.int64)
+    out_position = np.zeros((rows, 2))
+    out_visible = np.zeros(rows, np.bool_)
+    out_velocity = np.zeros((rows, 2))
+    out_angle = np.zeros(rows)
+    out_kind = np.zeros(rows, np.int64)
+    for i in range(m):
+        out_ids[i] = ids[i]
+        out_position[i, 0] = position[i, 0]
+        out_position[i, 1] = position[i, 1]
+        out_visible[i] = True
+        out_velocity[i, 0] = velocity[i, 0]
+        out_velocity[i, 1] = velocity[i, 1]
+        out_angle[i] = angle[i]
+        out_kind[i] = kind[i]
+    return out_ids, out_position, out_visible, out_velocity, out_angle, out_kind

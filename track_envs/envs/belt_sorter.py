@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
 from track_envs.sensors import check_non_negative, check_positive, check_probability, sense_points
 from track_envs.types import SensorSpec
@@ -167,6 +168,21 @@ class BeltSorterEnv(TrackingEnv):
             clutter_low=self._clutter_low,
             clutter_high=self._clutter_high,
         )
+
+    def _padded_truth(self, truth: Truth, m: int) -> dict[str, NDArray]:
+        """The base class's padding in one compiled call (every particle in the window is visible)."""
+        e = truth.extra
+        ids, positions, visible, velocities, angles, kinds = padded_state(
+            truth.ids, truth.positions, e["velocities"], e["angles"], e["kinds"], m, self.max_targets
+        )
+        return {
+            "ids": ids,
+            "positions": positions,
+            "visible": visible,
+            "velocities": velocities,
+            "angles": angles,
+            "kinds": kinds,
+        }
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
