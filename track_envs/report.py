@@ -28,6 +28,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 REPORT_KEYS = ("ids", "positions", "detection", "mask")
+_REPORT_KEY_SET = frozenset(REPORT_KEYS)
 ID_LIMIT = 2**62
 
 
@@ -149,7 +150,7 @@ def validate_report(
         raise ValueError(
             f"the action must be a report dict with keys {REPORT_KEYS}, got {type(report).__name__}"
         )
-    if len(report) != len(REPORT_KEYS) or any(k not in report for k in REPORT_KEYS):
+    if report.keys() != _REPORT_KEY_SET:
         missing = [k for k in REPORT_KEYS if k not in report]
         extra = [k for k in report if k not in REPORT_KEYS]
         raise ValueError(f"report keys must be {REPORT_KEYS}; missing {missing}, unexpected {extra}")

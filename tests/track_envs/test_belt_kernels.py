@@ -11,6 +11,7 @@ from track_envs.envs.belt_kernels import (
     NOT_PARTICLE,
     PARKED,
     belt_friction,
+    land,
     park_exits,
     take_parked,
     window_state,
@@ -100,3 +101,25 @@ def test_walls_travel_with_the_ground_frame_and_stay_in_place() -> None:
     assert walls.position.x == pytest.approx(-world.travel, abs=1e-9)
     assert world.travel == pytest.approx(world.params.belt_speed * world.time, rel=1e-9)
     assert walls.velocity.x == -world.params.belt_speed
+
+
+def test_landing_is_all_or_nothing_and_lands_in_the_belt_frame() -> None:
+    truth = np.array([PARKED, 3, PARKED, PARKED, NOT_PARTICLE])
+    row_kind = np.array([0, 0, 1, 0, 0])
+    rows = np.zeros((5, 6))
+    landing = np.array([[0.85, 0.06, 0.07, 0.3], [0.99, 0.06, 0.065, 0.0]])
+    half = np.array([0.005, 0.0025])
+    geometry = np.array([-0.08, 0.04, 0.18, 2.0, 1.44])  # drop_x, spread, width, travel, belt speed
+    uniform = np.array([[0.5, 0.25], [1.0, 0.0], [0.0, 1.0]])
+    normal = np.array([[1.0, -1.0, 0.5], [0.0, 0.0, 0.0], [-2.0, 2.0, 1.0]])
+    # three kind-1 particles but only one kind-1 body parked: nothing changes
+    before = rows.copy(), truth.copy()
+    assert not land(rows, truth, row_kind, np.array([1, 1, 1]), uniform, normal, landing, half, geometry, 10)
+    np.testing.assert_array_equal(rows, before[0])
+    np.testing.assert_array_equal(truth, before[1])
+    assert land(rows, truth, row_kind, np.array([0, 1, 0]), uniform, normal, landing, half, geometry, 10)
+    assert truth.tolist() == [10, 3, 11, 12, NOT_PARTICLE]
+    # ground frame x = -0.08 - 0.04 u0, stored minus the travel; v_x stored minus the belt speed
+    np.testing.assert_allclose(rows[0], [-0.10 - 2.0, 0.005 + 0.17 * 0.25, 0.3 * 0.5, 0.91 - 1.44, -0.07, 0])
+    np.testing.assert_allclose(rows[2, [0, 1, 3]], [-0.12 - 2.0, 0.0025, 0.99 - 1.44])
+    np.testing.assert_allclose(rows[3, [0, 1, 2]], [-0.08 - 2.0, 0.175, 0.3])

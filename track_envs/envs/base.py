@@ -32,6 +32,7 @@ from gymnasium import spaces
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.metrics.gospa import gospa
 from track_envs.report import Report, report_space, validate_report
 from track_envs.types import SensorSpec
 
@@ -157,8 +158,6 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
     def _score(self, truth: Truth, report: Report) -> float:
         """Reward of ``report``: −GOSPA (c = ``gospa_c``, p = 2, α = 2) against the visible targets."""
-        from track_envs.metrics.gospa import gospa
-
         visible = truth.positions[truth.visible]
         return -gospa(visible, report.positions, self.gospa_c, 2.0).distance
 

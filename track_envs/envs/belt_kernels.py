@@ -135,25 +135,34 @@ def window_state(
 def land(
     rows: NDArray[np.float64],
     truth: NDArray[np.int64],
-    targets: NDArray[np.int64],
+    row_kind: NDArray[np.int64],
     kinds: NDArray[np.int64],
     uniform: NDArray[np.float64],
     normal: NDArray[np.float64],
     landing: NDArray[np.float64],
     half_size: NDArray[np.float64],
-    drop_x: float,
-    drop_spread: float,
-    width: float,
-    travel: float,
-    belt_speed: float,
+    geometry: NDArray[np.float64],
     first_id: int,
-) -> None:
-    """Land particle ``i`` (kind ``kinds[i]``, truth id ``first_id + i``) on row ``targets[i]``.
+) -> bool:
+    """Land particle ``i`` (kind ``kinds[i]``, truth id ``first_id + i``) on a parked body of its
+    kind; return ``False`` and change nothing if too few bodies of some kind are parked.
 
     Ground frame: ``x = drop_x − drop_spread u₀``, ``y`` uniform between the walls less the
     half-size, ``v_x ~ N(chute_speed, chute_speed_std²)``, ``v_y ~ N(0, lateral_speed_std²)``,
     angle ``~ N(0, angle_std²)`` (``landing[k]`` holds those four figures); stored belt-frame.
+    ``geometry`` is ``(drop_x, drop_spread, window_width, travel, belt_speed)``.
     """
+    targets = take_parked(truth, row_kind, kinds)
+    for i in range(len(targets)):
+        if targets[i] < 0:
+            return False
+    drop_x, drop_spread, width, travel, belt_speed = (
+        geometry[0],
+        geometry[1],
+        geometry[2],
+        geometry[3],
+        geometry[4],
+    )
     for i in range(len(targets)):
         r, k = targets[i], kinds[i]
         half = half_size[k]
@@ -164,6 +173,7 @@ def land(
         rows[r, 4] = landing[k, 2] * normal[i, 1]
         rows[r, 5] = 0.0
         truth[r] = first_id + i
+    return True
 
 
 @njit(cache=True)

@@ -51,7 +51,6 @@ from track_envs.envs.belt_kernels import (
     land,
     park_exits,
     park_row,
-    take_parked,
     window_state,
 )
 
@@ -466,7 +465,8 @@ class BeltWorld:
         return int(self.rng.poisson(intensity))
 
     def _drop(self, count: int) -> None:
-        """Land ``count`` particles upstream of the window on parked bodies of their kinds."""
+        """Land ``count`` particles upstream of the window on parked bodies of their kinds (bodies
+        are added to the space first if too few of a kind are parked)."""
         p, rng = self.params, self.rng
         kind_idx = (
             rng.choice(len(self.kinds), size=count, p=self.kind_weights)
@@ -475,37 +475,17 @@ class BeltWorld:
         )
         uniform = rng.random((count, 2))
         normal = rng.normal(size=(count, 3))
-        targets = self._free_rows(kind_idx)
-        land(
-            self._rows,
-            self._row_truth,
-            targets,
-            kind_idx,
-            uniform,
-            normal,
-            self._landing,
-            self._half_size,
-            p.drop_x,
-            p.drop_spread,
-            p.window_width,
-            self.travel,
-            p.belt_speed,
-            self._next_id,
-        )
+        geometry = np.array([p.drop_x, p.drop_spread, p.window_width, self.travel, p.belt_speed])
+        args = (kind_idx, uniform, normal, self._landing, self._half_size, geometry, self._next_id)
+        while not land(self._rows, self._row_truth, self._row_kind, *args):
+            parked = (self._row_truth == PARKED)[:, None] & (
+                self._row_kind[:, None] == np.arange(len(self.kinds))
+            )
+            short = np.bincount(kind_idx, minlength=len(self.kinds)) - parked.sum(axis=0)
+            for k in np.flatnonzero(short > 0).tolist():
+                self._add_bodies(k, int(short[k]) + self.max_parked // (2 * len(self.kinds)))
         self._next_id += count
         self._n_parked -= count
-
-    def _free_rows(self, kind_idx: NDArray[np.int64]) -> NDArray[np.int64]:
-        """Rows of parked bodies for particles of kinds ``kind_idx``, adding bodies if needed."""
-        kind_idx = np.asarray(kind_idx, dtype=np.int64)
-        while True:
-            rows = take_parked(self._row_truth, self._row_kind, kind_idx)
-            missing = rows < 0
-            if not missing.any():
-                return rows
-            for k in np.unique(kind_idx[missing]).tolist():
-                need = int(np.count_nonzero(kind_idx[missing] == k))
-                self._add_bodies(k, need + self.max_parked // (2 * len(self.kinds)))
 
     # -- dynamics -----------------------------------------------------------------------------
     def step(self) -> None:
