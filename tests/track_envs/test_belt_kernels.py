@@ -14,6 +14,7 @@ from track_envs.envs.belt_kernels import (
     land,
     park_exits,
     take_parked,
+    window_rows,
     window_state,
 )
 from track_envs.report import empty_report
@@ -123,3 +124,13 @@ def test_landing_is_all_or_nothing_and_lands_in_the_belt_frame() -> None:
     np.testing.assert_allclose(rows[0], [-0.10 - 2.0, 0.005 + 0.17 * 0.25, 0.3 * 0.5, 0.91 - 1.44, -0.07, 0])
     np.testing.assert_allclose(rows[2, [0, 1, 3]], [-0.12 - 2.0, 0.0025, 0.99 - 1.44])
     np.testing.assert_allclose(rows[3, [0, 1, 2]], [-0.08 - 2.0, 0.175, 0.3])
+
+
+@pytest.mark.parametrize("ids", [[7, 5, 6, 9], [10**9, 5, 3 * 10**6, 7]])
+def test_window_rows_order_by_id_for_dense_and_sparse_ids(ids: list[int]) -> None:
+    truth = np.array([*ids, PARKED, NOT_PARTICLE])
+    rows = np.zeros((len(truth), 6))
+    rows[1, 0] = 5.0  # out of the window
+    got = window_rows(rows, truth, -1.0, 1.0)
+    inside = [r for r in range(len(ids)) if r != 1]
+    assert got.tolist() == sorted(inside, key=lambda r: ids[r])

@@ -88,15 +88,36 @@ def take_parked(truth: NDArray[np.int64], row_kind: NDArray[np.int64], kinds: ND
 def window_rows(
     rows: NDArray[np.float64], truth: NDArray[np.int64], x_low: float, x_high: float
 ) -> NDArray[np.int64]:
-    """Rows of the particles with belt-frame ``x_low <= x <= x_high``, ordered by truth id."""
+    """Rows of the particles with belt-frame ``x_low <= x <= x_high``, ordered by truth id.
+
+    Ids in view are nearly consecutive (they count landings), so they are placed by id into a
+    table spanning ``min..max`` (linear time); a sort is the fallback for a sparse span.
+    """
     n = 0
+    lowest, highest = np.iinfo(np.int64).max, -1
     picked = np.empty(len(truth), dtype=np.int64)
     for r in range(len(truth)):
-        if truth[r] >= 0 and x_low <= rows[r, 0] <= x_high:
+        t = truth[r]
+        if t >= 0 and x_low <= rows[r, 0] <= x_high:
             picked[n] = r
             n += 1
+            lowest = min(lowest, t)
+            highest = max(highest, t)
     picked = picked[:n]
-    return picked[np.argsort(truth[picked], kind="mergesort")]
+    if n == 0:
+        return picked
+    span = highest - lowest + 1
+    if span > 4 * n + 64:
+        return picked[np.argsort(truth[picked], kind="mergesort")]
+    slot = np.full(span, -1, dtype=np.int64)
+    for r in picked:
+        slot[truth[r] - lowest] = r
+    k = 0
+    for r in slot:
+        if r >= 0:
+            picked[k] = r
+            k += 1
+    return picked
 
 
 @njit(cache=True)
