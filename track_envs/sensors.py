@@ -71,10 +71,15 @@ def sense_points(
     """
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape
-    # a certain detection needs no draw
-    uniform = rng.random(size=(n,)) if p_detect < 1.0 else np.zeros(n)
-    noise = rng.standard_normal(size=(n, dim))
-    z, source = _detect(x, np.asarray(ids, dtype=np.int64), uniform, noise, p_detect, noise_std)
+    if p_detect < 1.0:
+        uniform = rng.random(size=(n,))
+        noise = rng.standard_normal(size=(n, dim))
+        z, source = _detect(x, np.asarray(ids, dtype=np.int64), uniform, noise, p_detect, noise_std)
+    else:  # a certain detection needs no draw
+        z = rng.standard_normal(size=(n, dim))
+        z *= noise_std
+        z += x
+        source = np.array(ids, dtype=np.int64)
     k = int(rng.poisson(clutter_rate)) if clutter_rate > 0 else 0
     if k:
         lo = np.asarray(clutter_low, dtype=np.float64)

@@ -47,12 +47,28 @@ class Truth:
         visible: (m,) bool, whether each target is in view of the sensor.
         extra: Further per-target arrays (m, ...) that go into ``info["truth"]`` by name
             (e.g. ``"velocities"``).
+        all_visible: ``True`` promises that every target is visible, so that consumers may skip
+            the mask (see :meth:`all_in_view`).
     """
 
     ids: NDArray[np.int64]
     positions: NDArray[np.float64]
     visible: NDArray[np.bool_]
     extra: dict[str, NDArray] = field(default_factory=dict)
+    all_visible: bool = False
+
+    @classmethod
+    def all_in_view(
+        cls, ids: NDArray[np.int64], positions: NDArray[np.float64], extra: dict[str, NDArray] | None = None
+    ) -> Truth:
+        """Truth of a frame whose every target is visible (the visible subset is the whole)."""
+        return cls(ids, positions, np.ones(len(ids), dtype=bool), extra or {}, all_visible=True)
+
+    def visible_part(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Ids and positions of the visible targets."""
+        if self.all_visible:
+            return self.ids, self.positions
+        return self.ids[self.visible], self.positions[self.visible]
 
 
 class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
@@ -107,8 +123,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
                 "mask": spaces.Box(0, 1, shape=(spec.max_detections,), dtype=np.int8),
             }
         )
-        lo = np.asarray(spec.region_low)
-        hi = np.asarray(spec.region_high)
+        lo = np.asarray(spec.region_low, dtype=np.float64)
+        hi = np.asarray(spec.region_high, dtype=np.float64)
+        self._clutter_low, self._clutter_high = lo, hi
         span = hi - lo
         self.action_space = report_space(
             spec.max_tracks,
@@ -145,20 +162,21 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         from track_envs.sensors import sense_points
 
         spec = self.sensor_spec
+        ids, positions = truth.visible_part()
         return sense_points(
-            truth.positions[truth.visible],
-            truth.ids[truth.visible],
+            positions,
+            ids,
             self.np_random,
             noise_std=spec.noise_std,
             p_detect=spec.p_detect,
             clutter_rate=spec.clutter_rate,
-            clutter_low=np.asarray(spec.region_low),
-            clutter_high=np.asarray(spec.region_high),
+            clutter_low=self._clutter_low,
+            clutter_high=self._clutter_high,
         )
 
     def _score(self, truth: Truth, report: Report) -> float:
         """Reward of ``report``: −GOSPA (c = ``gospa_c``, p = 2, α = 2) against the visible targets."""
-        visible = truth.positions[truth.visible]
+        _, visible = truth.visible_part()
         return -gospa(visible, report.positions, self.gospa_c, 2.0).distance
 
     def default_metrics(self) -> list[Any]:

@@ -110,12 +110,12 @@ def window_rows(
     if span > 4 * n + 64:
         return picked[np.argsort(truth[picked], kind="mergesort")]
     slot = np.full(span, -1, dtype=np.int64)
-    for r in picked:
-        slot[truth[r] - lowest] = r
+    for i in range(n):
+        slot[truth[picked[i]] - lowest] = picked[i]
     k = 0
-    for r in slot:
-        if r >= 0:
-            picked[k] = r
+    for j in range(span):
+        if slot[j] >= 0:
+            picked[k] = slot[j]
             k += 1
     return picked
 

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
-from track_envs.sensors import check_non_negative, check_positive, check_probability, sense_points
+from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -131,8 +131,6 @@ class BeltSorterEnv(TrackingEnv):
             truth_extra_shapes={"velocities": (2,), "angles": (), "kinds": ()},
             render_mode=render_mode,
         )
-        self._clutter_low = np.array(spec.region_low)
-        self._clutter_high = np.array(spec.region_high)
         self.world: BeltWorld | None = None
 
     # -- simulation ---------------------------------------------------------------------------
@@ -148,25 +146,8 @@ class BeltSorterEnv(TrackingEnv):
     def _truth(self) -> Truth:
         assert self.world is not None
         s = self.world.state((0.0, self.physics.window_length))
-        return Truth(
-            ids=s.ids,
-            positions=s.position,
-            visible=np.ones(len(s.ids), dtype=bool),
-            extra={"velocities": s.velocity, "angles": s.angle, "kinds": s.kind},
-        )
-
-    def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """Every particle of the truth is in the window: sense them all (no visibility mask)."""
-        spec = self.sensor_spec
-        return sense_points(
-            truth.positions,
-            truth.ids,
-            self.np_random,
-            noise_std=spec.noise_std,
-            p_detect=spec.p_detect,
-            clutter_rate=spec.clutter_rate,
-            clutter_low=self._clutter_low,
-            clutter_high=self._clutter_high,
+        return Truth.all_in_view(
+            s.ids, s.position, {"velocities": s.velocity, "angles": s.angle, "kinds": s.kind}
         )
 
     def _padded_truth(self, truth: Truth, m: int) -> dict[str, NDArray]:
