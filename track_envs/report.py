@@ -120,7 +120,7 @@ class Report:
 
 def _require(report: Mapping, key: str, shape: tuple[int, ...], kinds: str, what: str) -> NDArray:
     value = report[key]
-    arr = np.asarray(value)
+    arr = value if type(value) is np.ndarray else np.asarray(value)
     if arr.shape != shape:
         raise ValueError(f"report[{key!r}] must have shape {shape}, got {arr.shape}")
     if arr.dtype.kind not in kinds:
@@ -146,7 +146,7 @@ def validate_report(
     Raises:
         ValueError: naming the key, the expected shape or dtype, or the offending rows.
     """
-    if not isinstance(report, Mapping):
+    if type(report) is not dict and not isinstance(report, Mapping):
         raise ValueError(
             f"the action must be a report dict with keys {REPORT_KEYS}, got {type(report).__name__}"
         )
