@@ -7,7 +7,8 @@ cell)::
      "metrics": {"e1": ..., "mota": ..., ...},          # mean over the cell's episodes
      "episode_metrics": [{...}, ...],                  # only when episodes > 1
      "timing": {"wall_s": ..., "episode_s": ..., "frames": ..., "frames_per_s": ..., "host": ...},
-     "versions": {"track-envs": ..., "numpy": ..., "gymnasium": ..., "pymunk": ..., "python": ...}}
+     "versions": {"track-envs": ..., "numpy": ..., "gymnasium": ..., "pymunk": ...,
+                  "track-envs-source": ..., "python": ...}}
 
 Everything but ``"timing"`` depends only on the cell and the versions: the same seeds give the
 same metrics on every engine. Non-finite metric values are stored as the strings ``"nan"``,
@@ -28,6 +29,7 @@ Engines:
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -47,7 +49,9 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
-import track_envs  # noqa: F401  (registers the environments)
+import agents
+import predictors
+import track_envs  # registers the environments
 from agents import make_agent
 from agents.bench.cells import NO_PREDICTOR, Cell
 from track_envs.wrappers import TrackingMetrics
@@ -57,15 +61,29 @@ ENGINES = ("local", "ray")
 RAY_HINT = 'the ray engine needs ray: pip install "track-envs[ray]" (or pip install "ray>=2.40")'
 
 
+def source_digest(roots: list[Path]) -> str:
+    """A short SHA-256 over every ``*.py`` file under ``roots`` (relative path and content), so
+    that an edited checkout with an unchanged version number still counts as other code."""
+    digest = hashlib.sha256()
+    for root in roots:
+        for path in sorted(root.rglob("*.py")):
+            digest.update(path.relative_to(root.parent).as_posix().encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 @cache
 def versions() -> dict[str, str]:
-    """Versions of the packages that decide a record's values."""
+    """Versions of the packages that decide a record's values, and a digest of this project's
+    source (``track-envs-source``)."""
     out = {}
     for dist in ("track-envs", "numpy", "gymnasium", "pymunk"):
         try:
             out[dist] = metadata.version(dist)
         except metadata.PackageNotFoundError:
             out[dist] = "not installed"
+    packages = (track_envs, predictors, agents)
+    out["track-envs-source"] = source_digest([Path(str(m.__file__)).parent for m in packages])
     out["python"] = platform.python_version()
     return out
 

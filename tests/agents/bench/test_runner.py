@@ -45,7 +45,14 @@ def test_record_has_metrics_timings_and_versions():
     assert record["key"] == cell.key and Cell.from_dict(record["cell"]) == cell
     assert {"wall_s", "episode_s", "frames", "frames_per_s"} <= set(record["timing"])
     assert record["timing"]["frames"] == 30 and record["timing"]["frames_per_s"] > 0
-    assert set(record["versions"]) == {"track-envs", "numpy", "gymnasium", "pymunk", "python"}
+    assert set(record["versions"]) == {
+        "track-envs",
+        "numpy",
+        "gymnasium",
+        "pymunk",
+        "track-envs-source",
+        "python",
+    }
     json.dumps(record, allow_nan=False)
 
 
@@ -164,3 +171,20 @@ def test_records_from_other_versions_are_recomputed(tmp_path):
     stale["versions"]["numpy"] = "0.0-stale"
     path.write_text(json.dumps(stale))
     assert not is_finished(tmp_path, cell)
+
+
+def test_source_digest_changes_with_any_source_file(tmp_path):
+    """Regression: an edited checkout kept its version number and reused stale records."""
+    from agents.bench.runner import source_digest
+
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    (package / "a.py").write_text("x = 1\n")
+    (package / "sub" / "b.py").write_text("y = 2\n")
+    (package / "notes.txt").write_text("not source")
+    first = source_digest([package])
+    assert source_digest([package]) == first
+    (package / "notes.txt").write_text("still not source")
+    assert source_digest([package]) == first
+    (package / "sub" / "b.py").write_text("y = 3\n")
+    assert source_digest([package]) != first
