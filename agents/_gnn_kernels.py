@@ -98,3 +98,21 @@ def frame_upkeep(
             unused[k] = j
             k += 1
     return seen, misses_out, streak_out, keep, n_keep, young, n_young, unused
+
+
+@njit(cache=True)
+def median_and_mad_variance(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Per column of ``v`` (n, D), n >= 1: the median ``m_j`` and the robust variance
+    ``(1.4826 · median_i |v_ij − m_j|)²`` (the MAD scaled to a normal's standard deviation)."""
+    n, dim = v.shape
+    median = np.empty(dim)
+    variance = np.empty(dim)
+    column = np.empty(n)
+    for j in range(dim):
+        for i in range(n):
+            column[i] = v[i, j]
+        median[j] = np.median(column)
+        for i in range(n):
+            column[i] = abs(v[i, j] - median[j])
+        variance[j] = (1.4826 * np.median(column)) ** 2
+    return median, variance

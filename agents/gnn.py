@@ -239,8 +239,7 @@ class GnnAgent:
         if not learning or self._spec is None:
             return
         v = (estimate[young] - self._last[young]) / self._spec.dt
-        median = np.median(v, axis=0)
-        spread = (1.4826 * np.median(np.abs(v - median), axis=0)) ** 2  # robust variance (MAD)
+        median, spread = _kernels.median_and_mad_variance(np.ascontiguousarray(v, dtype=np.float64))
         if self._flow_mean is None or self._flow_var is None:
             self._flow_mean, self._flow_var = median, spread
         else:

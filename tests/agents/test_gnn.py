@@ -246,3 +246,15 @@ def test_any_protocol_predictor_works_with_the_compiled_frame():
     env = gym.make("BeltReplay-v0")
     result = run(env, make_agent("gnn", predictor=Float32Predictions("cv")), 60)
     assert result["e2"] < 0.05
+
+
+def test_flow_statistics_equal_numpy_median_and_mad() -> None:
+    from agents._gnn_kernels import median_and_mad_variance
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 7, 40):
+        v = rng.normal(size=(n, 2)) * [0.2, 0.01] + [1.1, 0.0]
+        median, variance = median_and_mad_variance(v)
+        np.testing.assert_allclose(median, np.median(v, axis=0), rtol=0, atol=1e-15)
+        mad = np.median(np.abs(v - np.median(v, axis=0)), axis=0)
+        np.testing.assert_allclose(variance, (1.4826 * mad) ** 2, rtol=1e-15, atol=0)
