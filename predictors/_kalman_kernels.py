@@ -32,64 +32,36 @@ UPDATE_NOT_PD = 2
 
 
 @njit(inline="always")
-def _project_rows(
-    mean: FloatArray, cov: FloatArray, H: FloatArray, R: FloatArray, z_mean: FloatArray, z_cov: FloatArray,
-    S: int, D: int,
+def _map_rows(
+    mean: FloatArray, cov: FloatArray, A: FloatArray, B: FloatArray,
+    out_mean: FloatArray, out_cov: FloatArray, S: int, K: int,
 ) -> None:  # fmt: skip
-    """``z_mean[t] = H x_t``, ``z_cov[t] = H P_t Hᵀ + R`` for every track ``t``."""
-    HP = np.empty((D, S))
+    """``out_mean[t] = A x_t``, ``out_cov[t] = A P_t Aᵀ + B`` (upper triangle, mirrored) for every
+    track ``t``, with ``A`` (K, S): the prediction (``A = F``, ``B = Q``, K = S) and the predicted
+    measurement (``A = H``, ``B = R``, K = D). Zeros of ``A`` are skipped."""
+    AP = np.empty((K, S))
     for t in range(mean.shape[0]):
-        for d in range(D):
+        for i in range(K):
             acc = 0.0
             for j in range(S):
-                HP[d, j] = 0.0
+                AP[i, j] = 0.0
             for k in range(S):
-                h = H[d, k]
-                if h != 0.0:
-                    acc += h * mean[t, k]
+                a = A[i, k]
+                if a != 0.0:
+                    acc += a * mean[t, k]
                     for j in range(S):
-                        HP[d, j] += h * cov[t, k, j]
-            z_mean[t, d] = acc
-        for a in range(D):
-            for b in range(a, D):
-                acc = R[a, b]
+                        AP[i, j] += a * cov[t, k, j]
+            out_mean[t, i] = acc
+        # (A P Aᵀ)[i, j] = Σ_k (A P)[i, k] A[j, k]
+        for i in range(K):
+            for j in range(i, K):
+                acc = B[i, j]
                 for k in range(S):
-                    h = H[b, k]
-                    if h != 0.0:
-                        acc += HP[a, k] * h
-                z_cov[t, a, b] = acc
-                z_cov[t, b, a] = acc
-
-
-@njit(inline="always")
-def _predict_rows(
-    mean: FloatArray, cov: FloatArray, F: FloatArray, Q: FloatArray, mean_p: FloatArray, cov_p: FloatArray,
-    S: int,
-) -> None:  # fmt: skip
-    """``mean_p[t] = F x_t``, ``cov_p[t] = F P_t Fᵀ + Q`` (upper triangle, mirrored) for every track."""
-    FP = np.empty((S, S))
-    for t in range(mean.shape[0]):
-        for i in range(S):
-            acc = 0.0
-            for j in range(S):
-                FP[i, j] = 0.0
-            for k in range(S):
-                f = F[i, k]
-                if f != 0.0:
-                    acc += f * mean[t, k]
-                    for j in range(S):
-                        FP[i, j] += f * cov[t, k, j]
-            mean_p[t, i] = acc
-        # (F P Fᵀ)[i, j] = Σ_k (F P)[i, k] F[j, k]
-        for i in range(S):
-            for j in range(i, S):
-                acc = Q[i, j]
-                for k in range(S):
-                    f = F[j, k]
-                    if f != 0.0:
-                        acc += FP[i, k] * f
-                cov_p[t, i, j] = acc
-                cov_p[t, j, i] = acc
+                    a = A[j, k]
+                    if a != 0.0:
+                        acc += AP[i, k] * a
+                out_cov[t, i, j] = acc
+                out_cov[t, j, i] = acc
 
 
 @njit(inline="always")
@@ -205,11 +177,11 @@ def project_tracks(
     z_mean = np.empty((n, D))
     z_cov = np.empty((n, D, D))
     if D == 2 and S == 4:
-        _project_rows(mean, cov, H, R, z_mean, z_cov, 4, 2)
+        _map_rows(mean, cov, H, R, z_mean, z_cov, 4, 2)
     elif D == 2 and S == 6:
-        _project_rows(mean, cov, H, R, z_mean, z_cov, 6, 2)
+        _map_rows(mean, cov, H, R, z_mean, z_cov, 6, 2)
     else:
-        _project_rows(mean, cov, H, R, z_mean, z_cov, S, D)
+        _map_rows(mean, cov, H, R, z_mean, z_cov, S, D)
     return z_mean, z_cov
 
 
@@ -229,11 +201,11 @@ def predict_tracks(
     mean_p = np.empty((n, S))
     cov_p = np.empty((n, S, S))
     if S == 4:
-        _predict_rows(mean, cov, F, Q, mean_p, cov_p, 4)
+        _map_rows(mean, cov, F, Q, mean_p, cov_p, 4, 4)
     elif S == 6:
-        _predict_rows(mean, cov, F, Q, mean_p, cov_p, 6)
+        _map_rows(mean, cov, F, Q, mean_p, cov_p, 6, 6)
     else:
-        _predict_rows(mean, cov, F, Q, mean_p, cov_p, S)
+        _map_rows(mean, cov, F, Q, mean_p, cov_p, S, S)
     return mean_p, cov_p
 
 
