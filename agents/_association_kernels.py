@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.assignment import split_lone_pairs
 from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]
@@ -173,41 +174,9 @@ def gated_costs(
             last = max(last, j if hit else 0)
         row_count[i] = count
         only_col[i] = last
-    lone_row = np.zeros(n, dtype=np.bool_)
-    lone_col = np.zeros(m, dtype=np.bool_)
-    n_lone = 0
-    for i in range(n):
-        if row_count[i] == 1 and col_count[only_col[i]] == 1:
-            lone_row[i] = True
-            lone_col[only_col[i]] = True
-            n_lone += 1
-    lone_rows = np.empty(n_lone, dtype=np.int64)
-    lone_cols = np.empty(n_lone, dtype=np.int64)
-    k = 0
-    n_rest_rows = 0
-    for i in range(n):
-        if lone_row[i]:
-            lone_rows[k] = i
-            lone_cols[k] = only_col[i]
-            k += 1
-        elif row_count[i] > 0:
-            n_rest_rows += 1
-    rest_rows = np.empty(n_rest_rows, dtype=np.int64)
-    k = 0
-    for i in range(n):
-        if row_count[i] > 0 and not lone_row[i]:
-            rest_rows[k] = i
-            k += 1
-    n_rest_cols = 0
-    for j in range(m):
-        if col_count[j] > 0 and not lone_col[j]:
-            n_rest_cols += 1
-    rest_cols = np.empty(n_rest_cols, dtype=np.int64)
-    k = 0
-    for j in range(m):
-        if col_count[j] > 0 and not lone_col[j]:
-            rest_cols[k] = j
-            k += 1
+    partner, rest_rows, rest_cols = split_lone_pairs(row_count, only_col, col_count)
+    lone_rows = np.flatnonzero(partner >= 0)
+    lone_cols = partner[lone_rows]
     return cost, lone_rows, lone_cols, rest_rows, rest_cols, -1
 
 

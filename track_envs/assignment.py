@@ -10,6 +10,7 @@ several assignments are equally good, the one returned may differ from solving t
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
@@ -27,7 +28,8 @@ def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], 
     row_count = np.count_nonzero(admissible, axis=1)
     col_count = np.count_nonzero(admissible, axis=0)
     single = np.flatnonzero(row_count == 1)
-    only_col = np.argmax(admissible[single], axis=1)  # the one admissible column of those rows
+    # the one admissible column of those rows
+    only_col = np.argmax(admissible[single], axis=1) if len(single) else np.zeros(0, dtype=np.intp)
     alone = col_count[only_col] == 1
     rows, cols = single[alone], only_col[alone]
     row_done = np.zeros(len(row_count), dtype=bool)
@@ -37,6 +39,50 @@ def lone_pairs(admissible: NDArray[np.bool_]) -> tuple[Pairs, NDArray[np.intp], 
     rest_rows = np.flatnonzero((row_count > 0) & ~row_done)
     rest_cols = np.flatnonzero((col_count > 0) & ~col_done)
     return (rows.astype(np.int64), cols.astype(np.int64)), rest_rows, rest_cols
+
+
+@njit(cache=True)
+def split_lone_pairs(
+    row_count: NDArray[np.int64], only_col: NDArray[np.int64], col_count: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`lone_pairs` from the admissible-pair counts, for compiled callers.
+
+    Args:
+        row_count: Admissible pairs of each row (n,).
+        only_col: For each row with one admissible pair, its column (other rows: any value).
+        col_count: Admissible pairs of each column (m,).
+
+    Returns:
+        ``(partner, rest_rows, rest_cols)``: the column of each row's lone pair (-1 where the row
+        is in none), and, ascending, the rows and columns that have admissible pairs but are
+        not in a lone pair.
+    """
+    n, m = len(row_count), len(col_count)
+    partner = np.full(n, -1, dtype=np.int64)
+    col_lone = np.zeros(m, dtype=np.bool_)
+    n_rest_rows = 0
+    for i in range(n):
+        if row_count[i] == 1 and col_count[only_col[i]] == 1:
+            partner[i] = only_col[i]
+            col_lone[only_col[i]] = True
+        elif row_count[i] > 0:
+            n_rest_rows += 1
+    rest_rows = np.empty(n_rest_rows, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        if row_count[i] > 0 and partner[i] < 0:
+            rest_rows[k] = i
+            k += 1
+    n_rest_cols = 0
+    for j in range(m):
+        n_rest_cols += col_count[j] > 0 and not col_lone[j]
+    rest_cols = np.empty(n_rest_cols, dtype=np.int64)
+    k = 0
+    for j in range(m):
+        if col_count[j] > 0 and not col_lone[j]:
+            rest_cols[k] = j
+            k += 1
+    return partner, rest_rows, rest_cols
 
 
 def _merge(first: Pairs, second: Pairs) -> Pairs:

@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.assignment import split_lone_pairs
 from track_envs.metrics.close_pairs import close_pairs
 from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
 from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
@@ -126,39 +127,19 @@ def gospa_core(
                 kept += 1
         start = end
         ptr[i + 1] = kept
+    # admissible pairs per row and column, and the column of each row that has one
     row_count = np.zeros(m, dtype=np.int64)
+    only_col = np.zeros(m, dtype=np.int64)
     col_count = np.zeros(n, dtype=np.int64)
     for i in range(m):
         row_count[i] = ptr[i + 1] - ptr[i]
+        if row_count[i] == 1:
+            only_col[i] = cols[ptr[i]]
         for e in range(ptr[i], ptr[i + 1]):
             col_count[cols[e]] += 1
-    # lone pairs: alone in their row and their column
-    col_of = np.full(m, -1, dtype=np.int64)
-    col_lone = np.zeros(n, dtype=np.bool_)
-    n_rest = 0
-    for i in range(m):
-        if row_count[i] == 1 and col_count[cols[ptr[i]]] == 1:
-            col_of[i] = cols[ptr[i]]
-            col_lone[cols[ptr[i]]] = True
-        elif row_count[i] > 0:
-            n_rest += 1
-    if n_rest:
-        rest_rows = np.empty(n_rest, dtype=np.int64)
-        k = 0
-        for i in range(m):
-            if row_count[i] > 0 and col_of[i] < 0:
-                rest_rows[k] = i
-                k += 1
-        n_rest_cols = 0
-        for j in range(n):
-            if col_count[j] > 0 and not col_lone[j]:
-                n_rest_cols += 1
-        rest_cols = np.empty(n_rest_cols, dtype=np.int64)
-        k = 0
-        for j in range(n):
-            if col_count[j] > 0 and not col_lone[j]:
-                rest_cols[k] = j
-                k += 1
+    # lone pairs (alone in their row and their column) are assigned as they are
+    col_of, rest_rows, rest_cols = split_lone_pairs(row_count, only_col, col_count)
+    if len(rest_rows):
         _solve_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
     # Σ d^p over the assigned pairs closer than c, in row order (numpy's summation order)
     close_cost = np.empty(m)
