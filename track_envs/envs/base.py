@@ -98,7 +98,14 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         detection_shape: tuple[int, ...] | None = None,
         truth_extra_shapes: dict[str, tuple[int, ...]] | None = None,
         render_mode: str | None = None,
+        added_noise_std: float | None = None,
     ) -> None:
+        """Build the spaces and per-episode state.
+
+        ``added_noise_std`` is the noise the default :meth:`_sense` adds; ``None`` adds what the
+        sensor spec declares (``spec.noise_std``). Envs that replay real measurements add less
+        (often none) than they declare.
+        """
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
@@ -107,6 +114,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             raise ValueError(f"max_targets must be an integer >= 1, got {max_targets!r}")
         self.render_mode = render_mode
         self.sensor_spec = spec
+        self.added_noise_std = float(spec.noise_std if added_noise_std is None else added_noise_std)
         self.max_targets = int(max_targets)
         self.position_shape = position_shape or (spec.dim,)
         self.detection_shape = detection_shape or (spec.dim,)
@@ -157,6 +165,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Point sensor over the visible targets, clutter uniform over the observed region.
 
+        The noise added is ``added_noise_std`` (see :meth:`_setup_spaces`), by default the sensor
+        spec's ``noise_std``.
+
         Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
         """
         from track_envs.sensors import sense_points
@@ -167,7 +178,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             positions,
             ids,
             self.np_random,
-            noise_std=spec.noise_std,
+            noise_std=self.added_noise_std,
             p_detect=spec.p_detect,
             clutter_rate=spec.clutter_rate,
             clutter_low=self._clutter_low,

@@ -54,7 +54,11 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Arguments
     - ``path``: the track file (``.csv`` or ``.zip``); default: the sample shipped with the package.
-    - ``noise_std``, ``p_detect``, ``clutter_rate``: the sensor, as in BeltSorter-v0 (defaults 0, 1, 0).
+    - ``noise_std``, ``p_detect``, ``clutter_rate``: the sensor, as in BeltSorter-v0 (defaults 0, 1, 0);
+      ``noise_std`` is the Gaussian noise added to the recorded positions.
+    - ``measurement_noise_std``: the measurement noise std the sensor spec declares
+      (``sensor_spec.noise_std``, what a tracker is told), in the file's units; default
+      ``noise_std``. Give the recording's own noise here when replaying real centroids.
     - ``frames``: ``(start, stop)`` half-open frame range; default the whole file.
     - ``dt``: frame period in seconds (default 0.01, a 100 Hz camera).
     - ``region``: ``((x_low, y_low), (x_high, y_high))`` observed region; default the bounding box
@@ -65,7 +69,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: first release.
+    - v0: first release. ``measurement_noise_std`` added later without a version bump (the
+      default leaves every stream and spec as before).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -75,6 +80,7 @@ class BeltReplayEnv(TrackingEnv):
         *,
         path: str | os.PathLike[str] | None = None,
         noise_std: float = 0.0,
+        measurement_noise_std: float | None = None,
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
         frames: tuple[int, int] | None = None,
@@ -115,10 +121,16 @@ class BeltReplayEnv(TrackingEnv):
                 raise ValueError(
                     f"region must be ((x_low, y_low), (x_high, y_high)) with low < high, got {region!r}"
                 )
+        added = check_non_negative("noise_std", noise_std)
+        declared = (
+            added
+            if measurement_noise_std is None
+            else check_non_negative("measurement_noise_std", measurement_noise_std)
+        )
         spec = SensorSpec(
             dt=dt,
             dim=2,
-            noise_std=check_non_negative("noise_std", noise_std),
+            noise_std=declared,
             p_detect=check_probability("p_detect", p_detect),
             clutter_rate=clutter_rate,
             region_low=(float(low[0]), float(low[1])),
@@ -126,9 +138,10 @@ class BeltReplayEnv(TrackingEnv):
             max_detections=int(max_detections),
             max_tracks=int(max_tracks),
         )
-        margin = 10 * spec.noise_std + 0.05 * float(np.max(high - low))
+        margin = 10 * added + 0.05 * float(np.max(high - low))
         self._setup_spaces(
             spec,
+            added_noise_std=added,
             max_targets=max(most, 1),
             obs_low=low - margin,
             obs_high=high + margin,

@@ -62,7 +62,11 @@ class BeltSorterEnv(TrackingEnv):
     ## Arguments
     - ``particle_kind``: ``"sphere"``, ``"cylinder"`` (default, the paper's DEM dataset),
       ``"cuboid"``, ``"mixture"`` or a mapping of kinds to weights.
-    - ``noise_std``: measurement noise std in metres (default 1e-4; paper 000 sweeps 0–5e-4).
+    - ``noise_std``: measurement noise std in metres added to each centroid (default 1e-4;
+      paper 000 sweeps 0–5e-4).
+    - ``measurement_noise_std``: the noise std the sensor spec declares to a tracker
+      (``sensor_spec.noise_std``); default ``noise_std``. A different value simulates a tracker
+      that is told the wrong noise.
     - ``p_detect``: detection probability (default 1.0).
     - ``clutter_rate``: mean clutter detections per frame (default 0.0).
     - ``max_detections``: detection rows (default 256); ``max_tracks``: report rows (default 256);
@@ -83,6 +87,7 @@ class BeltSorterEnv(TrackingEnv):
         *,
         particle_kind: str | Mapping[str, float] = "cylinder",
         noise_std: float = 1e-4,
+        measurement_noise_std: float | None = None,
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
         max_detections: int = 256,
@@ -110,10 +115,15 @@ class BeltSorterEnv(TrackingEnv):
         self.gospa_c = check_positive("gospa_c", gospa_c)
         dt = 0.01
         p = self.physics
+        added = check_non_negative("noise_std", noise_std)
         spec = SensorSpec(
             dt=dt,
             dim=2,
-            noise_std=check_non_negative("noise_std", noise_std),
+            noise_std=(
+                added
+                if measurement_noise_std is None
+                else check_non_negative("measurement_noise_std", measurement_noise_std)
+            ),
             p_detect=check_probability("p_detect", p_detect),
             clutter_rate=check_non_negative("clutter_rate", clutter_rate),
             region_low=(0.0, 0.0),
@@ -122,9 +132,10 @@ class BeltSorterEnv(TrackingEnv):
             max_tracks=int(max_tracks),
             units="m",
         )
-        margin = 10 * spec.noise_std + 0.01
+        margin = 10 * added + 0.01
         self._setup_spaces(
             spec,
+            added_noise_std=added,
             max_targets=max_targets,
             obs_low=np.array(spec.region_low) - margin,
             obs_high=np.array(spec.region_high) + margin,
