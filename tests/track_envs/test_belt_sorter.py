@@ -86,7 +86,7 @@ def test_truth_velocities_match_position_differences():
 
 
 def test_measurement_noise_has_the_requested_std():
-    env = gym.make("BeltSorter-v0", noise_std=3e-4)
+    env = gym.make("BeltSorter-v0", noise_std=3e-4, merge_touching=False)  # one detection per particle
     obs, info = env.reset(seed=0)
     errors = []
     for _ in range(100):
@@ -101,7 +101,7 @@ def test_measurement_noise_has_the_requested_std():
 
 
 def test_detection_probability_and_clutter_rate():
-    env = gym.make("BeltSorter-v0", p_detect=0.7, clutter_rate=3.0)
+    env = gym.make("BeltSorter-v0", p_detect=0.7, clutter_rate=3.0, merge_touching=False)
     obs, info = env.reset(seed=0)
     detected = visible = clutter = 0
     frames = 200

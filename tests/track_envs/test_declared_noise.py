@@ -66,7 +66,7 @@ def test_declared_noise_defaults_to_the_added_noise():
 
 
 def test_belt_sorter_declares_noise_without_adding_any():
-    env = gym.make("BeltSorter-v0", noise_std=0.0, measurement_noise_std=3e-5)
+    env = gym.make("BeltSorter-v0", noise_std=0.0, measurement_noise_std=3e-5, merge_touching=False)
     assert env.unwrapped.sensor_spec.noise_std == 3e-5
     obs, info = env.reset(seed=1)
     rows = np.flatnonzero(obs["mask"])

@@ -129,10 +129,16 @@ def test_observation_info_and_truth_follow_the_contract(env_id):
         assert truth["positions"].shape == (env.unwrapped.max_targets, *env.unwrapped.position_shape)
         assert truth["visible"].dtype == bool
         assert set(ids[ids >= 0].tolist()) <= set(truth["ids"][truth["ids"] >= 0].tolist())
+        single = np.ones(spec.max_detections, dtype=bool)
+        if "detection_ids_merged" in info:
+            merged = info["detection_ids_merged"]
+            assert merged.dtype == np.int64 and merged.shape[0] == spec.max_detections
+            np.testing.assert_array_equal(merged[:, 0], ids)
+            single = merged[:, 1] < 0
         if exact is not None:
-            # at zero noise each detection is its target's true position (float32)
+            # at zero noise each detection of a single target is its true position (float32)
             lookup = {int(i): p for i, p in zip(truth["ids"], truth["positions"], strict=True) if i >= 0}
-            for row in np.flatnonzero(mask & (ids >= 0)):
+            for row in np.flatnonzero(mask & (ids >= 0) & single):
                 np.testing.assert_array_equal(det[row], lookup[int(ids[row])].astype(np.float32))
         assert isinstance(info["t"], float)
         obs, reward, _, _, info = env.step(report)

@@ -55,6 +55,9 @@ from track_envs.envs.belt_kernels import (
 )
 
 GRAVITY = 9.81
+#: Rounding radius (m) of the box collision shapes (cylinders, cuboids): contact happens at this
+#: distance from the nominal box.
+BOX_ROUNDING = 0.0005
 _STATE_FIELDS = (
     pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 )
@@ -343,7 +346,7 @@ class BeltWorld:
             shape: pymunk.Shape = pymunk.Circle(body, 0.5 * kind.length)
         else:
             body = pymunk.Body(mass, pymunk.moment_for_box(mass, (kind.length, kind.width)))
-            shape = pymunk.Poly.create_box(body, (kind.length, kind.width), radius=0.0005)
+            shape = pymunk.Poly.create_box(body, (kind.length, kind.width), radius=BOX_ROUNDING)
         shape.friction = kind.particle_friction
         shape.elasticity = kind.restitution
         return body, shape

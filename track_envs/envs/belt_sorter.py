@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
-from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
-from track_envs.sensors import check_non_negative, check_positive, check_probability
+from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
+from track_envs.envs.blobs import MAX_MERGED, MERGE_TOLERANCE, merge_blobs, merged_rows, silhouette_table
+from track_envs.sensors import check_non_negative, check_positive, check_probability, sense_points
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -37,8 +38,11 @@ class BeltSorterEnv(TrackingEnv):
     ## Observation
     ``Dict(detections=Box(max_detections, 2) float32, mask=Box(max_detections,) int8)``: measured
     centroids ``(x, y)`` in metres (x along the belt, y across), zero-padded; rows are shuffled
-    every frame. Detections are ``x + N(0, noise_std²)`` for each particle in the window with
+    every frame. Detections are ``x + N(0, noise_std²)`` for each blob in the window with
     probability ``p_detect``, plus ``Poisson(clutter_rate)`` clutter points uniform in the window.
+    A blob is a particle, or, with ``merge_touching`` (the default), a group of particles whose
+    silhouettes touch, seen as one region by the camera: its ``x`` is the area-weighted centroid
+    of the group (see :mod:`track_envs.envs.blobs` for the silhouettes and the touching test).
 
     ## Action
     The tracker's report (see :mod:`track_envs.report`): ``ids``, ``positions`` (max_tracks, 2),
@@ -57,7 +61,14 @@ class BeltSorterEnv(TrackingEnv):
     ## Info
     ``t``, ``frame``, ``truth`` (``ids``, ``positions``, ``visible``, ``velocities`` (m/s),
     ``angles`` (rad), ``kinds`` (index into ``kind_names``)), ``detection_ids``,
-    ``dropped_detections``, ``dropped_targets``.
+    ``dropped_detections``, ``dropped_targets``, and for merged blobs:
+
+    - ``detection_ids``: for a merged detection, the id of its largest-area particle (ties: the
+      lowest id).
+    - ``detection_ids_merged``: (max_detections, 8) int64, every truth id behind each detection
+      row, largest area first, −1 padded; column 0 equals ``detection_ids``, columns 1–7 are −1
+      except on merged detections. A blob of more than 8 particles lists its 8 largest.
+    - ``truncated_merge_ids``: member ids left out of ``detection_ids_merged`` so far this episode.
 
     ## Arguments
     - ``particle_kind``: ``"sphere"``, ``"cylinder"`` (default, the paper's DEM dataset),
@@ -74,10 +85,19 @@ class BeltSorterEnv(TrackingEnv):
     - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
     - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else.
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
+    - ``merge_touching``: touching particles give one detection at their area-weighted centroid
+      (default ``True``); ``False`` senses every particle on its own, as the first release did.
+    - ``merge_tolerance``: largest gap in metres between silhouettes that still counts as
+      touching (default 1e-4).
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
     - v0: first release.
+    - v0, merged blobs: ``merge_touching`` (on by default) makes touching particles one
+      detection, as a real camera sees them, and ``info`` gains ``detection_ids_merged`` and
+      ``truncated_merge_ids``; ``measurement_noise_std`` declares the sensor's noise separately
+      from the noise added. With ``merge_touching=False`` every stream is bit for bit the first
+      release's; with it on, a seed gives the same stream up to the first frame with a merge.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -97,6 +117,8 @@ class BeltSorterEnv(TrackingEnv):
         belt_speed: float | None = None,
         physics: BeltParams | None = None,
         gospa_c: float = 0.005,
+        merge_touching: bool = True,
+        merge_tolerance: float = MERGE_TOLERANCE,
         render_mode: str | None = None,
     ):
         params = physics if physics is not None else BeltParams()
@@ -113,6 +135,19 @@ class BeltSorterEnv(TrackingEnv):
             if not (isinstance(value, int | np.integer) and value >= 1):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         self.gospa_c = check_positive("gospa_c", gospa_c)
+        if not isinstance(merge_touching, bool | np.bool_):
+            raise ValueError(f"merge_touching must be True or False, got {merge_touching!r}")
+        self.merge_touching = bool(merge_touching)
+        self.merge_tolerance = check_non_negative("merge_tolerance", merge_tolerance)
+        self._silhouettes = silhouette_table(
+            [
+                (PARTICLE_KINDS[k].shape, PARTICLE_KINDS[k].length, PARTICLE_KINDS[k].width)
+                for k in self.kind_names
+            ],
+            BOX_ROUNDING,
+        )
+        self._merged = np.full((0, MAX_MERGED), -1, dtype=np.int64)
+        self._truncated_merge_ids = 0
         dt = 0.01
         p = self.physics
         added = check_non_negative("noise_std", noise_std)
@@ -146,6 +181,7 @@ class BeltSorterEnv(TrackingEnv):
 
     # -- simulation ---------------------------------------------------------------------------
     def _reset_scene(self) -> None:
+        self._truncated_merge_ids = 0
         self.world = BeltWorld(self.physics, self.kinds, self.np_random, self.sensor_spec.dt)
         self.world.warm_up()
 
@@ -160,6 +196,41 @@ class BeltSorterEnv(TrackingEnv):
         return Truth.all_in_view(
             s.ids, s.position, {"velocities": s.velocity, "angles": s.angle, "kinds": s.kind}
         )
+
+    def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Detections of the blobs (merged touching particles) or, without merging, of each particle."""
+        if not self.merge_touching:
+            return super()._sense(truth)
+        spec = self.sensor_spec
+        e = truth.extra
+        centres, primary, self._merged, truncated = merge_blobs(
+            truth.positions,
+            truth.ids,
+            e["angles"],
+            e["kinds"],
+            self._silhouettes,
+            self.merge_tolerance,
+            MAX_MERGED,
+        )
+        self._truncated_merge_ids += truncated
+        return sense_points(
+            centres,
+            primary,
+            self.np_random,
+            noise_std=self.added_noise_std,
+            p_detect=spec.p_detect,
+            clutter_rate=spec.clutter_rate,
+            clutter_low=self._clutter_low,
+            clutter_high=self._clutter_high,
+        )
+
+    def _observe(self, ended: bool = False) -> tuple[dict[str, NDArray], dict[str, Any]]:
+        """The base observation with the merged ids of every detection row in ``info``."""
+        self._merged = self._merged[:0]
+        obs, info = super()._observe(ended)
+        info["detection_ids_merged"] = merged_rows(info["detection_ids"], self._merged, MAX_MERGED)
+        info["truncated_merge_ids"] = self._truncated_merge_ids
+        return obs, info
 
     def _padded_truth(self, truth: Truth, m: int) -> dict[str, NDArray]:
         """The base class's padding in one compiled call (every particle in the window is visible)."""
