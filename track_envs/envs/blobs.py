@@ -17,8 +17,8 @@ physics are exactly touching silhouettes here. The area of a silhouette is
     A = 4ab + 4ρ(a + b) + πρ^2 .
 
 **Touching.** Silhouettes ``i`` and ``j`` touch when the distance between their core rectangles
-is at most ``ρ_i + ρ_j + tol``; the core distance is exact (0 when the cores overlap, else the
-least distance between their edges, computed as segment–segment distances). ``tol`` (default
+is at most ``ρ_i + ρ_j + tol``; the core distance is exact (0 when the cores overlap, by the
+separating axis theorem, else the least distance of a corner of one core to the other). ``tol`` (default
 0.1 mm, about a camera pixel) absorbs pymunk's contact slop and the gap a segmentation cannot
 resolve. Only pairs whose centres are closer than the sum of the circumradii plus ``tol`` are
 tested (a sweep over the particles sorted along the belt).
@@ -66,48 +66,56 @@ def silhouette_table(shapes: list[tuple[str, float, float]], box_rounding: float
 
 
 @njit(cache=True)
-def _corners(x: float, y: float, angle: float, a: float, b: float, out: NDArray[np.float64]) -> None:
-    c, s = math.cos(angle), math.sin(angle)
-    for k, (u, v) in enumerate(((a, b), (-a, b), (-a, -b), (a, -b))):
-        out[k, 0] = x + c * u - s * v
-        out[k, 1] = y + s * u + c * v
-
-
-@njit(cache=True)
-def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
-    dx, dy = bx - ax, by - ay
-    length2 = dx * dx + dy * dy
-    t = 0.0 if length2 == 0.0 else min(max(((px - ax) * dx + (py - ay) * dy) / length2, 0.0), 1.0)
-    ex, ey = ax + t * dx - px, ay + t * dy - py
-    return math.sqrt(ex * ex + ey * ey)
-
-
-@njit(cache=True)
-def _cross(ox: float, oy: float, ax: float, ay: float, bx: float, by: float) -> float:
-    return (ax - ox) * (by - oy) - (ay - oy) * (bx - ox)
-
-
-@njit(cache=True)
-def _segment_segment(p: NDArray[np.float64], q: NDArray[np.float64], i: int, j: int) -> float:
-    """Distance between edge ``i`` of corner ring ``p`` and edge ``j`` of ring ``q``."""
-    ax, ay, bx, by = p[i, 0], p[i, 1], p[(i + 1) % 4, 0], p[(i + 1) % 4, 1]
-    cx, cy, dx, dy = q[j, 0], q[j, 1], q[(j + 1) % 4, 0], q[(j + 1) % 4, 1]
-    d1, d2 = _cross(ax, ay, bx, by, cx, cy), _cross(ax, ay, bx, by, dx, dy)
-    d3, d4 = _cross(cx, cy, dx, dy, ax, ay), _cross(cx, cy, dx, dy, bx, by)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:  # proper crossing
-        return 0.0
-    return min(
-        min(_point_segment(ax, ay, cx, cy, dx, dy), _point_segment(bx, by, cx, cy, dx, dy)),
-        min(_point_segment(cx, cy, ax, ay, bx, by), _point_segment(dx, dy, ax, ay, bx, by)),
-    )
-
-
-@njit(cache=True)
-def _inside(px: float, py: float, x: float, y: float, angle: float, a: float, b: float) -> bool:
-    c, s = math.cos(angle), math.sin(angle)
+def _point_rect_sq(px: float, py: float, x: float, y: float, c: float, s: float, a: float, b: float) -> float:
+    """Squared distance from a point to the rectangle (centre, cos/sin of its angle, half extents)."""
     u = c * (px - x) + s * (py - y)
     v = -s * (px - x) + c * (py - y)
-    return abs(u) <= a and abs(v) <= b
+    du = max(abs(u) - a, 0.0)
+    dv = max(abs(v) - b, 0.0)
+    return du * du + dv * dv
+
+
+@njit(cache=True)
+def _separated(
+    dx: float, dy: float, nx: float, ny: float,
+    ci: float, si: float, ai: float, bi: float,
+    cj: float, sj: float, aj: float, bj: float,
+) -> bool:  # fmt: skip
+    """Whether the unit axis ``n`` separates the two rectangles (centre offset ``(dx, dy)``)."""
+    hi = ai * abs(nx * ci + ny * si) + bi * abs(-nx * si + ny * ci)
+    hj = aj * abs(nx * cj + ny * sj) + bj * abs(-nx * sj + ny * cj)
+    return abs(nx * dx + ny * dy) > hi + hj
+
+
+@njit(cache=True)
+def _core_distance(
+    xi: float, yi: float, ci: float, si: float, ai: float, bi: float,
+    xj: float, yj: float, cj: float, sj: float, aj: float, bj: float,
+) -> float:  # fmt: skip
+    """:func:`core_distance` with each angle given by its cosine and sine.
+
+    Two rectangles overlap unless one of their four edge normals separates them (separating axis
+    theorem); two disjoint convex polygons have a closest pair with a vertex of one of them, so
+    their distance is the least distance of a corner of one to the other rectangle.
+    """
+    dx, dy = xj - xi, yj - yi
+    if not (
+        _separated(dx, dy, ci, si, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, -si, ci, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, cj, sj, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, -sj, cj, ci, si, ai, bi, cj, sj, aj, bj)
+    ):
+        return 0.0
+    best = np.inf
+    for su in (-1.0, 1.0):
+        for sv in (-1.0, 1.0):
+            px = xj + su * aj * cj - sv * bj * sj
+            py = yj + su * aj * sj + sv * bj * cj
+            best = min(best, _point_rect_sq(px, py, xi, yi, ci, si, ai, bi))
+            px = xi + su * ai * ci - sv * bi * si
+            py = yi + su * ai * si + sv * bi * ci
+            best = min(best, _point_rect_sq(px, py, xj, yj, cj, sj, aj, bj))
+    return math.sqrt(best)
 
 
 @njit(cache=True)
@@ -116,18 +124,9 @@ def core_distance(
     xj: float, yj: float, tj: float, aj: float, bj: float,
 ) -> float:  # fmt: skip
     """Least distance between two rotated rectangles (centre, angle, half extents; 0 if they overlap)."""
-    p = np.empty((4, 2))
-    q = np.empty((4, 2))
-    _corners(xi, yi, ti, ai, bi, p)
-    _corners(xj, yj, tj, aj, bj, q)
-    for k in range(4):
-        if _inside(q[k, 0], q[k, 1], xi, yi, ti, ai, bi) or _inside(p[k, 0], p[k, 1], xj, yj, tj, aj, bj):
-            return 0.0
-    best = np.inf
-    for i in range(4):
-        for j in range(4):
-            best = min(best, _segment_segment(p, q, i, j))
-    return best
+    return _core_distance(
+        xi, yi, math.cos(ti), math.sin(ti), ai, bi, xj, yj, math.cos(tj), math.sin(tj), aj, bj
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -157,10 +156,16 @@ def touching_groups(
     """
     n = len(positions)
     parent = np.arange(n)
-    reach = np.empty(n)
+    reach = np.empty(n)  # circumradius of each silhouette
+    inner = np.empty(n)  # inradius
+    cos = np.empty(n)
+    sin = np.empty(n)
     for i in range(n):
         k = kinds[i]
         reach[i] = math.sqrt(table[k, 0] ** 2 + table[k, 1] ** 2) + table[k, 2]
+        inner[i] = min(table[k, 0], table[k, 1]) + table[k, 2]
+        cos[i] = math.cos(angles[i])
+        sin[i] = math.sin(angles[i])
     longest = reach.max() if n else 0.0
     order = np.argsort(positions[:, 0])
     for oi in range(n):
@@ -171,14 +176,18 @@ def touching_groups(
             if dx > reach[i] + longest + tol:
                 break
             dy = positions[j, 1] - positions[i, 1]
-            if dx * dx + dy * dy > (reach[i] + reach[j] + tol) ** 2:
+            d2 = dx * dx + dy * dy
+            if d2 > (reach[i] + reach[j] + tol) ** 2:
                 continue
             ki, kj = kinds[i], kinds[j]
-            gap = core_distance(
-                positions[i, 0], positions[i, 1], angles[i], table[ki, 0], table[ki, 1],
-                positions[j, 0], positions[j, 1], angles[j], table[kj, 0], table[kj, 1],
-            )  # fmt: skip
-            if gap <= table[ki, 2] + table[kj, 2] + tol:
+            touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
+            if not touch:
+                gap = _core_distance(
+                    positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
+                    positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
+                )  # fmt: skip
+                touch = gap <= table[ki, 2] + table[kj, 2] + tol
+            if touch:
                 ri, rj = _find(parent, i), _find(parent, j)
                 if ri != rj:
                     parent[max(ri, rj)] = min(ri, rj)
@@ -288,12 +297,16 @@ def merged_rows(
     """
     m = len(detection_ids)
     out = np.full((m, max_merged), -1, np.int64)
+    order = np.argsort(merged[:, 0])
+    primaries = merged[order, 0]
     for r in range(m):
-        out[r, 0] = detection_ids[r]
-    for g in range(len(merged)):
-        for r in range(m):
-            if detection_ids[r] == merged[g, 0]:
-                for k in range(max_merged):
-                    out[r, k] = merged[g, k]
-                break
+        d = detection_ids[r]
+        out[r, 0] = d
+        if d < 0 or len(primaries) == 0:
+            continue
+        at = np.searchsorted(primaries, d)
+        if at < len(primaries) and primaries[at] == d:
+            g = order[at]
+            for k in range(1, max_merged):
+                out[r, k] = merged[g, k]
     return out
