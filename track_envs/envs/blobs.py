@@ -160,12 +160,11 @@ def touching_groups(
     inner = np.empty(n)  # inradius
     cos = np.empty(n)
     sin = np.empty(n)
+    turned = np.zeros(n, np.bool_)  # cos, sin computed (only particles in a close pair need them)
     for i in range(n):
         k = kinds[i]
         reach[i] = math.sqrt(table[k, 0] ** 2 + table[k, 1] ** 2) + table[k, 2]
         inner[i] = min(table[k, 0], table[k, 1]) + table[k, 2]
-        cos[i] = math.cos(angles[i])
-        sin[i] = math.sin(angles[i])
     longest = reach.max() if n else 0.0
     order = np.argsort(positions[:, 0])
     for oi in range(n):
@@ -182,6 +181,11 @@ def touching_groups(
             ki, kj = kinds[i], kinds[j]
             touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
             if not touch:
+                for p in (i, j):
+                    if not turned[p]:
+                        cos[p] = math.cos(angles[p])
+                        sin[p] = math.sin(angles[p])
+                        turned[p] = True
                 gap = _core_distance(
                     positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
                     positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
