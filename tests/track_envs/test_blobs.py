@@ -234,3 +234,35 @@ def test_bad_merge_arguments_are_named():
         gym.make("BeltSorter-v0", merge_touching="yes")
     with pytest.raises(ValueError, match="merge_tolerance"):
         gym.make("BeltSorter-v0", merge_tolerance=-1.0)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_grouping_equals_brute_force_over_every_pair(seed):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from track_envs.envs.blobs import touching_groups
+
+    rng = np.random.default_rng(seed)
+    n = 200
+    x = np.column_stack([rng.uniform(0, 0.2, n), rng.uniform(0, 0.05, n)])  # dense: many contacts
+    kinds = rng.integers(0, 3, n)
+    angles = rng.uniform(-np.pi, np.pi, n)
+    label = touching_groups(x, angles, kinds, TABLE, MERGE_TOLERANCE)
+    rows, cols = [], []
+    for i in range(n):
+        for j in range(i + 1, n):
+            a, b = TABLE[kinds[i]], TABLE[kinds[j]]
+            gap = core_distance(
+                x[i, 0], x[i, 1], angles[i], a[0], a[1], x[j, 0], x[j, 1], angles[j], b[0], b[1]
+            )
+            if gap <= a[2] + b[2] + MERGE_TOLERANCE:
+                rows.append(i)
+                cols.append(j)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, expected = connected_components(graph, directed=False)
+    assert len(rows) > 20
+    # the same partition: equal labels exactly where the brute-force components are equal
+    np.testing.assert_array_equal(label[:, None] == label[None, :], expected[:, None] == expected[None, :])
+    first = np.array([np.flatnonzero(expected == expected[i])[0] for i in range(n)])
+    np.testing.assert_array_equal(label, first)

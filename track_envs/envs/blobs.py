@@ -21,7 +21,8 @@ is at most ``ρ_i + ρ_j + tol``; the core distance is exact (0 when the cores o
 separating axis theorem, else the least distance of a corner of one core to the other). ``tol`` (default
 0.1 mm, about a camera pixel) absorbs pymunk's contact slop and the gap a segmentation cannot
 resolve. Only pairs whose centres are closer than the sum of the circumradii plus ``tol`` are
-tested (a sweep over the particles sorted along the belt).
+tested (particles are bucketed along the belt into cells as wide as the largest such sum, and
+each is compared with the rest of its cell and the next one).
 
 **Groups** are the connected components of the touching relation (three in a row make one
 blob), found by union–find. A blob's centroid is
@@ -165,36 +166,57 @@ def touching_groups(
         k = kinds[i]
         reach[i] = math.sqrt(table[k, 0] ** 2 + table[k, 1] ** 2) + table[k, 2]
         inner[i] = min(table[k, 0], table[k, 1]) + table[k, 2]
-    longest = reach.max() if n else 0.0
-    order = np.argsort(positions[:, 0])
-    for oi in range(n):
-        i = order[oi]
-        for oj in range(oi + 1, n):
-            j = order[oj]
-            dx = positions[j, 0] - positions[i, 0]
-            if dx > reach[i] + longest + tol:
-                break
-            dy = positions[j, 1] - positions[i, 1]
-            d2 = dx * dx + dy * dy
-            if d2 > (reach[i] + reach[j] + tol) ** 2:
-                continue
-            ki, kj = kinds[i], kinds[j]
-            touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
-            if not touch:
-                for p in (i, j):
-                    if not turned[p]:
-                        cos[p] = math.cos(angles[p])
-                        sin[p] = math.sin(angles[p])
-                        turned[p] = True
-                gap = _core_distance(
-                    positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
-                    positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
-                )  # fmt: skip
-                touch = gap <= table[ki, 2] + table[kj, 2] + tol
-            if touch:
-                ri, rj = _find(parent, i), _find(parent, j)
-                if ri != rj:
-                    parent[max(ri, rj)] = min(ri, rj)
+    if n < 2:
+        return parent
+    # cells along the belt at least as wide as the largest reach of a pair: a touching pair is in
+    # one cell or in two neighbouring ones (a counting sort, no comparison sort)
+    width = 2.0 * reach.max() + tol
+    lo = positions[0, 0]
+    for i in range(n):
+        lo = min(lo, positions[i, 0])
+    cell = np.empty(n, np.int64)
+    n_cells = 1
+    for i in range(n):
+        cell[i] = int((positions[i, 0] - lo) / width)
+        n_cells = max(n_cells, cell[i] + 1)
+    start = np.zeros(n_cells + 2, np.int64)
+    for i in range(n):
+        start[cell[i] + 1] += 1
+    for c in range(n_cells + 1):
+        start[c + 1] += start[c]
+    fill = start.copy()
+    members = np.empty(n, np.int64)
+    for i in range(n):
+        members[fill[cell[i]]] = i
+        fill[cell[i]] += 1
+    for c in range(n_cells):
+        for a in range(start[c], start[c + 1]):
+            i = members[a]
+            # the rest of its own cell, then the whole next cell
+            for b in range(a + 1, start[c + 2]):
+                j = members[b]
+                dx = positions[j, 0] - positions[i, 0]
+                dy = positions[j, 1] - positions[i, 1]
+                d2 = dx * dx + dy * dy
+                if d2 > (reach[i] + reach[j] + tol) ** 2:
+                    continue
+                ki, kj = kinds[i], kinds[j]
+                touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
+                if not touch:
+                    for q in (i, j):
+                        if not turned[q]:
+                            cos[q] = math.cos(angles[q])
+                            sin[q] = math.sin(angles[q])
+                            turned[q] = True
+                    gap = _core_distance(
+                        positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
+                        positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
+                    )  # fmt: skip
+                    touch = gap <= table[ki, 2] + table[kj, 2] + tol
+                if touch:
+                    ri, rj = _find(parent, i), _find(parent, j)
+                    if ri != rj:
+                        parent[max(ri, rj)] = min(ri, rj)
     for i in range(n):
         parent[i] = _find(parent, i)
     return parent
