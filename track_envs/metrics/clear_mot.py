@@ -125,8 +125,11 @@ class ClearMot:
     matrix directly (NaN for impossible pairs) and produces the same events as
     ``motmetrics.MOTAccumulator.update``.
 
-    Duplicate ids in one frame (a report may hold them) are scored as motmetrics scores them:
-    each row is a separate object / hypothesis sharing the id's history.
+    Track ids in a frame are unique and non-negative by the report contract
+    (:func:`track_envs.report.validate_report`: a repeated id would let one identity claim
+    several truths and inflate MOTA, so environments reject it). Fed a report that breaks the
+    contract directly, rows sharing an id are scored as motmetrics scores them: separate
+    hypotheses sharing the id's history.
 
     Args:
         threshold: Largest distance, in sensor units, at which a track can match a truth.

@@ -24,7 +24,8 @@ gains ``c^p − d^p >= 0`` and blocks nothing; only the rows and columns left wi
 admissible partners go to a dense min-cost assignment with one miss column per row
 (``[C | diag(c^p)]``, inadmissible entries a finite stand-in larger than any feasible total),
 solved by :func:`~track_envs.metrics.shortest_augmenting_path.linear_sum_assignment`. Track
-identities play no part, so duplicate ids are distinct hypotheses.
+identities play no part (in a report they are unique and non-negative within a frame by the
+report contract, :func:`track_envs.report.validate_report`).
 """
 
 from __future__ import annotations

@@ -27,7 +27,8 @@ from track_envs.metrics.gospa import check_gospa_parameters, gospa_frame
 class GospaMetric:
     """Streaming mean per-frame GOSPA of reports (mask 1 rows) against the visible truth.
 
-    Track identities play no part: duplicate ids are distinct estimates.
+    Track identities play no part (in a report they are unique and non-negative within a frame
+    by the report contract, :func:`track_envs.report.validate_report`).
 
     Args:
         c: Cut-off distance in sensor units, > 0 and finite.
