@@ -32,6 +32,7 @@ from gymnasium import spaces
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int
 from track_envs.metrics.gospa import gospa
 from track_envs.report import Report, report_space, validate_report
 from track_envs.types import SensorSpec
@@ -103,11 +104,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
             )
-        if not (isinstance(max_targets, int | np.integer) and max_targets >= 1):
-            raise ValueError(f"max_targets must be an integer >= 1, got {max_targets!r}")
         self.render_mode = render_mode
         self.sensor_spec = spec
-        self.max_targets = int(max_targets)
+        self.max_targets = check_int("max_targets", max_targets, 1)
         self.position_shape = position_shape or (spec.dim,)
         self.detection_shape = detection_shape or (spec.dim,)
         self.truth_extra_shapes = truth_extra_shapes or {}

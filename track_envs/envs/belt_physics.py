@@ -43,6 +43,7 @@ import pymunk
 import pymunk.batch as pb
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int, check_non_negative, check_number, check_positive
 from track_envs.envs.belt_kernels import (
     NOT_PARTICLE,
     PARK_ORIGIN,
@@ -185,7 +186,9 @@ def resolve_mixture(particle_kind: str | Mapping[str, float]) -> dict[str, float
     unknown = [k for k in weights if k not in PARTICLE_KINDS]
     if unknown:
         raise ValueError(f"particle_kind has unknown kinds {unknown}; valid kinds are {list(PARTICLE_KINDS)}")
-    if any(not (w >= 0) for w in weights.values()) or sum(weights.values()) <= 0:
+    for kind, weight in weights.items():
+        check_non_negative(f"particle_kind[{kind!r}]", weight)
+    if sum(weights.values()) <= 0:
         raise ValueError(f"particle_kind weights must be >= 0 with a positive sum, got {weights}")
     total = sum(weights.values())
     return {k: w / total for k, w in weights.items() if w > 0}
@@ -223,17 +226,12 @@ class BeltParams:
 
     def __post_init__(self) -> None:
         for name in ("window_length", "window_width", "belt_speed", "feed_correlation_time"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+            check_positive(name, getattr(self, name))
         for name in ("feed_rate", "feed_burstiness", "drop_spread", "exit_margin", "warmup_time"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (np.isfinite(self.drop_x) and self.drop_x < 0):
+            check_non_negative(name, getattr(self, name))
+        if not check_number("drop_x", self.drop_x) < 0:
             raise ValueError(f"drop_x must be upstream of the window (< 0 m), got {self.drop_x!r}")
-        if not (isinstance(self.substeps, int) and 1 <= self.substeps <= 20):
-            raise ValueError(f"substeps must be an integer in [1, 20], got {self.substeps!r}")
+        check_int("substeps", self.substeps, 1, 20)
 
 
 @dataclass

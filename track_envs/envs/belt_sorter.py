@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
-from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -99,14 +99,13 @@ class BeltSorterEnv(TrackingEnv):
             raise ValueError(f"physics must be a BeltParams, got {type(params).__name__}")
         self.physics = replace(
             params,
-            feed_rate=params.feed_rate if feed_rate is None else feed_rate,
-            belt_speed=params.belt_speed if belt_speed is None else belt_speed,
+            feed_rate=params.feed_rate if feed_rate is None else check_non_negative("feed_rate", feed_rate),
+            belt_speed=params.belt_speed if belt_speed is None else check_positive("belt_speed", belt_speed),
         )
         self.kinds = resolve_mixture(particle_kind)
         self.kind_names = list(self.kinds)
-        for name, value in (("max_detections", max_detections), ("max_tracks", max_tracks)):
-            if not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        max_detections = check_int("max_detections", max_detections, 1)
+        max_tracks = check_int("max_tracks", max_tracks, 1)
         self.gospa_c = check_positive("gospa_c", gospa_c)
         dt = 0.01
         p = self.physics
