@@ -63,7 +63,7 @@ def check_observation(
         )
     if mask.shape != (spec.max_detections,) or mask.dtype.kind not in "iub":
         raise ValueError(
-            f"observation['mask'] must be a 0/1 integer or bool array of shape ({spec.max_detections},), "
+            f"observation['mask'] must be a 0/1 integer array (or bool) of shape ({spec.max_detections},), "
             f"got {mask.dtype} {mask.shape}"
         )
     status, rows, z = _live_detections(mask, det.reshape(spec.max_detections, -1))
@@ -73,10 +73,8 @@ def check_observation(
             f"observation['mask'] must hold 0 or 1; rows {bad[:10].tolist()} hold {mask[bad[:10]].tolist()}"
         )
     if status == _NOT_FINITE:
-        finite = np.isfinite(z).all(axis=1)
-        raise ValueError(
-            f"observation['detections'] holds NaN or inf in masked-in rows {rows[~finite][:10].tolist()}"
-        )
+        bad = rows[~np.isfinite(z).all(axis=1)][:10].tolist()
+        raise ValueError(f"observation['detections']: masked-in detection rows {bad} hold NaN or inf")
     return rows, z.reshape(len(rows), *row_shape)
 
 

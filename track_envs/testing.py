@@ -23,6 +23,9 @@ import numpy as np
 from track_envs.report import empty_report, validate_report
 from track_envs.types import Gaussian, SensorSpec
 
+#: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
+PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
+
 
 def _equal(a: Any, b: Any) -> bool:
     if isinstance(a, dict):
@@ -118,6 +121,10 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
     """Check an agent on an environment: valid reports, detection rows, determinism under a seed,
     and that it rejects (``ValueError``) observations that break the contract: mask values other
     than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation."""
+    missing = [m for m in ("reset", "act") if not callable(getattr(agent, m, None))]
+    assert not missing, (
+        f"an agent must have the methods reset(spec, *, seed) and act(obs); it lacks {missing}"
+    )
     spec = env.unwrapped.sensor_spec  # type: ignore[attr-defined]
 
     def rollout() -> list[dict[str, Any]]:
@@ -181,6 +188,8 @@ def _check_rejects_bad_observations(agent: Any, env: gym.Env, seed: int) -> None
 
 def check_predictor(predictor: Any, spec: SensorSpec, n: int = 5, seed: int = 0) -> None:
     """Check a predictor against the Predictor protocol: shapes, coasting, take/concat, empty batches."""
+    missing = [m for m in PREDICTOR_METHODS if not callable(getattr(predictor, m, None))]
+    assert not missing, f"a predictor must have the methods {list(PREDICTOR_METHODS)}; it lacks {missing}"
     rng = np.random.default_rng(seed)
     predictor.reset(spec)
     d = spec.dim

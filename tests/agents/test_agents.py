@@ -8,6 +8,7 @@ import pytest
 
 import track_envs
 from agents import agent_applies_to, available_agents, make_agent
+from track_envs.registry import UnknownArgumentError
 from track_envs.testing import check_agent
 
 
@@ -75,12 +76,12 @@ def test_every_agent_rejects_mask_values_other_than_zero_and_one(name, value):
 @pytest.mark.parametrize("name", available_agents())
 def test_every_agent_rejects_a_float_mask_nan_rows_and_wrong_shapes(name):
     agent, obs = _agent_on_its_env(name)
-    with pytest.raises(ValueError, match="0/1 integer or bool array"):
+    with pytest.raises(ValueError, match=r"0/1 integer array \(or bool\)"):
         agent.act({**obs, "mask": obs["mask"].astype(np.float32)})
     live = np.flatnonzero(obs["mask"] == 1)
     nan = obs["detections"].copy()
     nan[live[0]] = np.nan
-    with pytest.raises(ValueError, match=rf"NaN or inf in masked-in rows \[{live[0]}\]"):
+    with pytest.raises(ValueError, match=rf"masked-in detection rows \[{live[0]}\] hold NaN or inf"):
         agent.act({**obs, "detections": nan})
     for shape in [(10, 2), obs["detections"].shape[::-1]]:
         with pytest.raises(ValueError, match=r"observation\['detections'\] must be a float array of shape"):
@@ -107,3 +108,11 @@ def test_a_rejected_observation_leaves_the_agent_as_it_was(name):
     report, expected = agent.act(obs), twin.act(obs)
     for key, value in expected.items():
         np.testing.assert_array_equal(report[key], value)
+
+
+@pytest.mark.parametrize("name", available_agents())
+def test_an_unknown_keyword_names_the_agent_arguments(name):
+    with pytest.raises(
+        UnknownArgumentError, match=r"has no argument 'not_an_argument'; its arguments are \["
+    ):
+        make_agent(name, not_an_argument=1)

@@ -65,7 +65,7 @@ def test_mask_values_other_than_zero_and_one_are_named_by_row(value: int) -> Non
 
 def test_a_float_mask_is_refused() -> None:
     obs = observation(dtype=np.float64)
-    with pytest.raises(ValueError, match=r"mask'\] must be a 0/1 integer or bool array .* got float64"):
+    with pytest.raises(ValueError, match=r"mask'\] must be a 0/1 integer array \(or bool\) .* got float64"):
         check_observation(obs, SPEC)
 
 
@@ -74,7 +74,7 @@ def test_non_finite_masked_in_rows_are_named() -> None:
     obs["detections"][2, 1] = np.nan
     obs["detections"][3, 0] = np.inf
     obs["detections"][4] = np.nan  # padding may hold anything
-    with pytest.raises(ValueError, match=r"NaN or inf in masked-in rows \[2, 3\]"):
+    with pytest.raises(ValueError, match=r"masked-in detection rows \[2, 3\] hold NaN or inf"):
         check_observation(obs, SPEC)
 
 

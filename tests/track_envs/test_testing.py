@@ -74,3 +74,11 @@ class ForgivingEnv(gym.Wrapper):
 def test_an_env_that_accepts_repeated_ids_is_caught():
     with pytest.raises(AssertionError, match="must reject a report whose live rows hold a repeated id"):
         check_tracking_env(ForgivingEnv(gym.make("SineTarget-v0")), steps=3)
+
+
+def test_a_predictor_without_the_protocol_methods_is_caught():
+    spec = gym.make("BeltSorter-v0").unwrapped.sensor_spec
+    with pytest.raises(
+        AssertionError, match=r"it lacks \['reset', 'start', 'predict', 'update', 'estimate'\]"
+    ):
+        check_predictor(object(), spec)
