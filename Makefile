@@ -33,6 +33,7 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_belt_sorter.py
+	$(PY) benchmarks/bench_belt_restore.py
 	$(PY) benchmarks/bench_tracker.py
 	$(PY) benchmarks/bench_metrics.py
 	$(PY) benchmarks/bench_replay_load.py
