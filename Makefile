@@ -40,6 +40,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_particle_filter.py
 	$(PY) benchmarks/bench_keypoints.py
 	$(PY) benchmarks/bench_runner_overhead.py
+	$(PY) benchmarks/bench_rendering.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -255,6 +255,18 @@ class BeltSorterEnv(TrackingEnv):
     def _snapshot(self) -> Any:
         return self.world.state() if self.world is not None else None
 
+    def _legend(self) -> list[Any]:
+        from track_envs.envs.belt_physics import PARTICLE_KINDS
+        from track_envs.rendering import LegendEntry
+
+        boxes = any(PARTICLE_KINDS[name].shape != "circle" for name in self.kind_names)
+        return [
+            LegendEntry("particle (truth)", "box" if boxes else "disc"),
+            LegendEntry("detection", "cross", (0, 0, 0)),
+            LegendEntry("track", "ring"),
+            LegendEntry("camera window", "line", _WINDOW),
+        ]
+
     def _draw(self, canvas: Any, snapshot: Any) -> None:
         from track_envs.rendering import identity_colors
 
@@ -278,8 +290,7 @@ class BeltSorterEnv(TrackingEnv):
             if not rows.any():
                 continue
             if kind.shape == "circle":
-                scale = canvas.width / (canvas.world_high[0] - canvas.world_low[0])
-                canvas.discs(s.position[rows], 0.5 * kind.length * scale, colors[rows])
+                canvas.discs(s.position[rows], 0.5 * kind.length * canvas.to_px.scale[0], colors[rows])
             else:
                 canvas.polygons(
                     _box_corners(s.position[rows], s.angle[rows], kind.length, kind.width), colors[rows]

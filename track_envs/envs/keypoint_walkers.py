@@ -346,6 +346,16 @@ class KeypointWalkersEnv(TrackingEnv):
         for x0, x1 in pillars:
             canvas.fill_rect((x0, 0.0), (x1, p.height), (120, 100, 85))
 
+    def _legend(self) -> list[Any]:
+        from track_envs.rendering import LegendEntry
+
+        return [
+            LegendEntry("person (truth)", "line"),
+            LegendEntry("detected keypoint", "cross", (0, 0, 0)),
+            LegendEntry("track", "outlined-line"),
+            LegendEntry("pillar", "box", (120, 100, 85)),
+        ]
+
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detected keypoints as black crosses; reported poses as thin skeletons in id colours."""
         from track_envs.rendering import identity_colors

@@ -280,6 +280,17 @@ class SingleTargetEnv(TrackingEnv):
         if snapshot is not None and len(snapshot.positions):
             canvas.discs(snapshot.positions, 6, (30, 120, 40))
 
+    def _legend(self) -> list[Any]:
+        from track_envs.rendering import LegendEntry
+
+        return [
+            LegendEntry("truth", "disc", (30, 120, 40)),
+            LegendEntry("path", "line", (40, 70, 170)),
+            LegendEntry("occluded", "line", (235, 140, 40)),
+            LegendEntry("detection", "cross", (0, 0, 0)),
+            LegendEntry("track", "ring"),
+        ]
+
 
 class SineTargetEnv(SingleTargetEnv):
     """One target on the sine curve of paper 001, seen by a point sensor with misses and occlusion.
