@@ -123,7 +123,7 @@ def plot_reliability(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(5, 5))
+    fig, ax = plt.subplots(figsize=(5, 6))
     ax.plot([0, 1], [0, 1], color="0.6", linestyle="--", label="calibrated")
     for label, (expected, empirical) in curves.items():
         ax.plot(expected, empirical, marker=".", label=label)
@@ -132,7 +132,7 @@ def plot_reliability(
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 1)
     ax.set_title(title or "reliability (χ² of squared Mahalanobis distances)")
-    ax.legend(loc="upper left")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

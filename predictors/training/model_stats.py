@@ -19,6 +19,7 @@ import numpy as np
 
 from predictors.belt_lstm_net import BeltLSTMNet, Features
 from predictors.calibration import P_DES, coverage, fit_recalibration
+from predictors.model_file import ModelFile
 from predictors.training.belt import NoiseStd, check_noise_std, noisy_tracks, to_model_file
 from predictors.training.data import TrackSet, TrackSplit
 from predictors.training.evaluate import OneStepResult, one_step_predictions
@@ -52,14 +53,19 @@ def mc_precision(dropout: float, train_steps: int) -> float | None:
     return (1.0 - dropout) * LENGTH_SCALE**2 / (2.0 * train_steps * L2)
 
 
+def predictions_of(model: ModelFile, data: TrackSet, noise_std: NoiseStd, seed: int) -> OneStepResult:
+    """One-step predictions of a belt model on ``data`` (noise and mc masks seeded by ``seed``)."""
+    from predictors.lstm import LSTMPredictor
+
+    predictor = LSTMPredictor(model.kind, model)
+    predictor.reset(spec_of(data, noise_std), rng=np.random.default_rng(seed))
+    return one_step_predictions(predictor, noisy_tracks(data, noise_std, seed).tracks)
+
+
 def _run(
     net: BeltLSTMNet, features: Features, meta: dict[str, Any], data: TrackSet, noise_std: NoiseStd, seed: int
 ) -> OneStepResult:
-    from predictors.lstm import LSTMPredictor
-
-    predictor = LSTMPredictor(net.kind, to_model_file(net, features, **meta))
-    predictor.reset(spec_of(data, noise_std), rng=np.random.default_rng(seed))
-    return one_step_predictions(predictor, noisy_tracks(data, noise_std, seed).tracks)
+    return predictions_of(to_model_file(net, features, **meta), data, noise_std, seed)
 
 
 def model_statistics(
@@ -92,3 +98,53 @@ def model_statistics(
         "test_predictions": len(d2_after),
     }
     return {"mc": mc, "calibration": meta["calibration"], "metrics": metrics}
+
+
+def predictive_log_likelihood(result: OneStepResult) -> float:
+    """Mean Gaussian log-likelihood ``log N(y; ŷ, Σ)`` of the valid one-step predictions.
+
+    The score of the dropout-rate grid search (Pollithy et al. 2020, Sec. IV-C, after Gal and
+    Ghahramani): for MC dropout, ``ŷ`` and ``Σ`` are the sample mean and eq. (4)'s covariance.
+    """
+    means, covs, targets = result.flat()
+    diff = targets - means
+    d2 = np.einsum("nd,nd->n", diff, np.linalg.solve(covs, diff[..., None])[..., 0])
+    _, logdet = np.linalg.slogdet(2.0 * np.pi * covs)
+    return float(np.mean(-0.5 * (d2 + logdet)))
+
+
+def dropout_grid(
+    split: TrackSplit,
+    rates: list[float],
+    config: Any,
+    *,
+    noise_std: NoiseStd,
+    seed: int,
+    samples: int = 100,
+    progress: bool = False,
+) -> list[dict[str, float]]:
+    """Train mc-lstm once per dropout rate (short runs) and score each on the validation tracks.
+
+    Returns one ``{"dropout", "validation_log_likelihood", "validation_mean_error"}`` per rate.
+    """
+    from predictors.lstm import LSTMPredictor
+    from predictors.training.belt import train_belt_model
+
+    rows = []
+    steps = int(sum(len(t) - 1 for t in split.train.tracks))
+    for rate in rates:
+        net, features, _ = train_belt_model(
+            "mc-lstm", split, config, dropout=rate, noise_std=noise_std, progress=progress
+        )
+        model = to_model_file(net, features, mc={"tau": mc_precision(rate, steps)})
+        predictor = LSTMPredictor("mc-lstm", model, samples=samples)
+        predictor.reset(spec_of(split.validation, noise_std), rng=np.random.default_rng(seed))
+        result = one_step_predictions(predictor, noisy_tracks(split.validation, noise_std, seed + 1).tracks)
+        rows.append(
+            {
+                "dropout": rate,
+                "validation_log_likelihood": predictive_log_likelihood(result),
+                "validation_mean_error": float(np.mean(result.per_track_mean_error())),
+            }
+        )
+    return rows
