@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from agents import _gnn_kernels as _kernels
 from agents.association import ASSOCIATORS, chi2_gate
 from predictors import PREDICTORS, available_predictors, make_predictor
-from predictors.base import Predictor
+from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
 from track_envs.registry import UnknownArgumentError, check_keywords, missing_methods, named_arguments
 from track_envs.report import pack_report
@@ -139,7 +139,8 @@ class GnnAgent:
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
         """Start an episode with sensor ``spec`` (the tracker is deterministic; ``seed`` is unused)."""
         self._spec = spec
-        self.predictor.reset(spec)
+        reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
+        self._takes_velocity = accepts_velocity_prior(self.predictor)
         self._gate = chi2_gate(self.p_gate, spec.dim)
         self._state: Any = None
         self._ids = np.zeros(0, dtype=np.int64)
@@ -244,7 +245,7 @@ class GnnAgent:
     def _initiate(self, z: NDArray[np.float64]) -> None:
         """New tracks at detections ``z`` (k, D), with the learnt velocity prior when there is one."""
         k = len(z)
-        if self.velocity_prior is not None and self._flow_mean is not None:
+        if self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None:
             mean = np.broadcast_to(self._flow_mean, z.shape).copy()
             cov = None
             if self._flow_var is not None:
