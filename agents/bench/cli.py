@@ -28,6 +28,7 @@ examples:
   track-bench run --suite quick --workers 1 --out results/q1   # in-process, no pool
   track-bench run --envs BeltSorter-v0 --agents gnn --predictors kf-cv,kf-ca \\
                   --seeds 5 --steps 300 --sweep noise_std=0,1e-4,2e-4,3e-4,4e-4,5e-4 --out results/noise
+  track-bench run --envs SineTarget-v0 --agents gnn --agent-kwargs p_gate=0.99,max_misses=3 --out results/gate
   track-bench run --suite my_suite.toml --engine ray --out results/ray          # local Ray instance
   track-bench run --suite full --engine ray --address auto --out results/full   # an existing Ray cluster
   track-bench report results/noise                              # rebuild tables and plots

@@ -294,6 +294,9 @@ def bar_figure(env_rows: Sequence[Row]) -> Any:
             yerr = np.vstack([np.maximum(y - lo, 0.0), hi - y])
             name = params_text(setting) if len(settings) > 1 else None
             ax.bar(x, y, width, yerr=yerr, capsize=2, label=name)
+            if scale == "log":  # a zero has no bar on a log axis: say so
+                for xi in np.asarray(x)[y == 0]:
+                    ax.text(xi, 0.01, "0", transform=ax.get_xaxis_transform(), ha="center", fontsize=7)
         ax.set_xticks([i + 0.4 - width / 2 for i in range(len(labels))], labels, rotation=45, ha="right")
         ax.set_title(metric + (" (log)" if scale == "log" else ""))
     if len(settings) > 1:

@@ -167,8 +167,9 @@ def test_help_is_complete(capsys):
     out = capsys.readouterr().out
     for flag in ("--suite", "--envs", "--agents", "--predictors", "--seeds", "--episodes", "--steps"):
         assert flag in out
-    for flag in ("--sweep", "--workers", "--engine", "--address", "--out", "examples:", "track-bench report"):
+    for flag in ("--sweep", "--agent-kwargs", "--workers", "--engine", "--address", "--out", "examples:"):
         assert flag in out
+    assert "track-bench report" in out and "agent_kwargs" in out
 
 
 def test_list_names_everything(capsys):
