@@ -31,6 +31,7 @@ import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -84,6 +85,9 @@ class LSTMPredictor:
             ``particle_kind``.
         particle_kind: Which shipped weights to load when ``weights`` is ``None``.
         samples: Monte Carlo passes ``T`` of mc-lstm (Pollithy et al. 2020 use 250).
+        mc_inference: ``"grouped"`` computes each distinct dropout sample once
+            (:mod:`predictors.mc_dropout`, exact and several times faster); ``"plain"`` runs all
+            ``T`` masked passes (the reference it is tested against).
     """
 
     def __init__(
@@ -93,11 +97,15 @@ class LSTMPredictor:
         *,
         particle_kind: str = "cylinder",
         samples: int = 250,
+        mc_inference: str = "grouped",
     ):
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
         if not (isinstance(samples, int) and samples >= 1):
             raise ValueError(f"samples must be an integer >= 1, got {samples!r}")
+        if mc_inference not in ("grouped", "plain"):
+            raise ValueError(f"mc_inference must be 'grouped' or 'plain', got {mc_inference!r}")
+        self.mc_inference = mc_inference
         if weights is None:
             path = shipped_weights(kind, particle_kind)
             if not path.with_name(path.name + ".json").is_file():
@@ -143,6 +151,9 @@ class LSTMPredictor:
         tau = model.meta.get("mc", {}).get("tau")
         self.tau = float(tau) if tau is not None else np.inf
         self._widths = (2 * d, h1, h1, h2, h2)
+        from predictors.mc_dropout import GroupedMC
+
+        self._grouped = GroupedMC(self.net, self._widths, 1.0 - self.dropout)
 
     def __repr__(self) -> str:
         return f"LSTMPredictor({self.kind!r}, weights={str(self.model.path)!r})"
@@ -175,17 +186,24 @@ class LSTMPredictor:
             raise ValueError(f"measurement rows {np.flatnonzero(bad)[:10].tolist()} hold NaN or inf")
         return a
 
-    def start(self, z: NDArray[np.floating]) -> LSTMTrackState:
+    def start(self, z: NDArray[np.floating]) -> Any:
         """New tracks from their first measurements ``z`` (n, D)."""
         z = self._check_z(z)
         n = len(z)
         masks = self._draw_masks(n)
         x = self._features.inputs(z, None)
-        out, (h1, c1, h2, c2) = self._step(x, self._zero(n), masks)
         R = np.broadcast_to(self._R, (n, *self._R.shape)).copy()
+        if self._is_grouped:
+            started = self._grouped.start(x, masks)
+            return dataclasses.replace(started, z=z, z_cov=R, z_prev=z.copy())
+        out, (h1, c1, h2, c2) = self._step(x, self._zero(n), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z, R, z.copy(), masks)
 
-    def predict(self, state: LSTMTrackState) -> tuple[LSTMTrackState, Gaussian]:
+    @property
+    def _is_grouped(self) -> bool:
+        return self.kind == "mc-lstm" and self.mc_inference == "grouped"
+
+    def predict(self, state: Any) -> tuple[Any, Gaussian]:
         """The predicted next measurement of every track (no network call).
 
         The returned state's estimate is the prediction, so a track that then coasts reports it.
@@ -195,9 +213,7 @@ class LSTMPredictor:
         moved = dataclasses.replace(state, z=prediction.mean, z_cov=prediction.cov)
         return moved, prediction
 
-    def update(
-        self, state: LSTMTrackState, z: NDArray[np.floating], seen: NDArray[np.bool_]
-    ) -> LSTMTrackState:
+    def update(self, state: Any, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> Any:
         """Feed ``z`` to the tracks with ``seen``; the others are fed their prediction.
 
         Rows of ``z`` that are not seen are ignored (they may hold NaN).
@@ -213,11 +229,14 @@ class LSTMPredictor:
         z_in = np.where(seen[:, None], z, state.z)
         z_cov = np.where(seen[:, None, None], self._R, state.z_cov)
         x = self._features.inputs(z_in, state.z_prev)
+        if self._is_grouped:
+            stepped = self._grouped.step(x, state)
+            return dataclasses.replace(stepped, z=z_in, z_cov=z_cov, z_prev=z_in.copy())
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks)
 
-    def estimate(self, state: LSTMTrackState) -> Gaussian:
+    def estimate(self, state: Any) -> Gaussian:
         """Each track's last measurement, or its prediction once predicted (and while it coasts)."""
         return Gaussian(state.z.copy(), state.z_cov.copy())
 
@@ -249,16 +268,19 @@ class LSTMPredictor:
         out, new = self.net.step(xs, flat_state, parts)  # type: ignore[arg-type]
         return out.reshape(n, T, -1), tuple(s.reshape(n, T, -1) for s in new)
 
-    def _prediction(self, state: LSTMTrackState) -> Gaussian:
+    def _prediction(self, state: Any) -> Gaussian:
         f = self._features
         d = self.model.dim
         n = len(state)
         scale = f.variance_scale()  # standardised output variance → sensor units², per axis
         if self.kind == "mc-lstm":
-            out = state.out[..., :d]  # (n, T, D) standardised
-            mean_std = out.mean(axis=1)
-            centred = out - mean_std[:, None, :]
-            cov_std = np.einsum("ntd,nte->nde", centred, centred) / out.shape[1]
+            if self._is_grouped:
+                mean_std, cov_std = state.mean[:, :d], state.cov[:, :d, :d]
+            else:
+                out = state.out[..., :d]  # (n, T, D) standardised
+                mean_std = out.mean(axis=1)
+                centred = out - mean_std[:, None, :]
+                cov_std = np.einsum("ntd,nte->nde", centred, centred) / out.shape[1]
             cov_std = cov_std + np.eye(d) / self.tau
             mean = f.position(state.z_prev, mean_std)
             sd = np.sqrt(scale)

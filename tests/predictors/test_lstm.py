@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -31,10 +32,17 @@ def trained(belt_split: TrackSplit) -> dict[str, tuple[BeltLSTMNet, Features]]:
     return out
 
 
-def _predictor(trained: dict, kind: str, split: TrackSplit, samples: int = 7, seed: int = 0) -> LSTMPredictor:
+def _predictor(
+    trained: dict,
+    kind: str,
+    split: TrackSplit,
+    samples: int = 7,
+    seed: int = 0,
+    mc_inference: str = "grouped",
+) -> LSTMPredictor:
     net, features = trained[kind]
     model = to_model_file(net, features, mc={"tau": 50.0}, calibration={"scale": 1.0, "cov_scale": 1e-8})
-    p = LSTMPredictor(net.kind, model, samples=samples)
+    p = LSTMPredictor(net.kind, model, samples=samples, mc_inference=mc_inference)
     p.reset(spec_of(split.train, 1e-4), rng=np.random.default_rng(seed))
     return p
 
@@ -58,7 +66,7 @@ def test_numpy_inference_equals_torch(kind: str, trained: dict, belt_split: Trac
 def test_mc_masks_match_torch(trained: dict, belt_split: TrackSplit) -> None:
     """One MC sample of the numpy path equals the torch network run with the same masks."""
     net, features = trained["mc-lstm"]
-    p = _predictor(trained, "mc-lstm", belt_split, samples=3)
+    p = _predictor(trained, "mc-lstm", belt_split, samples=3, mc_inference="plain")
     batch = sequence_batch(belt_split.test, features)
     state = p.start(batch.positions[:, 0])
     state, _ = p.predict(state)
@@ -140,3 +148,32 @@ def test_bad_arguments_are_named() -> None:
         LSTMPredictor("gru")
     with pytest.raises(ValueError, match=r"samples must be an integer >= 1, got 0"):
         LSTMPredictor("mc-lstm", samples=0)
+
+
+def test_grouped_mc_equals_the_plain_t_sample_computation(trained: dict, belt_split: TrackSplit) -> None:
+    """Computing each distinct dropout sample once gives the plain T-pass result (float64, 1e-12)."""
+    net, features = trained["mc-lstm"]
+    model = to_model_file(net, features, mc={"tau": 50.0}, calibration={"scale": 1.0})
+    # masks at 1%: all four sample groups occur
+    model = dataclasses.replace(model, architecture={**model.architecture, "dropout": 0.01})
+    spec = spec_of(belt_split.train, 1e-4)
+    plain = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="plain")
+    grouped = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="grouped")
+    plain.reset(spec, rng=np.random.default_rng(9))
+    grouped.reset(spec, rng=np.random.default_rng(9))
+    z = sequence_batch(belt_split.test, features).positions
+    a, b = plain.start(z[:, 0]), grouped.start(z[:, 0])
+    assert b.a_valid.any() and b.b_valid.any() and b.c_valid.any() and (b.n_clean > 0).any()
+    rows = np.arange(len(z))  # the track of each state row
+    for t in range(1, 6):
+        a, pa = plain.predict(a)
+        b, pb = grouped.predict(b)
+        np.testing.assert_allclose(pb.mean, pa.mean, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(pb.cov, pa.cov, rtol=1e-9, atol=1e-18)
+        seen = np.arange(len(a)) % 3 != 0  # some tracks coast
+        a, b = plain.update(a, z[rows, t], seen), grouped.update(b, z[rows, t], seen)
+        if t == 3:  # survivors and births: take and concat keep the groups
+            keep = np.flatnonzero(np.arange(len(a)) % 2 == 0)
+            a = type(a).concat([a.take(keep), plain.start(z[:4, t])])
+            b = type(b).concat([b.take(keep), grouped.start(z[:4, t])])
+            rows = np.concatenate([rows[keep], np.arange(4)])
