@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from agents.gnn import YOUNG_STREAK
 from predictors import available_predictors
 from predictors.kalman import KalmanPredictor
 from track_envs.metrics.belt import AssociationErrors
+from track_envs.registry import UnknownArgumentError
 from track_envs.types import Gaussian, SensorSpec
 
 
@@ -131,6 +134,49 @@ def test_bad_arguments_are_named(kwargs, message):
     with pytest.raises(ValueError, match=message):
         agent = make_agent("gnn", **kwargs)
         agent.reset(SPEC)
+
+
+def test_an_unknown_keyword_names_the_agent_and_predictor_arguments():
+    """``make_agent("gnn", gate=3)`` used to blame ``KalmanPredictor.__init__``."""
+    with pytest.raises(UnknownArgumentError) as caught:
+        make_agent("gnn", gate=3)
+    message = str(caught.value)
+    assert message.startswith("GnnAgent has no argument 'gate'; its arguments are ['predictor', 'p_gate',")
+    assert "passes further keywords to predictor 'kf-ca', whose arguments are ['q', " in message
+    assert isinstance(caught.value, TypeError) and isinstance(caught.value, ValueError)
+    with pytest.raises(UnknownArgumentError, match=r"no argument 'initial_velocity'.*'random-walk'.*\['q'\]"):
+        make_agent("gnn", predictor="random-walk", initial_velocity=[1.0, 0.0])
+    assert make_agent("gnn", predictor="kf-cv", q=3.0).predictor.q == 3.0
+
+
+def test_predictor_keywords_with_a_predictor_object_are_refused():
+    with pytest.raises(UnknownArgumentError, match=r"no argument 'q'.*predictor given by name"):
+        make_agent("gnn", predictor=KalmanPredictor("cv"), q=3.0)
+
+
+class HalfPredictor:
+    """Has some of the Predictor methods, not all."""
+
+    def reset(self, spec):
+        pass
+
+    def predict(self, state):
+        return state, None
+
+    update = None
+
+
+@pytest.mark.parametrize(
+    ("predictor", "missing"),
+    [
+        (object(), "['reset', 'start', 'predict', 'update', 'estimate']"),
+        (HalfPredictor(), "['start', 'update', 'estimate']"),
+    ],
+)
+def test_a_predictor_object_without_the_protocol_methods_is_refused_at_construction(predictor, missing):
+    """``predictor=object()`` used to be accepted and to fail only at reset."""
+    with pytest.raises(ValueError, match=rf"implement the Predictor protocol .* lacks {re.escape(missing)}"):
+        make_agent("gnn", predictor=predictor)
 
 
 points = st.lists(

@@ -9,8 +9,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.arguments import (
+    check_int,
+    check_non_negative,
+    check_positive,
+    check_probability,
+    check_vector,
+)
 from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.track_csv import load_track_csv
 from track_envs.types import SensorSpec
 
@@ -107,17 +113,17 @@ class BeltReplayEnv(TrackingEnv):
         room = most + int(np.ceil(clutter_rate + 6 * np.sqrt(clutter_rate))) if clutter_rate else most
         max_detections = max(room, 16) if max_detections is None else max_detections
         max_tracks = max(2 * most, 16) if max_tracks is None else max_tracks
-        for name, value in (("max_detections", max_detections), ("max_tracks", max_tracks)):
-            if not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        max_detections = check_int("max_detections", max_detections, 1)
+        max_tracks = check_int("max_tracks", max_tracks, 1)
         if region is None:
             pts = self.tracks[visible]
             low, high = pts.min(axis=0), pts.max(axis=0)
             pad = 0.02 * np.maximum(high - low, 1e-9)
             low, high = low - pad, high + pad
         else:
-            low, high = np.asarray(region[0], dtype=float), np.asarray(region[1], dtype=float)
-            if low.shape != (2,) or high.shape != (2,) or np.any(low >= high):
+            corners = region if isinstance(region, tuple | list) and len(region) == 2 else (None, None)
+            low, high = check_vector("region[0]", corners[0], 2), check_vector("region[1]", corners[1], 2)
+            if np.any(low >= high):
                 raise ValueError(
                     f"region must be ((x_low, y_low), (x_high, y_high)) with low < high, got {region!r}"
                 )

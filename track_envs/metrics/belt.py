@@ -106,9 +106,10 @@ class AssociationErrors:
     are kept as hash sets (:class:`~track_envs.metrics.key_table.KeyTable`) updated by a compiled
     kernel per frame, so memory grows with the number of distinct pairs, not frames.
 
-    Duplicate track ids in one frame are merged: a track is its id, so two rows with the same id
-    are the same track (two particles behind one id make an error of the first kind). A track
-    id reused later for another particle likewise counts as one track holding two particles.
+    Track ids in a frame are unique and non-negative by the report contract
+    (:func:`track_envs.report.validate_report`); a track is its id, so a track id reused in a
+    later frame for another particle counts as one track holding two particles. (Fed a report
+    that breaks the contract directly, rows sharing an id are merged into one track.)
 
     With no qualifying tracks ``e1`` is 0 (no track is in error), with no particles ``e2`` is 0.
 

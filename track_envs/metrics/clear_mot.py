@@ -9,8 +9,9 @@ MOT Metrics", EURASIP JIVP 2008; with the event rules of py-motmetrics' ``MOTAcc
 2. the remaining truths and tracks are matched by a min-cost assignment (scipy
    ``linear_sum_assignment``, impossible pairs priced as motmetrics' ``add_expensive_edges``
    prices them, then dropped); a match whose track differs from the truth's last match is an
-   ID switch (lone pairs are taken directly, see :mod:`track_envs.metrics.clear_mot_events`,
-   which runs these rules per frame as one compiled kernel);
+   ID switch (when every remaining pair is a lone pair, :func:`track_envs.assignment.split_lone_pairs`,
+   the pairs are taken directly; :mod:`track_envs.metrics.clear_mot_events` runs these rules per
+   frame as one compiled kernel);
 3. unmatched truths are misses, unmatched tracks false positives.
 
 .. math::
@@ -168,8 +169,11 @@ class ClearMot:
     matrix directly (NaN for impossible pairs) and produces the same events as
     ``motmetrics.MOTAccumulator.update``.
 
-    Duplicate ids in one frame (a report may hold them) are scored as motmetrics scores them:
-    each row is a separate object / hypothesis sharing the id's history.
+    Track ids in a frame are unique and non-negative by the report contract
+    (:func:`track_envs.report.validate_report`: a repeated id would let one identity claim
+    several truths and inflate MOTA, so environments reject it). Fed a report that breaks the
+    contract directly, rows sharing an id are scored as motmetrics scores them: separate
+    hypotheses sharing the id's history.
 
     With merged detection ids (``info["detection_ids_merged"]``), a track updated with a merged
     detection may also match the blob's other particles (module docstring).
