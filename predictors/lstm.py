@@ -264,7 +264,7 @@ class LSTMPredictor:
     ) -> tuple[FloatArray, tuple[FloatArray, ...]]:
         """One network step; mc-lstm runs ``T`` masked rows per track."""
         if self.kind != "mc-lstm" or masks is None:
-            out, new = self.net.step(x, state)  # type: ignore[arg-type]
+            out, new = self.net.step(x, state)
             return out, new
         n, T = masks.shape[0], self.samples
         flat = masks.reshape(n * T, -1)
@@ -272,7 +272,7 @@ class LSTMPredictor:
         parts = tuple(np.split(flat, cuts, axis=1))
         xs = np.repeat(x, T, axis=0)
         flat_state = tuple(s.reshape(n * T, -1) for s in state)
-        out, new = self.net.step(xs, flat_state, parts)  # type: ignore[arg-type]
+        out, new = self.net.step(xs, flat_state, parts)
         return out.reshape(n, T, -1), tuple(s.reshape(n, T, -1) for s in new)
 
     def _prediction(self, state: Any) -> Gaussian:
