@@ -66,10 +66,44 @@ def random_walk(*, q: float | None = None) -> Any:
     return KalmanPredictor("random-walk", q=q)
 
 
+def lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
+    """Belt LSTM trained with MSE; covariance ``s·I`` with ``s`` line-searched on the tracker's e_mean.
+
+    ``weights``: a model file (default: the shipped weights for ``particle_kind``).
+    """
+    from predictors.lstm import LSTMPredictor
+
+    return LSTMPredictor("lstm", weights, particle_kind=particle_kind)
+
+
+def nll_lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
+    """Belt LSTM with a heteroscedastic Gaussian output (mean, log-variance), calibrated covariances.
+
+    ``weights``: a model file (default: the shipped weights for ``particle_kind``: cylinder,
+    sphere or cuboid).
+    """
+    from predictors.lstm import LSTMPredictor
+
+    return LSTMPredictor("nll-lstm", weights, particle_kind=particle_kind)
+
+
+def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: int = 250) -> Any:
+    """Belt LSTM with variational MC dropout: ``samples`` masks per track, calibrated covariances.
+
+    ``weights``: a model file (default: the shipped weights for ``particle_kind``).
+    """
+    from predictors.lstm import LSTMPredictor
+
+    return LSTMPredictor("mc-lstm", weights, particle_kind=particle_kind, samples=samples)
+
+
 def _register_builtin() -> None:
     register_predictor("kf-cv", kf_cv)
     register_predictor("kf-ca", kf_ca)
     register_predictor("random-walk", random_walk)
+    register_predictor("lstm", lstm)
+    register_predictor("nll-lstm", nll_lstm)
+    register_predictor("mc-lstm", mc_lstm)
 
 
 _register_builtin()

@@ -92,18 +92,23 @@ def fit_recalibration(
         raise ValueError(f"p_des must be in (0, 1), got {p_des!r}")
     if len(means) < 100:
         raise ValueError(f"calibration needs at least 100 held-out predictions, got {len(means)}")
-    expected, empirical = reliability(means, covs, targets)
+    dim = means.shape[1]
+    d2 = Reliability()._d2(means, covs, targets)
+    # the grid plus the expected levels of the empirical quantiles around p_des, so the curve has
+    # points exactly where R(p_des) is read, however badly scaled the covariances are
+    near = chi2.cdf(np.quantile(d2, np.clip(p_des + np.array([-2e-3, -1e-3, 0.0, 1e-3]), 0.0, 1.0)), dim)
+    near = near[(near > 0.0) & (near < 1.0)]
+    levels = np.unique(np.concatenate([calibration_levels(), near]))
+    expected, empirical = reliability(means, covs, targets, levels)
     order = np.argsort(empirical, kind="stable")
     fitted = np.empty_like(expected)
     fitted[order] = isotonic_regression(expected[order], increasing=True).x
-    dim = means.shape[1]
     cal = Recalibration(expected, empirical, fitted, p_des, 1.0, dim)
-    if empirical.max() >= p_des:
+    if empirical.max() >= p_des and empirical.min() <= p_des:
         scale = float(chi2.ppf(cal.R(p_des), dim) / chi2.ppf(p_des, dim))
     else:
-        # the curve never reaches p_des inside the grid: R(p_des) lies beyond its last level, where
-        # F⁻¹(R(p_des)) is the empirical p_des-quantile of d² itself (the curve's continuous limit)
-        d2 = Reliability()._d2(means, covs, targets)
+        # the curve does not reach p_des inside (0, 1) in floating point: F⁻¹(R(p_des)) is then the
+        # empirical p_des-quantile of d² itself (the curve's continuous limit)
         scale = float(np.quantile(d2, p_des) / chi2.ppf(p_des, dim))
     return Recalibration(expected, empirical, fitted, p_des, scale, dim)
 

@@ -28,13 +28,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
 from predictors.base import BatchState
-from predictors.lstm_inference import LSTMWeights
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -117,12 +116,13 @@ class GroupedMC:
     """MC-dropout inference of :class:`~predictors.lstm_inference.LSTMWeights` by sample groups.
 
     Args:
-        net: The network weights.
+        net: The network weights (:class:`~predictors.lstm_inference.LSTMWeights` or its float32
+            twin :class:`~predictors.lstm_inference.FastLSTMWeights`).
         widths: Mask widths ``(In, H1, H1, H2, H2)``.
         keep: Keep probability ``1 − p``.
     """
 
-    def __init__(self, net: LSTMWeights, widths: tuple[int, ...], keep: float):
+    def __init__(self, net: Any, widths: tuple[int, ...], keep: float):
         self.net, self.widths, self.keep = net, widths, keep
         self.cuts = np.cumsum(widths)[:-1]
 

@@ -8,8 +8,10 @@ track's ``T_i − 1`` predictions and then over tracks, as in Pollithy et al. (2
   and mini-batch (held fixed over the track's time steps);
 * ``nll-lstm``: ``½ Σ_d (exp(−s_d) e_d² + s_d)`` with ``s = log σ²`` per axis.
 
-Measurement noise (``noise_std``, sensor units) can be added to the true positions once, from a
-generator seeded by the training seed, so that the model sees what a tracker sees.
+Measurement noise (``noise_std``, sensor units, or a range of per-track stds) is added to the true
+positions afresh for every mini-batch (from the training loop's seeded generator), so the model
+sees what a tracker sees and cannot memorise one noisy copy; the validation tracks get one fixed
+noisy copy, so their loss is comparable between epochs.
 """
 
 from __future__ import annotations
@@ -104,23 +106,62 @@ def per_track_mean(step_loss: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
     return ((step_loss * mask).sum(dim=1) / steps).mean()
 
 
+def _step_loss(kind: str, out: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+    """Per-step loss (B, T − 1): ``‖e‖²``, or the Gaussian NLL of eq. (7) for ``nll-lstm``."""
+    d = targets.shape[-1]
+    err = targets - out[..., :d]
+    if kind == "nll-lstm":
+        s = out[..., d:]
+        return 0.5 * (torch.exp(-s) * err.pow(2) + s).sum(dim=-1)
+    return err.pow(2).sum(dim=-1)
+
+
 def belt_loss(kind: str) -> LossFn:
-    """The loss of model ``kind`` over a batch ``(inputs, targets, mask)``."""
+    """The loss of model ``kind`` over a batch ``(inputs, targets, mask)`` of fixed sequences."""
 
     def loss(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
         inputs, targets, mask = batch
         masks = model.draw_masks(inputs.shape[0], generator) if model.training else None  # type: ignore[operator]
-        out = model(inputs[:, :-1], masks)
-        d = targets.shape[-1]
-        err = targets - out[..., :d]
-        if kind == "nll-lstm":
-            s = out[..., d:]
-            step = 0.5 * (torch.exp(-s) * err.pow(2) + s).sum(dim=-1)
-        else:
-            step = err.pow(2).sum(dim=-1)
-        return per_track_mean(step, mask)
+        return per_track_mean(_step_loss(kind, model(inputs[:, :-1], masks), targets), mask)
 
     return loss
+
+
+def augmented_belt_loss(kind: str, features: Features, noise_std: NoiseStd) -> LossFn:
+    """The loss of ``kind`` on clean region-relative tracks ``(u (B, T, D), valid (B, T))`` with
+    fresh measurement noise drawn for every mini-batch (a per-track std uniform in ``noise_std``).
+
+    Drawing new noise each time keeps the network from memorising one noisy copy of the tracks.
+    """
+    lo, hi = check_noise_std(noise_std)
+    size = torch.as_tensor(features.size, dtype=torch.float32)
+    in_mean, in_std = (torch.as_tensor(a, dtype=torch.float32) for a in (features.in_mean, features.in_std))
+    out_mean, out_std = (
+        torch.as_tensor(a, dtype=torch.float32) for a in (features.out_mean, features.out_std)
+    )
+
+    def loss(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
+        u, valid = batch
+        b = u.shape[0]
+        std = lo + (hi - lo) * torch.rand(b, 1, 1, generator=generator)
+        noisy = u + torch.randn(u.shape, generator=generator) * (std / size)
+        du = torch.diff(noisy, dim=1)
+        first = torch.zeros_like(noisy[:, :1])
+        inputs = (torch.cat([noisy, torch.cat([first, du], dim=1)], dim=-1) - in_mean) / in_std
+        inputs = inputs * valid[..., None]
+        targets = (du - out_mean) / out_std * valid[:, 1:, None]
+        mask = valid[:, 1:] * valid[:, :-1]
+        masks = model.draw_masks(b, generator) if model.training else None  # type: ignore[operator]
+        return per_track_mean(_step_loss(kind, model(inputs[:, :-1], masks), targets), mask)
+
+    return loss
+
+
+def region_tracks(data: TrackSet, features: Features) -> list[torch.Tensor]:
+    """Clean tracks of ``data`` as region-relative ``u = (z − low)/size`` and their validity mask."""
+    z, valid = pad_tracks(data.tracks)
+    u = (z - features.low) / features.size * valid[..., None]
+    return [torch.as_tensor(u, dtype=torch.float32), torch.as_tensor(valid, dtype=torch.float32)]
 
 
 def train_belt_model(
@@ -139,21 +180,23 @@ def train_belt_model(
     """
     if kind not in HEAD_OUTPUTS:
         raise ValueError(f"kind must be one of {sorted(HEAD_OUTPUTS)}, got {kind!r}")
-    train = noisy_tracks(split.train, noise_std, config.seed)
+    # normalisation statistics from one noisy copy; training draws fresh noise every mini-batch
+    once = noisy_tracks(split.train, noise_std, config.seed)
     validation = noisy_tracks(split.validation, noise_std, config.seed + 1)
-    features = Features.fit(train.tracks, train.region_low, train.region_high)
-    dim = train.dim
+    features = Features.fit(once.tracks, once.region_low, once.region_high)
+    dim = once.dim
     net = seeded_init(lambda: BeltLSTMNet(kind, dim, dropout=dropout), config.seed)
     assert isinstance(net, BeltLSTMNet)
     val_batch = sequence_batch(validation, features).tensors() if len(validation) else None
     history = fit(
         net,
-        belt_loss(kind),
-        sequence_batch(train, features).tensors(),
+        augmented_belt_loss(kind, features, noise_std),
+        region_tracks(split.train, features),
         val_batch,
         config,
         progress=progress,
         description=kind,
+        validation_loss=belt_loss(kind),
     )
     return net, features, history
 

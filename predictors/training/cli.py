@@ -132,7 +132,7 @@ def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | Non
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         if argv[:1] == ["calibrate"]:
-            return _calibrate(build_calibrate_parser().parse_args(argv[1:]))
+            return _calibrate(build_calibrate_parser().parse_args(argv[1:]), argv)
         args = build_parser().parse_args(argv)
         return _train(args, argv, (tuners or {}).get(args.model))
     except ValueError as exc:
@@ -241,7 +241,7 @@ def _grid_search(args: argparse.Namespace, split: Any, config: Any) -> tuple[flo
     return float(best["dropout"]), grid
 
 
-def _calibrate(args: argparse.Namespace) -> int:
+def _calibrate(args: argparse.Namespace, argv: list[str]) -> int:
     from predictors.calibration import P_DES, coverage, fit_recalibration, plot_reliability, reliability
     from predictors.model_file import save_model
     from predictors.training.data import split_tracks
@@ -253,9 +253,15 @@ def _calibrate(args: argparse.Namespace) -> int:
     uncalibrated = _with_meta(model, calibration={**model.meta.get("calibration", {}), "scale": 1.0})
     before = predictions_of(uncalibrated, tracks, args.noise_std, args.seed)
     cal = fit_recalibration(*before.flat(), p_des=P_DES)
-    scaled = _with_meta(
-        model, calibration={**model.meta.get("calibration", {}), "scale": cal.scale, "p_des": P_DES}
-    )
+    calibration = {
+        **model.meta.get("calibration", {}),
+        "scale": cal.scale,
+        "p_des": P_DES,
+        "command": "track-train " + shlex.join(argv),
+        "data": {**dict(data.description), "tracks": len(tracks)},
+        "predictions": len(before.valid_d2()),
+    }
+    scaled = _with_meta(model, calibration=calibration)
     after = predictions_of(scaled, tracks, args.noise_std, args.seed)
     plot = Path(args.plot) if args.plot else Path(str(model.path).removesuffix(".json") + ".reliability.png")
     cover_before = coverage(before.valid_d2(), P_DES, model.dim)

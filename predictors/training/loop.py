@@ -112,13 +112,15 @@ def fit(
     *,
     progress: bool = True,
     description: str = "training",
+    validation_loss: LossFn | None = None,
 ) -> History:
     """Train ``model`` in place on the tensors ``train`` (first axis: tracks); keep the best weights.
 
     Each epoch shuffles the tracks (generator seeded by ``config.seed``), steps Adam once per
     mini-batch on ``loss + l2 · Σ w²`` and evaluates ``loss`` on ``validation``; at the end the
     weights of the epoch with the lowest validation loss (the last epoch without validation data)
-    are restored. A tqdm bar shows both losses.
+    are restored. A tqdm bar shows both losses. ``validation_loss`` (default: ``loss``) scores the
+    validation tensors, for a training loss that augments its batches.
 
     Raises:
         FloatingPointError: when a loss becomes NaN or infinite (naming the epoch).
@@ -161,7 +163,8 @@ def fit(
             if validation is not None:
                 model.eval()
                 with torch.no_grad():
-                    history.validation_loss.append(float(loss(model, validation, generator)))
+                    score_fn = validation_loss or loss
+                    history.validation_loss.append(float(score_fn(model, validation, generator)))
             score = history.validation_loss[-1] if validation is not None else history.train_loss[-1]
             if not math.isfinite(history.train_loss[-1]) or not math.isfinite(score):
                 raise FloatingPointError(f"{description}: the loss became {score} at epoch {epoch}")

@@ -61,3 +61,12 @@ def test_plot_is_written(tmp_path: Path) -> None:
     curve = reliability(*_predictions(1000, 2.0, seed=0))
     plot_reliability({"before": curve, "after": curve}, tmp_path / "r.png")
     assert (tmp_path / "r.png").stat().st_size > 5_000
+
+
+def test_far_too_wide_covariances_are_narrowed_exactly() -> None:
+    """A covariance 10⁴ times too wide (mc-lstm's τ⁻¹ term can do that) still calibrates at p_des."""
+    means, covs, targets = _predictions(40_000, 1e-4, seed=4)
+    cal = fit_recalibration(means, covs, targets)
+    assert cal.scale == pytest.approx(1e-4, rel=0.1)
+    m, c, t = _predictions(40_000, 1e-4, seed=5)
+    assert abs(coverage(mahalanobis_sq(m, c * cal.scale, t), P_DES, 2) - P_DES) <= 0.005

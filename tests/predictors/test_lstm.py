@@ -39,18 +39,22 @@ def _predictor(
     samples: int = 7,
     seed: int = 0,
     mc_inference: str = "grouped",
+    precision: str = "float64",
 ) -> LSTMPredictor:
     net, features = trained[kind]
     model = to_model_file(net, features, mc={"tau": 50.0}, calibration={"scale": 1.0, "cov_scale": 1e-8})
-    p = LSTMPredictor(net.kind, model, samples=samples, mc_inference=mc_inference)
+    p = LSTMPredictor(net.kind, model, samples=samples, mc_inference=mc_inference, precision=precision)
     p.reset(spec_of(split.train, 1e-4), rng=np.random.default_rng(seed))
     return p
 
 
 @pytest.mark.parametrize("kind", ["lstm", "nll-lstm"])
-def test_numpy_inference_equals_torch(kind: str, trained: dict, belt_split: TrackSplit) -> None:
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_numpy_inference_equals_torch(
+    kind: str, precision: str, trained: dict, belt_split: TrackSplit
+) -> None:
     net, features = trained[kind]
-    p = _predictor(trained, kind, belt_split)
+    p = _predictor(trained, kind, belt_split, precision=precision)
     batch = sequence_batch(belt_split.test, features)
     steps = 6
     with torch.no_grad():
@@ -157,8 +161,8 @@ def test_grouped_mc_equals_the_plain_t_sample_computation(trained: dict, belt_sp
     # masks at 1%: all four sample groups occur
     model = dataclasses.replace(model, architecture={**model.architecture, "dropout": 0.01})
     spec = spec_of(belt_split.train, 1e-4)
-    plain = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="plain")
-    grouped = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="grouped")
+    plain = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="plain", precision="float64")
+    grouped = LSTMPredictor("mc-lstm", model, samples=40, mc_inference="grouped", precision="float64")
     plain.reset(spec, rng=np.random.default_rng(9))
     grouped.reset(spec, rng=np.random.default_rng(9))
     z = sequence_batch(belt_split.test, features).positions
