@@ -271,3 +271,39 @@ def update_tracks(
     if bad >= 0:
         return mean_u, cov_u, UPDATE_NOT_PD, bad
     return mean_u, cov_u, UPDATE_OK, -1
+
+
+@njit(cache=True)
+def start_tracks(
+    z: FloatArray, P0: FloatArray, velocity: FloatArray, velocity_cov: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """States of ``n`` new tracks: ``x = [z, v, 0]``, ``P = P0`` with its velocity block replaced.
+
+    Args:
+        z: (n, D) first measurements.
+        P0: (S, S) covariance of a new track (``blockdiag(R, σ_v² I, σ_a² I)``).
+        velocity: (n, D) velocity means, or (0, D) for zeros.
+        velocity_cov: (n, D, D) velocity covariances, or (0, D, D) to keep ``P0``'s block.
+
+    Returns:
+        ``(mean (n, S), cov (n, S, S))``.
+    """
+    n, D = z.shape
+    S = P0.shape[0]
+    mean = np.zeros((n, S))
+    cov = np.empty((n, S, S))
+    has_v = velocity.shape[0] == n and S > D
+    has_vc = velocity_cov.shape[0] == n and S > D
+    for t in range(n):
+        for d in range(D):
+            mean[t, d] = z[t, d]
+            if has_v:
+                mean[t, D + d] = velocity[t, d]
+        for i in range(S):
+            for j in range(S):
+                cov[t, i, j] = P0[i, j]
+        if has_vc:
+            for i in range(D):
+                for j in range(D):
+                    cov[t, D + i, D + j] = velocity_cov[t, i, j]
+    return mean, cov

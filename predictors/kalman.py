@@ -352,6 +352,12 @@ class KalmanPredictor:
         self.F, self.Q, self.H = _f64(F), _f64(Q), _f64(H)
         self.R: FloatArray = np.eye(D) * max(spec.noise_std**2, R_FLOOR)
         self._no_noise = np.zeros((D, D))
+        # covariance of a new track, blockdiag(R, σ_v² I_D, σ_a² I_D) (the blocks the model has)
+        stds2 = [self.initial_velocity_std**2, self.initial_acceleration_std**2][: self.order - 1]
+        self._P0 = np.diag(np.concatenate([np.zeros(D), *[np.full(D, s) for s in stds2]]))
+        self._P0[:D, :D] = self.R
+        self._no_velocity = np.zeros((0, D))
+        self._no_velocity_cov = np.zeros((0, D, D))
         self.dim = D
         self.state_dim = self.order * D
         self._spec = spec
@@ -402,25 +408,19 @@ class KalmanPredictor:
         if not np.all(np.isfinite(zz)):
             raise ValueError("z must be finite in start")
         n, D = zz.shape[0], self.dim
-        mean = np.zeros((n, self.state_dim))
-        mean[:, :D] = zz
-        if self.order >= 2 and self._v0 is not None:
-            mean[:, D : 2 * D] = self._v0
-        stds2 = [self.initial_velocity_std**2, self.initial_acceleration_std**2][: self.order - 1]
-        diag = np.concatenate([np.zeros(D), *[np.full(D, s) for s in stds2]])
-        P0 = np.diag(diag)
-        P0[:D, :D] = self.R
-        cov = np.broadcast_to(P0, (n, *P0.shape)).copy()
+        v = self._no_velocity
         if self.order >= 2 and velocity is not None:
             v = self._check_z(velocity, n)
             if not np.all(np.isfinite(v)):
                 raise ValueError("velocity must be finite in start")
-            mean[:, D : 2 * D] = v
+        elif self.order >= 2 and self._v0 is not None:
+            v = np.broadcast_to(self._v0, (n, D))
+        vc = self._no_velocity_cov
         if self.order >= 2 and velocity_cov is not None:
             vc = np.asarray(velocity_cov, dtype=np.float64)
             if vc.shape != (n, D, D):
                 raise ValueError(f"velocity_cov must have shape ({n}, {D}, {D}), got {vc.shape}")
-            cov[:, D : 2 * D, D : 2 * D] = vc
+        mean, cov = _kernels.start_tracks(_f64(zz), self._P0, _f64(v), _f64(vc))
         return KalmanState(mean=mean, cov=cov)
 
     def estimate(self, state: KalmanState) -> Gaussian:
