@@ -128,8 +128,9 @@ def learn_flow(
     last: FloatArray,
     young: BoolArray,
     dt: float,
-) -> tuple[int, int]:
-    """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer.
+) -> tuple[int, int, FloatArray, FloatArray]:
+    """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer,
+    and take the median and robust variance of the buffer (:func:`median_and_mad_variance`).
 
     Args:
         samples: (W, D) ring buffer of the last ``W`` velocity samples, written in place.
@@ -140,7 +141,8 @@ def learn_flow(
         dt: Frame period.
 
     Returns:
-        ``(n_samples, head)`` after the push.
+        ``(n_samples, head, median (D,), variance (D,))`` after the push (median and variance of
+        the held samples; zeros when there are none).
     """
     window, dim = samples.shape
     for i in range(young.shape[0]):
@@ -149,7 +151,10 @@ def learn_flow(
                 samples[head, d] = (estimate[i, d] - last[i, d]) / dt
             head = (head + 1) % window
             n_samples = min(n_samples + 1, window)
-    return n_samples, head
+    if n_samples == 0:
+        return n_samples, head, np.zeros(dim), np.zeros(dim)
+    median, variance = median_and_mad_variance(samples[:n_samples])
+    return n_samples, head, median, variance
 
 
 @njit(cache=True)

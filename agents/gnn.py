@@ -178,6 +178,8 @@ class GnnAgent:
         self._next_id = 0
         self._flow_mean: NDArray | None = None
         self._flow_var: NDArray | None = None
+        self._flow_speed = 0.0
+        self._birth_cov: NDArray | None = None
         self._learning = isinstance(self.velocity_prior, str)
         self._flow_samples = np.zeros((FLOW_WINDOW, spec.dim))
         self._n_flow_samples = 0
@@ -186,14 +188,14 @@ class GnnAgent:
             v = np.asarray(self.velocity_prior, dtype=np.float64)
             if v.shape != (spec.dim,):
                 raise ValueError(f"velocity_prior must have shape ({spec.dim},), got {v.shape}")
-            self._flow_mean = v
+            self._set_flow(v, None)
         elif self._learning and self.velocity_fallback is not None:
             if self.velocity_fallback.shape != (spec.dim,) or not np.all(np.isfinite(self.velocity_fallback)):
                 raise ValueError(
                     f"velocity_fallback must be a finite vector of shape ({spec.dim},), "
                     f"got {self.velocity_fallback.tolist()}"
                 )
-            self._flow_mean = self.velocity_fallback.copy()
+            self._set_flow(self.velocity_fallback.copy(), None)
         self._noise = max(float(spec.noise_std), 1e-6)  # the predictors' floor R >= (1 µm)²
         lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
         hi = np.asarray(spec.region_high, dtype=np.float64) + self.region_margin
@@ -296,8 +298,6 @@ class GnnAgent:
         estimate = np.ascontiguousarray(self.predictor.estimate(self._state).mean, dtype=np.float64)
         if n_young and self._learning:
             self._learn_flow(estimate, young)
-        if n_keep < n:
-            self._state = self._state.take(keep)
         self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
         return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
 
@@ -329,7 +329,7 @@ class GnnAgent:
         assert self._spec is not None
         motion = _kernels.median_displacement(prediction_mean, self._last)
         if self._flow_mean is not None:
-            motion = max(motion, float(np.linalg.norm(self._flow_mean)) * self._spec.dt)
+            motion = max(motion, self._flow_speed * self._spec.dt)
         return self.recovery_cap_motion * motion + self.recovery_cap_noise * self._noise
 
     def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
@@ -369,25 +369,30 @@ class GnnAgent:
         """The kept tracks (``keep``) and new tracks at detections ``z_new`` (k, D), with the
         velocity prior when there is one: states, ids, counters, estimates, detection rows."""
         k = len(z_new)
-        if k:
-            if self.velocity_prior is not None and self._flow_mean is not None:
-                mean = np.empty_like(z_new)
-                mean[:] = self._flow_mean
-                cov = None
-                if self._flow_var is not None:
-                    # the spread of young tracks, doubled, with a floor of 10% of the flow speed: the
-                    # prior must admit the particle that deviates, not just the typical one
-                    var = 4.0 * self._flow_var + (0.1 * np.linalg.norm(self._flow_mean)) ** 2
-                    cov = np.empty((k, len(var), len(var)))
-                    cov[:] = np.diag(var)
-                born = self.predictor.start(z_new, velocity=mean, velocity_cov=cov)
+        prior = self.velocity_prior is not None and self._flow_mean is not None
+        velocity, velocity_cov = (self._flow_mean, self._birth_cov) if prior else (None, None)
+        fused = getattr(self.predictor, "survivors_and_births", None)
+        if self._state is not None and fused is not None:
+            if k or n_keep < len(keep):
+                self._state = fused(self._state, keep, n_keep, z_new, velocity, velocity_cov)
+        elif k:
+            if n_keep < len(keep):
+                self._state = self._state.take(keep)
+            if velocity is not None:
+                born = self.predictor.start(
+                    z_new,
+                    velocity=np.broadcast_to(velocity, z_new.shape),
+                    velocity_cov=None
+                    if velocity_cov is None
+                    else np.broadcast_to(velocity_cov, (k, *velocity_cov.shape)),
+                )
             else:
                 born = self.predictor.start(z_new)
             self._state = (
                 born if self._state is None or n_keep == 0 else type(born).concat([self._state, born])
             )
-        elif n_keep == 0:
-            self._state = None
+        elif n_keep < len(keep):
+            self._state = self._state.take(keep)
         self._ids, self._misses, self._streak, self._last, self._detection_rows = (
             _kernels.survivors_and_births(
                 keep,
@@ -412,7 +417,7 @@ class GnnAgent:
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
         """
         assert self._spec is not None
-        self._n_flow_samples, self._flow_head = _kernels.learn_flow(
+        self._n_flow_samples, self._flow_head, median, variance = _kernels.learn_flow(
             self._flow_samples,
             self._n_flow_samples,
             self._flow_head,
@@ -422,9 +427,18 @@ class GnnAgent:
             self._spec.dt,
         )
         if self._n_flow_samples >= MIN_FLOW_SAMPLES:
-            self._flow_mean, self._flow_var = _kernels.median_and_mad_variance(
-                self._flow_samples[: self._n_flow_samples]
-            )
+            self._set_flow(median, variance)
+
+    def _set_flow(self, mean: NDArray[np.float64], variance: NDArray[np.float64] | None) -> None:
+        """Set the velocity prior and what new tracks start from: mean ``v̄`` and, with a spread,
+        the covariance ``diag(4 σ² + (0.1 ‖v̄‖)²)`` — the spread of young tracks doubled, with a
+        floor of 10% of the flow speed: the prior must admit the particle that deviates, not just
+        the typical one."""
+        self._flow_mean, self._flow_var = mean, variance
+        self._flow_speed = float(np.sqrt(mean @ mean))
+        self._birth_cov = (
+            None if variance is None else np.diag(4.0 * variance + (0.1 * self._flow_speed) ** 2)
+        )
 
 
 def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:

@@ -307,3 +307,53 @@ def start_tracks(
                 for j in range(D):
                     cov[t, D + i, D + j] = velocity_cov[t, i, j]
     return mean, cov
+
+
+@njit(cache=True)
+def keep_and_start_tracks(
+    mean: FloatArray,
+    cov: FloatArray,
+    keep: NDArray[np.bool_],
+    n_keep: int,
+    z: FloatArray,
+    P0: FloatArray,
+    velocity: FloatArray,
+    velocity_cov: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The tracks with ``keep`` True (in order), followed by new tracks at ``z``: one pass for
+    ``concat([state.take(keep), start(z, ...)])``.
+
+    Args:
+        mean, cov: (n, S) and (n, S, S) states of the live tracks.
+        keep: (n,) survivors; n_keep: their number.
+        z, P0, velocity, velocity_cov: as in :func:`start_tracks` (``velocity`` (D,) or (0,),
+            ``velocity_cov`` (D, D) or (0, 0): the same prior for every new track).
+
+    Returns:
+        ``(mean (n_keep + k, S), cov (n_keep + k, S, S))``.
+    """
+    k, D = z.shape
+    S = P0.shape[0]
+    total = n_keep + k
+    out_mean = np.zeros((total, S))
+    out_cov = np.empty((total, S, S))
+    t = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            out_mean[t] = mean[i]
+            out_cov[t] = cov[i]
+            t += 1
+    has_v = velocity.shape[0] == D and S > D
+    has_vc = velocity_cov.shape[0] == D and S > D
+    for b in range(k):
+        for d in range(D):
+            out_mean[t, d] = z[b, d]
+            if has_v:
+                out_mean[t, D + d] = velocity[d]
+        out_cov[t] = P0
+        if has_vc:
+            for i in range(D):
+                for j in range(D):
+                    out_cov[t, D + i, D + j] = velocity_cov[i, j]
+        t += 1
+    return out_mean, out_cov

@@ -358,6 +358,7 @@ class KalmanPredictor:
         self._P0[:D, :D] = self.R
         self._no_velocity = np.zeros((0, D))
         self._no_velocity_cov = np.zeros((0, D, D))
+        self._no_prior, self._no_prior_cov = np.zeros(0), np.zeros((0, 0))
         self.dim = D
         self.state_dim = self.order * D
         self._spec = spec
@@ -422,6 +423,44 @@ class KalmanPredictor:
                 raise ValueError(f"velocity_cov must have shape ({n}, {D}, {D}), got {vc.shape}")
         mean, cov = _kernels.start_tracks(_f64(zz), self._P0, _f64(v), _f64(vc))
         return KalmanState(mean=mean, cov=cov)
+
+    def survivors_and_births(
+        self,
+        state: KalmanState,
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        z: NDArray[np.floating],
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> KalmanState:
+        """``concat([state.take(keep), start(z, velocity, velocity_cov)])`` in one compiled pass,
+        with one velocity prior for all new tracks.
+
+        Args:
+            state: The live tracks (n).
+            keep: (n,) boolean, the survivors; n_keep: their number.
+            z: First measurements of the new tracks, (k, D), finite.
+            velocity: Optional velocity prior mean (D,) of every new track; None: ``initial_velocity``.
+            velocity_cov: Optional velocity prior covariance (D, D); None: ``initial_velocity_std``.
+        """
+        self._need_reset()
+        mean, cov = self._check_state(state)
+        D = self.dim
+        mask = np.ascontiguousarray(keep)
+        if mask.shape != (len(mean),) or mask.dtype != np.bool_ or int(mask.sum()) != n_keep:
+            raise ValueError(
+                f"keep must be a boolean array of shape ({len(mean)},) with n_keep={n_keep} True"
+            )
+        zz = _f64(self._check_z(z, None))
+        v = self._v0 if velocity is None else _f64(velocity)
+        if v is None or self.order < 2:
+            v = self._no_prior
+        elif v.shape != (D,) or not np.all(np.isfinite(v)):
+            raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
+        vc = self._no_prior_cov if velocity_cov is None or self.order < 2 else _f64(velocity_cov)
+        if vc.shape not in ((0, 0), (D, D)):
+            raise ValueError(f"velocity_cov must have shape ({D}, {D}), got {vc.shape}")
+        return KalmanState(*_kernels.keep_and_start_tracks(mean, cov, mask, n_keep, zz, self._P0, v, vc))
 
     def estimate(self, state: KalmanState) -> Gaussian:
         """Current measurement-space estimate of every track, ``N(H x, H P Hᵀ)`` (no noise added)."""

@@ -442,3 +442,29 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
         _kalman_kernels.project_tracks,
     ]
     assert all(kernel.signatures for kernel in kernels)
+
+
+class Unfused(KalmanPredictor):
+    """The Kalman predictor without its one-pass survivors-and-births (the generic take/start/concat)."""
+
+    survivors_and_births = None
+
+
+@pytest.mark.parametrize("model", ["cv", "ca"])
+def test_one_pass_births_give_the_reports_of_take_start_and_concat(model):
+    env = gym.make("BeltSorter-v0", noise_std=1e-4)
+    reports = []
+    for predictor in (KalmanPredictor(model), Unfused(model)):
+        agent = make_agent("gnn", predictor=predictor)
+        obs, _ = env.reset(seed=4)
+        agent.reset(env.unwrapped.sensor_spec)
+        frames = []
+        for _ in range(120):
+            report = agent.act(obs)
+            frames.append(report)
+            obs, *_ = env.step(report)
+        reports.append(frames)
+    assert sum(int(r["mask"].sum()) for r in reports[0]) > 5000
+    for a, b in zip(*reports, strict=True):
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
