@@ -158,15 +158,34 @@ def learn_flow(
 
 
 @njit(cache=True)
+def median_displacement(predicted: FloatArray, last: FloatArray) -> float:
+    """Median over the tracks of ``‖ŷ_i − x̂_i‖``: how far the tracks are predicted to move in a frame."""
+    n, dim = predicted.shape
+    if n == 0:
+        return 0.0
+    step = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for d in range(dim):
+            diff = predicted[i, d] - last[i, d]
+            s += diff * diff
+        step[i] = np.sqrt(s)
+    return float(np.median(step))
+
+
+@njit(cache=True)
 def recovery_costs(
     mean: FloatArray,
     cov: FloatArray,
     z: FloatArray,
     det_of_track: IntArray,
     inflation: float,
-    cap: float,
     gate: float,
-) -> tuple[IntArray, IntArray, FloatArray, int, int]:
+    last: FloatArray,
+    flow_step: float,
+    cap_motion: float,
+    cap_noise: float,
+) -> tuple[IntArray, IntArray, FloatArray, int, int, float]:
     """Costs of the second-chance association of the tracks and detections left over.
 
     For the unassigned tracks ``i`` and the untaken detections ``j``, with the predicted
@@ -176,13 +195,18 @@ def recovery_costs(
 
         c_{ij} = (z_j - ŷ_i)^\\top (f S_i)^{-1} (z_j - ŷ_i)
         \\quad\\text{if } \\lVert z_j - ŷ_i \\rVert \\le r, \\text{ else } +\\infty,
+        \\qquad r = k_u \\max(u_{flow}, \\operatorname{median}_t \\lVert ŷ_t - x̂_t \\rVert) + r_σ,
 
-    where ``r = cap`` bounds the jump in distance whatever the covariance.
+    which bounds the jump in distance whatever the covariance (``u_flow = flow_step``, the
+    flow's motion per frame; the median runs over all live tracks ``t``, ``last`` holding their
+    previous estimates ``x̂_t``; ``k_u = cap_motion``, ``r_σ = cap_noise``). The cap is only
+    computed when some pair passes the inflated gate.
 
     Returns:
-        ``(tracks, dets, cost (k, l), n_admissible, bad)``: the leftover tracks and detections
-        (ascending), their costs, the number of pairs with ``c <= gate``, and ``bad`` (−1, or a
-        leftover track whose covariance is not positive definite).
+        ``(tracks, dets, cost (k, l), n_admissible, bad, r)``: the leftover tracks and detections
+        (ascending), their costs, the number of pairs with ``c <= gate``, ``bad`` (−1, or a
+        leftover track whose covariance is not positive definite) and the cap (inf when not
+        computed).
     """
     n, dim = mean.shape
     m = z.shape[0]
@@ -212,10 +236,17 @@ def recovery_costs(
         for d in range(dim):
             loose_z[b, d] = z[dets[b], d]
     cost, bad = mahalanobis_costs(loose_mean, loose_cov, loose_z)
-    n_admissible = 0
     if bad >= 0:
-        return tracks, dets, cost, 0, int(tracks[bad])
+        return tracks, dets, cost, 0, int(tracks[bad]), np.inf
+    n_admissible = 0
+    for a in range(n_tracks):
+        for b in range(dets.shape[0]):
+            n_admissible += cost[a, b] <= gate
+    if n_admissible == 0:
+        return tracks, dets, cost, 0, -1, np.inf
+    cap = cap_motion * max(flow_step, median_displacement(mean, last)) + cap_noise
     cap2 = cap * cap
+    n_admissible = 0
     for a in range(n_tracks):
         for b in range(dets.shape[0]):
             dist2 = 0.0
@@ -226,23 +257,7 @@ def recovery_costs(
                 cost[a, b] = np.inf
             elif cost[a, b] <= gate:
                 n_admissible += 1
-    return tracks, dets, cost, n_admissible, -1
-
-
-@njit(cache=True)
-def median_displacement(predicted: FloatArray, last: FloatArray) -> float:
-    """Median over the tracks of ``‖ŷ_i − x̂_i‖``: how far the tracks are predicted to move in a frame."""
-    n, dim = predicted.shape
-    if n == 0:
-        return 0.0
-    step = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for d in range(dim):
-            diff = predicted[i, d] - last[i, d]
-            s += diff * diff
-        step[i] = np.sqrt(s)
-    return float(np.median(step))
+    return tracks, dets, cost, n_admissible, -1, cap
 
 
 @njit(cache=True)

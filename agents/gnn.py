@@ -320,35 +320,27 @@ class GnnAgent:
             self._recover(prediction, z, det_of_track)
         return det_of_track
 
-    def recovery_cap(self, prediction_mean: NDArray[np.float64]) -> float:
-        """The distance cap ``r = k_u u + k_σ σ`` of the second chance (module docstring).
-
-        Args:
-            prediction_mean: (n, D) predicted measurements of the live tracks (for ``u``).
-        """
-        assert self._spec is not None
-        motion = _kernels.median_displacement(prediction_mean, self._last)
-        if self._flow_mean is not None:
-            motion = max(motion, self._flow_speed * self._spec.dt)
-        return self.recovery_cap_motion * motion + self.recovery_cap_noise * self._noise
-
     def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
         """Second-chance association of the tracks and detections left over, with inflated gates.
 
         A collision or a kick moves a particle outside its track's gate; before that detection
         starts a new track, the leftovers are matched once more with every predicted covariance
-        scaled by ``recovery_inflation``, among the pairs within :meth:`recovery_cap` of each
-        other (in place on ``det_of_track``). Called when there are leftovers on both sides.
+        scaled by ``recovery_inflation``, among the pairs within the distance cap ``r`` of each
+        other (module docstring; :func:`agents._gnn_kernels.recovery_costs`), in place on
+        ``det_of_track``. Called when there are leftovers on both sides.
         """
-        mean = np.ascontiguousarray(prediction.mean, dtype=np.float64)
-        tracks, dets, cost, n_admissible, bad = _kernels.recovery_costs(
-            mean,
+        assert self._spec is not None
+        tracks, dets, cost, n_admissible, bad, _ = _kernels.recovery_costs(
+            np.ascontiguousarray(prediction.mean, dtype=np.float64),
             np.ascontiguousarray(prediction.cov, dtype=np.float64),
             z,
             det_of_track,
             self.recovery_inflation,
-            self.recovery_cap(mean),
             self._gate,
+            self._last,
+            self._flow_speed * self._spec.dt if self._flow_mean is not None else 0.0,
+            self.recovery_cap_motion,
+            self.recovery_cap_noise * self._noise,
         )
         if bad >= 0:
             raise np.linalg.LinAlgError(f"predicted covariance S of track {bad} is not positive definite")
@@ -393,6 +385,9 @@ class GnnAgent:
             )
         elif n_keep < len(keep):
             self._state = self._state.take(keep)
+        if k == 0 and n_keep == len(keep):  # nobody born, nobody deleted
+            self._last, self._detection_rows = estimate, detection_rows
+            return
         self._ids, self._misses, self._streak, self._last, self._detection_rows = (
             _kernels.survivors_and_births(
                 keep,

@@ -433,7 +433,6 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
         _gnn_kernels.learn_flow,
         _gnn_kernels.median_and_mad_variance,
         _gnn_kernels.recovery_costs,
-        _gnn_kernels.median_displacement,
         _gnn_kernels.survivors_and_births,
         _association_kernels.gated_costs,
         _kalman_kernels.start_tracks,
