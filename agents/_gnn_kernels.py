@@ -124,25 +124,34 @@ def learn_flow(
     samples: FloatArray,
     n_samples: int,
     head: int,
+    fresh: int,
     estimate: FloatArray,
     last: FloatArray,
     young: BoolArray,
     dt: float,
-) -> tuple[int, int, FloatArray, FloatArray]:
-    """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer,
-    and take the median and robust variance of the buffer (:func:`median_and_mad_variance`).
+    min_samples: int,
+) -> tuple[int, int, int, FloatArray, FloatArray, bool]:
+    """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer;
+    re-estimate the prior (:func:`median_and_mad_variance` of the buffer) when enough is new.
+
+    The estimate is refreshed once ``n_samples >= min_samples`` and at least
+    ``max(1, n_samples // 8)`` samples arrived since the last one: with every sample while the
+    buffer is small, every 16 samples once a window of 128 is full (a median of 128 samples moves
+    little with 16 of them; this keeps the per-frame cost low on a dense stream).
 
     Args:
         samples: (W, D) ring buffer of the last ``W`` velocity samples, written in place.
         n_samples: Samples held so far (at most ``W``).
         head: Row the next sample goes to.
+        fresh: Samples pushed since the last estimate.
         estimate: (n, D) current estimates; last: (n, D) the previous frame's.
         young: (n,) the tracks that give a sample.
         dt: Frame period.
+        min_samples: Fewest samples for an estimate.
 
     Returns:
-        ``(n_samples, head, median (D,), variance (D,))`` after the push (median and variance of
-        the held samples; zeros when there are none).
+        ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the buffer's state after
+        the push and, when ``updated``, the new estimate (else zeros).
     """
     window, dim = samples.shape
     for i in range(young.shape[0]):
@@ -151,10 +160,11 @@ def learn_flow(
                 samples[head, d] = (estimate[i, d] - last[i, d]) / dt
             head = (head + 1) % window
             n_samples = min(n_samples + 1, window)
-    if n_samples == 0:
-        return n_samples, head, np.zeros(dim), np.zeros(dim)
+            fresh += 1
+    if n_samples < min_samples or fresh < max(1, n_samples // 8):
+        return n_samples, head, fresh, np.zeros(dim), np.zeros(dim), False
     median, variance = median_and_mad_variance(samples[:n_samples])
-    return n_samples, head, median, variance
+    return n_samples, head, 0, median, variance, True
 
 
 @njit(cache=True)

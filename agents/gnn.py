@@ -26,12 +26,13 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
    online (``velocity_prior="auto"``): every frame, each young track (updated 3–6 times in a row)
    gives one sample, its frame-to-frame velocity; the last ``FLOW_WINDOW`` samples, over as many
    frames as it takes to collect them, give the prior's median ``v̄`` and robust variance
-   ``(1.4826 MAD)²`` — on a belt this is the flow where particles enter, so a track's second
-   measurement is predicted where the flow takes it. The prior forms from ``MIN_FLOW_SAMPLES``
-   samples, i.e. from the first track that was updated a few times, so a sparse stream (one
-   particle at a time) has it as early as a dense one. Until then new tracks start from
-   ``velocity_fallback`` when given (e.g. the belt speed), else from the predictor's default.
-   :attr:`GnnAgent.velocity_prior_state` shows the prior.
+   ``(1.4826 MAD)²`` (re-estimated with every new sample while there are few, every
+   ``FLOW_WINDOW / 8`` samples once the window is full). On a belt this is the flow where
+   particles enter, so a track's second measurement is predicted where the flow takes it. The
+   prior forms from ``MIN_FLOW_SAMPLES`` samples, i.e. from the first track that was updated a
+   few times, so a sparse stream (one particle at a time) has it as early as a dense one. Until
+   then new tracks start from ``velocity_fallback`` when given (e.g. the belt speed), else from
+   the predictor's default. :attr:`GnnAgent.velocity_prior_state` shows the prior.
 
 The report holds every live track at its current (posterior) estimate, and the detection row it
 was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections:
@@ -184,6 +185,7 @@ class GnnAgent:
         self._flow_samples = np.zeros((FLOW_WINDOW, spec.dim))
         self._n_flow_samples = 0
         self._flow_head = 0
+        self._flow_fresh = 0
         if self.velocity_prior is not None and not isinstance(self.velocity_prior, str):
             v = np.asarray(self.velocity_prior, dtype=np.float64)
             if v.shape != (spec.dim,):
@@ -412,16 +414,20 @@ class GnnAgent:
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
         """
         assert self._spec is not None
-        self._n_flow_samples, self._flow_head, median, variance = _kernels.learn_flow(
-            self._flow_samples,
-            self._n_flow_samples,
-            self._flow_head,
-            estimate,
-            self._last,
-            young,
-            self._spec.dt,
+        self._n_flow_samples, self._flow_head, self._flow_fresh, median, variance, updated = (
+            _kernels.learn_flow(
+                self._flow_samples,
+                self._n_flow_samples,
+                self._flow_head,
+                self._flow_fresh,
+                estimate,
+                self._last,
+                young,
+                self._spec.dt,
+                MIN_FLOW_SAMPLES,
+            )
         )
-        if self._n_flow_samples >= MIN_FLOW_SAMPLES:
+        if updated:
             self._set_flow(median, variance)
 
     def _set_flow(self, mean: NDArray[np.float64], variance: NDArray[np.float64] | None) -> None:
