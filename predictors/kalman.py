@@ -9,7 +9,10 @@ The pure functions :func:`kf_predict`, :func:`kf_update` and :func:`measurement_
 on ``n`` tracks at once, each one compiled loop over the tracks (:mod:`predictors._kalman_kernels`,
 no Python per track); :class:`KalmanPredictor` wraps the same kernels in the
 :class:`~predictors.base.Predictor` protocol, its ``predict`` fusing the prediction and the
-predicted measurement into one call.
+predicted measurement into one call. New tracks' states are compiled too
+(:func:`~predictors._kalman_kernels.start_tracks`), and
+:meth:`KalmanPredictor.survivors_and_births` gives ``concat([state.take(keep), start(z)])`` in
+one pass, which a tracker may call instead of the three (the GNN does when a predictor has it).
 """
 
 from __future__ import annotations

@@ -470,3 +470,27 @@ def test_one_pass_births_give_the_reports_of_take_start_and_concat(model):
     for a, b in zip(*reports, strict=True):
         for key in a:
             np.testing.assert_array_equal(a[key], b[key])
+
+
+@pytest.mark.parametrize("model", ["random-walk", "cv", "ca"])
+def test_survivors_and_births_equals_take_start_concat(model):
+    predictor = KalmanPredictor(model, initial_velocity=None if model == "random-walk" else [0.3, -0.1])
+    predictor.reset(SPEC)
+    rng = np.random.default_rng(1)
+    state = predictor.start(rng.uniform(size=(5, 2)))
+    state, _ = predictor.predict(state)
+    keep = np.array([True, False, True, True, False])
+    z = rng.uniform(size=(3, 2))
+    priors = [(None, None)]
+    if model != "random-walk":
+        priors.append((np.array([1.0, 0.1]), np.array([[0.04, 0.0], [0.0, 0.01]])))
+    for velocity, velocity_cov in priors:
+        got = predictor.survivors_and_births(state, keep, 3, z, velocity, velocity_cov)
+        kwargs = {}
+        if velocity is not None:
+            kwargs = {"velocity": np.tile(velocity, (3, 1)), "velocity_cov": np.tile(velocity_cov, (3, 1, 1))}
+        want = type(state).concat([state.take(keep), predictor.start(z, **kwargs)])
+        np.testing.assert_array_equal(got.mean, want.mean)
+        np.testing.assert_array_equal(got.cov, want.cov)
+    with pytest.raises(ValueError, match="n_keep"):
+        predictor.survivors_and_births(state, keep, 2, z)
