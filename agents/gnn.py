@@ -297,11 +297,18 @@ class GnnAgent:
         # and the observation row it was then updated with (-1: coasted)
         self.last_prediction_ids = self._ids
         self.last_prediction_detection = _observation_rows(det_of_track, rows)
-        estimate = np.ascontiguousarray(self.predictor.estimate(self._state).mean, dtype=np.float64)
+        estimate = self._estimate_mean(self._state)
         if n_young and self._learning:
             self._learn_flow(estimate, young)
         self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
         return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
+
+    def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
+        """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``
+        when it has one, which skips the covariance)."""
+        mean_only = getattr(self.predictor, "estimate_mean", None)
+        mean = mean_only(state) if mean_only is not None else self.predictor.estimate(state).mean
+        return np.ascontiguousarray(mean, dtype=np.float64)
 
     def associate(self, prediction: Gaussian, z: NDArray[np.float64]) -> NDArray[np.int64]:
         """The detection index of every track this frame (−1: none): gate and assign, then the

@@ -29,6 +29,10 @@ from track_envs.types import FloatArray
 UPDATE_OK = 0
 UPDATE_NONFINITE_Z = 1
 UPDATE_NOT_PD = 2
+#: Status codes of :func:`keep_and_start_tracks`.
+START_OK = 0
+START_BAD_KEEP = 1
+START_NONFINITE_VELOCITY = 2
 
 
 @njit(inline="always")
@@ -319,7 +323,7 @@ def keep_and_start_tracks(
     P0: FloatArray,
     velocity: FloatArray,
     velocity_cov: FloatArray,
-) -> tuple[FloatArray, FloatArray]:
+) -> tuple[FloatArray, FloatArray, int]:
     """The tracks with ``keep`` True (in order), followed by new tracks at ``z``: one pass for
     ``concat([state.take(keep), start(z, ...)])``.
 
@@ -330,13 +334,23 @@ def keep_and_start_tracks(
             ``velocity_cov`` (D, D) or (0, 0): the same prior for every new track).
 
     Returns:
-        ``(mean (n_keep + k, S), cov (n_keep + k, S, S))``.
+        ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
+        :data:`START_OK`, :data:`START_BAD_KEEP` (``keep`` does not hold ``n_keep`` True) or
+        :data:`START_NONFINITE_VELOCITY` (the arrays are then not meaningful).
     """
     k, D = z.shape
     S = P0.shape[0]
     total = n_keep + k
     out_mean = np.zeros((total, S))
     out_cov = np.empty((total, S, S))
+    count = 0
+    for i in range(keep.shape[0]):
+        count += keep[i]
+    if count != n_keep:
+        return out_mean, out_cov, START_BAD_KEEP
+    for d in range(velocity.shape[0]):
+        if not np.isfinite(velocity[d]):
+            return out_mean, out_cov, START_NONFINITE_VELOCITY
     t = 0
     for i in range(keep.shape[0]):
         if keep[i]:
@@ -356,4 +370,4 @@ def keep_and_start_tracks(
                 for j in range(D):
                     out_cov[t, D + i, D + j] = velocity_cov[i, j]
         t += 1
-    return out_mean, out_cov
+    return out_mean, out_cov, START_OK

@@ -450,20 +450,34 @@ class KalmanPredictor:
         mean, cov = self._check_state(state)
         D = self.dim
         mask = np.ascontiguousarray(keep)
-        if mask.shape != (len(mean),) or mask.dtype != np.bool_ or int(mask.sum()) != n_keep:
+        if mask.shape != (len(mean),) or mask.dtype != np.bool_:
             raise ValueError(
-                f"keep must be a boolean array of shape ({len(mean)},) with n_keep={n_keep} True"
+                f"keep must be a boolean array of shape ({len(mean)},), got {mask.dtype} {mask.shape}"
             )
         zz = _f64(self._check_z(z, None))
         v = self._v0 if velocity is None else _f64(velocity)
         if v is None or self.order < 2:
             v = self._no_prior
-        elif v.shape != (D,) or not np.all(np.isfinite(v)):
+        elif v.shape != (D,):
             raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
         vc = self._no_prior_cov if velocity_cov is None or self.order < 2 else _f64(velocity_cov)
         if vc.shape not in ((0, 0), (D, D)):
             raise ValueError(f"velocity_cov must have shape ({D}, {D}), got {vc.shape}")
-        return KalmanState(*_kernels.keep_and_start_tracks(mean, cov, mask, n_keep, zz, self._P0, v, vc))
+        mean_out, cov_out, status = _kernels.keep_and_start_tracks(
+            mean, cov, mask, n_keep, zz, self._P0, v, vc
+        )
+        if status == _kernels.START_BAD_KEEP:
+            raise ValueError(f"keep holds {int(mask.sum())} True, not n_keep={n_keep}")
+        if status == _kernels.START_NONFINITE_VELOCITY:
+            raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
+        return KalmanState(mean_out, cov_out)
+
+    def estimate_mean(self, state: KalmanState) -> FloatArray:
+        """The mean of :meth:`estimate`, ``H x`` (n, D), without its covariance: the position block
+        of the state (``H = [I_D, 0]``), as a new C-contiguous array."""
+        self._need_reset()
+        mean, _ = self._check_state(state)
+        return np.ascontiguousarray(mean[:, : self.dim])
 
     def estimate(self, state: KalmanState) -> Gaussian:
         """Current measurement-space estimate of every track, ``N(H x, H P Hᵀ)`` (no noise added)."""
