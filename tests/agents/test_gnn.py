@@ -431,7 +431,6 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
     kernels = [
         _gnn_kernels.frame_upkeep,
         _gnn_kernels.learn_flow,
-        _gnn_kernels.median_and_mad_variance,
         _gnn_kernels.recovery_costs,
         _gnn_kernels.survivors_and_births,
         _association_kernels.gated_costs,
