@@ -440,9 +440,8 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
         _kalman_kernels.keep_and_start_tracks,
         _kalman_kernels.predict_and_project_tracks,
         _kalman_kernels.update_tracks,
-        _kalman_kernels.project_tracks,
     ]
-    assert all(kernel.signatures for kernel in kernels)
+    assert [kernel.__name__ for kernel in kernels if not kernel.signatures] == []
 
 
 class Unfused(KalmanPredictor):
