@@ -33,12 +33,14 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_belt_sorter.py
+	$(PY) benchmarks/bench_belt_restore.py
 	$(PY) benchmarks/bench_tracker.py
 	$(PY) benchmarks/bench_metrics.py
 	$(PY) benchmarks/bench_replay_load.py
 	$(PY) benchmarks/bench_particle_filter.py
 	$(PY) benchmarks/bench_keypoints.py
 	$(PY) benchmarks/bench_runner_overhead.py
+	$(PY) benchmarks/bench_rendering.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -9,9 +9,11 @@ For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (
 
 one Cholesky factor and its triangular inverse per track, then for every pair ``D`` rows of
 ``L⁻¹`` times the difference. :func:`gated_costs` also splits the admissible pairs
-(``d² <= γ``) as :func:`track_envs.assignment.lone_pairs` does, in the same call, so the
-assignment only sees the rows and columns that compete: :func:`rest_problem` builds their
-``[C | M]`` problem for the solver and :func:`merge_solution` joins its answer to the lone pairs.
+(``d² <= γ``) into lone pairs and the rest in the same call
+(:func:`track_envs.assignment.split_dense`), so the assignment only sees the rows and columns
+that compete: :func:`track_envs.assignment.rest_problem` builds their ``[C | M]`` problem for
+the solver and :func:`track_envs.assignment.merge_solution` joins its answer to the lone pairs
+(both also importable from here, for compiled callers).
 
 The planar case ``D = 2`` has its own closed-form row (its loop over detections vectorises);
 other dimensions run a generic Cholesky and triangular inverse. Inputs are float64 C-contiguous
@@ -24,10 +26,12 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from track_envs.assignment import split_lone_pairs
+from track_envs.assignment import merge_solution, partner_pairs, rest_problem, split_dense
 from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]
+
+__all__ = ["gated_costs", "mahalanobis_costs", "merge_solution", "rest_problem"]
 
 
 @njit(cache=True)
@@ -143,115 +147,19 @@ def gated_costs(
 ) -> tuple[FloatArray, IntArray, IntArray, IntArray, IntArray, int]:
     """:func:`mahalanobis_costs` and the lone-pair split of the admissible pairs (cost <= gate).
 
-    A *lone pair* is an admissible pair alone in both its row and its column; it belongs to
-    every optimal assignment. The rest are the rows and columns with admissible pairs that are
-    not in a lone pair (see :func:`track_envs.assignment.lone_pairs`, which this equals).
+    A *lone pair* is an admissible pair alone in both its row and its column; it belongs to an
+    optimal assignment. The rest are the rows and columns with admissible pairs that are not in a
+    lone pair (:func:`track_envs.assignment.split_dense`).
 
     Returns:
         ``(cost (n, m), lone_rows, lone_cols, rest_rows, rest_cols, bad)``, indices ascending
         (``lone_rows`` ascending, ``lone_cols`` their partners); ``bad`` as in
         :func:`mahalanobis_costs`.
     """
-    n = mean.shape[0]
-    m = z.shape[0]
     cost, bad = mahalanobis_costs(mean, cov, z)
-    empty = np.zeros(0, dtype=np.int64)
     if bad >= 0:
+        empty = np.zeros(0, dtype=np.int64)
         return cost, empty, empty, empty, empty, bad
-    # admissible pairs per row and column, and the last admissible column of each row (the only
-    # one where the row has one)
-    row_count = np.zeros(n, dtype=np.int64)
-    only_col = np.zeros(n, dtype=np.int64)
-    col_count = np.zeros(m, dtype=np.int64)
-    for i in range(n):
-        row = cost[i]
-        count = 0
-        last = 0
-        for j in range(m):
-            hit = row[j] <= gate
-            count += hit
-            col_count[j] += hit
-            last = max(last, j if hit else 0)
-        row_count[i] = count
-        only_col[i] = last
-    partner, rest_rows, rest_cols = split_lone_pairs(row_count, only_col, col_count)
-    lone_rows = np.flatnonzero(partner >= 0)
-    lone_cols = partner[lone_rows]
+    partner, rest_rows, rest_cols = split_dense(cost, gate)
+    lone_rows, lone_cols = partner_pairs(partner)
     return cost, lone_rows, lone_cols, rest_rows, rest_cols, -1
-
-
-@njit(cache=True)
-def rest_problem(cost: FloatArray, gate: float, rest_rows: IntArray, rest_cols: IntArray) -> FloatArray:
-    """The rectangular problem ``[C | M]`` of the competing rows and columns, for the solver.
-
-    ``C`` is the ``rest_rows`` × ``rest_cols`` block of ``cost``; ``M`` (k, k) holds the miss cost
-    ``γ`` on its diagonal. Every inadmissible entry (a pair above the gate, the off-diagonal of
-    ``M``) holds one finite stand-in ``B = 2 (|γ| + 1)(k + 1) + max |C_admissible|``, larger than
-    any feasible total: the matrix of :func:`track_envs.assignment.min_cost_with_misses`.
-
-    Returns:
-        ``[C | M]``, shape (k, l + k) for ``k`` rows and ``l`` columns.
-    """
-    k = rest_rows.shape[0]
-    n_cols = rest_cols.shape[0]
-    largest = 0.0
-    for a in range(k):
-        for b in range(n_cols):
-            c = cost[rest_rows[a], rest_cols[b]]
-            if c <= gate and abs(c) > largest:
-                largest = abs(c)
-    big = 2.0 * (abs(gate) + 1.0) * (k + 1) + largest
-    problem = np.full((k, n_cols + k), big)
-    for a in range(k):
-        for b in range(n_cols):
-            c = cost[rest_rows[a], rest_cols[b]]
-            if c <= gate:
-                problem[a, b] = c
-        problem[a, n_cols + a] = gate
-    return problem
-
-
-@njit(cache=True)
-def merge_solution(
-    cost: FloatArray,
-    gate: float,
-    lone_rows: IntArray,
-    lone_cols: IntArray,
-    rest_rows: IntArray,
-    rest_cols: IntArray,
-    rows: IntArray,
-    cols: IntArray,
-) -> tuple[IntArray, IntArray]:
-    """The lone pairs and the solver's admissible pairs of :func:`rest_problem`, rows ascending.
-
-    Args:
-        rows, cols: The solver's assignment of ``[C | M]`` (rows ascending); a column past ``C``
-            is a miss, and a pair above the gate is dropped.
-
-    Returns:
-        ``(rows, cols)`` in the indices of ``cost``.
-    """
-    n_cols = rest_cols.shape[0]
-    keep = np.zeros(rows.shape[0], dtype=np.bool_)
-    n_keep = 0
-    for t in range(rows.shape[0]):
-        if cols[t] < n_cols and cost[rest_rows[rows[t]], rest_cols[cols[t]]] <= gate:
-            keep[t] = True
-            n_keep += 1
-    n_lone = lone_rows.shape[0]
-    out_rows = np.empty(n_lone + n_keep, dtype=np.int64)
-    out_cols = np.empty(n_lone + n_keep, dtype=np.int64)
-    a = 0  # next lone pair
-    t = 0  # next solver pair
-    for k in range(n_lone + n_keep):
-        while t < rows.shape[0] and not keep[t]:
-            t += 1
-        if t == rows.shape[0] or (a < n_lone and lone_rows[a] < rest_rows[rows[t]]):
-            out_rows[k] = lone_rows[a]
-            out_cols[k] = lone_cols[a]
-            a += 1
-        else:
-            out_rows[k] = rest_rows[rows[t]]
-            out_cols[k] = rest_cols[cols[t]]
-            t += 1
-    return out_rows, out_cols

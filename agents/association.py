@@ -12,11 +12,11 @@ admissible when ``d_{ij}^2 \\le γ = F^{-1}_{χ^2_D}(p_{gate})`` (``p_gate = 0.9
 000). The global nearest neighbour assignment minimises the summed cost over admissible pairs,
 where leaving a track unassigned costs ``γ``.
 
-Hungarian assignment solves the rectangular problem ``[C | M]`` with per-track miss columns: ``M``
-holds ``γ`` on its diagonal, and every inadmissible entry (gated pairs and the off-diagonal of
-``M``) holds one finite stand-in ``B`` larger than any feasible total. Each row can always take
-its miss column, so the problem stays feasible when a row or the whole frame is gated out —
-``linear_sum_assignment`` never sees ``inf`` (the failure of Stone Soup issue 824).
+Hungarian assignment is :mod:`track_envs.assignment`: lone pairs (alone in their row and column)
+directly, the rest as the rectangular problem ``[C | M]`` with per-track miss columns (``γ`` on
+the diagonal of ``M``, one finite stand-in for every inadmissible entry), so it stays feasible
+when a row or the whole frame is gated out and ``linear_sum_assignment`` never sees ``inf`` (the
+failure of Stone Soup issue 824).
 
 The trackers call the one-pass :data:`ASSOCIATORS` (prediction, detections, gate → pairs): the
 costs, the gate and the split into lone pairs and competing rows and columns come from one
@@ -27,11 +27,10 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
 from agents import _association_kernels as _kernels
-from track_envs.assignment import EMPTY_PAIRS, Pairs, min_cost_with_misses
+from track_envs.assignment import EMPTY_PAIRS, Pairs, min_cost_with_misses, solve_split
 from track_envs.types import FloatArray, Gaussian
 
 _EMPTY: Pairs = EMPTY_PAIRS
@@ -137,8 +136,9 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
 
     The costs and the lone-pair split of the admissible pairs come from one compiled kernel
     (:func:`agents._association_kernels.gated_costs`); only the rows and columns that compete go
-    to ``scipy.optimize.linear_sum_assignment``, as the problem ``[C | M]`` of
-    :func:`track_envs.assignment.min_cost_with_misses`.
+    to ``scipy.optimize.linear_sum_assignment``, as the problem ``[C | M]``
+    (:func:`track_envs.assignment.solve_split`, the path of
+    :func:`track_envs.assignment.min_cost_with_misses`).
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs, sorted by row.
@@ -151,12 +151,7 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
         *_prepared(prediction, z), float(gate)
     )
     _checked(bad)
-    if len(rest_rows) == 0:
-        return lone_rows, lone_cols
-    rows, cols = linear_sum_assignment(_kernels.rest_problem(cost, gate, rest_rows, rest_cols))
-    return _kernels.merge_solution(
-        cost, gate, lone_rows, lone_cols, rest_rows, rest_cols, rows.astype(np.int64), cols.astype(np.int64)
-    )
+    return solve_split(cost, float(gate), lone_rows, lone_cols, rest_rows, rest_cols)
 
 
 def associate_greedy(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:

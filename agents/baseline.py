@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
 
@@ -29,11 +30,15 @@ class DetectionsAgent:
         self._next_id = 0
 
     def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
-        """Report the masked-in detections of ``obs`` as tracks."""
+        """Report the masked-in detections of ``obs`` as tracks.
+
+        Raises:
+            ValueError: for an observation that breaks the contract (see
+                :func:`~track_envs.observation.check_observation`).
+        """
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
-        rows = np.flatnonzero(np.asarray(obs["mask"]) == 1)
-        positions = np.asarray(obs["detections"])[rows]
+        rows, positions = check_observation(obs, self._spec)
         n = min(len(rows), self._spec.max_tracks)
         ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
         self._next_id += n

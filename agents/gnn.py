@@ -55,8 +55,10 @@ from numpy.typing import NDArray
 
 from agents import _gnn_kernels as _kernels
 from agents.association import ASSIGNERS, ASSOCIATORS, chi2_gate
-from predictors import make_predictor
+from predictors import PREDICTORS, available_predictors, make_predictor
+from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
+from track_envs.registry import UnknownArgumentError, check_keywords, missing_methods, named_arguments
 from track_envs.report import pack_report
 from track_envs.types import Gaussian, SensorSpec
 
@@ -87,12 +89,45 @@ class VelocityPriorState:
     source: str
 
 
+def _build_predictor(agent: type, predictor: Any, kwargs: dict[str, Any]) -> Any:
+    """The predictor named ``predictor`` built with ``kwargs``, or the object ``predictor`` itself.
+
+    Raises:
+        UnknownArgumentError: for a keyword neither ``agent`` nor the named predictor takes (or any
+            keyword with a predictor object), listing the arguments of both.
+        ValueError: for an unknown predictor name, or an object lacking methods of the
+            Predictor protocol (named).
+    """
+    own = named_arguments(agent)
+    if isinstance(predictor, str):
+        accepted = PREDICTORS.arguments(predictor)  # also refuses an unknown name
+        if accepted is not None:
+            note = (
+                f", and it passes further keywords to predictor {predictor!r}, whose arguments are {accepted}"
+            )
+            check_keywords(agent.__name__, [k for k in kwargs if k not in accepted], own, note)
+        return make_predictor(predictor, **kwargs)
+    if kwargs:
+        names = ", ".join(map(repr, kwargs))
+        raise UnknownArgumentError(
+            f"{agent.__name__} has no argument {names}; its arguments are {own} (further keywords go to "
+            "a predictor given by name; configure a predictor object before passing it)"
+        )
+    missing = missing_methods(predictor, Predictor)
+    if missing:
+        raise ValueError(
+            f"predictor must be a registered name {available_predictors()} or implement the Predictor "
+            f"protocol (predictors.base.Predictor); {type(predictor).__name__} lacks {missing}"
+        )
+    return predictor
+
+
 class GnnAgent:
     """Global nearest neighbour multi-target tracker: χ² gate, Hungarian, pluggable predictor (paper 000).
 
     Args:
         predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an
-            object implementing the Predictor protocol.
+            object implementing the Predictor protocol (its methods are checked here).
         p_gate: Gate probability of the χ² gate (paper 000: 0.999).
         assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
         max_misses: A track is deleted after more than this many consecutive misses.
@@ -105,9 +140,14 @@ class GnnAgent:
         velocity_fallback: With ``velocity_prior="auto"``, the velocity (D,) new tracks start from
             until the prior is learnt (e.g. the belt speed); None: the predictor's default.
         recovery_cap_motion: ``k_u``, the second-chance jump cap in multiples of the stream's
-            motion per frame (see the module docstring), >= 0.
+            motion per frame (see the module docstring), >= 0. The default 3 lets a track that
+            coasted a few frames behind or ahead of its particle (a new track whose first velocity
+            was off, a kick) take it back, and keeps it from jumping tens of millimetres onto
+            another particle (at 1 m/s and 200 Hz: 15 mm).
         recovery_cap_noise: ``k_σ``, the cap's allowance in multiples of the sensor noise std, >= 0.
-        **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name.
+        **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
+            that neither the agent nor that predictor takes raises
+            :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
     """
 
     def __init__(
@@ -121,7 +161,7 @@ class GnnAgent:
         velocity_prior: str | NDArray | None = "auto",
         recovery_inflation: float = 25.0,
         velocity_fallback: NDArray | None = None,
-        recovery_cap_motion: float = 1.0,
+        recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
         **predictor_kwargs: Any,
     ):
@@ -135,9 +175,7 @@ class GnnAgent:
             raise ValueError(
                 f"velocity_prior must be 'auto', None or a velocity vector, got {velocity_prior!r}"
             )
-        self.predictor = (
-            make_predictor(predictor, **predictor_kwargs) if isinstance(predictor, str) else predictor
-        )
+        self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
         self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
         self._predictor_arg, self._predictor_kwargs = predictor, predictor_kwargs
         self.p_gate = p_gate
@@ -168,7 +206,8 @@ class GnnAgent:
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
         """Start an episode with sensor ``spec`` (the tracker is deterministic; ``seed`` is unused)."""
         self._spec = spec
-        self.predictor.reset(spec)
+        reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
+        self._takes_velocity = accepts_velocity_prior(self.predictor)
         self._gate = chi2_gate(self.p_gate, spec.dim)
         self._state: Any = None
         self._ids = np.zeros(0, dtype=np.int64)
@@ -370,7 +409,7 @@ class GnnAgent:
         """The kept tracks (``keep``) and new tracks at detections ``z_new`` (k, D), with the
         velocity prior when there is one: states, ids, counters, estimates, detection rows."""
         k = len(z_new)
-        prior = self.velocity_prior is not None and self._flow_mean is not None
+        prior = self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None
         velocity, velocity_cov = (self._flow_mean, self._birth_cov) if prior else (None, None)
         fused = getattr(self.predictor, "survivors_and_births", None)
         if self._state is not None and fused is not None:

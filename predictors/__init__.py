@@ -29,25 +29,41 @@ def make_predictor(name: str, **kwargs: Any) -> Any:
     return PREDICTORS.make(name, **kwargs)
 
 
-def kf_cv(**kwargs: Any) -> Any:
+def kf_cv(
+    *, q: float | None = None, initial_velocity_std: float | None = None, initial_velocity: Any = None
+) -> Any:
     """Constant-velocity Kalman filter (white-noise acceleration of intensity q), batched over tracks."""
     from predictors.kalman import KalmanPredictor
 
-    return KalmanPredictor("cv", **kwargs)
+    return KalmanPredictor(
+        "cv", q=q, initial_velocity_std=initial_velocity_std, initial_velocity=initial_velocity
+    )
 
 
-def kf_ca(**kwargs: Any) -> Any:
+def kf_ca(
+    *,
+    q: float | None = None,
+    initial_velocity_std: float | None = None,
+    initial_acceleration_std: float | None = None,
+    initial_velocity: Any = None,
+) -> Any:
     """Constant-acceleration Kalman filter (white-noise jerk of intensity q), batched over tracks."""
     from predictors.kalman import KalmanPredictor
 
-    return KalmanPredictor("ca", **kwargs)
+    return KalmanPredictor(
+        "ca",
+        q=q,
+        initial_velocity_std=initial_velocity_std,
+        initial_acceleration_std=initial_acceleration_std,
+        initial_velocity=initial_velocity,
+    )
 
 
-def random_walk(**kwargs: Any) -> Any:
+def random_walk(*, q: float | None = None) -> Any:
     """Position-only random-walk Kalman filter (white-noise velocity of intensity q), batched."""
     from predictors.kalman import KalmanPredictor
 
-    return KalmanPredictor("random-walk", **kwargs)
+    return KalmanPredictor("random-walk", q=q)
 
 
 def _register_builtin() -> None:

@@ -14,6 +14,14 @@ state (an immutable value) and calls, each frame,
 ``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.types.SensorSpec`
 (frame period, measurement noise, dimension) before the first ``start``.
 
+Two optional capabilities, which a tracker checks for instead of assuming them:
+
+* :class:`VelocityPriorPredictor` — ``start(z, velocity=..., velocity_cov=...)`` accepts a prior
+  on the velocity of new tracks (the Kalman predictors); test with :func:`accepts_velocity_prior`.
+* :class:`StochasticPredictor` — ``reset(spec, rng=...)`` takes the random stream the predictor
+  draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the same seed gives
+  the same masks and the same report; :func:`reset_predictor` passes it where accepted.
+
 The same five calls fit a Kalman filter (mean and covariance per track), an LSTM (hidden state
 per track, carried and never re-run over a window), an MC-dropout LSTM (dropout masks fixed per
 track inside the state), an NLL-LSTM (predicted variance) and a per-keypoint particle predictor:
@@ -44,15 +52,42 @@ class BatchState:
         return int(np.shape(getattr(self, first.name))[0])
 
     def take(self, rows: NDArray[np.integer] | NDArray[np.bool_]) -> Self:
-        """The tracks at ``rows`` (integer indices or a boolean mask)."""
-        return type(self)(**{f.name: np.asarray(getattr(self, f.name))[rows] for f in fields(self)})
+        """The tracks at ``rows`` (integer indices or a boolean mask); each field keeps its type.
+
+        numpy fields stay numpy arrays and torch fields stay torch tensors (on their device).
+        """
+        return type(self)(**{f.name: _take(getattr(self, f.name), rows) for f in fields(self)})
 
     @classmethod
     def concat(cls, states: Sequence[Self]) -> Self:
-        """The tracks of ``states`` one after another (all of this class)."""
+        """The tracks of ``states`` one after another (all of this class); each field keeps its type."""
         if not states:
             raise ValueError(f"{cls.__name__}.concat needs at least one state")
-        return cls(**{f.name: np.concatenate([getattr(s, f.name) for s in states]) for f in fields(cls)})
+        return cls(**{f.name: _concat([getattr(s, f.name) for s in states]) for f in fields(cls)})
+
+
+def _is_torch(value: Any) -> bool:
+    return type(value).__module__.partition(".")[0] == "torch"
+
+
+def _take(value: Any, rows: Any) -> Any:
+    if _is_torch(value):
+        import torch
+
+        index = torch.as_tensor(np.asarray(rows), device=value.device)
+        return value[index]
+    return np.asarray(value)[rows]
+
+
+def _concat(values: list[Any]) -> Any:
+    if any(_is_torch(v) for v in values):
+        if not all(_is_torch(v) for v in values):
+            kinds = sorted({type(v).__name__ for v in values})
+            raise TypeError(f"cannot concatenate a state field mixing {kinds}; keep one array type per field")
+        import torch
+
+        return torch.cat(values)
+    return np.concatenate(values)
 
 
 @runtime_checkable
@@ -82,3 +117,43 @@ class Predictor(Protocol):
     def estimate(self, state: Any) -> Gaussian:
         """Current (posterior) estimate of every track in measurement space, what a tracker reports."""
         ...
+
+
+@runtime_checkable
+class VelocityPriorPredictor(Predictor, Protocol):
+    """A predictor whose ``start`` also takes a prior on the velocity of new tracks."""
+
+    def start(
+        self,
+        z: NDArray[np.floating],
+        *,
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> Any:
+        """New tracks at ``z`` (n, D) with velocity prior ``N(velocity (n, D), velocity_cov (n, D, D))``."""
+        ...
+
+
+def accepts_velocity_prior(predictor: Any) -> bool:
+    """Whether ``predictor.start`` takes ``velocity=`` and ``velocity_cov=`` keywords."""
+    return _accepts(predictor.start, "velocity", "velocity_cov")
+
+
+def reset_predictor(predictor: Any, spec: SensorSpec, rng: np.random.Generator) -> None:
+    """``predictor.reset(spec, rng=rng)`` where it takes a random stream, else ``reset(spec)``."""
+    if _accepts(predictor.reset, "rng"):
+        predictor.reset(spec, rng=rng)
+    else:
+        predictor.reset(spec)
+
+
+def _accepts(method: Any, *names: str) -> bool:
+    import inspect
+
+    try:
+        params = inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        return False
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return True
+    return all(n in params for n in names)

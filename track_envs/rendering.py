@@ -1,463 +1,127 @@
-"""A tiny dependency-free numpy rasteriser for the environments' ``render()``.
+"""Frames for the environments' ``render()``: Pillow's ``ImageDraw`` behind a world-to-pixel map.
 
-:class:`Canvas` draws filled discs, rings, markers, line segments, filled convex polygons and
-axis-aligned rectangles into a ``uint8`` (H, W, 3) image. Every drawing method is vectorised over
-its ``n`` items; no display, matplotlib or pygame is needed. :class:`HumanWindow` shows such frames
-in a pygame window for ``render_mode="human"`` (pygame is imported lazily).
+A :class:`Canvas` shows the world box ``[world_low, world_high]`` (x to the right, y **up**) in a
+scene of ``width × height`` pixels, above a footer strip that carries the caption (frame number and
+time) and the legend (:class:`LegendEntry`). :class:`WorldToPixel` is the map between the two
+coordinate systems; :meth:`Canvas.to_array` gives the ``uint8`` frame of shape
+``(height + footer_height, width, 3)``. No display is needed (``render_mode="human"`` shows the
+frames with :class:`track_envs.render_window.HumanWindow`).
 
-Coordinate conventions:
-
-* World coordinates have x to the right and y **up**. ``world_low`` maps to the left / bottom edge
-  of the image, ``world_high`` to the right / top edge (a per-axis scale; pick ``width`` and
-  ``height`` to keep the aspect ratio).
-* Pixel coordinates are continuous ``(col, row)`` with row 0 at the top; pixel ``(i, j)`` covers
-  ``[i, i + 1) x [j, j + 1)`` and its centre is ``(i + 0.5, j + 0.5)``.
-* Items partly or wholly off the canvas are clipped silently; items with a NaN (or infinite)
-  coordinate are skipped. Later items are painted over earlier ones.
+Drawing methods take ``n`` world points (or segments, polygons) and one colour or ``n`` colours.
+Items with a non-finite coordinate, or farther than a million pixels off the scene, are skipped;
+Pillow clips the rest to the image. Later items paint over earlier ones; the footer is painted
+last, over anything that spilled past the scene's lower edge.
 """
 
 from __future__ import annotations
 
-import os
-from collections.abc import Callable
-from typing import Any, Literal
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from PIL import Image, ImageDraw, ImageFont
 
-__all__ = ["Canvas", "HumanWindow", "identity_colors"]
+__all__ = ["Canvas", "LegendEntry", "WorldToPixel", "footer_height", "identity_colors"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
-ColorArray = NDArray[np.uint8]
+Color = tuple[int, int, int]
+Marker = Literal["disc", "box", "ring", "cross", "line", "outlined-line"]
+_MARKERS = ("disc", "box", "ring", "cross", "line", "outlined-line")
+_Font = ImageFont.FreeTypeFont | ImageFont.ImageFont
 
-# Golden-ratio conjugate used to step hues for identity colours.
-_GOLDEN = 0.6180339887498949
+FOOTER_BACKGROUND: Color = (250, 250, 250)
+FOOTER_TEXT: Color = (20, 20, 20)
+FOOTER_RULE: Color = (110, 110, 110)
 
-# spans(item indices (m,), row-centre rows (m,)) -> (x_lo, x_hi), each (m,) or (m, s).
-_SpanFn = Callable[[IntArray, FloatArray], tuple[FloatArray, FloatArray]]
-
-
-def _as_points(points: ArrayLike) -> FloatArray:
-    """Returns ``points`` as a float (n, 2) array (a single (2,) point becomes (1, 2))."""
-    arr = np.asarray(points, dtype=np.float64)
-    if arr.ndim == 1 and arr.shape[0] == 2:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"expected points of shape (n, 2), got {arr.shape}")
-    return arr
+_GOLDEN = 0.6180339887498949  # golden-ratio conjugate: hue step between consecutive ids
+_FAR_PX = 1e6  # items beyond this many pixels are skipped (Pillow takes C integers)
+_LEGEND_IDS = (1, 2, 3)  # the identities whose colours stand for "colour = id" in the legend
 
 
-def _as_colors(color: ArrayLike, n: int) -> ColorArray:
-    """Broadcasts a (3,) or (n, 3) colour spec to a ``uint8`` (n, 3) array (values clipped to 0..255)."""
-    arr = np.asarray(color)
-    if arr.ndim == 1:
-        if arr.shape[0] != 3:
-            raise ValueError(f"expected an RGB colour of shape (3,), got {arr.shape}")
-        arr = np.broadcast_to(arr, (n, 3))
-    elif arr.shape != (n, 3):
-        raise ValueError(f"expected colours of shape (3,) or ({n}, 3), got {arr.shape}")
-    if arr.dtype == np.uint8:
-        return np.ascontiguousarray(arr)
-    return np.clip(np.rint(arr.astype(np.float64)), 0, 255).astype(np.uint8)
+class WorldToPixel:
+    """The affine map from world points (x right, y up) to pixel coordinates (column right, row down).
 
+    With the scale ``s = (width, height) / (world_high − world_low)`` per axis,
 
-def _as_per_item(value: ArrayLike, n: int, name: str) -> FloatArray:
-    """Broadcasts a scalar or (n,) array to a float (n,) array."""
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.ndim == 0:
-        return np.full(n, float(arr))
-    if arr.shape != (n,):
-        raise ValueError(f"expected {name} as a scalar or of shape ({n},), got {arr.shape}")
-    return arr
+        col = (x − x_low) · s_x,    row = (y_high − y) · s_y,
 
-
-def _sqrt_or_nan(values: FloatArray) -> FloatArray:
-    """Square root where ``values >= 0`` and NaN (an empty span) elsewhere, without warnings."""
-    return np.sqrt(np.where(values >= 0, values, np.nan))
-
-
-def _expand(counts: IntArray) -> tuple[IntArray, IntArray]:
-    """Run-length expansion: ``owner`` repeats ``i`` ``counts[i]`` times, ``step`` counts 0.. within.
-
-    Example: ``counts = [2, 0, 3]`` gives ``owner = [0, 0, 2, 2, 2]`` and ``step = [0, 1, 0, 1, 2]``.
-    """
-    counts = np.asarray(counts, dtype=np.int64)
-    owner = np.repeat(np.arange(counts.size, dtype=np.int64), counts)
-    first = np.repeat(np.cumsum(counts) - counts, counts)
-    return owner, np.arange(owner.size, dtype=np.int64) - first
-
-
-class Canvas:
-    """An RGB raster image with a world-to-pixel transform and vectorised drawing primitives.
+    so ``world_low`` is the bottom-left corner of the scene and ``world_high`` its top-right corner.
+    Pixel ``[i, j]`` of the frame covers ``row ∈ [i, i + 1)``, ``col ∈ [j, j + 1)``: a point is
+    drawn centred on the pixel ``(⌊row⌋, ⌊col⌋)`` (:meth:`pixel`).
 
     Args:
-        width: Image width in pixels.
-        height: Image height in pixels.
-        world_low: World coordinates ``(x, y)`` of the bottom-left corner of the image.
-        world_high: World coordinates ``(x, y)`` of the top-right corner of the image.
-        background: RGB background colour.
-
-    Example:
-        >>> canvas = Canvas(200, 100, (0.0, 0.0), (2.0, 1.0))
-        >>> canvas.discs([[1.0, 0.5]], 4, (255, 0, 0))
-        >>> canvas.image.shape
-        (100, 200, 3)
+        width: Scene width in pixels (>= 1).
+        height: Scene height in pixels (>= 1).
+        world_low: World ``(x, y)`` of the scene's bottom-left corner.
+        world_high: World ``(x, y)`` of the scene's top-right corner; above ``world_low`` on both axes.
     """
 
-    def __init__(
-        self,
-        width: int,
-        height: int,
-        world_low: tuple[float, float],
-        world_high: tuple[float, float],
-        background: ArrayLike = (255, 255, 255),
-    ) -> None:
+    def __init__(self, width: int, height: int, world_low: ArrayLike, world_high: ArrayLike) -> None:
         if int(width) < 1 or int(height) < 1:
-            raise ValueError(f"canvas size must be positive, got {width}x{height}")
+            raise ValueError(f"scene size must be at least 1x1 pixels, got {width}x{height}")
         self.width = int(width)
         self.height = int(height)
-        self.world_low = np.asarray(world_low, dtype=np.float64).reshape(2)
-        self.world_high = np.asarray(world_high, dtype=np.float64).reshape(2)
-        span = self.world_high - self.world_low
-        if not np.all(np.isfinite(span)) or np.any(span <= 0):
-            raise ValueError(f"world_high must exceed world_low, got {world_low} and {world_high}")
-        self._scale = np.array([self.width, self.height], dtype=np.float64) / span
-        self.background = _as_colors(background, 1)[0]
-        self._image: ColorArray = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        self.clear()
+        self.low = np.asarray(world_low, dtype=np.float64).reshape(2)
+        self.high = np.asarray(world_high, dtype=np.float64).reshape(2)
+        span = self.high - self.low
+        if not (np.all(np.isfinite(span)) and np.all(span > 0)):
+            raise ValueError(
+                f"world_high must exceed world_low on both axes, got {tuple(self.low)} and {tuple(self.high)}"
+            )
+        self.scale = np.array([self.width, self.height], dtype=np.float64) / span
 
-    # ------------------------------------------------------------------ image access
-
-    @property
-    def image(self) -> ColorArray:
-        """The ``uint8`` (H, W, 3) image itself (not a copy; later drawing changes it)."""
-        return self._image
-
-    def to_array(self) -> ColorArray:
-        """Returns a copy of the ``uint8`` (H, W, 3) image."""
-        return self._image.copy()
-
-    def clear(self) -> None:
-        """Fills the whole image with the background colour."""
-        self._image[...] = self.background
-
-    # ------------------------------------------------------------------ transform
-
-    def to_pixels(self, points: ArrayLike) -> FloatArray:
-        """Maps world points to continuous pixel coordinates.
-
-        Args:
-            points: World points, shape (n, 2) (a single (2,) point is accepted).
-
-        Returns:
-            Float array (n, 2) of ``(col, row)``; row 0 is the top of the image (``world_high[1]``).
-            NaN stays NaN.
-        """
-        pts = _as_points(points)
+    def __call__(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Pixel coordinates ``(col, row)`` of world points of shape (..., 2) (same shape back)."""
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.shape[-1:] != (2,):
+            raise ValueError(f"expected world points of shape (..., 2), got {pts.shape}")
         out = np.empty_like(pts)
-        with np.errstate(over="ignore", invalid="ignore"):  # huge values become inf and are skipped
-            out[:, 0] = (pts[:, 0] - self.world_low[0]) * self._scale[0]
-            out[:, 1] = (self.world_high[1] - pts[:, 1]) * self._scale[1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[..., 0] = (pts[..., 0] - self.low[0]) * self.scale[0]
+            out[..., 1] = (self.high[1] - pts[..., 1]) * self.scale[1]
         return out
 
-    # ------------------------------------------------------------------ primitives
+    def to_world(self, pixels: ArrayLike) -> NDArray[np.float64]:
+        """World points of pixel coordinates ``(col, row)`` of shape (..., 2): the inverse map
+        (``to_world((j + 0.5, i + 0.5))`` is the centre of pixel ``[i, j]``)."""
+        pix = np.asarray(pixels, dtype=np.float64)
+        out = np.empty_like(pix)
+        out[..., 0] = self.low[0] + pix[..., 0] / self.scale[0]
+        out[..., 1] = self.high[1] - pix[..., 1] / self.scale[1]
+        return out
 
-    def fill_rect(self, low: ArrayLike, high: ArrayLike, color: ArrayLike) -> None:
-        """Fills an axis-aligned world rectangle (pixels whose centres lie inside it).
-
-        Args:
-            low: World corner ``(x_min, y_min)``.
-            high: World corner ``(x_max, y_max)``.
-            color: RGB colour, shape (3,).
-        """
-        corners = self.to_pixels(np.stack([np.asarray(low, float), np.asarray(high, float)]))
-        if not np.all(np.isfinite(corners)):
-            return
-        lo = np.min(corners, axis=0)
-        hi = np.max(corners, axis=0)
-        limits = np.array([self.width, self.height], dtype=np.float64)
-        lo_i = np.rint(np.clip(lo, 0, limits)).astype(np.int64)
-        hi_i = np.rint(np.clip(hi, 0, limits)).astype(np.int64)
-        if hi_i[0] > lo_i[0] and hi_i[1] > lo_i[1]:
-            self._image[lo_i[1] : hi_i[1], lo_i[0] : hi_i[0]] = _as_colors(color, 1)[0]
-
-    def discs(self, centers: ArrayLike, radius_px: ArrayLike, color: ArrayLike) -> None:
-        """Draws filled discs (pixels whose centres lie within ``radius_px`` of a centre).
-
-        Args:
-            centers: World centres, shape (n, 2).
-            radius_px: Radius in pixels, a scalar or shape (n,); values below 1 are raised to 1, so
-                the pixel holding the centre is always filled.
-            color: RGB colour, shape (3,) or (n, 3).
-        """
-        pix = self.to_pixels(centers)
-        n = pix.shape[0]
-        radius = np.maximum(_as_per_item(radius_px, n, "radius_px"), 1.0)
-        cx, cy = pix[:, 0], pix[:, 1]
-        ok = np.all(np.isfinite(pix), axis=1) & np.isfinite(radius)
-        r2 = radius**2
-
-        def spans(item: IntArray, yc: FloatArray) -> tuple[FloatArray, FloatArray]:
-            half = _sqrt_or_nan(r2[item] - (yc - cy[item]) ** 2)
-            return cx[item] - half, cx[item] + half
-
-        self._fill_spans(cy - radius, cy + radius, ok, spans, _as_colors(color, n))
-
-    def rings(
-        self, centers: ArrayLike, radius_px: ArrayLike, color: ArrayLike, thickness_px: float = 1
-    ) -> None:
-        """Draws circle outlines (pixels whose centres are within ``thickness_px / 2`` of the circle).
-
-        Args:
-            centers: World centres, shape (n, 2).
-            radius_px: Radius in pixels, a scalar or shape (n,); values below 1 are raised to 1.
-            color: RGB colour, shape (3,) or (n, 3).
-            thickness_px: Line thickness in pixels (at least 1).
-        """
-        pix = self.to_pixels(centers)
-        n = pix.shape[0]
-        radius = np.maximum(_as_per_item(radius_px, n, "radius_px"), 1.0)
-        half = max(float(thickness_px), 1.0) / 2.0
-        cx, cy = pix[:, 0], pix[:, 1]
-        ok = np.all(np.isfinite(pix), axis=1) & np.isfinite(radius)
-        outer2 = (radius + half) ** 2
-        inner2 = np.maximum(radius - half, 0.0) ** 2
-
-        def spans(item: IntArray, yc: FloatArray) -> tuple[FloatArray, FloatArray]:
-            dy2 = (yc - cy[item]) ** 2
-            w_out = _sqrt_or_nan(outer2[item] - dy2)
-            # Rows that miss the hole get two touching spans meeting at the centre.
-            w_in = np.sqrt(np.maximum(inner2[item] - dy2, 0.0))
-            x = cx[item]
-            lo = np.stack([x - w_out, x + w_in], axis=1)
-            hi = np.stack([x - w_in, x + w_out], axis=1)
-            return lo, hi
-
-        outer = radius + half
-        self._fill_spans(cy - outer, cy + outer, ok, spans, _as_colors(color, n))
-
-    def crosses(
-        self,
-        points: ArrayLike,
-        size_px: float,
-        color: ArrayLike,
-        style: Literal["x", "+"] = "x",
-        thickness_px: int = 1,
-    ) -> None:
-        """Draws small ``x`` (diagonal) or ``+`` (axis-aligned) markers.
-
-        Args:
-            points: World marker centres, shape (n, 2).
-            size_px: Full width of a marker in pixels (at least 1).
-            color: RGB colour, shape (3,) or (n, 3).
-            style: ``"x"`` for a diagonal cross, ``"+"`` for an upright one.
-            thickness_px: Line thickness in pixels.
-        """
-        pix = self.to_pixels(points)
-        colors = _as_colors(color, pix.shape[0])
-        h = max(float(size_px), 1.0) / 2.0
-        if style == "x":
-            arms = (np.array([-h, -h]), np.array([h, h]), np.array([-h, h]), np.array([h, -h]))
-        elif style == "+":
-            arms = (np.array([-h, 0.0]), np.array([h, 0.0]), np.array([0.0, -h]), np.array([0.0, h]))
-        else:
-            raise ValueError(f"style must be 'x' or '+', got {style!r}")
-        # Interleave the two arms per marker so that paint order stays marker by marker.
-        p0 = np.stack([pix + arms[0], pix + arms[2]], axis=1).reshape(-1, 2)
-        p1 = np.stack([pix + arms[1], pix + arms[3]], axis=1).reshape(-1, 2)
-        self._segments_px(p0, p1, np.repeat(colors, 2, axis=0), thickness_px)
-
-    def segments(self, p0: ArrayLike, p1: ArrayLike, color: ArrayLike, thickness_px: int = 1) -> None:
-        """Draws line segments from ``p0[i]`` to ``p1[i]``.
-
-        Segments are clipped to the canvas first. One-pixel lines are sampled less than a pixel
-        apart, so the drawn pixels are 8-connected; thicker lines are filled as rectangles of width
-        ``thickness_px`` extended by half the width past each end (square caps).
-
-        Args:
-            p0: World start points, shape (n, 2).
-            p1: World end points, shape (n, 2).
-            color: RGB colour, shape (3,) or (n, 3).
-            thickness_px: Line thickness in pixels (at least 1).
-        """
-        a = self.to_pixels(p0)
-        b = self.to_pixels(p1)
-        if a.shape != b.shape:
-            raise ValueError(f"p0 and p1 must have the same shape, got {a.shape} and {b.shape}")
-        self._segments_px(a, b, _as_colors(color, a.shape[0]), thickness_px)
-
-    def polygons(self, vertices: ArrayLike, color: ArrayLike) -> None:
-        """Draws filled convex polygons (either winding).
-
-        A pixel is filled when its centre passes every edge's half-plane test (evaluated as one
-        span per pixel row). The pixel holding each polygon's vertex centroid is always filled, so
-        sub-pixel polygons stay visible.
-
-        Args:
-            vertices: World vertices, shape (n, k, 2) with ``k >= 3`` (a single (k, 2) polygon is
-                accepted).
-            color: RGB colour, shape (3,) or (n, 3).
-        """
-        verts = np.asarray(vertices, dtype=np.float64)
-        if verts.ndim == 2:
-            verts = verts[None]
-        if verts.ndim != 3 or verts.shape[2] != 2 or verts.shape[1] < 3:
-            raise ValueError(f"expected vertices of shape (n, k>=3, 2), got {verts.shape}")
-        n, k = verts.shape[0], verts.shape[1]
-        pix = self.to_pixels(verts.reshape(-1, 2)).reshape(n, k, 2)
-        self._polygons_px(pix, _as_colors(color, n))
-
-    # ------------------------------------------------------------------ internals
-
-    def _polygons_px(self, pix: FloatArray, colors: ColorArray) -> None:
-        """Fills convex polygons given in pixel coordinates, shape (n, k, 2) (see :meth:`polygons`)."""
-        k = pix.shape[1]
-        ok = np.all(np.isfinite(pix), axis=(1, 2))
-        vx = np.where(ok[:, None], pix[..., 0], 0.0)
-        vy = np.where(ok[:, None], pix[..., 1], 0.0)
-        ex = np.roll(vx, -1, axis=1) - vx
-        ey = np.roll(vy, -1, axis=1) - vy
-        # Orient every polygon counter-clockwise in (col, row) space so "inside" is one sign.
-        with np.errstate(over="ignore", invalid="ignore"):
-            area2 = np.sum(vx * np.roll(vy, -1, axis=1) - np.roll(vx, -1, axis=1) * vy, axis=1)
-        sign = np.where(area2 < 0, -1.0, 1.0)
-        centroid = np.stack([vx.mean(axis=1), vy.mean(axis=1)], axis=1)
-
-        def spans(item: IntArray, yc: FloatArray) -> tuple[FloatArray, FloatArray]:
-            # Inside edge j: s * (ex * (y - vy) - ey * (x - vx)) >= 0, i.e. a * x + b >= 0 with
-            # a = -s * ey and b = s * (ex * (y - vy) + ey * vx): a lower or upper bound on x.
-            lo = np.full(item.shape, -np.inf)
-            hi = np.full(item.shape, np.inf)
-            s = sign[item]
-            for j in range(k):  # loop over the (few) edges, vectorised over all polygon rows
-                a = -s * ey[item, j]
-                b = s * (ex[item, j] * (yc - vy[item, j]) + ey[item, j] * vx[item, j])
-                flat = np.abs(a) <= 1e-12
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    bound = -b / np.where(flat, 1.0, a)
-                lo = np.where(~flat & (a > 0), np.maximum(lo, bound), lo)
-                hi = np.where(~flat & (a < 0), np.minimum(hi, bound), hi)
-                hi = np.where(flat & (b < -1e-9), -np.inf, hi)
-            return lo, hi
-
-        self._fill_spans(vy.min(axis=1), vy.max(axis=1), ok, spans, colors, always=centroid)
-
-    def _fill_spans(
-        self,
-        y_lo: FloatArray,
-        y_hi: FloatArray,
-        ok: BoolArray,
-        spans: _SpanFn,
-        colors: ColorArray,
-        always: FloatArray | None = None,
-    ) -> None:
-        """Fills shapes described by horizontal pixel spans, painting items in order.
-
-        For every item and every pixel row whose centre lies in ``[y_lo, y_hi]`` (clipped to the
-        image), ``spans`` gives one or more column intervals; pixels whose centres fall in an
-        interval are coloured. All items are handled in one vectorised pass, with cost
-        proportional to rows plus coloured pixels.
-
-        Args:
-            y_lo: Per-item top of the shape in pixel coordinates, shape (n,).
-            y_hi: Per-item bottom of the shape, shape (n,).
-            ok: Items to draw, shape (n,) (others, e.g. NaN ones, are skipped).
-            spans: ``spans(item, yc)`` with ``item`` (m,) item indices and ``yc`` (m,) row-centre
-                coordinates; returns ``(x_lo, x_hi)`` of shape (m,) or (m, s) (``s`` spans per row,
-                NaN or ``x_lo > x_hi`` for an empty span).
-            colors: ``uint8`` colours, shape (n, 3).
-            always: Optional per-item pixel point, shape (n, 2), whose pixel is coloured regardless.
-        """
-        height, width = self.height, self.width
-        okf = ok & np.isfinite(y_lo) & np.isfinite(y_hi)
-        r0 = np.ceil(np.clip(np.where(okf, y_lo, 0.0) - 0.5, -1.0, height + 1.0)).astype(np.int64)
-        r1 = np.floor(np.clip(np.where(okf, y_hi, -1.0) - 0.5, -2.0, height + 1.0)).astype(np.int64) + 1
-        r0 = np.clip(r0, 0, height)
-        counts = np.where(okf, np.maximum(np.clip(r1, 0, height) - r0, 0), 0)
-        item, step = _expand(counts)
-        row = r0[item] + step
-        with np.errstate(over="ignore", invalid="ignore"):  # absurd coordinates give empty spans
-            x_lo, x_hi = spans(item, (row + 0.5).astype(np.float64))
-        n_spans = 1 if x_lo.ndim == 1 else x_lo.shape[1]
-        x_lo, x_hi = x_lo.reshape(-1), x_hi.reshape(-1)
-        if n_spans > 1:
-            item, row = np.repeat(item, n_spans), np.repeat(row, n_spans)
-        valid = ~(np.isnan(x_lo) | np.isnan(x_hi))
-        c0 = np.ceil(np.clip(np.where(valid, x_lo, 0.0) - 0.5, -1.0, width + 1.0)).astype(np.int64)
-        c1 = np.floor(np.clip(np.where(valid, x_hi, -1.0) - 0.5, -2.0, width + 1.0)).astype(np.int64) + 1
-        c0 = np.clip(c0, 0, width)
-        span_len = np.where(valid, np.maximum(np.clip(c1, 0, width) - c0, 0), 0)
-        span, offset = _expand(span_len)
-        rows, cols, items = row[span], c0[span] + offset, item[span]
-        if always is not None:
-            cand = np.flatnonzero(ok)
-            pts = np.floor(np.clip(always[cand], -1.0, [width + 1.0, height + 1.0])).astype(np.int64)
-            inb = (pts[:, 0] >= 0) & (pts[:, 0] < width) & (pts[:, 1] >= 0) & (pts[:, 1] < height)
-            rows = np.concatenate([pts[inb, 1], rows])
-            cols = np.concatenate([pts[inb, 0], cols])
-            items = np.concatenate([cand[inb], items])
-            order = np.argsort(items, kind="stable")
-            rows, cols, items = rows[order], cols[order], items[order]
-        # Pixels are in item order; with repeated indices numpy assigns the last value.
-        self._image[rows, cols] = colors[items]
-
-    def _segments_px(self, p0: FloatArray, p1: FloatArray, colors: ColorArray, thickness_px: float) -> None:
-        """Draws segments given in continuous pixel coordinates (see :meth:`segments`)."""
-        thick = max(round(float(thickness_px)), 1)
-        ok = np.all(np.isfinite(p0), axis=1) & np.all(np.isfinite(p1), axis=1)
-        idx = np.flatnonzero(ok)
-        if idx.size == 0:
-            return
-        a, b = p0[idx], p1[idx]
-        # Liang-Barsky clip to the canvas grown by the line width, so off-canvas parts cost nothing.
-        pad = thick + 1.0
-        d = b - a
-        t0 = np.zeros(idx.size)
-        t1 = np.ones(idx.size)
-        keep = np.ones(idx.size, dtype=bool)
-        bounds = ((0, -pad, -1.0), (0, self.width + pad, 1.0), (1, -pad, -1.0), (1, self.height + pad, 1.0))
-        for axis, limit, sign in bounds:  # four clip edges
-            p = sign * d[:, axis]
-            q = sign * (limit - a[:, axis])
-            parallel = p == 0
-            keep &= ~(parallel & (q < 0))
-            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                t = q / np.where(parallel, 1.0, p)
-            t0 = np.where(~parallel & (p < 0), np.maximum(t0, t), t0)
-            t1 = np.where(~parallel & (p > 0), np.minimum(t1, t), t1)
-        keep &= t0 <= t1
-        idx, a, d, t0, t1 = idx[keep], a[keep], d[keep], t0[keep], t1[keep]
-        if idx.size == 0:
-            return
-        start = a + t0[:, None] * d
-        delta = (t1 - t0)[:, None] * d
-        if thick > 1:
-            length = np.hypot(delta[:, 0], delta[:, 1])
-            safe = np.where(length > 0, length, 1.0)
-            ux = np.where(length > 0, delta[:, 0] / safe, 1.0)
-            uy = np.where(length > 0, delta[:, 1] / safe, 0.0)
-            h = thick / 2.0
-            along = np.stack([ux, uy], axis=1) * h
-            across = np.stack([-uy, ux], axis=1) * h
-            s0, s1 = start - along, start + delta + along
-            quads = np.stack([s0 - across, s1 - across, s1 + across, s0 + across], axis=1)
-            full = np.full((colors.shape[0], 4, 2), np.nan)
-            full[idx] = quads
-            self._polygons_px(full, colors)
-            return
-        # Samples at most 0.75 px apart: strictly below one pixel even after rounding, so no column
-        # or row crossed by a segment is skipped.
-        counts = np.ceil(np.hypot(delta[:, 0], delta[:, 1]) / 0.75).astype(np.int64) + 1
-        seg, step = _expand(counts)
-        frac = step / np.maximum(counts[seg] - 1, 1)
-        pts = np.floor(start[seg] + frac[:, None] * delta[seg]).astype(np.int64)
-        inb = (pts[:, 0] >= 0) & (pts[:, 0] < self.width) & (pts[:, 1] >= 0) & (pts[:, 1] < self.height)
-        self._image[pts[inb, 1], pts[inb, 0]] = colors[idx[seg[inb]]]
+    def pixel(self, point: ArrayLike) -> tuple[int, int]:
+        """The frame index ``(row, col)`` of the pixel holding world ``point`` (2,)."""
+        col, row = np.floor(self(np.asarray(point, dtype=np.float64).reshape(2)))
+        return int(row), int(col)
 
 
-def identity_colors(ids: ArrayLike) -> ColorArray:
+@dataclass(frozen=True)
+class LegendEntry:
+    """One legend item: a marker drawn as the scene draws it, and a label.
+
+    Attributes:
+        label: Text after the marker (e.g. ``"truth"``).
+        marker: ``"disc"``, ``"box"``, ``"ring"``, ``"cross"``, ``"line"`` or ``"outlined-line"``
+            (a coloured line on a black one).
+        color: The marker's RGB colour, or ``None`` when the scene colours each item by its
+            identity (:func:`identity_colors`); the legend then shows three identities' colours.
+    """
+
+    label: str
+    marker: Marker
+    color: Color | None = None
+
+    def __post_init__(self) -> None:
+        if self.marker not in _MARKERS:
+            raise ValueError(f"legend marker must be one of {_MARKERS}, got {self.marker!r}")
+        if self.color is not None:
+            object.__setattr__(self, "color", _colors(self.color, 1)[0])
+
+
+def identity_colors(ids: ArrayLike) -> NDArray[np.uint8]:
     """Deterministic, well-separated RGB colours for integer identities.
 
     Hues step by the golden-ratio conjugate per id (consecutive ids get very different hues) and
@@ -485,86 +149,266 @@ def identity_colors(ids: ArrayLike) -> ColorArray:
     return np.clip(np.rint(np.stack([r, g, b], axis=1) * 255.0), 0, 255).astype(np.uint8)
 
 
-class HumanWindow:
-    """Shows RGB frames in a pygame window (for ``render_mode="human"``).
+def _colors(color: ArrayLike, n: int) -> list[Color]:
+    """One RGB tuple per item from a (3,) or (n, 3) colour spec (values clipped to 0..255)."""
+    arr = np.asarray(color)
+    if arr.shape != (3,) and arr.shape != (n, 3):
+        raise ValueError(f"expected an RGB colour of shape (3,) or ({n}, 3), got {arr.shape}")
+    arr = np.clip(np.rint(arr.astype(np.float64)), 0, 255).astype(np.int64)
+    return [tuple(c) for c in np.broadcast_to(arr, (n, 3)).tolist()]
 
-    The window is created lazily on the first :meth:`show`, sized to the frame. pygame is imported
-    only then; with ``SDL_VIDEODRIVER=dummy`` it works headless.
+
+def _drawable(pix: NDArray[np.float64], item_axes: tuple[int, ...]) -> NDArray[np.bool_]:
+    """Items whose pixel coordinates are all finite and within ``_FAR_PX`` of the image."""
+    with np.errstate(invalid="ignore"):
+        return np.all(np.isfinite(pix) & (np.abs(pix) < _FAR_PX), axis=item_axes)
+
+
+def _floor(pix: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The pixel each continuous coordinate falls in (NaN and inf stay, to be skipped)."""
+    with np.errstate(invalid="ignore"):
+        return np.floor(pix)
+
+
+def _per_item(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        return np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ValueError(f"expected {name} as a scalar or of shape ({n},), got {arr.shape}")
+    return arr
+
+
+@lru_cache(maxsize=8)
+def _font(size: int) -> _Font:
+    """Pillow's bundled font at ``size`` pixels (its fixed bitmap font where FreeType is missing)."""
+    return ImageFont.load_default(size=size)
+
+
+def footer_height(width: int) -> int:
+    """Height in pixels of the footer under a scene ``width`` pixels wide (even, for video codecs)."""
+    return 2 * _font_size(width)
+
+
+def _font_size(width: int) -> int:
+    return int(np.clip(round(width / 64), 13, 18))
+
+
+class Canvas:
+    """A frame under construction: a scene in world coordinates, and a footer (caption, legend).
 
     Args:
-        title: Window caption.
-        fps: Frame rate to hold :meth:`show` to (``<= 0``: no limit).
+        width: Scene width in pixels.
+        height: Scene height in pixels (the frame is :func:`footer_height` taller).
+        world_low: World ``(x, y)`` of the scene's bottom-left corner.
+        world_high: World ``(x, y)`` of the scene's top-right corner.
+        background: RGB colour of the scene.
+
+    Attributes:
+        to_px: The :class:`WorldToPixel` map of the scene.
+        image: The Pillow image being drawn on.
+
+    Example:
+        >>> canvas = Canvas(200, 100, (0.0, 0.0), (2.0, 1.0))
+        >>> canvas.discs([[1.0, 0.5]], 4, (255, 0, 0))
+        >>> canvas.footer("frame 0", [LegendEntry("truth", "disc", (255, 0, 0))])
+        >>> canvas.to_array().shape
+        (126, 200, 3)
     """
 
-    def __init__(self, title: str, fps: int) -> None:
-        self.title = title
-        self.fps = int(fps)
-        self.quit_requested = False
-        self._pygame: Any = None
-        self._screen: Any = None
-        self._clock: Any = None
-        self._size: tuple[int, int] | None = None
-
-    @staticmethod
-    def _import_pygame() -> Any:
-        """Imports pygame or raises :class:`gymnasium.error.DependencyNotInstalled`."""
-        os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-        try:
-            import pygame
-        except ImportError as exc:
-            from gymnasium.error import DependencyNotInstalled
-
-            raise DependencyNotInstalled(
-                'pygame is not installed; run `pip install "track-envs[render]"`'
-            ) from exc
-        return pygame
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        world_low: ArrayLike,
+        world_high: ArrayLike,
+        background: ArrayLike = (255, 255, 255),
+    ) -> None:
+        self.to_px = WorldToPixel(width, height, world_low, world_high)
+        self.width, self.height = self.to_px.width, self.to_px.height
+        self.footer_height = footer_height(self.width)
+        self.background = _colors(background, 1)[0]
+        self.image = Image.new("RGB", (self.width, self.height + self.footer_height), self.background)
+        self._draw = ImageDraw.Draw(self.image)
 
     @property
-    def is_open(self) -> bool:
-        """Whether the window currently exists."""
-        return self._screen is not None
+    def world_low(self) -> NDArray[np.float64]:
+        """World ``(x, y)`` of the scene's bottom-left corner."""
+        return self.to_px.low
 
-    def show(self, frame: ArrayLike) -> None:
-        """Displays one frame, pumps window events and waits to hold the frame rate.
+    @property
+    def world_high(self) -> NDArray[np.float64]:
+        """World ``(x, y)`` of the scene's top-right corner."""
+        return self.to_px.high
 
-        Args:
-            frame: ``uint8`` image of shape (H, W, 3).
+    def to_array(self) -> NDArray[np.uint8]:
+        """The frame as a new ``uint8`` array of shape ``(height + footer_height, width, 3)``."""
+        return np.array(self.image, dtype=np.uint8)
 
-        Raises:
-            gymnasium.error.DependencyNotInstalled: If pygame is not installed.
-            ValueError: If ``frame`` is not (H, W, 3).
+    # ------------------------------------------------------------------ scene, world coordinates
+
+    def fill_rect(self, low: ArrayLike, high: ArrayLike, color: ArrayLike) -> None:
+        """Fills the pixels whose centres lie in the axis-aligned world rectangle ``[low, high]``."""
+        corners = self.to_px(np.stack([np.asarray(low, float), np.asarray(high, float)]))
+        if _drawable(corners, (0, 1)):
+            (x0, y0), (x1, y1) = np.rint(np.sort(corners, axis=0)).astype(np.int64).tolist()
+            if x1 > x0 and y1 > y0:
+                self._draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=_colors(color, 1)[0])
+
+    def discs(self, centers: ArrayLike, radius_px: ArrayLike, color: ArrayLike) -> None:
+        """Filled discs of ``radius_px`` (scalar or (n,); rounded, at least 1) around world
+        ``centers`` (n, 2)."""
+        self._round(centers, radius_px, color, fill=True, width=1)
+
+    def rings(
+        self, centers: ArrayLike, radius_px: ArrayLike, color: ArrayLike, thickness_px: int = 1
+    ) -> None:
+        """Circle outlines of ``radius_px`` (scalar or (n,)) around world ``centers`` (n, 2); the
+        line, ``thickness_px`` wide, lies inside the radius."""
+        self._round(centers, radius_px, color, fill=False, width=thickness_px)
+
+    def crosses(
+        self,
+        points: ArrayLike,
+        size_px: float,
+        color: ArrayLike,
+        style: Literal["x", "+"] = "x",
+        thickness_px: int = 1,
+    ) -> None:
+        """Markers ``x`` (diagonal) or ``+`` of full width ``size_px`` at world ``points`` (n, 2)."""
+        if style not in ("x", "+"):
+            raise ValueError(f"style must be 'x' or '+', got {style!r}")
+        pix = self.to_px(np.asarray(points, dtype=np.float64).reshape(-1, 2))
+        h = max(round(float(size_px) / 2), 1)
+        arms = (
+            [[[-h, -h], [h, h]], [[-h, h], [h, -h]]]
+            if style == "x"
+            else [[[-h, 0], [h, 0]], [[0, -h], [0, h]]]
+        )
+        ends = _floor(pix)[:, None, None, :] + np.array(arms)[None]  # (n, arm, end, 2)
+        colors = [c for c in _colors(color, len(pix)) for _ in range(2)]
+        self._lines_px(ends.reshape(-1, 2, 2), colors, thickness_px)
+
+    def segments(self, p0: ArrayLike, p1: ArrayLike, color: ArrayLike, thickness_px: int = 1) -> None:
+        """Line segments from world ``p0[i]`` to ``p1[i]`` (each (n, 2)), ``thickness_px`` wide."""
+        a = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+        b = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+        if a.shape != b.shape:
+            raise ValueError(f"p0 and p1 must have the same shape, got {a.shape} and {b.shape}")
+        ends = _floor(self.to_px(np.stack([a, b], axis=1)))
+        self._lines_px(ends, _colors(color, len(a)), thickness_px)
+
+    def polygons(self, vertices: ArrayLike, color: ArrayLike) -> None:
+        """Filled polygons with world ``vertices`` (n, k, 2), ``k >= 3`` (one (k, 2) polygon accepted)."""
+        verts = np.asarray(vertices, dtype=np.float64)
+        if verts.ndim == 2:
+            verts = verts[None]
+        if verts.ndim != 3 or verts.shape[2] != 2 or verts.shape[1] < 3:
+            raise ValueError(f"expected polygon vertices of shape (n, k>=3, 2), got {verts.shape}")
+        pix = _floor(self.to_px(verts))
+        colors = _colors(color, len(verts))
+        draw = self._draw
+        for i in np.flatnonzero(_drawable(pix, (1, 2))).tolist():
+            draw.polygon(pix[i].reshape(-1).tolist(), fill=colors[i])
+
+    # ------------------------------------------------------------------ footer
+
+    def footer(self, caption: str, legend: Sequence[LegendEntry] = ()) -> None:
+        """Paints the footer: ``caption`` at the left, the ``legend`` entries at the right.
+
+        Call it after the scene is drawn: it paints over anything that spilled past the scene.
         """
-        img = np.asarray(frame)
-        if img.ndim != 3 or img.shape[2] != 3:
-            raise ValueError(f"expected an (H, W, 3) frame, got {img.shape}")
-        if img.dtype != np.uint8:
-            img = np.clip(img, 0, 255).astype(np.uint8)
-        if self._pygame is None:
-            self._pygame = self._import_pygame()
-        pygame = self._pygame
-        size = (int(img.shape[1]), int(img.shape[0]))
-        if self._screen is None or self._size != size:
-            if not pygame.display.get_init():
-                pygame.init()
-                pygame.display.init()
-            self._screen = pygame.display.set_mode(size)
-            pygame.display.set_caption(self.title)
-            self._size = size
-        if self._clock is None:
-            self._clock = pygame.time.Clock()
-        for event in pygame.event.get():
-            if event.type == pygame.QUIT:
-                self.quit_requested = True
-        surface = pygame.surfarray.make_surface(np.ascontiguousarray(img.transpose(1, 0, 2)))
-        self._screen.blit(surface, (0, 0))
-        pygame.display.flip()
-        self._clock.tick(max(self.fps, 0))
+        draw, top, w = self._draw, self.height, self.width
+        size = _font_size(w)
+        font = _font(size)
+        draw.rectangle((0, top, w - 1, top + self.footer_height - 1), fill=FOOTER_BACKGROUND)
+        draw.line((0, top, w - 1, top), fill=FOOTER_RULE, width=1)
+        pad = size // 2
+        _text(draw, pad, top + self.footer_height / 2, caption, font)
+        if legend:
+            strip = _legend_strip(tuple(legend), size, self.footer_height - 1)
+            x = max(w - pad - strip.width, pad + draw.textlength(caption, font=font) + 2 * size)
+            self.image.paste(strip, (round(x), top + 1))
 
-    def close(self) -> None:
-        """Closes the window (safe to call repeatedly, or before any :meth:`show`)."""
-        if self._pygame is not None and self._screen is not None:
-            self._pygame.display.quit()
-            self._pygame.quit()
-        self._screen = None
-        self._clock = None
-        self._size = None
+    # ------------------------------------------------------------------ internals
+
+    def _round(
+        self, centers: ArrayLike, radius_px: ArrayLike, color: ArrayLike, fill: bool, width: int
+    ) -> None:
+        """Discs (``fill``) or rings of ``width`` centred on the pixels holding ``centers``."""
+        pix = _floor(self.to_px(np.asarray(centers, dtype=np.float64).reshape(-1, 2)))
+        n = len(pix)
+        r = np.maximum(np.rint(_per_item(radius_px, n, "radius_px")), 1.0)
+        boxes = np.concatenate([pix - r[:, None], pix + r[:, None]], axis=1)  # inclusive corners
+        ok = _drawable(boxes, (1,))
+        colors = _colors(color, n)
+        draw, w = self._draw, max(int(width), 1)
+        for i, box in zip(np.flatnonzero(ok).tolist(), boxes[ok].astype(np.int64).tolist(), strict=True):
+            if fill:
+                draw.ellipse(box, fill=colors[i])
+            else:
+                draw.ellipse(box, outline=colors[i], width=w)
+
+    def _lines_px(self, ends: NDArray[np.float64], colors: list[Color], width: int) -> None:
+        """Draws segments between pixels (n, 2, 2) (integer-valued), ``colors[i]`` for segment ``i``."""
+        ok = _drawable(ends, (1, 2))
+        draw, w = self._draw, max(int(width), 1)
+        segments = ends[ok].reshape(-1, 4).astype(np.int64).tolist()
+        for i, seg in zip(np.flatnonzero(ok).tolist(), segments, strict=True):
+            draw.line(seg, fill=colors[i], width=w)
+
+
+def _text(draw: ImageDraw.ImageDraw, x: float, mid: float, text: str, font: _Font) -> None:
+    """Writes ``text`` from ``x``, centred vertically on ``mid``."""
+    _, top, _, bottom = draw.textbbox((0, 0), text, font=font)
+    draw.text((x, mid - (top + bottom) / 2), text, fill=FOOTER_TEXT, font=font)
+
+
+def _marker_width(entry: LegendEntry, size: int) -> int:
+    """Width of ``entry``'s marker: one glyph of ``size`` pixels, or three overlapping ones."""
+    return size if entry.color is not None else 3 * size - size // 2
+
+
+@lru_cache(maxsize=32)
+def _legend_strip(legend: tuple[LegendEntry, ...], size: int, height: int) -> Image.Image:
+    """The legend, markers and labels in a row, on the footer's background (cached: it is static)."""
+    font = _font(size)
+    pad, gap = size // 2, size
+    scratch = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    widths = [_marker_width(e, size) + pad // 2 + scratch.textlength(e.label, font=font) for e in legend]
+    total = round(sum(widths) + gap * (len(legend) - 1))
+    strip = Image.new("RGB", (max(total, 1), height), FOOTER_BACKGROUND)
+    draw = ImageDraw.Draw(strip)
+    x, mid = 0.0, height / 2
+    for entry, width in zip(legend, widths, strict=True):
+        _marker(draw, entry, x, mid, size)
+        _text(draw, x + _marker_width(entry, size) + pad // 2, mid, entry.label, font)
+        x += width + gap
+    return strip
+
+
+def _marker(draw: ImageDraw.ImageDraw, entry: LegendEntry, x: float, mid: float, size: int) -> None:
+    """Draws ``entry``'s marker from ``x``, centred on ``mid``, in glyphs of ``size`` pixels."""
+    if entry.color is not None:
+        colors, step = [entry.color], 0
+    else:  # colour = identity: three identities' colours, overlapping
+        colors, step = _colors(identity_colors(_LEGEND_IDS), len(_LEGEND_IDS)), size - size // 4
+    h = size / 2 - 1
+    for k, c in enumerate(colors):
+        cx = x + size / 2 + k * step
+        box = (cx - h, mid - h, cx + h, mid + h)
+        diagonal = (cx - h, mid + h / 2, cx + h, mid - h / 2)
+        if entry.marker == "disc":
+            draw.ellipse(box, fill=c)
+        elif entry.marker == "box":
+            draw.rectangle((cx - h, mid - h / 2, cx + h, mid + h / 2), fill=c)
+        elif entry.marker == "ring":
+            draw.ellipse(box, outline=c, width=2)
+        elif entry.marker == "cross":
+            draw.line((cx - h / 2, mid - h / 2, cx + h / 2, mid + h / 2), fill=c, width=1)
+            draw.line((cx - h / 2, mid + h / 2, cx + h / 2, mid - h / 2), fill=c, width=1)
+        elif entry.marker == "line":
+            draw.line(diagonal, fill=c, width=3)
+        else:  # outlined-line
+            draw.line(diagonal, fill=(0, 0, 0), width=3)
+            draw.line(diagonal, fill=c, width=1)

@@ -11,16 +11,21 @@ detection  (max_tracks,)         int64   detection row the track was updated wit
 mask       (max_tracks,)         int8    1 for a real track row
 ========== ===================== ======= ==========================================================
 
-An all-zero mask (the empty report) is valid. Every sample of :func:`report_space` is a valid
-report, because ``gymnasium.utils.env_checker.check_env`` steps with random samples: a
-``detection`` index that points at a padding row (or beyond) is read as -1, and duplicate ids
-are scored as distinct hypotheses by the environment rewards.
+An all-zero mask (the empty report) is valid. The ids of the live rows (mask 1) must be
+non-negative, at most :data:`ID_LIMIT` and distinct within the report: a repeated id would let
+one identity claim several targets (and inflate MOTA), so :func:`validate_report` rejects it.
+A ``detection`` index that points at a padding row (or beyond) is read as -1.
+
+Every sample of :func:`report_space` is a valid report, because
+``gymnasium.utils.env_checker.check_env`` steps with random samples: the space
+(:class:`ReportSpace`) draws distinct ids.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -29,13 +34,48 @@ from numpy.typing import NDArray
 
 REPORT_KEYS = ("ids", "positions", "detection", "mask")
 _REPORT_KEY_SET = frozenset(REPORT_KEYS)
+#: Largest track id a report may hold (the bound of the action space's ``"ids"`` box).
 ID_LIMIT = 2**62
+
+# what _live_rows found (0: a valid report)
+_OK, _BAD_MASK, _NOT_FINITE, _BAD_ID, _REPEATED_ID = range(5)
+
+
+class ReportSpace(spaces.Dict):
+    """The ``Dict`` action space of a report whose samples are valid reports.
+
+    ``spaces.Dict.sample`` samples every key independently, so the ``"ids"`` box would give
+    repeated ids; here they are drawn without replacement from ``[0, high]`` (``high`` the
+    box's bound) with the space's own ``np_random`` (seeded by :meth:`seed`). The other keys are
+    sampled by their boxes; ``mask`` and ``probability`` are passed to them as ``spaces.Dict``
+    passes them (boxes accept ``None`` per key only).
+
+    :meth:`contains` also requires the ids of the live rows (mask 1) to be distinct.
+    """
+
+    def sample(
+        self, mask: dict[str, Any] | None = None, probability: dict[str, Any] | None = None
+    ) -> dict[str, Any]:
+        """A random valid report: every box sampled, then distinct ids drawn."""
+        report = super().sample(mask=mask, probability=probability)
+        box = self.spaces["ids"]
+        assert isinstance(box, spaces.Box)
+        high = int(np.min(box.high))
+        report["ids"] = self.np_random.choice(high + 1, size=box.shape, replace=False).astype(box.dtype)
+        return report
+
+    def contains(self, x: Any) -> bool:
+        """Whether ``x`` lies in every box and its live rows carry distinct ids."""
+        if not super().contains(x):
+            return False
+        ids = np.asarray(x["ids"])[np.asarray(x["mask"]) != 0]
+        return len(np.unique(ids)) == len(ids)
 
 
 def report_space(
     max_tracks: int, position_shape: tuple[int, ...], low: NDArray, high: NDArray, max_detections: int
-) -> spaces.Dict:
-    """The action space of a report with ``max_tracks`` rows.
+) -> ReportSpace:
+    """The action space of a report with ``max_tracks`` rows (ids in ``[0, ID_LIMIT]``).
 
     Args:
         max_tracks: Rows of the report.
@@ -45,7 +85,7 @@ def report_space(
         max_detections: Rows of the detection observation (bounds the ``detection`` entry).
     """
     shape = (max_tracks, *position_shape)
-    return spaces.Dict(
+    return ReportSpace(
         {
             "ids": spaces.Box(0, ID_LIMIT, shape=(max_tracks,), dtype=np.int64),
             "positions": spaces.Box(
@@ -104,7 +144,7 @@ class Report:
     """A validated report, trimmed to its live rows.
 
     Attributes:
-        ids: (n,) int64 track ids.
+        ids: (n,) int64 track ids, distinct and in ``[0, ID_LIMIT]``.
         positions: (n, *P) float64 positions.
         detection: (n,) int64 detection rows, -1 where the track coasted or the index pointed
             at padding.
@@ -144,7 +184,9 @@ def validate_report(
             index that is out of range or points at a padding row is read as -1.
 
     Raises:
-        ValueError: naming the key, the expected shape or dtype, or the offending rows.
+        ValueError: naming the key, the expected shape or dtype, or the offending rows: a mask
+            value other than 0/1; a live row (mask 1) with a non-finite position, an id outside
+            ``[0, ID_LIMIT]``, or an id another live row also carries.
     """
     if type(report) is not dict and not isinstance(report, Mapping):
         raise ValueError(
@@ -159,11 +201,13 @@ def validate_report(
     positions = _require(report, "positions", (max_tracks, *position_shape), "f", "floats")
     detection = _require(report, "detection", (max_tracks,), "iu", "integers")
     flat = positions.reshape(max_tracks, -1)
-    ok, live_ids, live_positions, live_detection = _live_rows(
-        mask, ids, flat, detection, np.asarray(detection_mask)
+    # uint64 ids above ID_LIMIT stay above it as int64 (the kernel compares in int64)
+    kernel_ids = np.minimum(ids, ID_LIMIT + 1).astype(np.int64) if ids.dtype == np.uint64 else ids
+    status, live_ids, live_positions, live_detection = _live_rows(
+        mask, kernel_ids, flat, detection, np.asarray(detection_mask), ID_LIMIT
     )
-    if not ok:
-        _raise_bad_rows(mask, flat)
+    if status != _OK:
+        _raise_bad_rows(mask, ids, flat)
     return Report(
         ids=live_ids,
         positions=live_positions.reshape(len(live_ids), *position_shape),
@@ -173,23 +217,39 @@ def validate_report(
 
 @njit(cache=True)
 def _live_rows(
-    mask: NDArray, ids: NDArray, positions: NDArray, detection: NDArray, detection_mask: NDArray
-) -> tuple[bool, NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+    mask: NDArray,
+    ids: NDArray,
+    positions: NDArray,
+    detection: NDArray,
+    detection_mask: NDArray,
+    id_high: int,
+) -> tuple[int, NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
     """The masked-in rows of a report (positions flattened to (max_tracks, F)) in one pass.
 
-    Returns ``ok = False`` (and empty arrays) if a mask value is not 0/1 or a live position is not
-    finite. A ``detection`` index outside ``[0, len(detection_mask))`` or on a padding row reads as -1.
+    Returns a status (``_OK``, or the first problem met: a mask value not 0/1, a live position
+    not finite, a live id outside ``[0, id_high]``, a live id repeated) and the live rows (empty
+    arrays unless ``_OK``). Repeats are found on the sorted live ids (``O(n log n)``). A
+    ``detection`` index outside ``[0, len(detection_mask))`` or on a padding row reads as -1.
     """
     n_rows, n_cols = positions.shape
     n = 0
+    status = _OK
     for r in range(n_rows):
         if mask[r] != 0:
             if mask[r] != 1:
-                return False, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
+                status = _BAD_MASK
+                break
             for c in range(n_cols):
                 if not np.isfinite(positions[r, c]):
-                    return False, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
+                    status = _NOT_FINITE
+            if status != _OK:
+                break
+            if ids[r] < 0 or ids[r] > id_high:
+                status = _BAD_ID
+                break
             n += 1
+    if status != _OK:
+        return status, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
     out_ids = np.empty(n, np.int64)
     out_positions = np.empty((n, n_cols), np.float64)
     out_detection = np.empty(n, np.int64)
@@ -203,15 +263,35 @@ def _live_rows(
             d = detection[r]
             out_detection[k] = d if 0 <= d < n_detections and detection_mask[d] == 1 else -1
             k += 1
-    return True, out_ids, out_positions, out_detection
+    if n > 1:
+        ordered = np.sort(out_ids)
+        for k in range(1, n):
+            if ordered[k] == ordered[k - 1]:
+                return _REPEATED_ID, np.empty(0, np.int64), np.empty((0, n_cols)), np.empty(0, np.int64)
+    return _OK, out_ids, out_positions, out_detection
 
 
-def _raise_bad_rows(mask: NDArray, positions: NDArray) -> None:
-    """Name the rows :func:`_live_rows` refused: mask values other than 0/1, or non-finite positions."""
+def _raise_bad_rows(mask: NDArray, ids: NDArray, positions: NDArray) -> None:
+    """Name the rows :func:`_live_rows` refused: mask values other than 0/1, non-finite
+    positions, ids out of range or repeated (live rows only, the first 10 of each)."""
     live = mask != 0
     bad = np.flatnonzero(live & (mask != 1))
     if mask.dtype.kind != "b" and len(bad):
         raise ValueError(f"report['mask'] must be 0 or 1; rows {bad[:10].tolist()} are not")
     finite = np.isfinite(positions).all(axis=1)
     rows = np.flatnonzero(live & ~finite)
-    raise ValueError(f"report['positions'] has non-finite values in masked-in rows {rows[:10].tolist()}")
+    if len(rows):
+        raise ValueError(f"report['positions'] has non-finite values in masked-in rows {rows[:10].tolist()}")
+    rows = np.flatnonzero(live & ((ids < 0) | (ids > ID_LIMIT)))
+    if len(rows):
+        raise ValueError(
+            f"report['ids'] must be in [0, 2**62] on masked-in rows; rows {rows[:10].tolist()} hold "
+            f"{ids[rows[:10]].tolist()}"
+        )
+    live_rows = np.flatnonzero(live)
+    values, inverse, counts = np.unique(ids[live_rows], return_inverse=True, return_counts=True)
+    rows = live_rows[counts[inverse] > 1]
+    raise ValueError(
+        f"report['ids'] must be distinct among masked-in rows (one id per track); rows "
+        f"{rows[:10].tolist()} repeat ids {values[counts > 1][:10].tolist()}"
+    )

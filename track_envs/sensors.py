@@ -18,28 +18,12 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+# the checks of the sensor arguments (re-exported from track_envs.arguments)
+from track_envs.arguments import check_non_negative, check_positive, check_probability
+
+__all__ = ["CLUTTER_ID", "check_non_negative", "check_positive", "check_probability", "sense_points"]
+
 CLUTTER_ID = -1
-
-
-def check_probability(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if not in [0, 1]."""
-    if not (np.isfinite(value) and 0.0 <= value <= 1.0):
-        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
-    return float(value)
-
-
-def check_non_negative(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if negative or not finite."""
-    if not (np.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return float(value)
-
-
-def check_positive(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` if not > 0 and finite."""
-    if not (np.isfinite(value) and value > 0.0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)
 
 
 def sense_points(

@@ -23,6 +23,9 @@ import numpy as np
 from track_envs.report import empty_report, validate_report
 from track_envs.types import Gaussian, SensorSpec
 
+#: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
+PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
+
 
 def _equal(a: Any, b: Any) -> bool:
     if isinstance(a, dict):
@@ -31,7 +34,9 @@ def _equal(a: Any, b: Any) -> bool:
 
 
 def check_tracking_env(env: gym.Env, steps: int = 20, seed: int = 0) -> None:
-    """Check the tracking-env contract: spaces, padding, info shapes, detection ids, seeding.
+    """Check the tracking-env contract: spaces, padding, info shapes, detection ids, seeding, and
+    the report contract (samples of the action space are valid reports; a report whose live rows
+    repeat an id or hold a negative one is rejected with ``ValueError``).
 
     Args:
         env: The environment (wrapped or not).
@@ -78,10 +83,48 @@ def check_tracking_env(env: gym.Env, steps: int = 20, seed: int = 0) -> None:
         _equal(a[0], b[0]) and _equal(a[1]["detection_ids"], b[1]["detection_ids"])
         for a, b in zip(frames, again, strict=True)
     ), "the same seed must give bitwise equal rollouts"
+    _check_report_contract(env, seed)
+
+
+def _check_report_contract(env: gym.Env, seed: int) -> None:
+    """Samples of the action space are valid reports; live rows with a repeated or negative id
+    are rejected with ``ValueError``."""
+    base: Any = env.unwrapped
+    max_tracks = base.sensor_spec.max_tracks
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    for t in range(3):
+        sample = env.action_space.sample()
+        try:
+            _, reward, terminated, truncated, _ = env.step(sample)
+        except ValueError as exc:
+            raise AssertionError(
+                f"step {t}: a sample of the action space must be a valid report ({exc})"
+            ) from exc
+        assert np.isfinite(float(reward)), f"reward of a sampled report must be finite, got {reward!r}"
+        if terminated or truncated:
+            env.reset(seed=seed)
+    if max_tracks < 2:
+        return
+    for what, ids in (("a repeated id", [7, 7]), ("a negative id", [-1, 3])):
+        report = empty_report(max_tracks, tuple(base.position_shape))
+        report["mask"][:2] = 1
+        report["ids"][:2] = ids
+        try:
+            env.step(report)
+        except ValueError:
+            continue
+        raise AssertionError(f"step must reject a report whose live rows hold {what} (ValueError)")
 
 
 def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
-    """Check an agent on an environment: valid reports, detection rows, determinism under a seed."""
+    """Check an agent on an environment: valid reports, detection rows, determinism under a seed,
+    and that it rejects (``ValueError``) observations that break the contract: mask values other
+    than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation."""
+    missing = [m for m in ("reset", "act") if not callable(getattr(agent, m, None))]
+    assert not missing, (
+        f"an agent must have the methods reset(spec, *, seed) and act(obs); it lacks {missing}"
+    )
     spec = env.unwrapped.sensor_spec  # type: ignore[attr-defined]
 
     def rollout() -> list[dict[str, Any]]:
@@ -108,10 +151,45 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
     assert len(first) == len(second) and all(_equal(a, b) for a, b in zip(first, second, strict=True)), (
         "an agent reset with the same seed must report the same tracks"
     )
+    _check_rejects_bad_observations(agent, env, seed)
+
+
+def _bad_observations(obs: dict[str, Any]) -> dict[str, Any]:
+    """Observations that break the contract, each derived from the real ``obs``, by what is wrong."""
+    mask, detections = obs["mask"], obs["detections"]
+    bad: dict[str, Any] = {}
+    for value in (2, -1):
+        wrong = mask.copy()
+        wrong[-1] = value
+        bad[f"a mask value of {value}"] = {**obs, "mask": wrong}
+    bad["a float mask"] = {**obs, "mask": mask.astype(np.float64)}
+    live = np.flatnonzero(mask == 1)
+    if len(live):
+        nan = detections.copy()
+        nan[live[0]] = np.nan
+        bad["NaN in a masked-in detection row"] = {**obs, "detections": nan}
+    bad["detections with a row too few"] = {**obs, "detections": detections[:-1], "mask": mask[:-1]}
+    bad["a tuple instead of a mapping"] = (detections, mask)
+    return bad
+
+
+def _check_rejects_bad_observations(agent: Any, env: gym.Env, seed: int) -> None:
+    """The agent refuses (``ValueError``) observations that break the contract."""
+    spec = env.unwrapped.sensor_spec  # type: ignore[attr-defined]
+    obs, _ = env.reset(seed=seed)
+    for what, bad in _bad_observations(obs).items():
+        agent.reset(spec, seed=seed)
+        try:
+            agent.act(bad)
+        except ValueError:
+            continue
+        raise AssertionError(f"the agent must reject an observation with {what} (raise ValueError)")
 
 
 def check_predictor(predictor: Any, spec: SensorSpec, n: int = 5, seed: int = 0) -> None:
     """Check a predictor against the Predictor protocol: shapes, coasting, take/concat, empty batches."""
+    missing = [m for m in PREDICTOR_METHODS if not callable(getattr(predictor, m, None))]
+    assert not missing, f"a predictor must have the methods {list(PREDICTOR_METHODS)}; it lacks {missing}"
     rng = np.random.default_rng(seed)
     predictor.reset(spec)
     d = spec.dim

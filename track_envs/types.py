@@ -21,8 +21,10 @@ class SensorSpec:
     Attributes:
         dt: Time between frames in seconds.
         dim: Dimension ``D`` of a point measurement (2 for every point env).
-        noise_std: Standard deviation of the additive Gaussian measurement noise per axis, in
-            sensor units (metres for the belt sorter).
+        noise_std: Standard deviation of the Gaussian measurement noise per axis that the sensor
+            declares, in sensor units (metres for the belt sorter): what a tracker is told, and
+            not necessarily what the env adds (a replay of real centroids adds none but declares
+            the camera's noise).
         p_detect: Probability that a visible target gives a detection in a frame.
         clutter_rate: Expected number of clutter (false) detections per frame, uniform over
             the observed region.

@@ -1,8 +1,9 @@
 """Cells, suites and applicability: what the benchmark runs.
 
-A **cell** is one unit of work: (env id, env kwargs, agent, predictor, seed) plus the episode
-budget (episodes, steps per episode). Its :attr:`Cell.key` is a stable hash of exactly those
-fields, so the record file of a cell has the same name on every machine and every run.
+A **cell** is one unit of work: (env id, env kwargs, agent, predictor, agent kwargs, seed) plus
+the episode budget (episodes, steps per episode). Its :attr:`Cell.key` is a stable hash of exactly
+those fields, so the record file of a cell has the same name on every machine and every run; every
+field but the seed is also one of the cell's :meth:`Cell.params`, which the report groups seeds by.
 
 A **suite** is a list of :class:`Group` s; a group is a cartesian product (envs × agents ×
 predictors × sweep values × seeds) that :func:`expand` turns into the cells that *apply*:
@@ -34,6 +35,19 @@ from predictors import available_predictors
 NO_PREDICTOR = "-"
 
 
+def freeze(value: Any) -> Any:
+    """``value`` with every list turned into a tuple (recursively), so kwargs read from JSON or
+    TOML are hashable; the JSON of the result, and so a cell's key, is unchanged."""
+    if isinstance(value, list | tuple):
+        return tuple(freeze(v) for v in value)
+    return value
+
+
+def kwarg_items(data: Mapping[str, Any] | None) -> tuple[tuple[str, Any], ...]:
+    """Sorted, hashable ``(name, value)`` pairs of a kwargs mapping."""
+    return tuple(sorted((str(k), freeze(v)) for k, v in dict(data or {}).items()))
+
+
 @dataclass(frozen=True)
 class Cell:
     """One benchmark run: ``episodes`` episodes of ``env_id`` with one agent/predictor and seed.
@@ -46,6 +60,8 @@ class Cell:
         env_kwargs: Keyword arguments for ``gym.make`` as sorted ``(name, value)`` pairs.
         episodes: Episodes to run; the record's metrics are their mean.
         steps: ``max_episode_steps`` for ``gym.make``; ``None`` keeps the env's own length.
+        agent_kwargs: Keyword arguments for ``make_agent`` as sorted ``(name, value)`` pairs
+            (``gnn`` passes the ones it does not take on to its predictor).
     """
 
     env_id: str
@@ -55,17 +71,35 @@ class Cell:
     env_kwargs: tuple[tuple[str, Any], ...] = ()
     episodes: int = 1
     steps: int | None = None
+    agent_kwargs: tuple[tuple[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready dict (``env_kwargs`` as a dict)."""
+        """A JSON-ready dict (``env_kwargs`` and ``agent_kwargs`` as dicts)."""
         out = asdict(self)
         out["env_kwargs"] = dict(self.env_kwargs)
+        out["agent_kwargs"] = dict(self.agent_kwargs)
         return out
+
+    def params(self) -> tuple[tuple[str, Any], ...]:
+        """Everything but the env, agent, predictor and seed that changes the cell's result.
+
+        The env kwargs by name, then ``steps`` (absent: the env's own length), ``episodes``
+        (absent: 1) and the agent kwargs as ``agent.NAME``. Records that differ only in their
+        seed have equal params; the report pools exactly those.
+        """
+        out = list(self.env_kwargs)
+        if self.steps is not None:
+            out.append(("steps", self.steps))
+        if self.episodes != 1:
+            out.append(("episodes", self.episodes))
+        out += [(f"agent.{k}", v) for k, v in self.agent_kwargs]
+        return tuple(out)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Cell:
         """Inverse of :meth:`to_dict`."""
-        kwargs = tuple(sorted(dict(data.get("env_kwargs", {})).items()))
+        kwargs = kwarg_items(data.get("env_kwargs"))
+        agent_kwargs = kwarg_items(data.get("agent_kwargs"))
         return cls(
             env_id=data["env_id"],
             agent=data["agent"],
@@ -74,12 +108,20 @@ class Cell:
             env_kwargs=kwargs,
             episodes=int(data.get("episodes", 1)),
             steps=None if data.get("steps") is None else int(data["steps"]),
+            agent_kwargs=agent_kwargs,
         )
 
     @property
     def key(self) -> str:
-        """Stable 16-hex-digit hash of the cell (sha256 of its canonical JSON)."""
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        """Stable 16-hex-digit hash of the cell (sha256 of its canonical JSON).
+
+        Empty ``agent_kwargs`` are left out of the hashed JSON, so cells without agent kwargs
+        keep the keys (and record files) they had before the field existed.
+        """
+        data = self.to_dict()
+        if not data["agent_kwargs"]:
+            del data["agent_kwargs"]
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     @property
@@ -101,6 +143,7 @@ class Group:
         steps: Steps per episode (``None``: the env's own length).
         env_kwargs: Fixed env kwargs for every cell.
         sweep: Env kwarg name → values; one cell per value (several names: every combination).
+        agent_kwargs: Fixed ``make_agent`` kwargs for every cell.
     """
 
     envs: tuple[str, ...] = ()
@@ -111,17 +154,38 @@ class Group:
     steps: int | None = None
     env_kwargs: tuple[tuple[str, Any], ...] = ()
     sweep: tuple[tuple[str, tuple[Any, ...]], ...] = field(default=())
+    agent_kwargs: tuple[tuple[str, Any], ...] = ()
 
 
 #: Paper 000 Fig. 7 sweeps the measurement noise on the belt from 0 to 0.5 mm.
 NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
 
+#: Measurement noise of the suites' BeltReplay-v0 cells. The replay has no noise by
+#: default, so without it every seed would give the same episode (and a std of 0).
+REPLAY_NOISE = 1e-4
+
 SUITES: dict[str, tuple[Group, ...]] = {
     # every env × every agent/predictor that applies × 2 seeds, short episodes.
-    "quick": (Group(seeds=(0, 1), steps=100),),
+    "quick": (
+        Group(envs=tuple(e for e in track_envs.ENV_IDS if e != "BeltReplay-v0"), seeds=(0, 1), steps=100),
+        Group(
+            envs=("BeltReplay-v0",),
+            seeds=(0, 1),
+            steps=100,
+            env_kwargs=(("noise_std", REPLAY_NOISE),),
+        ),
+    ),
     # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of paper 000.
     "full": (
-        Group(envs=tuple(e for e in track_envs.ENV_IDS if e != "BeltSorter-v0"), seeds=tuple(range(10))),
+        Group(
+            envs=tuple(e for e in track_envs.ENV_IDS if e not in ("BeltSorter-v0", "BeltReplay-v0")),
+            seeds=tuple(range(10)),
+        ),
+        Group(
+            envs=("BeltReplay-v0",),
+            seeds=tuple(range(10)),
+            env_kwargs=(("noise_std", REPLAY_NOISE),),
+        ),
         Group(envs=("BeltSorter-v0",), seeds=tuple(range(10)), sweep=(("noise_std", NOISE_SWEEP),)),
     ),
 }
@@ -160,8 +224,9 @@ def env_shape(env_id: str) -> tuple[tuple[int, ...], int]:
         env.close()
 
 
-def env_kwarg_names(env_id: str) -> list[str] | None:
-    """Keyword arguments the env's constructor takes, or ``None`` when it takes ``**kwargs``."""
+def env_kwarg_defaults(env_id: str) -> dict[str, Any] | None:
+    """Keyword arguments the env's constructor takes with their defaults (``inspect.Parameter.empty``
+    where there is none), or ``None`` when it takes ``**kwargs``."""
     from gymnasium.envs.registration import load_env_creator
 
     entry = gym.spec(env_id).entry_point
@@ -169,7 +234,37 @@ def env_kwarg_names(env_id: str) -> list[str] | None:
     params = inspect.signature(creator).parameters.values()
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
         return None
-    return [p.name for p in params if p.name != "render_mode"]
+    return {p.name: p.default for p in params if p.name != "render_mode"}
+
+
+def env_kwarg_names(env_id: str) -> list[str] | None:
+    """Keyword arguments the env's constructor takes, or ``None`` when it takes ``**kwargs``."""
+    defaults = env_kwarg_defaults(env_id)
+    return None if defaults is None else list(defaults)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def check_kwarg_type(env_id: str, name: str, value: Any, default: Any) -> None:
+    """Raise ``ValueError`` when ``value`` cannot stand where the constructor's ``default`` does.
+
+    A number default (``noise_std=0.0``) takes a number, a bool default a bool and a string
+    default a string; a ``None`` default or none at all takes anything (the env checks it).
+    """
+    if default is None or default is inspect.Parameter.empty:
+        return
+    if isinstance(default, bool):
+        ok, want = isinstance(value, bool), "true or false"
+    elif _is_number(default):
+        ok, want = _is_number(value), "a number"
+    elif isinstance(default, str):
+        ok, want = isinstance(value, str), "a string"
+    else:
+        return
+    if not ok:
+        raise ValueError(f"{env_id} {name}={value!r}: {name} must be {want} (default {default!r})")
 
 
 def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
@@ -191,11 +286,17 @@ def validate_group(group: Group) -> None:
         raise ValueError(f"steps must be >= 1, got {group.steps}")
     if not group.seeds:
         raise ValueError("no seeds given")
-    names = [n for n, _ in group.env_kwargs] + [n for n, _ in group.sweep]
+    values = list(group.env_kwargs) + [(n, v) for n, vs in group.sweep for v in vs]
+    for name, vs in group.sweep:
+        if not vs:
+            raise ValueError(f"sweep of {name} has no values")
     for env_id in group.envs or track_envs.ENV_IDS:
-        valid = env_kwarg_names(env_id)
-        if valid is not None:
-            check_names(f"env kwarg for {env_id}", names, valid)
+        defaults = env_kwarg_defaults(env_id)
+        if defaults is None:
+            continue
+        check_names(f"env kwarg for {env_id}", dict.fromkeys(n for n, _ in values), list(defaults))
+        for name, value in values:
+            check_kwarg_type(env_id, name, value, defaults[name])
 
 
 def expand(groups: Iterable[Group]) -> list[Cell]:
@@ -213,16 +314,38 @@ def expand(groups: Iterable[Group]) -> list[Cell]:
                         for seed in group.seeds:
                             items = tuple(sorted(kwargs.items()))
                             cell = Cell(
-                                env_id, agent, predictor, int(seed), items, group.episodes, group.steps
+                                env_id,
+                                agent,
+                                predictor,
+                                int(seed),
+                                items,
+                                group.episodes,
+                                group.steps,
+                                tuple(sorted(group.agent_kwargs)),
                             )
                             cells.setdefault(cell.key, cell)
     return list(cells.values())
 
 
 def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
-    """``groups`` with the non-``None`` ``changes`` applied to every group (CLI flags over a suite)."""
+    """``groups`` with the non-``None`` ``changes`` applied to every group (CLI flags over a suite).
+
+    ``envs`` selects rather than replaces: a group that lists envs keeps those of them that are
+    also in ``envs`` (and is dropped if none is), a group that lists none takes ``envs``. So
+    ``--envs BeltReplay-v0`` on a suite with a group per env family runs just that env's group,
+    with that group's env kwargs. Every other key replaces the group's value.
+    """
     changes = {k: v for k, v in changes.items() if v is not None}
-    return tuple(replace(g, **changes) for g in groups)
+    envs = changes.pop("envs", None)
+    out = []
+    for group in groups:
+        if envs is not None:
+            chosen = tuple(e for e in group.envs if e in envs) if group.envs else tuple(envs)
+            if not chosen:
+                continue
+            group = replace(group, envs=chosen)
+        out.append(replace(group, **changes))
+    return tuple(out)
 
 
 def load_suite(source: str) -> tuple[Group, ...]:
@@ -239,6 +362,7 @@ def load_suite(source: str) -> tuple[Group, ...]:
         steps = 200                   # omit for the env's own episode length
         env_kwargs = { particle_kind = "sphere" }
         sweep = { noise_std = [0.0, 2e-4, 4e-4] }
+        agent_kwargs = { p_gate = 0.99 }  # make_agent kwargs (gnn: also its predictor's)
     """
     if source in SUITES:
         return SUITES[source]
@@ -255,8 +379,12 @@ def load_suite(source: str) -> tuple[Group, ...]:
 def group_from_mapping(data: Mapping[str, Any]) -> Group:
     """A :class:`Group` from a TOML table (see :func:`load_suite`)."""
     allowed = {"envs", "agents", "predictors", "seeds", "episodes", "steps", "env_kwargs", "sweep"}
+    allowed.add("agent_kwargs")
     check_names("suite key", data, sorted(allowed))
     seeds = data.get("seeds", 2)
+    for name, values in dict(data.get("sweep", {})).items():
+        if not isinstance(values, list):
+            raise ValueError(f"sweep of {name} must be a list of values, got {values!r}")
     return Group(
         envs=tuple(data.get("envs", ())),
         agents=tuple(data.get("agents", ())),
@@ -264,6 +392,7 @@ def group_from_mapping(data: Mapping[str, Any]) -> Group:
         seeds=tuple(range(seeds)) if isinstance(seeds, int) else tuple(int(s) for s in seeds),
         episodes=int(data.get("episodes", 1)),
         steps=data.get("steps"),
-        env_kwargs=tuple(sorted(dict(data.get("env_kwargs", {})).items())),
-        sweep=tuple((k, tuple(v)) for k, v in dict(data.get("sweep", {})).items()),
+        env_kwargs=kwarg_items(data.get("env_kwargs")),
+        sweep=tuple((k, freeze(list(v))) for k, v in dict(data.get("sweep", {})).items()),
+        agent_kwargs=kwarg_items(data.get("agent_kwargs")),
     )

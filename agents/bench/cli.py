@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import ast
 import functools
 import inspect
 import os
@@ -11,6 +10,7 @@ import re
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -28,23 +28,30 @@ examples:
   track-bench run --suite quick --workers 1 --out results/q1   # in-process, no pool
   track-bench run --envs BeltSorter-v0 --agents gnn --predictors kf-cv,kf-ca \\
                   --seeds 5 --steps 300 --sweep noise_std=0,1e-4,2e-4,3e-4,4e-4,5e-4 --out results/noise
+  track-bench run --envs SineTarget-v0 --agents gnn --agent-kwargs p_gate=0.99,max_misses=3 --out results/gate
   track-bench run --suite my_suite.toml --engine ray --out results/ray          # local Ray instance
   track-bench run --suite full --engine ray --address auto --out results/full   # an existing Ray cluster
   track-bench report results/noise                              # rebuild tables and plots
 
-A cell is (env, env kwargs, agent, predictor, seed); each finished cell is one JSON record in --out,
-written atomically. Rerunning with the same --out computes only the missing cells, so an
-interrupted run (Ctrl-C, a killed worker) resumes where it stopped. Agents that take no predictor
-("detections", "pf", "pose-baseline") run once per env with predictor "-". Same seeds give the
+A cell is (env, env kwargs, steps, episodes, agent, predictor, agent kwargs, seed); each finished
+cell is one JSON record in --out, written atomically. Every argument is checked (each distinct env
+and agent built once) before the first cell runs; a bad one stops the run with one error line.
+Tables pool the seeds of cells that agree in everything else (the params column). Rerunning
+with the same --out computes only the missing cells, so an interrupted run (Ctrl-C, a killed
+worker) resumes where it stopped. Agents that take no predictor ("detections", "pf",
+"pose-baseline") run once per env with predictor "-". Same seeds give the
 same metrics on every engine; only the "timing" part of a record differs.
 """
 
 SUITE_HELP = """\
 suites: "quick" = every env x every agent/predictor that applies x 2 seeds, 100-step episodes;
 "full" = 10 seeds, full-length episodes, plus the BeltSorter-v0 noise_std sweep 0..5e-4 of
-paper 000 Fig. 7. A TOML suite holds [[group]] tables with keys envs, agents, predictors,
-seeds (count or list), episodes, steps, env_kwargs (table) and sweep (table of lists).
-Flags given with a suite override that key in every group."""
+paper 000 Fig. 7. In both, BeltReplay-v0 runs with noise_std=1e-4 so that seeds differ.
+A TOML suite holds [[group]] tables with keys envs, agents, predictors, seeds (count or list),
+episodes, steps, env_kwargs (table), sweep (table of lists) and agent_kwargs (table).
+Flags given with a suite override that key in every group, except --envs, which selects: a
+group that lists envs keeps those also given (and is dropped if none is).
+Values (--sweep, --agent-kwargs): numbers, true/false, none, names, or 'quoted strings'."""
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -64,20 +71,89 @@ def parse_seeds(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"bad --seeds {text!r}: use N, A:B or a,b,c") from None
 
 
+#: A bare word read as a string value (a name such as ``sphere`` or ``kf-ca``, a path).
+WORD = re.compile(r"[A-Za-z_/.~][\w./~+-]*")
+BOOLS = {"true": True, "false": False}
+NONES = {"none", "null"}
+
+
 def parse_value(text: str) -> Any:
-    """A sweep value: a Python literal (int, float, bool, None) or else the string itself."""
+    """One CLI value: ``int`` (``3``), ``float`` (``1e-4``, ``0.5``, ``inf``, ``nan``), bool
+    (``true``/``false``, any case), ``None`` (``none``/``null``), a quoted string (``'a b'``) or a
+    bare word (``sphere``, ``data/run.csv``) as a string.
+
+    Raises:
+        ValueError: for an empty value, unbalanced quotes, or text that is none of these
+            (e.g. ``1e-4x``, which starts like a number but is not one).
+    """
+    text = text.strip()
+    if not text:
+        raise ValueError("empty value")
+    low = text.lower()
+    if low in BOOLS:
+        return BOOLS[low]
+    if low in NONES:
+        return None
     try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"":
+        return text[1:-1]
+    if text[0] in "'\"" or text[-1] in "'\"":
+        raise ValueError(f"{text!r} has unbalanced quotes")
+    if WORD.fullmatch(text) and not text[0].isdigit():
         return text
+    raise ValueError(f"{text!r} is not a number, true/false, none or a name (quote other strings: 'a b')")
+
+
+def parse_assignment(flag: str, text: str) -> tuple[str, str]:
+    """``"name=rest"`` → ``("name", "rest")``, checking that ``name`` is an identifier."""
+    name, sep, rest = text.partition("=")
+    name = name.strip()
+    if not sep or not rest.strip():
+        raise argparse.ArgumentTypeError(f"bad {flag} {text!r}: use name=value")
+    if not name.isidentifier():
+        raise argparse.ArgumentTypeError(f"bad {flag} {text!r}: {name!r} is not a keyword argument name")
+    return name, rest
 
 
 def parse_sweep(text: str) -> tuple[str, tuple[Any, ...]]:
-    """``"noise_std=0,1e-4,2e-4"`` → ``("noise_std", (0, 0.0001, 0.0002))``."""
-    name, sep, values = text.partition("=")
-    if not sep or not name.strip() or not values.strip():
-        raise argparse.ArgumentTypeError(f"bad --sweep {text!r}: use name=v1,v2,...")
-    return name.strip(), tuple(parse_value(v.strip()) for v in values.split(",") if v.strip())
+    """``"noise_std=0,1e-4,2e-4"`` → ``("noise_std", (0, 0.0001, 0.0002))``; values as in
+    :func:`parse_value`, each at most once."""
+    name, rest = parse_assignment("--sweep", text)
+    values = []
+    for i, part in enumerate(rest.split(",")):
+        try:
+            values.append(parse_value(part))
+        except ValueError as exc:
+            msg = f"bad --sweep {text!r}: value {i + 1} of {name}: {exc}"
+            raise argparse.ArgumentTypeError(msg) from None
+    seen: list[Any] = []
+    for v in values:
+        if any(v == s and isinstance(v, bool) == isinstance(s, bool) for s in seen):
+            raise argparse.ArgumentTypeError(f"bad --sweep {text!r}: {name}={v!r} is given twice")
+        seen.append(v)
+    return name, tuple(values)
+
+
+def parse_kwargs(text: str) -> tuple[tuple[str, Any], ...]:
+    """``"p_gate=0.99,max_misses=3"`` → sorted ``(name, value)`` pairs (values as in
+    :func:`parse_value`)."""
+    out: dict[str, Any] = {}
+    for part in text.split(","):
+        name, rest = parse_assignment("--agent-kwargs", part)
+        if name in out:
+            raise argparse.ArgumentTypeError(f"bad --agent-kwargs {text!r}: {name} is given twice")
+        try:
+            out[name] = parse_value(rest)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(f"bad --agent-kwargs {text!r}: {name}: {exc}") from None
+    return tuple(sorted(out.items()))
 
 
 def describe(factory: Any) -> str:
@@ -138,12 +214,19 @@ def build_groups(args: argparse.Namespace) -> tuple[Group, ...]:
         episodes=args.episodes,
         steps=args.steps,
         sweep=tuple(args.sweep) if args.sweep else None,
+        agent_kwargs=args.agent_kwargs,
     )
+
+
+def print_skipped(command: str, skipped: Sequence[tuple[Any, str]]) -> None:
+    """One warning line on stderr per file of the out dir that is not a readable record."""
+    for path, reason in skipped:
+        print(f"track-bench {command}: warning: skipped {path}: {reason}", file=sys.stderr)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     from agents.bench.report import aggregate, terminal_table, write_report
-    from agents.bench.runner import load_records, run_cells
+    from agents.bench.runner import CellError, check_cells, is_finished, run_cells, scan_records
 
     try:
         cells = cells_mod.expand(build_groups(args))
@@ -153,10 +236,21 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not cells:
         print("track-bench run: error: no cell applies (check --envs / --agents)", file=sys.stderr)
         return 2
+    try:
+        check_cells(c for c in cells if not is_finished(Path(args.out), c))
+    except CellError as exc:
+        print(f"track-bench run: error: {exc} (no cell was run)", file=sys.stderr)
+        return 2
     print(f"{len(cells)} cells -> {args.out} (engine {args.engine})", file=sys.stderr)
     try:
         result = run_cells(
-            cells, args.out, engine=args.engine, workers=args.workers, address=args.address, progress=True
+            cells,
+            args.out,
+            engine=args.engine,
+            workers=args.workers,
+            address=args.address,
+            progress=True,
+            check=False,
         )
     except KeyboardInterrupt:
         print("\ninterrupted: finished cells are saved; rerun the same command to resume", file=sys.stderr)
@@ -169,7 +263,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     keys = {c.key for c in cells}
-    records = [r for r in load_records(args.out) if r["key"] in keys]
+    scan = scan_records(args.out)
+    print_skipped("run", scan.skipped)
+    records = [r for r in scan.records if r["key"] in keys]
     write_report(records, args.out)
     print(terminal_table(aggregate(records)))
     print(f"\ntables and plots in {args.out}/ (results.md, summary.csv, records.csv, plots/)")
@@ -178,19 +274,22 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     from agents.bench.report import aggregate, terminal_table, write_report
-    from agents.bench.runner import load_records
+    from agents.bench.runner import scan_records
 
     if not os.path.isdir(args.dir):
         print(f"track-bench report: error: no directory {args.dir!r}", file=sys.stderr)
         return 2
-    records = load_records(args.dir)
+    scan = scan_records(args.dir)
+    print_skipped("report", scan.skipped)
+    records = scan.records
     if not records:
         print(f"track-bench report: error: no records in {args.dir!r}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
     paths = write_report(records, args.dir)
     print(terminal_table(aggregate(records)))
-    print(f"\n{len(records)} records; wrote {len(paths)} files in {time.perf_counter() - t0:.1f} s")
+    skipped = f", {len(scan.skipped)} files skipped (see the warnings)" if scan.skipped else ""
+    print(f"\n{len(records)} records{skipped}; wrote {len(paths)} files in {time.perf_counter() - t0:.1f} s")
     return 0
 
 
@@ -241,6 +340,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="NAME=V1,V2,...",
         help="sweep an env kwarg, e.g. noise_std=0,1e-4 or p_detect=0.9,0.7 (repeat for a grid)",
+    )
+    p.add_argument(
+        "--agent-kwargs",
+        type=parse_kwargs,
+        metavar="NAME=V,...",
+        help="make_agent keyword arguments for every cell, e.g. p_gate=0.99,max_misses=3 "
+        "(gnn passes the ones it does not take to its predictor)",
     )
     p.add_argument("--workers", type=int, help="local processes (default: CPU count; 1 = in-process)")
     p.add_argument("--engine", choices=["local", "ray"], default="local", help="default local")

@@ -1,11 +1,19 @@
 """Tables and plots from stored records: terminal, markdown, CSV and PNG (matplotlib Agg).
 
-Rows are (env, env kwargs, agent, predictor) with mean ± std over the seeds (sample std, 0 for a
-single seed; NaN values, e.g. an occlusion error without occlusion, are left out). The terminal
-and markdown tables show the headline metrics of each env family (:data:`HEADLINE`); the CSV
-files hold every metric. Within each env and env-kwargs setting the best value of each
-headline metric is marked ``*`` (and bold on a terminal / in markdown), using :data:`LOWER_IS_BETTER`
-and :data:`HIGHER_IS_BETTER`.
+Rows are (env, params, agent, predictor) with mean ± std over the seeds (sample std, 0 for a
+single seed; NaN values, e.g. an occlusion error without occlusion, are left out). The params are
+everything else that changes a cell's result (:meth:`agents.bench.cells.Cell.params`): the env
+kwargs, ``steps``, ``episodes`` (shown when not 1) and the agent kwargs (``agent.NAME``), so records
+made with other steps, episodes or kwargs in the same out dir are separate rows, never pooled.
+The terminal and markdown tables show the headline metrics of each env family
+(:data:`HEADLINE`); the CSV files hold every metric. Within each env and setting (the params but
+the agent kwargs) the best value of each headline metric is marked ``*`` (and bold on a
+terminal / in markdown), using :data:`LOWER_IS_BETTER` and :data:`HIGHER_IS_BETTER`.
+
+Plot axes (:func:`axis_scale`, :func:`error_band`): a metric that cannot be negative
+(:data:`NON_NEGATIVE`) gets a log y axis when its positive values span more than
+:data:`LOG_SPAN` (two decades, e.g. 1.5 and 4,672 id switches), and its ±std bars and bands are
+clipped at 0 (on a log axis, at the bottom of the axis).
 
 Files written into the out dir by :func:`write_report`:
     ``results.md``: the headline tables; ``summary.csv``: long form, one row per
@@ -28,6 +36,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agents.bench.cells import Cell
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
 HEADLINE = ("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean")
@@ -36,11 +47,24 @@ LOWER_IS_BETTER = frozenset(
     | {"num_false_positives", "num_fragmentations", "occlusion_error", "frames_without_estimate"}
 )
 HIGHER_IS_BETTER = frozenset({"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision"})
+#: Metrics that cannot be negative (every scored metric but MOTA, which is 1 - errors / truths).
+NON_NEGATIVE = (LOWER_IS_BETTER | HIGHER_IS_BETTER | {"e1", "e2", "num_switches"}) - {"mota"}
+#: Ratio of the largest to the smallest positive value beyond which a y axis is logarithmic.
+LOG_SPAN = 100.0
+
+
+def params_text(params: Sequence[tuple[str, Any]]) -> str:
+    """``"noise_std=0.0001, steps=100"`` (``"-"`` for none)."""
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params) or "-"
 
 
 @dataclass(frozen=True)
 class Row:
-    """Aggregate of the records of one (env, env kwargs, agent, predictor)."""
+    """Aggregate of the records of one (env, params, agent, predictor).
+
+    ``params`` is :meth:`Cell.params <agents.bench.cells.Cell.params>`: env kwargs, steps,
+    episodes, and agent kwargs as ``agent.NAME``.
+    """
 
     env_id: str
     params: tuple[tuple[str, Any], ...]
@@ -52,7 +76,17 @@ class Row:
 
     @property
     def params_label(self) -> str:
-        return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params) or "-"
+        return params_text(self.params)
+
+    @property
+    def setting(self) -> tuple[tuple[str, Any], ...]:
+        """The params of the env and the episode budget (what the agents compete on)."""
+        return tuple((k, v) for k, v in self.params if not k.startswith("agent."))
+
+    @property
+    def agent_params(self) -> tuple[tuple[str, Any], ...]:
+        """The agent kwargs, as ``(agent.NAME, value)`` pairs."""
+        return tuple((k, v) for k, v in self.params if k.startswith("agent."))
 
 
 def _stats(values: Sequence[float]) -> tuple[float, float]:
@@ -66,9 +100,8 @@ def aggregate(records: Sequence[dict[str, Any]]) -> list[Row]:
     """Rows of mean ± std over seeds, sorted by env, params, agent, predictor."""
     groups: dict[tuple[Any, ...], list[dict[str, float]]] = defaultdict(list)
     for rec in records:
-        cell = rec["cell"]
-        params = tuple(sorted(cell.get("env_kwargs", {}).items()))
-        groups[(cell["env_id"], params, cell["agent"], cell["predictor"])].append(rec["metrics"])
+        cell = Cell.from_dict(rec["cell"])
+        groups[(cell.env_id, cell.params(), cell.agent, cell.predictor)].append(rec["metrics"])
     rows = []
     for (env_id, params, agent, predictor), metrics in groups.items():
         keys = list(dict.fromkeys(k for m in metrics for k in m))
@@ -86,7 +119,7 @@ def headline(rows: Sequence[Row]) -> list[str]:
 
 
 def best_rows(rows: Sequence[Row], metric: str) -> set[int]:
-    """Indices (into ``rows``) of the best value of ``metric`` within each (env, params) setting."""
+    """Indices (into ``rows``) of the best value of ``metric`` within each (env, setting)."""
     if metric not in LOWER_IS_BETTER | HIGHER_IS_BETTER:
         return set()
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
@@ -94,13 +127,13 @@ def best_rows(rows: Sequence[Row], metric: str) -> set[int]:
     for r in rows:
         v = r.mean.get(metric, math.nan)
         if not math.isnan(v):
-            key = (r.env_id, r.params)
+            key = (r.env_id, r.setting)
             best[key] = min(best.get(key, math.inf), sign * v)
     return {
         i
         for i, r in enumerate(rows)
         if not math.isnan(r.mean.get(metric, math.nan))
-        and sign * r.mean[metric] == best[(r.env_id, r.params)]
+        and sign * r.mean[metric] == best[(r.env_id, r.setting)]
     }
 
 
@@ -175,25 +208,136 @@ def write_csvs(records: Sequence[dict[str, Any]], rows: Sequence[Row], out: Path
         w = csv.writer(fh)
         w.writerow(fixed + metric_keys)
         for rec in records:
-            c, t = rec["cell"], rec.get("timing", {})
-            params = ", ".join(f"{k}={v}" for k, v in sorted(c.get("env_kwargs", {}).items())) or "-"
-            head = [c["env_id"], params, c["agent"], c["predictor"], c["seed"], c["episodes"], c["steps"]]
+            c, t = Cell.from_dict(rec["cell"]), rec.get("timing", {})
+            head = [c.env_id, params_text(c.params()), c.agent, c.predictor, c.seed, c.episodes, c.steps]
             w.writerow(
                 head + [t.get("wall_s"), t.get("frames_per_s")] + [rec["metrics"].get(k) for k in metric_keys]
             )
 
 
 def _label(r: Row) -> str:
-    return r.agent if r.predictor == "-" else f"{r.agent}/{r.predictor}"
+    """Legend and tick label of a row's contestant: agent, predictor and agent kwargs."""
+    name = r.agent if r.predictor == "-" else f"{r.agent}/{r.predictor}"
+    extra = params_text([(k.removeprefix("agent."), v) for k, v in r.agent_params])
+    return name if not r.agent_params else f"{name} ({extra})"
 
 
 def _swept(rows: Sequence[Row]) -> list[str]:
-    """Env kwargs with numeric values that differ between the rows (the swept parameters)."""
+    """Setting params with numeric values that differ between the rows (the swept parameters)."""
     values: dict[str, set[Any]] = defaultdict(set)
     for r in rows:
-        for k, v in r.params:
+        for k, v in r.setting:
             values[k].add(v)
-    return [k for k, vs in values.items() if len(vs) > 1 and all(isinstance(v, int | float) for v in vs)]
+    return [
+        k
+        for k, vs in values.items()
+        if len(vs) > 1 and all(isinstance(v, int | float) and not isinstance(v, bool) for v in vs)
+    ]
+
+
+def axis_scale(metric: str, values: ArrayLike) -> str:
+    """``"log"`` for a :data:`NON_NEGATIVE` metric whose positive finite ``values`` span more than
+    :data:`LOG_SPAN` (max / min), else ``"linear"``.
+
+    Counts such as id switches differ by decades between trackers (1.5 and 4,672 on one belt);
+    on a linear axis the small ones read as 0.
+    """
+    if metric not in NON_NEGATIVE:
+        return "linear"
+    arr = np.asarray(values, dtype=float)
+    positive = arr[np.isfinite(arr) & (arr > 0)]
+    if positive.size < 2:
+        return "linear"
+    return "log" if positive.max() / positive.min() > LOG_SPAN else "linear"
+
+
+def error_band(
+    metric: str, mean: ArrayLike, std: ArrayLike, scale: str = "linear"
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper ends of a mean ± std bar or band.
+
+    For a :data:`NON_NEGATIVE` metric the lower end is clipped at 0 (a count or an error
+    cannot be negative); on a log axis, where 0 has no place, at half the smallest positive
+    mean or upper end instead. NaN std (no finite value) gives NaN ends.
+    """
+    m, sd = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
+    lo, hi = m - sd, m + sd
+    if metric in NON_NEGATIVE:
+        lo = np.maximum(lo, 0.0)
+        if scale == "log":
+            candidates = np.concatenate([m, hi])
+            positive = candidates[np.isfinite(candidates) & (candidates > 0)]
+            floor = 0.5 * positive.min() if positive.size else 1.0
+            lo = np.where(lo > 0, lo, np.minimum(floor, np.where(m > 0, m, floor)))
+    return lo, hi
+
+
+def bar_figure(env_rows: Sequence[Row]) -> Any:
+    """The bar chart of one env: one panel per headline metric, one bar per contestant and
+    setting, error bars ± std over seeds (clipped, see :func:`error_band`)."""
+    import matplotlib.pyplot as plt
+
+    metrics = headline(env_rows)
+    settings = list(dict.fromkeys(r.setting for r in env_rows))
+    labels = list(dict.fromkeys(_label(r) for r in env_rows))
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.6), squeeze=False)
+    width = 0.8 / len(settings)
+    for ax, metric in zip(axes[0], metrics, strict=True):
+        scale = axis_scale(metric, [r.mean.get(metric, math.nan) for r in env_rows])
+        ax.set_yscale(scale)
+        for s, setting in enumerate(settings):
+            sub = {_label(r): r for r in env_rows if r.setting == setting}
+            x = [i + s * width for i, lab in enumerate(labels) if lab in sub]
+            y = np.array([sub[lab].mean.get(metric, math.nan) for lab in labels if lab in sub])
+            e = np.array([sub[lab].std.get(metric, math.nan) for lab in labels if lab in sub])
+            lo, hi = error_band(metric, y, e, scale)
+            yerr = np.vstack([np.maximum(y - lo, 0.0), hi - y])
+            name = params_text(setting) if len(settings) > 1 else None
+            ax.bar(x, y, width, yerr=yerr, capsize=2, label=name)
+            if scale == "log":  # a zero has no bar on a log axis: say so
+                for xi in np.asarray(x)[y == 0]:
+                    ax.text(xi, 0.01, "0", transform=ax.get_xaxis_transform(), ha="center", fontsize=7)
+        ax.set_xticks([i + 0.4 - width / 2 for i in range(len(labels))], labels, rotation=45, ha="right")
+        ax.set_title(metric + (" (log)" if scale == "log" else ""))
+    if len(settings) > 1:
+        axes[0][-1].legend(fontsize=6)
+    fig.suptitle(f"{env_rows[0].env_id}: mean ± std over seeds")
+    return fig
+
+
+def sweep_figure(env_rows: Sequence[Row], param: str) -> Any:
+    """Metric versus ``param``: one curve per contestant (and per value of the other params,
+    when they vary), with a ± std band (clipped, see :func:`error_band`)."""
+    import matplotlib.pyplot as plt
+
+    metrics = headline(env_rows)
+    curves: dict[tuple[str, tuple[Any, ...]], list[Row]] = defaultdict(list)
+    for r in env_rows:
+        if param in dict(r.setting):
+            others = tuple((k, v) for k, v in r.setting if k != param)
+            curves[(_label(r), others)].append(r)
+    several = len({others for _, others in curves}) > 1
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.4), squeeze=False)
+    for ax, metric in zip(axes[0], metrics, strict=True):
+        scale = axis_scale(metric, [r.mean.get(metric, math.nan) for r in env_rows])
+        ax.set_yscale(scale)
+        for (lab, others), rows in curves.items():
+            pts = sorted(
+                (dict(r.setting)[param], r.mean.get(metric, math.nan), r.std.get(metric, math.nan))
+                for r in rows
+            )
+            px, pm, ps = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
+            lo, hi = error_band(metric, pm, ps, scale)
+            name = f"{lab}, {params_text(others)}" if several else lab
+            ax.plot(px, pm, marker="o", ms=3, label=name)
+            ax.fill_between(px, lo, hi, alpha=0.2)
+        ax.set_xlabel(param)
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-2, 3))
+        ax.tick_params(axis="x", labelsize=7)
+        ax.set_title(metric + (" (log)" if scale == "log" else ""))
+    axes[0][-1].legend(fontsize=6)
+    fig.suptitle(f"{env_rows[0].env_id}: metric versus {param} (band: ± std over seeds)")
+    return fig
 
 
 def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
@@ -201,58 +345,20 @@ def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    env_id, metrics = env_rows[0].env_id, headline(env_rows)
-    paths: list[Path] = []
-    if not metrics:
-        return paths
-    settings = list(dict.fromkeys(r.params for r in env_rows))
-    labels = list(dict.fromkeys(_label(r) for r in env_rows))
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.6), squeeze=False)
-    width = 0.8 / len(settings)
-    for ax, metric in zip(axes[0], metrics, strict=True):
-        for s, params in enumerate(settings):
-            sub = {_label(r): r for r in env_rows if r.params == params}
-            x = [i + s * width for i, lab in enumerate(labels) if lab in sub]
-            y = [sub[lab].mean.get(metric, math.nan) for lab in labels if lab in sub]
-            e = [sub[lab].std.get(metric, math.nan) for lab in labels if lab in sub]
-            name = next(r.params_label for r in env_rows if r.params == params)
-            ax.bar(x, y, width, yerr=e, capsize=2, label=name if len(settings) > 1 else None)
-        ax.set_xticks([i + 0.4 - width / 2 for i in range(len(labels))], labels, rotation=45, ha="right")
-        ax.set_title(metric)
-    if len(settings) > 1:
-        axes[0][-1].legend(fontsize=6)
-    paths.append(_save(fig, out / f"{env_id}_bars.png", f"{env_id}: mean ± std over seeds"))
+    env_id = env_rows[0].env_id
+    if not headline(env_rows):
+        return []
+    paths = [_save(bar_figure(env_rows), out / f"{env_id}_bars.png")]
     for param in _swept(env_rows):
-        fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.4), squeeze=False)
-        for ax, metric in zip(axes[0], metrics, strict=True):
-            for lab in labels:
-                pts = sorted(
-                    (dict(r.params)[param], r.mean.get(metric, math.nan), r.std.get(metric, math.nan))
-                    for r in env_rows
-                    if _label(r) == lab and param in dict(r.params)
-                )
-                if not pts:
-                    continue
-                px, pm, ps = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
-                ax.plot(px, pm, marker="o", ms=3, label=lab)
-                ax.fill_between(px, pm - ps, pm + ps, alpha=0.2)
-            ax.set_xlabel(param)
-            ax.ticklabel_format(axis="x", style="sci", scilimits=(-2, 3))
-            ax.tick_params(axis="x", labelsize=7)
-            ax.set_title(metric)
-        axes[0][-1].legend(fontsize=6)
-        title = f"{env_id}: metric versus {param} (band: ± std over seeds)"
-        paths.append(_save(fig, out / f"{env_id}_{param}_sweep.png", title))
+        paths.append(_save(sweep_figure(env_rows, param), out / f"{env_id}_{param}_sweep.png"))
     return paths
 
 
-def _save(fig: Any, path: Path, title: str) -> Path:
-    """Title, lay out, write as PNG and close a figure; its path."""
+def _save(fig: Any, path: Path) -> Path:
+    """Lay out, write as PNG and close a figure; its path."""
     import matplotlib.pyplot as plt
 
-    fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

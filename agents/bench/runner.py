@@ -37,6 +37,7 @@ import platform
 import socket
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
@@ -109,10 +110,66 @@ def make_env(cell: Cell) -> gym.Env:
 
 
 def make_cell_agent(cell: Cell) -> Any:
-    """The cell's agent (with its predictor, if it takes one)."""
-    if cell.predictor == NO_PREDICTOR:
-        return make_agent(cell.agent)
-    return make_agent(cell.agent, predictor=cell.predictor)
+    """The cell's agent (with its predictor, if it takes one, and its agent kwargs)."""
+    kwargs = dict(cell.agent_kwargs)
+    if cell.predictor != NO_PREDICTOR:
+        kwargs["predictor"] = cell.predictor
+    return make_agent(cell.agent, **kwargs)
+
+
+class CellError(ValueError):
+    """A cell whose env or agent cannot be built; the message is one line naming the cell."""
+
+
+def describe_cell(cell: Cell) -> str:
+    """``BeltSorter-v0 [noise_std=abc, steps=100] gnn/kf-ca seed 0``: a cell in one line."""
+    params = ", ".join(f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in cell.params())
+    agent = cell.agent if cell.predictor == NO_PREDICTOR else f"{cell.agent}/{cell.predictor}"
+    return f"{cell.env_id} [{params or 'defaults'}] {agent} seed {cell.seed}"
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or "(no message)"
+    return f"{type(exc).__name__}: {text}"
+
+
+def check_cells(cells: Iterable[Cell]) -> int:
+    """Build every distinct env and agent of ``cells`` once, reset them and close them.
+
+    An env is distinct by (env id, env kwargs, steps), an agent by (agent, predictor, agent
+    kwargs); each agent is reset with the sensor spec of the first env it runs on. Run before
+    the first cell, this turns a bad argument (``noise_std="abc"``, ``noise_std=-1``, an agent
+    kwarg the agent does not take) into one error before any work is done, instead of a
+    traceback from a worker after other cells ran.
+
+    Returns:
+        The number of distinct argument sets checked (envs plus agents).
+
+    Raises:
+        CellError: for the first cell whose env or agent raises, naming the cell and the error.
+    """
+    specs: dict[tuple[Any, ...], Any] = {}
+    agents_seen: set[tuple[Any, ...]] = set()
+    for cell in cells:
+        env_key = (cell.env_id, cell.env_kwargs, cell.steps)
+        if env_key not in specs:
+            try:
+                env = make_env(cell)
+                try:
+                    env.reset(seed=cell.seed)
+                    specs[env_key] = env.get_wrapper_attr("sensor_spec")
+                finally:
+                    env.close()
+            except Exception as exc:
+                raise CellError(f"cell {describe_cell(cell)}: env: {_one_line(exc)}") from exc
+        agent_key = (cell.agent, cell.predictor, cell.agent_kwargs)
+        if agent_key not in agents_seen:
+            try:
+                make_cell_agent(cell).reset(specs[env_key], seed=cell.seed)
+            except Exception as exc:
+                raise CellError(f"cell {describe_cell(cell)}: agent: {_one_line(exc)}") from exc
+            agents_seen.add(agent_key)
+    return len(specs) + len(agents_seen)
 
 
 def run_episode(env: gym.Env, agent: Any, seed: int) -> tuple[dict[str, float], int]:
@@ -177,27 +234,79 @@ def write_record(out_dir: str | os.PathLike[str], record: dict[str, Any]) -> Pat
     return target
 
 
+class RecordError(ValueError):
+    """A file in an out dir that is not a readable record of this schema."""
+
+
+class SkippedRecordWarning(UserWarning):
+    """:func:`load_records` left a file out (the message names it and says why)."""
+
+
 def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """A record from its file, with non-finite metric strings turned back into floats."""
-    with open(path) as fh:
-        record = json.load(fh)
-    record["metrics"] = {k: float(v) for k, v in record["metrics"].items()}
-    if "episode_metrics" in record:
-        record["episode_metrics"] = [{k: float(v) for k, v in m.items()} for m in record["episode_metrics"]]
+    """A record from its file, with non-finite metric strings turned back into floats.
+
+    Raises:
+        RecordError: the file is not JSON, not a record, of another schema, or its cell or
+            metrics are malformed; the message says which.
+    """
+    try:
+        with open(path) as fh:
+            record = json.load(fh)
+    except UnicodeDecodeError as exc:
+        raise RecordError(f"not text: {exc}") from exc
+    except json.JSONDecodeError as exc:
+        raise RecordError(f"not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from exc
+    if not isinstance(record, dict) or "schema" not in record:
+        raise RecordError("not a track-bench record (no 'schema' key)")
+    if record["schema"] != SCHEMA:
+        raise RecordError(f"record schema {record['schema']!r}, this version reads schema {SCHEMA}")
+    missing = [k for k in ("key", "cell", "metrics") if k not in record]
+    if missing:
+        raise RecordError(f"record without {', '.join(map(repr, missing))}")
+    try:
+        cell = Cell.from_dict(record["cell"])
+        record["metrics"] = {k: float(v) for k, v in record["metrics"].items()}
+        if "episode_metrics" in record:
+            record["episode_metrics"] = [
+                {k: float(v) for k, v in m.items()} for m in record["episode_metrics"]
+            ]
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise RecordError(f"malformed cell or metrics ({_one_line(exc)})") from exc
+    if cell.key != record["key"]:
+        raise RecordError(f"key {record['key']!r} does not match its cell (key {cell.key!r})")
     return record
 
 
-def load_records(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Every record in ``out_dir`` (temporary and foreign JSON files are ignored), sorted by file name."""
-    records = []
+@dataclass(frozen=True)
+class RecordScan:
+    """What :func:`scan_records` found: the records and the skipped files with the reason."""
+
+    records: list[dict[str, Any]]
+    skipped: list[tuple[Path, str]]
+
+
+def scan_records(out_dir: str | os.PathLike[str]) -> RecordScan:
+    """Every record in ``out_dir`` sorted by file name, and every other ``*.json`` with the reason
+    it is not one (temporary ``.tmp-*.part`` files of a running write are not ``*.json``)."""
+    records, skipped = [], []
     for path in sorted(Path(out_dir).glob("*.json")):
         try:
-            record = read_record(path)
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-        if record.get("schema") == SCHEMA:
-            records.append(record)
-    return records
+            records.append(read_record(path))
+        except (OSError, RecordError) as exc:
+            skipped.append((path, str(exc)))
+    return RecordScan(records, skipped)
+
+
+def load_records(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Every record in ``out_dir``, sorted by file name.
+
+    Each ``*.json`` file that is not a readable record is left out with a
+    :class:`SkippedRecordWarning` naming it and the reason (see :func:`scan_records`).
+    """
+    scan = scan_records(out_dir)
+    for path, reason in scan.skipped:
+        warnings.warn(f"skipped {path}: {reason}", SkippedRecordWarning, stacklevel=2)
+    return scan.records
 
 
 def is_finished(out_dir: Path, cell: Cell) -> bool:
@@ -211,13 +320,9 @@ def is_finished(out_dir: Path, cell: Cell) -> bool:
         return False
     try:
         record = read_record(path)
-        return bool(
-            record["key"] == cell.key
-            and record.get("schema") == SCHEMA
-            and record.get("versions") == versions()
-        )
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, RecordError):
         return False
+    return bool(record["key"] == cell.key and record.get("versions") == versions())
 
 
 @dataclass(frozen=True)
@@ -297,6 +402,7 @@ def run_cells(
     workers: int | None = None,
     address: str | None = None,
     progress: bool = True,
+    check: bool = True,
 ) -> RunResult:
     """Run every cell of ``cells`` that has no record in ``out_dir`` yet and write its record.
 
@@ -307,17 +413,24 @@ def run_cells(
         workers: Local processes (default: the CPU count); ignored by ``"ray"``.
         address: Ray cluster address (``ray.init(address=...)``); ``None`` starts a local Ray.
         progress: Show a tqdm bar over the cells.
+        check: Build every distinct env and agent of the cells to run first
+            (:func:`check_cells`), so a bad argument stops the run before any cell ran.
 
     Returns:
         Counts of computed and skipped cells and the wall time.
+
+    Raises:
+        CellError: (with ``check``) a cell's env or agent cannot be built; nothing ran.
     """
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; valid names are {list(ENGINES)}")
     start = time.perf_counter()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     cells = list(cells)
     todo = [c for c in cells if not is_finished(out, c)]
+    if check:
+        check_cells(todo)
+    out.mkdir(parents=True, exist_ok=True)
     bar = tqdm(total=len(todo), unit="cell", desc=f"track-bench ({engine})", disable=not progress)
 
     def on_record(record: dict[str, Any]) -> None:

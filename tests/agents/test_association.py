@@ -20,7 +20,7 @@ from agents.association import (
     chi2_gate,
     mahalanobis_cost,
 )
-from track_envs.assignment import lone_pairs
+from track_envs.assignment import partner_pairs, split_dense
 from track_envs.types import Gaussian
 
 
@@ -164,7 +164,7 @@ def clustered_frame(rng, n, m, dim, spread):
     spread=st.sampled_from([1e-3, 0.05, 0.3]),
     seed=st.integers(0, 10_000),
 )
-def test_gated_costs_split_the_pairs_as_lone_pairs_does(n, m, dim, spread, seed):
+def test_gated_costs_split_the_pairs_as_split_dense_does(n, m, dim, spread, seed):
     pred, z = clustered_frame(np.random.default_rng(seed), n, m, dim, spread)
     gate = chi2_gate(0.999, dim)
     cost, lone_rows, lone_cols, rest_rows, rest_cols, bad = _association_kernels.gated_costs(
@@ -172,10 +172,8 @@ def test_gated_costs_split_the_pairs_as_lone_pairs_does(n, m, dim, spread, seed)
     )
     assert bad == -1
     np.testing.assert_array_equal(cost, mahalanobis_cost(pred, z))
-    if n and m:
-        (ref_rows, ref_cols), ref_rest_rows, ref_rest_cols = lone_pairs(mahalanobis_cost(pred, z) <= gate)
-    else:  # lone_pairs needs both sides; nothing is admissible
-        ref_rows = ref_cols = ref_rest_rows = ref_rest_cols = np.zeros(0, dtype=np.int64)
+    partner, ref_rest_rows, ref_rest_cols = split_dense(cost, gate)  # tested against its definition
+    ref_rows, ref_cols = partner_pairs(partner)
     for got, ref in [
         (lone_rows, ref_rows),
         (lone_cols, ref_cols),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from agents.gnn import YOUNG_STREAK
 from predictors import available_predictors
 from predictors.kalman import KalmanPredictor
 from track_envs.metrics.belt import AssociationErrors
+from track_envs.registry import UnknownArgumentError
 from track_envs.types import Gaussian, SensorSpec
 
 
@@ -32,7 +35,8 @@ def run(env, agent, frames, seed=0):
 
 def test_kf_ca_keeps_belt_association_errors_low():
     # measured: e_mean 0.00036 over 1,500 frames (seed 0); pinned with margin over 400 frames
-    env = gym.make("BeltSorter-v0", noise_std=1e-4)
+    # (one detection per particle; merged blobs: tests/track_envs/test_merge_streams.py)
+    env = gym.make("BeltSorter-v0", noise_std=1e-4, merge_touching=False)
     result = run(env, make_agent("gnn", predictor="kf-ca"), 400)
     assert result["n_particles"] > 600
     assert result["e_mean"] < 0.01
@@ -135,6 +139,49 @@ def test_bad_arguments_are_named(kwargs, message):
         agent.reset(SPEC)
 
 
+def test_an_unknown_keyword_names_the_agent_and_predictor_arguments():
+    """``make_agent("gnn", gate=3)`` used to blame ``KalmanPredictor.__init__``."""
+    with pytest.raises(UnknownArgumentError) as caught:
+        make_agent("gnn", gate=3)
+    message = str(caught.value)
+    assert message.startswith("GnnAgent has no argument 'gate'; its arguments are ['predictor', 'p_gate',")
+    assert "passes further keywords to predictor 'kf-ca', whose arguments are ['q', " in message
+    assert isinstance(caught.value, TypeError) and isinstance(caught.value, ValueError)
+    with pytest.raises(UnknownArgumentError, match=r"no argument 'initial_velocity'.*'random-walk'.*\['q'\]"):
+        make_agent("gnn", predictor="random-walk", initial_velocity=[1.0, 0.0])
+    assert make_agent("gnn", predictor="kf-cv", q=3.0).predictor.q == 3.0
+
+
+def test_predictor_keywords_with_a_predictor_object_are_refused():
+    with pytest.raises(UnknownArgumentError, match=r"no argument 'q'.*predictor given by name"):
+        make_agent("gnn", predictor=KalmanPredictor("cv"), q=3.0)
+
+
+class HalfPredictor:
+    """Has some of the Predictor methods, not all."""
+
+    def reset(self, spec):
+        pass
+
+    def predict(self, state):
+        return state, None
+
+    update = None
+
+
+@pytest.mark.parametrize(
+    ("predictor", "missing"),
+    [
+        (object(), "['reset', 'start', 'predict', 'update', 'estimate']"),
+        (HalfPredictor(), "['start', 'update', 'estimate']"),
+    ],
+)
+def test_a_predictor_object_without_the_protocol_methods_is_refused_at_construction(predictor, missing):
+    """``predictor=object()`` used to be accepted and to fail only at reset."""
+    with pytest.raises(ValueError, match=rf"implement the Predictor protocol .* lacks {re.escape(missing)}"):
+        make_agent("gnn", predictor=predictor)
+
+
 points = st.lists(
     st.tuples(st.floats(0.0, 1.0, width=32), st.floats(0.0, 1.0, width=32)), min_size=0, max_size=4
 )
@@ -163,7 +210,7 @@ def prediction_error_on_belt(predictor: str, frames: int = 300) -> dict[str, flo
     """Mean error of one-step predictions against the true position of the particle then seen."""
     from track_envs.metrics import PredictionError
 
-    env = gym.make("BeltSorter-v0", noise_std=1e-4)
+    env = gym.make("BeltSorter-v0", noise_std=1e-4, merge_touching=False)  # a detection per particle
     agent = make_agent("gnn", predictor=predictor)
     metric = PredictionError()
     obs, info = env.reset(seed=2)
@@ -387,21 +434,22 @@ def points(pts):
 
 
 @pytest.mark.parametrize(
-    ("offset", "cap_motion", "recovered"), [(0.003, 1.0, True), (0.0075, 1.0, False), (0.0075, 2.0, True)]
+    ("offset", "cap_motion", "recovered"), [(0.010, 3.0, True), (0.018, 3.0, False), (0.018, 4.0, True)]
 )
 def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_motion, recovered):
     from agents.association import chi2_gate
 
-    # a track at 1 m/s (5 mm per frame) coasts one frame, then its particle is seen `offset` ahead
+    # a track at 1 m/s (5 mm per frame) coasts two frames, then its particle is seen `offset` ahead
     # of the prediction: outside the χ² gate, inside the 25x inflated one; the cap is
-    # cap_motion × 5 mm + 5 × 10 µm
-    wider = {} if cap_motion == 1.0 else {"recovery_cap_motion": cap_motion}  # 1: the default
+    # cap_motion × 5 mm + 5 × 10 µm (3: the default)
+    wider = {} if cap_motion == 3.0 else {"recovery_cap_motion": cap_motion}
     agent = make_agent("gnn", predictor="kf-cv", velocity_prior=np.array([1.0, 0.0]), **wider)
     agent.reset(CAP_SPEC)
     for t in range(6):
         agent.act(points([[0.1 + 0.005 * t, 0.5]]))
     agent.act(points([]))
-    z = np.array([0.1 + 0.005 * 7 + offset, 0.5])
+    agent.act(points([]))
+    z = np.array([0.1 + 0.005 * 8 + offset, 0.5])
     report = agent.act(points([z]))
     prediction = agent.last_prediction
     d = z - prediction.mean[0]
@@ -411,8 +459,8 @@ def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_mo
     live = report["mask"] == 1
     if recovered:
         assert report["ids"][live].tolist() == [0] and report["detection"][live].tolist() == [0]
-    else:  # the track coasts and the detection starts a new one
-        assert report["ids"][live].tolist() == [0, 1] and report["detection"][live].tolist() == [-1, 0]
+    else:  # the track misses a third time (deleted) and the detection starts a new one
+        assert report["ids"][live].tolist() == [1] and report["detection"][live].tolist() == [0]
     assert (np.linalg.norm(d) <= cap_motion * 0.005 + 5e-5) == recovered
 
 

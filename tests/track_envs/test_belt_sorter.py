@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import copy
+import pickle
+import subprocess
+import sys
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -86,7 +92,7 @@ def test_truth_velocities_match_position_differences():
 
 
 def test_measurement_noise_has_the_requested_std():
-    env = gym.make("BeltSorter-v0", noise_std=3e-4)
+    env = gym.make("BeltSorter-v0", noise_std=3e-4, merge_touching=False)  # one detection per particle
     obs, info = env.reset(seed=0)
     errors = []
     for _ in range(100):
@@ -101,7 +107,7 @@ def test_measurement_noise_has_the_requested_std():
 
 
 def test_detection_probability_and_clutter_rate():
-    env = gym.make("BeltSorter-v0", p_detect=0.7, clutter_rate=3.0)
+    env = gym.make("BeltSorter-v0", p_detect=0.7, clutter_rate=3.0, merge_touching=False)
     obs, info = env.reset(seed=0)
     detected = visible = clutter = 0
     frames = 200
@@ -171,3 +177,89 @@ def test_reward_is_zero_for_a_perfect_report_and_negative_otherwise():
     assert reward == pytest.approx(0.0, abs=1e-6)
     _, reward, *_ = env.step(empty_report(256, (2,)))
     assert reward < -0.01
+
+
+# -- copying and pickling (the contract tests check 500 frames of every env id) ---------------------
+
+
+def assert_tree_equal(a, b) -> None:
+    """Nested dicts / tuples / lists of arrays and numbers equal bit for bit."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert_tree_equal(a[k], b[k])
+    elif isinstance(a, tuple | list):
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            assert_tree_equal(x, y)
+    else:
+        np.testing.assert_array_equal(a, b)
+
+
+def belt_frames(env, n: int) -> list[tuple]:
+    report = empty_report(256, (2,))
+    return [env.step(report) for _ in range(n)]
+
+
+def test_a_pickle_continues_the_episode_bit_for_bit_in_another_process(tmp_path):
+    env = gym.make("BeltSorter-v0", particle_kind="mixture")
+    env.reset(seed=7)
+    belt_frames(env, 40)
+    (tmp_path / "env.pkl").write_bytes(pickle.dumps(env))
+    code = (
+        "import pickle, sys\n"
+        "from track_envs.report import empty_report\n"
+        "env = pickle.loads(open(sys.argv[1], 'rb').read())\n"
+        "frames = [env.step(empty_report(256, (2,))) for _ in range(100)]\n"
+        "open(sys.argv[2], 'wb').write(pickle.dumps(frames))\n"
+    )
+    subprocess.run([sys.executable, "-c", code, tmp_path / "env.pkl", tmp_path / "out.pkl"], check=True)
+    restored = pickle.loads((tmp_path / "out.pkl").read_bytes())
+    assert_tree_equal(restored, belt_frames(env, 100))
+
+
+def test_copies_are_exact_in_a_later_episode_and_before_the_first_reset():
+    env = gym.make("BeltSorter-v0")
+    fresh = copy.deepcopy(env)  # before reset: nothing to replay
+    fresh.reset(seed=1)
+    env.reset(seed=1)
+    assert_tree_equal(belt_frames(fresh, 30), belt_frames(env, 30))
+    env.reset()  # the second episode starts from the generator's state, not from a seed
+    belt_frames(env, 20)
+    clone = pickle.loads(pickle.dumps(env))
+    assert_tree_equal(belt_frames(clone, 100), belt_frames(env, 100))
+
+
+def test_a_copy_of_an_overfull_belt_keeps_its_counts_without_warning_again():
+    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30)
+    with pytest.warns(RuntimeWarning):
+        env.reset(seed=0)
+    belt_frames(env, 5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        clone = copy.deepcopy(env)
+    a, b = belt_frames(env, 50), belt_frames(clone, 50)
+    assert b[-1][4]["dropped_detections"] > 0 and b[-1][4]["dropped_targets"] > 0
+    assert_tree_equal(b, a)
+
+
+@pytest.mark.parametrize("change", ["draw from np_random", "move a particle"])
+def test_a_belt_changed_outside_step_refuses_to_restore(change):
+    env = gym.make("BeltSorter-v0")
+    env.reset(seed=0)
+    belt_frames(env, 10)
+    if change == "draw from np_random":
+        env.unwrapped.np_random.random()
+    else:
+        env.unwrapped.world._rows[np.flatnonzero(env.unwrapped.world._row_truth >= 0)[0], 4] += 1e-3
+    data = pickle.dumps(env)
+    with pytest.raises(RuntimeError, match=r"replaying its episode from the start \(10 frames\) did not"):
+        pickle.loads(data)
+
+
+def test_a_belt_world_alone_refuses_to_pickle_and_names_the_env_instead():
+    world = BeltWorld(BeltParams(), resolve_mixture("cylinder"), np.random.default_rng(0), 0.01)
+    with pytest.raises(TypeError, match="pickle or deep-copy the BeltSorterEnv instead"):
+        pickle.dumps(world)
+    with pytest.raises(TypeError, match="BeltSorterEnv"):
+        copy.deepcopy(world)

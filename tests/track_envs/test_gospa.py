@@ -101,6 +101,19 @@ def test_sparse_gospa_equals_a_dense_assignment(seed, kind, c, p):
         assert result.localisation == pytest.approx(loc, rel=1e-12, abs=1e-15)
 
 
+def test_a_belt_sized_frame_equals_the_dense_assignment_to_rounding():
+    """Hundreds of close pairs (numpy sums these pairwise, the kernel in row order): the same
+    distance and localisation to a relative 1e-12."""
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0, 1, (400, 2))
+    y = np.concatenate([x[40:] + rng.normal(0, 2e-3, (360, 2)), rng.uniform(0, 1, (30, 2))])
+    result = gospa(x, y, c=5e-3)
+    expected, loc, pairs = dense_oracle(x, y, 5e-3, 2.0)
+    assert pairs > 300 and (result.missed, result.false) == (400 - pairs, 390 - pairs)
+    assert result.distance == pytest.approx(expected, rel=1e-12)
+    assert result.localisation == pytest.approx(loc, rel=1e-12)
+
+
 def test_bad_parameters_are_named():
     with pytest.raises(ValueError, match="cut-off c"):
         gospa(np.zeros((1, 2)), np.zeros((1, 2)), c=0.0)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
-from track_envs.report import empty_report, pack_report, report_space, validate_report
+import track_envs
+from track_envs.report import ID_LIMIT, ReportSpace, empty_report, pack_report, report_space, validate_report
 
 
 def test_pack_report_pads_and_refuses_overflow():
@@ -43,9 +45,106 @@ def test_every_space_sample_validates():
         validate_report(space.sample(), 6, (2,), np.array([1, 0, 1, 0], np.int8))
 
 
-def test_duplicate_ids_are_kept_as_distinct_rows():
-    report = pack_report(np.array([1, 1]), np.zeros((2, 2)), np.array([-1, -1]), 3)
-    assert len(validate_report(report, 3, (2,), np.zeros(1, np.int8))) == 2
+def test_repeated_live_ids_are_rejected_naming_rows_and_ids():
+    report = pack_report(np.array([1, 5, 1, 7, 5]), np.zeros((5, 2)), np.full(5, -1), 6)
+    with pytest.raises(ValueError, match=r"distinct.*rows \[0, 1, 2, 4\] repeat ids \[1, 5\]"):
+        validate_report(report, 6, (2,), np.zeros(1, np.int8))
+
+
+def test_repeated_ids_on_padding_rows_are_ignored():
+    report = pack_report(np.array([3, 4]), np.zeros((2, 2)), np.full(2, -1), 5)
+    report["ids"][2:] = 4  # padding may hold anything
+    assert validate_report(report, 5, (2,), np.zeros(1, np.int8)).ids.tolist() == [3, 4]
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.int32])
+def test_negative_live_ids_are_rejected(dtype: type) -> None:
+    report = pack_report(np.array([-1, 2, -7]), np.zeros((3, 2)), np.full(3, -1), 4)
+    report["ids"] = report["ids"].astype(dtype)
+    with pytest.raises(ValueError, match=r"ids'\] must be in \[0, 2\*\*62\].*rows \[0, 2\] hold \[-1, -7\]"):
+        validate_report(report, 4, (2,), np.zeros(1, np.int8))
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.uint64])
+def test_ids_above_the_space_bound_are_rejected(dtype: type) -> None:
+    report = pack_report(np.array([ID_LIMIT, 0]), np.zeros((2, 2)), np.full(2, -1), 3)
+    report["ids"] = report["ids"].astype(dtype)
+    assert validate_report(report, 3, (2,), np.zeros(1, np.int8)).ids.tolist() == [ID_LIMIT, 0]
+    report["ids"][1] = ID_LIMIT + 1 if dtype == np.int64 else np.uint64(2**64 - 1)
+    with pytest.raises(ValueError, match=r"rows \[1\] hold"):
+        validate_report(report, 3, (2,), np.zeros(1, np.int8))
+
+
+def test_the_bound_is_the_action_space_bound():
+    space = report_space(3, (2,), np.zeros(2), np.ones(2), 4)
+    assert int(space["ids"].high.min()) == ID_LIMIT and int(space["ids"].low.max()) == 0
+
+
+def test_every_live_track_reported_as_id_42_is_rejected_by_the_env():
+    """Giving every live gnn track one id used to score a better MOTA than honest ids."""
+    from agents import make_agent
+
+    env = gym.make("BeltSorter-v0")
+    agent = make_agent("gnn")
+    obs, _ = env.reset(seed=0)
+    agent.reset(env.unwrapped.sensor_spec, seed=0)
+    report = agent.act(obs)
+    live = np.flatnonzero(report["mask"] == 1)
+    assert len(live) >= 2
+    env.step(report)  # the honest report is fine
+    report = agent.act(obs)
+    report["ids"][report["mask"] == 1] = 42
+    with pytest.raises(ValueError, match=r"repeat ids \[42\]"):
+        env.step(report)
+    report["ids"][report["mask"] == 1] = -1
+    with pytest.raises(ValueError, match=r"must be in \[0, 2\*\*62\]"):
+        env.step(report)
+
+
+def test_space_samples_have_distinct_ids_and_follow_the_space_seed():
+    space = report_space(200, (2,), np.zeros(2), np.ones(2), 4)
+    assert isinstance(space, ReportSpace)
+    space.seed(3)
+    first = [space.sample() for _ in range(5)]
+    space.seed(3)
+    again = [space.sample() for _ in range(5)]
+    for a, b in zip(first, again, strict=True):
+        assert len(np.unique(a["ids"])) == 200 and a["ids"].min() >= 0
+        np.testing.assert_array_equal(a["ids"], b["ids"])
+        assert space.contains(a)
+
+
+def test_space_sample_passes_masks_to_the_boxes_like_a_dict_space():
+    space = report_space(4, (2,), np.zeros(2), np.ones(2), 4)
+    sample = space.sample(mask=dict.fromkeys(space.spaces))
+    assert space.contains(sample)
+    with pytest.raises(gym.error.Error, match="cannot be provided a mask"):
+        space.sample(mask={**dict.fromkeys(space.spaces), "ids": np.ones(4, np.int8)})
+    with pytest.raises(ValueError, match="Only one of"):
+        space.sample(mask=dict.fromkeys(space.spaces), probability=dict.fromkeys(space.spaces))
+
+
+def test_contains_refuses_repeated_live_ids():
+    space = report_space(4, (2,), np.zeros(2), np.ones(2), 4)
+    report = pack_report(np.array([2, 2]), np.zeros((2, 2)), np.full(2, -1), 4)
+    assert not space.contains(report)
+    report["mask"][1] = 0
+    assert space.contains(report)
+
+
+@pytest.mark.parametrize("env_id", track_envs.ENV_IDS)
+def test_many_samples_of_every_env_action_space_validate(env_id: str) -> None:
+    env = gym.make(env_id)
+    base = env.unwrapped
+    obs, _ = env.reset(seed=0)
+    env.action_space.seed(0)
+    for _ in range(300):
+        sample = env.action_space.sample()
+        live = validate_report(sample, base.sensor_spec.max_tracks, base.position_shape, obs["mask"])
+        assert len(np.unique(live.ids)) == len(live.ids) == int(sample["mask"].sum())
+    for _ in range(3):
+        obs, reward, *_ = env.step(env.action_space.sample())
+        assert np.isfinite(reward)
 
 
 def _reference_live_rows(report, detection_mask):
@@ -69,7 +168,7 @@ def test_validation_keeps_exactly_the_live_rows(seed: int, mask_dtype: type) -> 
     rng = np.random.default_rng(seed)
     tracks, detections = int(rng.integers(1, 40)), int(rng.integers(0, 30))
     report = {
-        "ids": rng.integers(0, 10**12, size=tracks),
+        "ids": rng.choice(10**12, size=tracks, replace=False),
         "positions": rng.normal(size=(tracks, 17, 2)).astype(np.float32),
         "detection": rng.integers(-3, detections + 3, size=tracks),
         "mask": (rng.random(tracks) < 0.6).astype(mask_dtype),

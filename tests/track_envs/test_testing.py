@@ -41,3 +41,44 @@ def test_a_broken_agent_is_caught():
     env = gym.make("SineTarget-v0")
     with pytest.raises(AssertionError, match="detection rows"):
         check_agent(LeakyAgent(), env, steps=3)
+
+
+class TrustingAgent:
+    """Reads every row whose mask is non-zero as a detection and checks nothing: must be caught."""
+
+    def reset(self, spec, *, seed=None):
+        self.spec = spec
+
+    def act(self, obs):
+        from track_envs.report import pack_report
+
+        rows = np.flatnonzero(obs["mask"])[: self.spec.max_tracks]
+        return pack_report(rows, obs["detections"][rows], rows, self.spec.max_tracks)
+
+
+def test_an_agent_that_reads_mask_two_as_present_is_caught():
+    with pytest.raises(AssertionError, match="must reject an observation with a mask value of 2"):
+        check_agent(TrustingAgent(), gym.make("SineTarget-v0"), steps=3)
+
+
+class ForgivingEnv(gym.Wrapper):
+    """Scores every report as the empty one, so that no report is ever rejected: must be caught."""
+
+    def step(self, action):
+        from track_envs.report import empty_report
+
+        base = self.env.unwrapped
+        return self.env.step(empty_report(base.sensor_spec.max_tracks, base.position_shape))
+
+
+def test_an_env_that_accepts_repeated_ids_is_caught():
+    with pytest.raises(AssertionError, match="must reject a report whose live rows hold a repeated id"):
+        check_tracking_env(ForgivingEnv(gym.make("SineTarget-v0")), steps=3)
+
+
+def test_a_predictor_without_the_protocol_methods_is_caught():
+    spec = gym.make("BeltSorter-v0").unwrapped.sensor_spec
+    with pytest.raises(
+        AssertionError, match=r"it lacks \['reset', 'start', 'predict', 'update', 'estimate'\]"
+    ):
+        check_predictor(object(), spec)

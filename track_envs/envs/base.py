@@ -7,7 +7,8 @@ A concrete environment only simulates and senses. It implements
 * :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
 * :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each;
 * :meth:`TrackingEnv._snapshot` — what :meth:`TrackingEnv._draw` needs of the current frame;
-* :meth:`TrackingEnv._draw` — a snapshot onto a :class:`~track_envs.rendering.Canvas`;
+* :meth:`TrackingEnv._canvas` — the :class:`~track_envs.rendering.Canvas` a frame is drawn on;
+* :meth:`TrackingEnv._draw` — a snapshot onto that canvas;
 
 and this base class does the rest of the contract of ARCHITECTURE.md: the ``Dict`` observation
 (padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
@@ -32,6 +33,7 @@ from gymnasium import spaces
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int
 from track_envs.metrics.gospa import gospa
 from track_envs.report import Report, report_space, validate_report
 from track_envs.types import SensorSpec
@@ -98,16 +100,22 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         detection_shape: tuple[int, ...] | None = None,
         truth_extra_shapes: dict[str, tuple[int, ...]] | None = None,
         render_mode: str | None = None,
+        added_noise_std: float | None = None,
     ) -> None:
+        """Build the spaces and per-episode state.
+
+        ``added_noise_std`` is the noise the default :meth:`_sense` adds; ``None`` adds what the
+        sensor spec declares (``spec.noise_std``). Envs that replay real measurements add less
+        (often none) than they declare.
+        """
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}"
             )
-        if not (isinstance(max_targets, int | np.integer) and max_targets >= 1):
-            raise ValueError(f"max_targets must be an integer >= 1, got {max_targets!r}")
         self.render_mode = render_mode
         self.sensor_spec = spec
-        self.max_targets = int(max_targets)
+        self.added_noise_std = float(spec.noise_std if added_noise_std is None else added_noise_std)
+        self.max_targets = check_int("max_targets", max_targets, 1)
         self.position_shape = position_shape or (spec.dim,)
         self.detection_shape = detection_shape or (spec.dim,)
         self.truth_extra_shapes = truth_extra_shapes or {}
@@ -142,7 +150,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         self._dropped_detections = 0
         self._dropped_targets = 0
         self._window: Any = None
-        self._render_frame: tuple[Any, NDArray, Report | None] | None = None
+        # (snapshot, detections, report, frame index) of the frame render() draws
+        self._render_frame: tuple[Any, NDArray, Report | None, int] | None = None
 
     # -- hooks for subclasses -----------------------------------------------------------------
     def _reset_scene(self) -> None:
@@ -157,6 +166,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Point sensor over the visible targets, clutter uniform over the observed region.
 
+        The noise added is ``added_noise_std`` (see :meth:`_setup_spaces`), by default the sensor
+        spec's ``noise_std``.
+
         Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
         """
         from track_envs.sensors import sense_points
@@ -167,7 +179,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             positions,
             ids,
             self.np_random,
-            noise_std=spec.noise_std,
+            noise_std=self.added_noise_std,
             p_detect=spec.p_detect,
             clutter_rate=spec.clutter_rate,
             clutter_low=self._clutter_low,
@@ -199,7 +211,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         raise NotImplementedError
 
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
-        """Detections as black crosses, the report's tracks as rings in their id colours."""
+        """Detections as black crosses, the report's tracks as rings in their id colours (see
+        :meth:`_legend`)."""
         from track_envs.rendering import identity_colors
 
         if len(detections):
@@ -207,10 +220,20 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         if report is not None and len(report):
             canvas.rings(report.positions, 7, identity_colors(report.ids), thickness_px=2)
 
+    def _legend(self) -> list[Any]:
+        """The footer's legend: how :meth:`_draw` and :meth:`_draw_overlay` show each thing."""
+        from track_envs.rendering import LegendEntry
+
+        return [
+            LegendEntry("truth", "disc"),
+            LegendEntry("detection", "cross", (0, 0, 0)),
+            LegendEntry("track", "ring"),
+        ]
+
     def _keep_for_rendering(self, report: Report | None) -> None:
         """Remember the current frame and the report that answers it (only when rendering)."""
         if self.render_mode is not None:
-            self._render_frame = (self._snapshot(), self._last_detections.copy(), report)
+            self._render_frame = (self._snapshot(), self._last_detections.copy(), report, self._frame)
 
     # -- gymnasium API ------------------------------------------------------------------------
     def reset(
@@ -332,7 +355,13 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     # -- rendering ----------------------------------------------------------------------------
     def render(self) -> NDArray[np.uint8] | None:
         """Draw the last frame reported on: its scene, its detections (crosses) and the tracks of
-        the report that answered it (rings); before the first step, the first frame."""
+        the report that answered it (rings); before the first step, the first frame. A footer under
+        the scene gives the frame number, its time and the legend.
+
+        Returns:
+            ``rgb_array``: the ``uint8`` frame (H, W, 3); ``human``: ``None`` (the frame is shown in
+            a pygame window).
+        """
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")
             return None
@@ -341,14 +370,15 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         if self._render_frame is None:
             self._keep_for_rendering(None)
         assert self._render_frame is not None
-        snapshot, detections, report = self._render_frame
+        snapshot, detections, report, index = self._render_frame
         canvas = self._canvas()
         self._draw(canvas, snapshot)
         self._draw_overlay(canvas, detections, report)
+        canvas.footer(f"frame {index}   t = {index * self.sensor_spec.dt:.3f} s", self._legend())
         frame = canvas.to_array()
         if self.render_mode == "human":
             if self._window is None:
-                from track_envs.rendering import HumanWindow
+                from track_envs.render_window import HumanWindow
 
                 self._window = HumanWindow(type(self).__name__, int(self.metadata["render_fps"]))
             self._window.show(frame)

@@ -30,10 +30,16 @@ that leaves past the belt end parks its body far from the belt (a row write), an
 particle takes a parked body of its kind (another row write), so pymunk's body order stays
 fixed. Only when a burst needs more bodies than are parked, or too many are parked, are bodies
 added to or removed from the space (Python once per body, then one re-labelling of the rows).
+
+A world cannot be pickled or deep-copied: a copied pymunk ``Space`` keeps its bodies and cached
+contacts but not its broad-phase tree and solver order, so it would drift from the original.
+:class:`~track_envs.envs.belt_sorter.BeltSorterEnv` rebuilds its world exactly by replay instead;
+:meth:`BeltWorld.digest` lets it check the rebuilt world against the original.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -43,6 +49,7 @@ import pymunk
 import pymunk.batch as pb
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int, check_non_negative, check_number, check_positive
 from track_envs.envs.belt_kernels import (
     NOT_PARTICLE,
     PARK_ORIGIN,
@@ -55,6 +62,9 @@ from track_envs.envs.belt_kernels import (
 )
 
 GRAVITY = 9.81
+#: Rounding radius (m) of the box collision shapes (cylinders, cuboids): contact happens at this
+#: distance from the nominal box.
+BOX_ROUNDING = 0.0005
 _STATE_FIELDS = (
     pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 )
@@ -185,7 +195,9 @@ def resolve_mixture(particle_kind: str | Mapping[str, float]) -> dict[str, float
     unknown = [k for k in weights if k not in PARTICLE_KINDS]
     if unknown:
         raise ValueError(f"particle_kind has unknown kinds {unknown}; valid kinds are {list(PARTICLE_KINDS)}")
-    if any(not (w >= 0) for w in weights.values()) or sum(weights.values()) <= 0:
+    for kind, weight in weights.items():
+        check_non_negative(f"particle_kind[{kind!r}]", weight)
+    if sum(weights.values()) <= 0:
         raise ValueError(f"particle_kind weights must be >= 0 with a positive sum, got {weights}")
     total = sum(weights.values())
     return {k: w / total for k, w in weights.items() if w > 0}
@@ -223,17 +235,12 @@ class BeltParams:
 
     def __post_init__(self) -> None:
         for name in ("window_length", "window_width", "belt_speed", "feed_correlation_time"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+            check_positive(name, getattr(self, name))
         for name in ("feed_rate", "feed_burstiness", "drop_spread", "exit_margin", "warmup_time"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (np.isfinite(self.drop_x) and self.drop_x < 0):
+            check_non_negative(name, getattr(self, name))
+        if not check_number("drop_x", self.drop_x) < 0:
             raise ValueError(f"drop_x must be upstream of the window (< 0 m), got {self.drop_x!r}")
-        if not (isinstance(self.substeps, int) and 1 <= self.substeps <= 20):
-            raise ValueError(f"substeps must be an integer in [1, 20], got {self.substeps!r}")
+        check_int("substeps", self.substeps, 1, 20)
 
 
 @dataclass
@@ -343,41 +350,31 @@ class BeltWorld:
             shape: pymunk.Shape = pymunk.Circle(body, 0.5 * kind.length)
         else:
             body = pymunk.Body(mass, pymunk.moment_for_box(mass, (kind.length, kind.width)))
-            shape = pymunk.Poly.create_box(body, (kind.length, kind.width), radius=0.0005)
+            shape = pymunk.Poly.create_box(body, (kind.length, kind.width), radius=BOX_ROUNDING)
         shape.friction = kind.particle_friction
         shape.elasticity = kind.restitution
         return body, shape
 
     # -- pickling -----------------------------------------------------------------------------
     def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        # cffi buffers and body pointers are process-local: keep labels by body object instead.
-        for key in ("_buf", "_set_buf", "_handles", "_row_ptr"):
-            state.pop(key)
-        rows = {ptr: r for r, ptr in enumerate(self._row_ptr.tolist())}
-        state["_bodies"] = [
-            (body, shape, kind, rows[ptr]) for ptr, (body, shape, kind) in self._handles.items()
-        ]
-        return state
+        raise TypeError(
+            "a BeltWorld cannot be pickled or deep-copied: pymunk does not expose its broad-phase tree "
+            "and the order of its contact solver, so a restored space would drift from the original "
+            "within a frame; pickle or deep-copy the BeltSorterEnv instead, which rebuilds its world "
+            "exactly by replaying the episode from its start"
+        )
 
-    def __setstate__(self, state: dict) -> None:
-        bodies = state.pop("_bodies")
-        self.__dict__.update(state)
-        self._buf = pb.Buffer()
-        self._set_buf = pb.Buffer()
-        self._handles = {body.id: (body, shape, kind) for body, shape, kind, _ in bodies}
-        old_rows, old_truth = self._rows, self._row_truth
-        by_ptr = {body.id: row for body, _, _, row in bodies}
-        self._buf.clear()
-        pb.get_space_bodies(self.space, _READ_FIELDS, self._buf)
-        ptrs = np.frombuffer(self._buf.int_buf(), dtype=np.uint64).copy()
-        current = np.frombuffer(self._buf.float_buf(), dtype=np.float64).reshape(-1, 6)
-        source = np.array([by_ptr.get(p, -1) for p in ptrs.tolist()], dtype=np.int64)
-        self._row_ptr = ptrs
-        self._rows = np.where(source[:, None] >= 0, old_rows[source], current)
-        self._row_truth = np.where(source >= 0, old_truth[source], NOT_PARTICLE)
-        self._row_kind = np.array([self._handles[p][2] if p in self._handles else 0 for p in ptrs.tolist()])
-        self._write(poses=True)
+    def digest(self) -> bytes:
+        """A 16-byte fingerprint of the world's state: every body's row, the row labels, the belt's
+        travel and clock, the feed's intensity and the next truth id (equal digests: the same
+        state, bit for bit, as far as the rows show it)."""
+        h = hashlib.blake2b(digest_size=16)
+        for array in (self._rows, self._row_truth, self._row_kind):
+            h.update(np.ascontiguousarray(array).tobytes())
+        scalars = (self.travel, self.time, self._feed_log_intensity)
+        h.update(np.array(scalars, dtype=np.float64).tobytes())
+        h.update(np.array([self._next_id, self._n_parked, len(self._rows)], dtype=np.int64).tobytes())
+        return h.digest()
 
     # -- batch I/O ----------------------------------------------------------------------------
     def _read(self) -> None:

@@ -9,8 +9,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.arguments import (
+    check_int,
+    check_non_negative,
+    check_positive,
+    check_probability,
+    check_vector,
+)
 from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.sensors import check_non_negative, check_positive, check_probability
 from track_envs.track_csv import load_track_csv
 from track_envs.types import SensorSpec
 
@@ -54,7 +60,11 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Arguments
     - ``path``: the track file (``.csv`` or ``.zip``); default: the sample shipped with the package.
-    - ``noise_std``, ``p_detect``, ``clutter_rate``: the sensor, as in BeltSorter-v0 (defaults 0, 1, 0).
+    - ``noise_std``, ``p_detect``, ``clutter_rate``: the sensor, as in BeltSorter-v0 (defaults 0, 1, 0);
+      ``noise_std`` is the Gaussian noise added to the recorded positions.
+    - ``measurement_noise_std``: the measurement noise std the sensor spec declares
+      (``sensor_spec.noise_std``, what a tracker is told), in the file's units; default
+      ``noise_std``. Give the recording's own noise here when replaying real centroids.
     - ``frames``: ``(start, stop)`` half-open frame range; default the whole file.
     - ``dt``: frame period in seconds (default 0.01, a 100 Hz camera).
     - ``region``: ``((x_low, y_low), (x_high, y_high))`` observed region; default the bounding box
@@ -65,7 +75,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: first release.
+    - v0: first release. ``measurement_noise_std`` added later without a version bump (the
+      default leaves every stream and spec as before).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -75,6 +86,7 @@ class BeltReplayEnv(TrackingEnv):
         *,
         path: str | os.PathLike[str] | None = None,
         noise_std: float = 0.0,
+        measurement_noise_std: float | None = None,
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
         frames: tuple[int, int] | None = None,
@@ -101,24 +113,30 @@ class BeltReplayEnv(TrackingEnv):
         room = most + int(np.ceil(clutter_rate + 6 * np.sqrt(clutter_rate))) if clutter_rate else most
         max_detections = max(room, 16) if max_detections is None else max_detections
         max_tracks = max(2 * most, 16) if max_tracks is None else max_tracks
-        for name, value in (("max_detections", max_detections), ("max_tracks", max_tracks)):
-            if not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        max_detections = check_int("max_detections", max_detections, 1)
+        max_tracks = check_int("max_tracks", max_tracks, 1)
         if region is None:
             pts = self.tracks[visible]
             low, high = pts.min(axis=0), pts.max(axis=0)
             pad = 0.02 * np.maximum(high - low, 1e-9)
             low, high = low - pad, high + pad
         else:
-            low, high = np.asarray(region[0], dtype=float), np.asarray(region[1], dtype=float)
-            if low.shape != (2,) or high.shape != (2,) or np.any(low >= high):
+            corners = region if isinstance(region, tuple | list) and len(region) == 2 else (None, None)
+            low, high = check_vector("region[0]", corners[0], 2), check_vector("region[1]", corners[1], 2)
+            if np.any(low >= high):
                 raise ValueError(
                     f"region must be ((x_low, y_low), (x_high, y_high)) with low < high, got {region!r}"
                 )
+        added = check_non_negative("noise_std", noise_std)
+        declared = (
+            added
+            if measurement_noise_std is None
+            else check_non_negative("measurement_noise_std", measurement_noise_std)
+        )
         spec = SensorSpec(
             dt=dt,
             dim=2,
-            noise_std=check_non_negative("noise_std", noise_std),
+            noise_std=declared,
             p_detect=check_probability("p_detect", p_detect),
             clutter_rate=clutter_rate,
             region_low=(float(low[0]), float(low[1])),
@@ -126,9 +144,10 @@ class BeltReplayEnv(TrackingEnv):
             max_detections=int(max_detections),
             max_tracks=int(max_tracks),
         )
-        margin = 10 * spec.noise_std + 0.05 * float(np.max(high - low))
+        margin = 10 * added + 0.05 * float(np.max(high - low))
         self._setup_spaces(
             spec,
+            added_noise_std=added,
             max_targets=max(most, 1),
             obs_low=low - margin,
             obs_high=high + margin,

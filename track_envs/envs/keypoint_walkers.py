@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
+from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.skeleton import (
     FLIP_INDEX,
@@ -20,7 +21,7 @@ from track_envs.envs.skeleton import (
 )
 from track_envs.metrics.keypoints import COCO_SIGMAS, oks
 from track_envs.report import Report
-from track_envs.sensors import CLUTTER_ID, check_non_negative, check_positive, check_probability
+from track_envs.sensors import CLUTTER_ID
 from track_envs.types import SensorSpec
 
 __all__ = ["KeypointWalkersEnv", "WalkerParams"]
@@ -145,13 +146,16 @@ class KeypointWalkersEnv(TrackingEnv):
     ):
         if keypoint_noise is not None and noise_std is not None:
             raise ValueError("pass keypoint_noise or its alias noise_std, not both")
-        noise = 0.3 if keypoint_noise is None and noise_std is None else (keypoint_noise or noise_std or 0.0)
+        name, given = (
+            ("noise_std", noise_std) if noise_std is not None else ("keypoint_noise", keypoint_noise)
+        )
+        noise = 0.3 if given is None else check_non_negative(name, given)
         self.params = params if params is not None else WalkerParams()
         if not isinstance(self.params, WalkerParams):
             raise ValueError(f"params must be a WalkerParams, got {type(self.params).__name__}")
-        num_people = _check_int("num_people", num_people, 1)
+        num_people = check_int("num_people", num_people, 1)
         initial = (
-            num_people // 2 if initial_people is None else _check_int("initial_people", initial_people, 0)
+            num_people // 2 if initial_people is None else check_int("initial_people", initial_people, 0)
         )
         if initial > num_people:
             raise ValueError(f"initial_people must be <= num_people={num_people}, got {initial}")
@@ -159,24 +163,24 @@ class KeypointWalkersEnv(TrackingEnv):
             "num_people": num_people,
             "initial_people": initial,
             "arrival_rate": check_non_negative("arrival_rate", arrival_rate),
-            "num_occluders": _check_int("num_occluders", num_occluders, 0),
+            "num_occluders": check_int("num_occluders", num_occluders, 0),
             "vanish_rate": check_non_negative("vanish_rate", vanish_rate),
             "camera_pan": check_non_negative("camera_pan", camera_pan),
             "occlusion": bool(occlusion),
         }
         self.detector = _Detector(
-            keypoint_noise=check_non_negative("keypoint_noise", noise),
+            keypoint_noise=noise,
             p_detect=check_probability("p_detect", p_detect),
             p_keypoint=check_probability("p_keypoint", p_keypoint),
             clutter_rate=check_non_negative("clutter_rate", clutter_rate),
             swap_prob=check_probability("swap_prob", swap_prob),
-            min_keypoints=_check_int("min_keypoints", min_keypoints, 1),
+            min_keypoints=check_int("min_keypoints", min_keypoints, 1),
             area_factor=check_positive("area_factor", area_factor),
         )
         self.area_factor = self.detector.area_factor
         default_rows = 2 * num_people + 8
         rows = {
-            name: default_rows if value is None else _check_int(name, value, 1)
+            name: default_rows if value is None else check_int(name, value, 1)
             for name, value in (
                 ("max_detections", max_detections),
                 ("max_tracks", max_tracks),
@@ -342,6 +346,16 @@ class KeypointWalkersEnv(TrackingEnv):
         for x0, x1 in pillars:
             canvas.fill_rect((x0, 0.0), (x1, p.height), (120, 100, 85))
 
+    def _legend(self) -> list[Any]:
+        from track_envs.rendering import LegendEntry
+
+        return [
+            LegendEntry("person (truth)", "line"),
+            LegendEntry("detected keypoint", "cross", (0, 0, 0)),
+            LegendEntry("track", "outlined-line"),
+            LegendEntry("pillar", "box", (120, 100, 85)),
+        ]
+
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detected keypoints as black crosses; reported poses as thin skeletons in id colours."""
         from track_envs.rendering import identity_colors
@@ -356,9 +370,3 @@ class KeypointWalkersEnv(TrackingEnv):
             b = kp[:, SKELETON_EDGES[:, 1]].reshape(-1, 2)
             canvas.segments(a, b, (0, 0, 0), thickness_px=3)
             canvas.segments(a, b, colors, thickness_px=1)
-
-
-def _check_int(name: str, value: Any, low: int) -> int:
-    if isinstance(value, bool) or not (isinstance(value, int | np.integer) and value >= low):
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-    return int(value)

@@ -19,8 +19,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from track_envs.arguments import (
+    check_int,
+    check_non_negative,
+    check_number,
+    check_positive,
+    check_probability,
+    check_vector,
+)
 from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.sensors import CLUTTER_ID, check_non_negative, check_positive, check_probability
+from track_envs.sensors import CLUTTER_ID
 from track_envs.types import SensorSpec
 
 #: Step length ``Δ`` of paper 001 (x-advance per frame of the sine curve).
@@ -142,28 +150,21 @@ class SingleTargetEnv(TrackingEnv):
         self.n_frames = n_frames_for(self.periods, self.step_length)
         if self.n_frames < 2:
             raise ValueError(f"periods={periods!r} gives fewer than 2 frames; use periods > step / (2π)")
-        if not np.isfinite(rotation_deg):
-            raise ValueError(f"rotation_deg must be a finite angle in degrees, got {rotation_deg!r}")
-        self.rotation_deg = float(rotation_deg)
-        off = np.asarray(offset, dtype=np.float64)
-        if off.shape != (2,) or not np.isfinite(off).all():
-            raise ValueError(f"offset must be a finite (x, y) pair, got {offset!r}")
+        self.rotation_deg = check_number("rotation_deg", rotation_deg)
+        off = check_vector("offset", offset, 2)
         self.offset = (float(off[0]), float(off[1]))
         self.sigma_m = check_non_negative("sigma_m", sigma_m)
         std = self.sigma_m * self.step_length if noise_std is None else noise_std
         std = check_non_negative("noise_std", std)
-        for name, value in (("occlusion_start", occlusion_start), ("occlusion_length", occlusion_length)):
-            if not (isinstance(value, int | np.integer) and value >= 0):
-                raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
-        self.occlusion = (int(occlusion_start), int(occlusion_start) + int(occlusion_length))
+        start = check_int("occlusion_start", occlusion_start, 0)
+        self.occlusion = (start, start + check_int("occlusion_length", occlusion_length, 0))
         clutter_rate = check_non_negative("clutter_rate", clutter_rate)
         self.clutter_half_width = check_positive("clutter_half_width", clutter_half_width)
         self.gospa_c = check_positive("gospa_c", gospa_c)
         room = 1 + int(np.ceil(clutter_rate + 6 * np.sqrt(clutter_rate)))
         max_detections = max(8, room) if max_detections is None else max_detections
-        for name, value in (("max_detections", max_detections), ("max_tracks", max_tracks)):
-            if not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        max_detections = check_int("max_detections", max_detections, 1)
+        max_tracks = check_int("max_tracks", max_tracks, 1)
         low, high = self._world_box(self.clutter_half_width + 1.0)
         spec = SensorSpec(
             dt=1.0,
@@ -279,6 +280,17 @@ class SingleTargetEnv(TrackingEnv):
         if snapshot is not None and len(snapshot.positions):
             canvas.discs(snapshot.positions, 6, (30, 120, 40))
 
+    def _legend(self) -> list[Any]:
+        from track_envs.rendering import LegendEntry
+
+        return [
+            LegendEntry("truth", "disc", (30, 120, 40)),
+            LegendEntry("path", "line", (40, 70, 170)),
+            LegendEntry("occluded", "line", (235, 140, 40)),
+            LegendEntry("detection", "cross", (0, 0, 0)),
+            LegendEntry("track", "ring"),
+        ]
+
 
 class SineTargetEnv(SingleTargetEnv):
     """One target on the sine curve of paper 001, seen by a point sensor with misses and occlusion.
@@ -376,15 +388,16 @@ class PiecewiseTargetEnv(SingleTargetEnv):
         max_heading_deg: float = 60.0,
         **kwargs: Any,
     ):
-        lo, hi = segment_steps
-        if not (isinstance(lo, int | np.integer) and isinstance(hi, int | np.integer) and 1 <= lo <= hi):
-            raise ValueError(
-                f"segment_steps must be integers (min, max) with 1 <= min <= max, got {segment_steps!r}"
-            )
-        if not (np.isfinite(max_heading_deg) and 0.0 <= max_heading_deg < 90.0):
+        steps = segment_steps if isinstance(segment_steps, tuple | list) and len(segment_steps) == 2 else ()
+        if len(steps) != 2:
+            raise ValueError(f"segment_steps must be integers (min, max), got {segment_steps!r}")
+        lo = check_int("segment_steps[0]", steps[0], 1)
+        hi = check_int("segment_steps[1]", steps[1], lo)
+        heading = check_number("max_heading_deg", max_heading_deg)
+        if not 0.0 <= heading < 90.0:
             raise ValueError(f"max_heading_deg must be in [0, 90), got {max_heading_deg!r}")
-        self.segment_steps = (int(lo), int(hi))
-        self.max_heading_deg = float(max_heading_deg)
+        self.segment_steps = (lo, hi)
+        self.max_heading_deg = heading
         super().__init__(**kwargs)
 
     def _local_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -7,10 +7,15 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
 * ``truth`` — ``info["truth"]``: ``"ids"`` (max_targets,) int64, −1 for padding; ``"positions"``
   (max_targets, D); ``"visible"`` (max_targets,) bool.
 * ``detection_ids`` — ``info["detection_ids"]``: (max_detections,) int64, the truth id behind each
-  detection row, −1 for clutter and padding.
+  detection row, −1 for clutter and padding. A metric whose class sets ``accepts_merged_ids =
+  True`` may instead get ``info["detection_ids_merged"]`` (max_detections, K): every truth id
+  behind each row (touching particles seen as one blob), −1 padded, column 0 the primary (see
+  :mod:`track_envs.metrics.merged`).
 * ``report`` — the action: ``"ids"`` (max_tracks,) int64, ``"positions"`` (max_tracks, D),
   ``"detection"`` (max_tracks,) int64 (detection row used this frame or −1), ``"mask"``
-  (max_tracks,) int8.
+  (max_tracks,) int8. By the report contract (:func:`track_envs.report.validate_report`, which
+  every environment applies in ``step``) the ids of the rows with mask 1 are unique within the
+  frame and non-negative; a metric fed reports directly may assume it.
 
 Every metric also has ``reset()`` to start a new episode.
 """

@@ -9,8 +9,9 @@ MOT Metrics", EURASIP JIVP 2008; with the event rules of py-motmetrics' ``MOTAcc
 2. the remaining truths and tracks are matched by a min-cost assignment (scipy
    ``linear_sum_assignment``, impossible pairs priced as motmetrics' ``add_expensive_edges``
    prices them, then dropped); a match whose track differs from the truth's last match is an
-   ID switch (lone pairs are taken directly, see :mod:`track_envs.metrics.clear_mot_events`,
-   which runs these rules per frame as one compiled kernel);
+   ID switch (when every remaining pair is a lone pair, :func:`track_envs.assignment.split_lone_pairs`,
+   the pairs are taken directly; :mod:`track_envs.metrics.clear_mot_events` runs these rules per
+   frame as one compiled kernel);
 3. unmatched truths are misses, unmatched tracks false positives.
 
 .. math::
@@ -36,6 +37,12 @@ connected component of the co-occurrence graph), which has the same optimum as m
 min-cost problem over truths, tracks and dummies: IDFN = Σ_o (frames with truth o) − max,
 IDFP = Σ_h (frames with track h) − max and IDTP = GT − IDFN, exactly motmetrics' bookkeeping (the
 three agree with the textbook IDTP = max unless an id repeats within a frame).
+
+Merged detections (touching particles seen as one blob; ``detection_ids`` given as
+(max_detections, K) merged ids): a track updated with a merged detection counts as correctly
+placed for any particle behind it — it may match each of them within the threshold plus the
+blob's spread, as :mod:`track_envs.metrics.merged` defines — so following either particle through
+a merge is neither a miss nor a false positive, and IDF1 counts those frames as co-occurrences.
 """
 
 from __future__ import annotations
@@ -54,6 +61,7 @@ from track_envs.metrics.clear_mot_events import COUNTERS, TRUTH_VALUES, frame_ev
 from track_envs.metrics.close_pairs import close_pairs, finite_entries
 from track_envs.metrics.key_table import KeyTable
 from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
+from track_envs.metrics.merged import as_merged, with_merged_pairs
 
 
 def max_weight_matching(rows: NDArray[np.intp], cols: NDArray[np.intp], weight: NDArray[np.int64]) -> int:
@@ -115,6 +123,42 @@ def _points_frame(
     return status, len(oids)
 
 
+@njit(cache=True)
+def _points_frame_merged(
+    truth_ids: NDArray[np.int64],
+    truth_positions: NDArray[np.float64],
+    visible: NDArray[np.bool_],
+    report_ids: NDArray[np.int64],
+    report_positions: NDArray[np.float64],
+    report_rows: NDArray[np.int64],
+    report_mask: NDArray[np.int8],
+    merged: NDArray[np.int64],
+    threshold: float,
+    truth_index: NDArray[np.int64],
+    truth_entries: NDArray[np.int64],
+    pair_index: NDArray[np.int64],
+    pair_entries: NDArray[np.int64],
+    counts: NDArray[np.int64],
+    dist_sum: NDArray[np.float64],
+) -> tuple[int, int]:
+    """As :func:`_points_frame`, with the pairs of tracks updated with merged detections."""
+    oids, x = live_truth_rows(truth_ids, truth_positions, visible)
+    hids, y = live_report_rows(report_ids, report_positions, report_mask)
+    keep = report_mask == 1
+    live_rows = np.empty(len(hids), np.int64)
+    t = 0
+    for k in range(len(keep)):
+        if keep[k]:
+            live_rows[t] = report_rows[k]
+            t += 1
+    ptr, cols, dist = close_pairs(x, y, threshold)
+    ptr, cols, dist = with_merged_pairs(x, oids, y, live_rows, merged, threshold, ptr, cols, dist)
+    status = frame_events(
+        oids, hids, ptr, cols, dist, truth_index, truth_entries, pair_index, pair_entries, counts, dist_sum
+    )
+    return status, len(oids)
+
+
 class ClearMot:
     """Streaming CLEAR MOT and IDF1 of reports against the visible truth, with motmetrics parity.
 
@@ -125,12 +169,20 @@ class ClearMot:
     matrix directly (NaN for impossible pairs) and produces the same events as
     ``motmetrics.MOTAccumulator.update``.
 
-    Duplicate ids in one frame (a report may hold them) are scored as motmetrics scores them:
-    each row is a separate object / hypothesis sharing the id's history.
+    Track ids in a frame are unique and non-negative by the report contract
+    (:func:`track_envs.report.validate_report`: a repeated id would let one identity claim
+    several truths and inflate MOTA, so environments reject it). Fed a report that breaks the
+    contract directly, rows sharing an id are scored as motmetrics scores them: separate
+    hypotheses sharing the id's history.
+
+    With merged detection ids (``info["detection_ids_merged"]``), a track updated with a merged
+    detection may also match the blob's other particles (module docstring).
 
     Args:
         threshold: Largest distance, in sensor units, at which a track can match a truth.
     """
+
+    accepts_merged_ids = True
 
     def __init__(self, threshold: float) -> None:
         if not (np.isfinite(threshold) and threshold > 0):
@@ -148,14 +200,19 @@ class ClearMot:
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
     ) -> None:
-        """Add one frame from ``info["truth"]`` and the report (``detection_ids`` is unused).
+        """Add one frame from ``info["truth"]`` and the report.
+
+        ``detection_ids`` matters only as merged ids (max_detections, K) with a merged detection
+        in the frame; plain (max_detections,) ids are not needed (matching is by distance).
 
         Raises:
             ValueError: if report positions are not points (n, D) matching the truth's D.
         """
-        del detection_ids
         truth_ids, x, visible = truth_arrays(truth)
-        hids, y, _, mask = report_arrays(report)
+        hids, y, rows, mask = report_arrays(report)
+        merged = as_merged(detection_ids) if np.ndim(detection_ids) != 1 else None
+        if merged is not None and (merged.shape[1] < 2 or not np.any(merged[:, 1] >= 0)):
+            merged = None
         if y.ndim != 2 or x.ndim != 2 or x.shape[1:] != y.shape[1:]:
             raise ValueError(
                 "ClearMot scores point reports (max_tracks, D) against truth (max_targets, D); got report "
@@ -163,21 +220,40 @@ class ClearMot:
             )
         truths, pairs = self._truths, self._pairs
         while True:
-            status, m = _points_frame(
-                truth_ids,
-                x,
-                visible,
-                hids,
-                y,
-                mask,
-                self.threshold,
-                truths.index,
-                truths.entries,
-                pairs.index,
-                pairs.entries,
-                self._counts,
-                self._dist_sum,
-            )
+            if merged is None:
+                status, m = _points_frame(
+                    truth_ids,
+                    x,
+                    visible,
+                    hids,
+                    y,
+                    mask,
+                    self.threshold,
+                    truths.index,
+                    truths.entries,
+                    pairs.index,
+                    pairs.entries,
+                    self._counts,
+                    self._dist_sum,
+                )
+            else:
+                status, m = _points_frame_merged(
+                    truth_ids,
+                    x,
+                    visible,
+                    hids,
+                    y,
+                    rows,
+                    mask,
+                    merged,
+                    self.threshold,
+                    truths.index,
+                    truths.entries,
+                    pairs.index,
+                    pairs.entries,
+                    self._counts,
+                    self._dist_sum,
+                )
             if status < 0:
                 return
             truths.reserve(m)

@@ -10,8 +10,9 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    then minimising their summed distance (motmetrics prices impossible pairs at
    ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
    m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
-   column belongs to every such optimum, so when all remaining possible pairs are lone pairs the
-   optimum is unique and is taken directly. Otherwise the matrix motmetrics builds is solved by
+   column belongs to every such optimum, so when all remaining possible pairs are lone pairs
+   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs) the optimum is unique and is
+   taken directly. Otherwise the matrix motmetrics builds is solved by
    the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`), so ties are broken as
    motmetrics breaks them. In row order, a match whose truth was last matched to another id is
    an ID switch.
@@ -21,7 +22,7 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
 State lives in two :class:`~track_envs.metrics.key_table.KeyTable` tables: per truth id the last
 matched track id, matched-ever, missed-since-match and the last frame it appeared in; per (truth
 id, track id) the number of frames the pair was possible (for IDF1). Counters are one int64 array
-(:data:`COUNTERS`) and the summed match distance a compensated sum.
+(:data:`COUNTERS`) and the summed match distance a compensated sum (:func:`neumaier_add`).
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.assignment import split_lone_pairs
 from track_envs.metrics.key_table import add_entry, free_entries, hash_slot
 from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
-from track_envs.metrics.summation import neumaier_add
 
 COUNTERS = (
     "frames",
@@ -63,6 +64,25 @@ COUNTERS = (
 TRUTH_VALUES = 4
 _LAST, _MATCHED, _GAP, _SEEN = 2, 3, 4, 5
 _TOGETHER = 2
+
+
+@njit(cache=True)
+def neumaier_add(acc: NDArray[np.float64], value: float) -> None:
+    """Add ``value`` to the running sum ``acc = [s, comp]`` (total ``s + comp``).
+
+    Neumaier's improved Kahan summation: with ``t = s + v``, the rounding error of that addition
+    is ``(s − t) + v`` when ``|s| >= |v|`` and ``(v − t) + s`` otherwise, and is accumulated in
+    ``comp``. A plain running sum of ``N`` terms drifts by up to ``N`` roundings (``0.1`` added
+    10⁵ times is off by 2e-12 relative), which would break MOTP's parity with motmetrics'
+    pairwise-summed total on long episodes; this one stays within about one rounding.
+    """
+    s = acc[0]
+    t = s + value
+    if abs(s) >= abs(value):
+        acc[1] += (s - t) + value
+    else:
+        acc[1] += (value - t) + s
+    acc[0] = t
 
 
 @njit(cache=True)
@@ -123,6 +143,30 @@ def _possible(ptr: NDArray[np.int64], cols: NDArray[np.int64], i: int, j: int) -
 
 
 @njit(cache=True)
+def _free_pair_counts(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    row_taken: NDArray[np.bool_],
+    col_taken: NDArray[np.bool_],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Possible pairs of each free row and free column among the free ones, and the column of a
+    row's last free pair, for :func:`~track_envs.assignment.split_lone_pairs`."""
+    m, n = len(row_taken), len(col_taken)
+    counts = np.zeros(2 * m + n, dtype=np.int64)  # one allocation, three views
+    row_count, only_col, col_count = counts[:m], counts[m : 2 * m], counts[2 * m :]
+    for i in range(m):
+        if row_taken[i]:
+            continue
+        for e in range(ptr[i], ptr[i + 1]):
+            j = cols[e]
+            if not col_taken[j]:
+                row_count[i] += 1
+                only_col[i] = j
+                col_count[j] += 1
+    return row_count, only_col, col_count
+
+
+@njit(cache=True)
 def _assign_like_motmetrics(
     ptr: NDArray[np.int64],
     cols: NDArray[np.int64],
@@ -130,13 +174,14 @@ def _assign_like_motmetrics(
     row_taken: NDArray[np.bool_],
     col_taken: NDArray[np.bool_],
     n_cols: int,
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+) -> NDArray[np.int64]:
     """Step 2 on the whole matrix as motmetrics builds it: possible pairs of free rows and columns.
 
-    Returns the possible pairs of scipy's assignment, rows ascending.
+    Returns the list position of each row's pair in scipy's assignment, −1 where the row got no
+    possible pair.
     """
     m = len(row_taken)
-    valid = np.zeros((m, n_cols), dtype=np.bool_)
+    entry = np.full((m, n_cols), -1, dtype=np.int64)
     costs = np.zeros((m, n_cols))
     n_valid = 0
     largest = 0.0
@@ -145,7 +190,7 @@ def _assign_like_motmetrics(
             continue
         for e in range(ptr[i], ptr[i + 1]):
             if not col_taken[cols[e]]:
-                valid[i, cols[e]] = True
+                entry[i, cols[e]] = e
                 costs[i, cols[e]] = dist[e]
                 n_valid += 1
                 largest = max(largest, abs(dist[e]))
@@ -153,13 +198,33 @@ def _assign_like_motmetrics(
         large = float(2 * min(m, n_cols)) * (largest + 1.0) + 1.0
         for i in range(m):
             for j in range(n_cols):
-                if not valid[i, j]:
+                if entry[i, j] < 0:
                     costs[i, j] = large
     rows, picked = linear_sum_assignment(costs)
-    keep = np.zeros(len(rows), dtype=np.bool_)
+    at = np.full(m, -1, dtype=np.int64)
     for t in range(len(rows)):
-        keep[t] = valid[rows[t], picked[t]]
-    return rows[keep], picked[keep]
+        at[rows[t]] = entry[rows[t], picked[t]]
+    return at
+
+
+@njit(cache=True)
+def _match_the_rest(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    row_taken: NDArray[np.bool_],
+    col_taken: NDArray[np.bool_],
+) -> NDArray[np.int64]:
+    """Step 2: the list position of each row's pair, −1 where the row is not matched here."""
+    row_count, only_col, col_count = _free_pair_counts(ptr, cols, row_taken, col_taken)
+    partner, rest_rows, _ = split_lone_pairs(row_count, only_col, col_count)
+    if len(rest_rows):
+        return _assign_like_motmetrics(ptr, cols, dist, row_taken, col_taken, len(col_taken))
+    # every free pair is a lone pair: the unique optimum
+    for i in range(len(partner)):
+        if partner[i] >= 0:
+            partner[i] = _possible(ptr, cols, i, partner[i])
+    return partner
 
 
 @njit(cache=True)
@@ -226,36 +291,11 @@ def frame_events(
                 match_e[n_match] = e
                 n_match += 1
         # 2. the rest: lone pairs directly, anything else as motmetrics solves it
-        col_free_count = np.zeros(n, dtype=np.int64)
+        rest_e = _match_the_rest(ptr, cols, dist, row_taken, col_taken)
         for i in range(m):
-            if not row_taken[i]:
-                for e in range(ptr[i], ptr[i + 1]):
-                    if not col_taken[cols[e]]:
-                        col_free_count[cols[e]] += 1
-        all_lone = True
-        lone_e = np.full(m, -1, dtype=np.int64)
-        for i in range(m):
-            if row_taken[i]:
+            e = rest_e[i]
+            if e < 0:
                 continue
-            n_free = 0
-            for e in range(ptr[i], ptr[i + 1]):
-                if not col_taken[cols[e]]:
-                    n_free += 1
-                    lone_e[i] = e
-            if n_free > 1 or (n_free == 1 and col_free_count[cols[lone_e[i]]] > 1):
-                all_lone = False
-                break
-        if all_lone:
-            rest_i = np.flatnonzero(lone_e >= 0)
-            rest_e = lone_e[rest_i]
-        else:
-            rows, picked = _assign_like_motmetrics(ptr, cols, dist, row_taken, col_taken, n)
-            rest_i = rows
-            rest_e = np.empty(len(rows), dtype=np.int64)
-            for t in range(len(rows)):
-                rest_e[t] = _possible(ptr, cols, rows[t], picked[t])
-        for t in range(len(rest_i)):
-            i, e = rest_i[t], rest_e[t]
             s = slot[i]
             h = hids[cols[e]]
             if truth_entries[s, _MATCHED] == 1 and truth_entries[s, _LAST] != h:

@@ -18,13 +18,15 @@ with ``γ`` ranging over matchings of the admissible pairs (``d^p <= c^p``; a pa
     d_p^{(c,2)}(X, Y)^p = \\frac{c^p}{2} (m + n) - \\max_{\\gamma} \\sum_{(i,j) \\in \\gamma}
         \\big(c^p - d(x_i, y_j)^p\\big).
 
-Computed sparsely (:mod:`track_envs.metrics.close_pairs`): only pairs within ``c`` exist. A pair
-alone in its row and its column (a *lone pair*) is in every optimal assignment, since taking it
-gains ``c^p − d^p >= 0`` and blocks nothing; only the rows and columns left with several
-admissible partners go to a dense min-cost assignment with one miss column per row
-(``[C | diag(c^p)]``, inadmissible entries a finite stand-in larger than any feasible total),
-solved by :func:`~track_envs.metrics.shortest_augmenting_path.linear_sum_assignment`. Track
-identities play no part, so duplicate ids are distinct hypotheses.
+Computed sparsely (:mod:`track_envs.metrics.close_pairs`): only pairs within ``c`` exist, and
+they are assigned by :mod:`track_envs.assignment` with miss cost ``γ = c^p``: a pair alone in its
+row and its column (a *lone pair*) gains ``c^p − d^p >= 0`` and blocks nothing, so it is taken as
+it is; only the rows and columns left with several admissible partners go to a dense min-cost
+assignment with one miss column per row (``[C | diag(c^p)]``,
+:func:`track_envs.assignment.rest_problem`), solved by the compiled
+:func:`~track_envs.metrics.shortest_augmenting_path.linear_sum_assignment`. Track
+identities play no part (in a report they are unique and non-negative within a frame by the
+report contract, :func:`track_envs.report.validate_report`).
 """
 
 from __future__ import annotations
@@ -35,11 +37,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from track_envs.assignment import split_lone_pairs
+from track_envs.assignment import merge_solution, rest_problem, split_sparse
 from track_envs.metrics.close_pairs import close_pairs
 from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
 from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
-from track_envs.metrics.summation import numpy_sum
 
 # pairs are searched slightly beyond c, then kept by the exact test d^p <= c^p
 _SEARCH_MARGIN = 1e-9
@@ -63,43 +64,29 @@ class GospaResult:
 
 
 @njit(cache=True)
-def _solve_rest(
+def _assign_rest(
     ptr: NDArray[np.int64],
     cols: NDArray[np.int64],
     cost: NDArray[np.float64],
     rest_rows: NDArray[np.int64],
     rest_cols: NDArray[np.int64],
     n_cols: int,
-    gate: float,
+    cp: float,
     col_of: NDArray[np.int64],
 ) -> None:
-    """Assign the non-lone rows by ``[C | diag(gate)]`` (C: costs of admissible pairs, else ``big``)."""
-    nr, nc = len(rest_rows), len(rest_cols)
-    sub_col = np.full(n_cols, -1, dtype=np.int64)
-    for k in range(nc):
-        sub_col[rest_cols[k]] = k
-    largest = 0.0
+    """Assign the rows that are not in lone pairs by ``[C | diag(c^p)]``, into ``col_of``."""
+    nr = len(rest_rows)
+    local = np.arange(nr)
+    # the rest rows' costs over every column (inf: no admissible pair), for the shared problem
+    rows_cost = np.full((nr, n_cols), np.inf)
     for r in range(nr):
         i = rest_rows[r]
         for e in range(ptr[i], ptr[i + 1]):
-            if sub_col[cols[e]] >= 0:
-                largest = max(largest, abs(cost[e]))
-    big = 2.0 * (abs(gate) + 1.0) * (nr + 1) + largest
-    full = np.full((nr, nc + nr), big)
-    admissible = np.zeros((nr, nc), dtype=np.bool_)
-    for r in range(nr):
-        i = rest_rows[r]
-        for e in range(ptr[i], ptr[i + 1]):
-            k = sub_col[cols[e]]
-            if k >= 0:
-                full[r, k] = cost[e]
-                admissible[r, k] = True
-        full[r, nc + r] = gate
-    rows, picked = linear_sum_assignment(full)
-    for t in range(len(rows)):
-        r, k = rows[t], picked[t]
-        if k < nc and admissible[r, k]:
-            col_of[rest_rows[r]] = rest_cols[k]
+            rows_cost[r, cols[e]] = cost[e]
+    rows, picked = linear_sum_assignment(rest_problem(rows_cost, cp, local, rest_cols))
+    none = np.zeros(0, dtype=np.int64)
+    got_rows, got_cols = merge_solution(rows_cost, cp, none, none, local, rest_cols, rows, picked)
+    col_of[rest_rows[got_rows]] = got_cols
 
 
 @njit(cache=True)
@@ -127,22 +114,12 @@ def gospa_core(
                 kept += 1
         start = end
         ptr[i + 1] = kept
-    # admissible pairs per row and column, and the column of each row that has one
-    row_count = np.zeros(m, dtype=np.int64)
-    only_col = np.zeros(m, dtype=np.int64)
-    col_count = np.zeros(n, dtype=np.int64)
-    for i in range(m):
-        row_count[i] = ptr[i + 1] - ptr[i]
-        if row_count[i] == 1:
-            only_col[i] = cols[ptr[i]]
-        for e in range(ptr[i], ptr[i + 1]):
-            col_count[cols[e]] += 1
     # lone pairs (alone in their row and their column) are assigned as they are
-    col_of, rest_rows, rest_cols = split_lone_pairs(row_count, only_col, col_count)
+    col_of, rest_rows, rest_cols = split_sparse(ptr, cols, n)
     if len(rest_rows):
-        _solve_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
-    # Σ d^p over the assigned pairs closer than c, in row order (numpy's summation order)
-    close_cost = np.empty(m)
+        _assign_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
+    # Σ d^p over the assigned pairs closer than c, in row order
+    loc = 0.0
     n_close = 0
     for i in range(m):
         j = col_of[i]
@@ -151,10 +128,10 @@ def gospa_core(
         for e in range(ptr[i], ptr[i + 1]):
             if cols[e] == j:
                 if dist[e] < c:
-                    close_cost[n_close] = cost[e]
+                    loc += cost[e]
                     n_close += 1
                 break
-    return numpy_sum(close_cost[:n_close]), n_close
+    return loc, n_close
 
 
 @njit(cache=True)

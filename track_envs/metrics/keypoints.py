@@ -203,8 +203,9 @@ class KeypointMota:
     people are first assigned one-to-one, maximising the number of PCKh-matched keypoints (as
     poseval assigns people); a reported keypoint whose assigned person has that keypoint hidden
     is left out of that keypoint's hypotheses ("don't care"). Reported poses assigned to no one
-    count with all 17 keypoints. Duplicate track ids in one frame are scored as
-    :class:`ClearMot` scores them (distinct hypotheses sharing the id's history).
+    count with all 17 keypoints. Track ids in a frame are unique and non-negative by the report
+    contract (:func:`track_envs.report.validate_report`); rows that share an id anyway are
+    scored as :class:`ClearMot` scores them (distinct hypotheses sharing the id's history).
 
     Args:
         pckh: Match threshold as a fraction of the head size (PoseTrack: 0.5).
@@ -289,7 +290,8 @@ class PoseOks:
 
     Per frame, truths and tracks are matched one-to-one by maximum total OKS (Hungarian); pairs
     below ``threshold`` do not count as matches. The truth area is ``area_factor · scale²``.
-    Duplicate ids are distinct rows.
+    Track ids play no part (they are unique and non-negative in a frame by the report
+    contract, :func:`track_envs.report.validate_report`).
 
     Returns from :meth:`compute`: ``oks_mean`` (mean OKS over matched pairs), ``oks_recall``
     (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.

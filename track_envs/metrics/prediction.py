@@ -56,8 +56,9 @@ class PredictionError:
     """Streaming mean absolute prediction error per track (and pooled / RMS variants).
 
     ``update(mean, target, track_ids)`` adds predictions (n, D), the measurements the tracks were
-    then updated with (n, D) and the track ids (n,). Rows with a non-finite target (coasting
-    tracks) are skipped. Per-track sums (error, squared error, count) are merged by track id with
+    then updated with (n, D) and the track ids (n,), unique and non-negative within one update
+    as in a report (:func:`track_envs.report.validate_report`). Rows with a non-finite target
+    (coasting tracks) are skipped. Per-track sums (error, squared error, count) are merged by track id with
     :func:`numpy.unique` when read, so memory grows with the number of tracks.
     """
 
@@ -120,7 +121,8 @@ class Nees:
     """Streaming NEES of predicted Gaussians: ``mean(d²) / D`` (≈ 1 when calibrated).
 
     ``update(mean, cov, target)`` with mean (n, D), cov (n, D, D), target (n, D); rows with a
-    non-finite target are skipped. ``D`` must stay the same across updates.
+    non-finite target are skipped. ``D`` must stay the same across updates. Track ids play no
+    part (the rows are a tracker's tracks, one per id, as in a report).
     """
 
     def __init__(self) -> None:

@@ -38,6 +38,12 @@ class TrackingMetrics(gym.Wrapper):
     the step's ``info`` gets ``"episode_metrics"``: one flat ``dict[str, float]`` merging every
     metric's ``compute()`` (later metrics win on a shared key).
 
+    Merged detections: when the env's ``info`` has ``"detection_ids_merged"`` (every truth id
+    behind each detection row, BeltSorter-v0's touching particles), metrics whose class sets
+    ``accepts_merged_ids = True`` receive that (max_detections, K) array as ``detection_ids``
+    and count an association of a merged detection to either particle's track as correct (see
+    :mod:`track_envs.metrics.merged`); every other metric receives ``info["detection_ids"]``.
+
     Args:
         env: A tracking environment (wrapped or not).
         metrics: Streaming metrics (see :class:`track_envs.metrics.Metric`); default
@@ -49,6 +55,7 @@ class TrackingMetrics(gym.Wrapper):
         self.metrics: list[Metric] = list(metrics) if metrics is not None else default_metrics(env)
         self._truth: dict[str, NDArray] | None = None
         self._detection_ids: NDArray[np.int64] | None = None
+        self._merged_ids: NDArray[np.int64] | None = None
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
@@ -61,8 +68,10 @@ class TrackingMetrics(gym.Wrapper):
         if self._truth is None or self._detection_ids is None:
             raise RuntimeError("step() called before reset(); call env.reset(seed=...) first")
         obs, reward, terminated, truncated, info = self.env.step(action)
+        merged = self._merged_ids if self._merged_ids is not None else self._detection_ids
         for metric in self.metrics:
-            metric.update(self._truth, self._detection_ids, action)
+            ids = merged if getattr(metric, "accepts_merged_ids", False) else self._detection_ids
+            metric.update(self._truth, ids, action)
         self._keep(info)
         if terminated or truncated:
             info = dict(info)
@@ -79,3 +88,4 @@ class TrackingMetrics(gym.Wrapper):
     def _keep(self, info: dict[str, Any]) -> None:
         self._truth = info["truth"]
         self._detection_ids = info["detection_ids"]
+        self._merged_ids = info.get("detection_ids_merged")

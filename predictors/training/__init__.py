@@ -1,0 +1,9 @@
+"""Training learned motion models: data from env truth or track files, one loop, one model file.
+
+* :mod:`predictors.training.data` — tracks from an env's truth or a recorded track file, the
+  train / validation / test split by track, padding;
+* :mod:`predictors.training.loop` — the seeded Adam loop every learned model trains with;
+* :mod:`predictors.training.belt` — losses and data of the belt LSTMs.
+
+torch is imported by these modules; nothing else in :mod:`predictors` needs it to run a tracker.
+"""

@@ -1,0 +1,286 @@
+"""The ``track-train`` command: train a belt LSTM on env truth or a recorded track file.
+
+Examples::
+
+    track-train nll-lstm --env BeltSorter-v0 --env-kwargs particle_kind=cylinder --episodes 4 \\
+        --epochs 1000 --out models/nll-lstm-cylinder
+    track-train lstm --tracks my_recording.zip --dt 0.005 --epochs 300 --out models/my-lstm
+    track-train mc-lstm --env BeltSorter-v0 --episodes 2 --dropout 0.002 --out models/mc
+    track-train calibrate models/nll-lstm-cylinder --env BeltSorter-v0 --data-seed 5000 \
+        --noise-std 1e-4 --plot reliability.png
+
+The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.model_file`); pass it to a
+tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import dataclasses
+import os
+import shlex
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from predictors.belt_lstm_net import HEAD_OUTPUTS
+from predictors.model_file import ModelFile
+
+if TYPE_CHECKING:
+    from predictors.training.data import TrackSet
+
+
+def parse_kwargs(items: Sequence[str]) -> dict[str, Any]:
+    """``["a=1", "b=cylinder"]`` → ``{"a": 1, "b": "cylinder"}`` (Python literals, else strings)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"expected NAME=VALUE, got {item!r}")
+        try:
+            out[key.strip()] = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            out[key.strip()] = text
+    return out
+
+
+def _noise(text: str) -> float | tuple[float, float]:
+    lo, sep, hi = text.partition(":")
+    try:
+        return (float(lo), float(hi)) if sep else float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or LOW:HIGH, got {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``track-train``."""
+    p = argparse.ArgumentParser(
+        prog="track-train",
+        description="Train a belt LSTM motion model (lstm, nll-lstm, mc-lstm) and write a model file.",
+        epilog=__doc__.split("Examples::", 1)[1].split("The output", 1)[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("model", choices=sorted(HEAD_OUTPUTS), help="model kind (or 'calibrate', see below)")
+    _add_data_args(p)
+    p.add_argument("--min-length", type=int, default=5, help="drop tracks with fewer frames")
+    p.add_argument("--epochs", type=int, default=1000)
+    p.add_argument("--lr", type=float, default=0.01)
+    p.add_argument("--decay-every", type=int, default=200)
+    p.add_argument("--batch-size", type=int, default=None, help="tracks per step (default: all)")
+    p.add_argument("--dropout", type=float, default=0.002, help="mc-lstm dropout rate")
+    p.add_argument(
+        "--dropout-grid",
+        default=None,
+        metavar="R1,R2,...",
+        help="mc-lstm: train once per rate for --grid-epochs, keep the rate of the best validation "
+        "predictive log-likelihood, then train it fully (overrides --dropout)",
+    )
+    p.add_argument("--grid-epochs", type=int, default=100, help="epochs of each --dropout-grid run")
+    p.add_argument("--seed", type=int, default=0, help="split, initialisation, shuffling, masks")
+    p.add_argument("--device", choices=("cpu", "cuda"), default="cpu")
+    p.add_argument("--out", required=True, help="output path without suffix")
+    p.add_argument("--no-progress", action="store_true", help="no tqdm bar")
+    return p
+
+
+def build_calibrate_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``track-train calibrate``."""
+    p = argparse.ArgumentParser(
+        prog="track-train calibrate",
+        description="Refit a model file's covariance scale factor r on held-out tracks (p_des = 0.999) "
+        "and plot the reliability curves before and after.",
+    )
+    p.add_argument("model_file", help="the model file to recalibrate (rewritten in place unless --out)")
+    _add_data_args(p)
+    p.add_argument("--min-length", type=int, default=5, help="drop tracks with fewer frames")
+    p.add_argument("--seed", type=int, default=0, help="noise and mc-lstm masks")
+    p.add_argument(
+        "--plot", default=None, help="PNG of the reliability curves (default: MODEL.reliability.png)"
+    )
+    p.add_argument("--out", default=None, help="write the recalibrated model here instead")
+    return p
+
+
+def _add_data_args(p: argparse.ArgumentParser) -> None:
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--env", help="a point env whose truth gives the tracks, e.g. BeltSorter-v0")
+    src.add_argument("--tracks", help="a recorded track file (BeltReplay CSV/zip layout)")
+    p.add_argument("--env-kwargs", nargs="*", default=[], metavar="NAME=VALUE", help="env arguments")
+    p.add_argument("--episodes", type=int, default=4, help="env episodes (seeds --data-seed, +1, ...)")
+    p.add_argument("--steps", type=int, default=None, help="frames per env episode (default: whole)")
+    p.add_argument("--data-seed", type=int, default=1000, help="seed of the first env episode")
+    p.add_argument("--dt", type=float, default=None, help="frame period of --tracks, seconds")
+    p.add_argument(
+        "--noise-std",
+        type=_noise,
+        default=0.0,
+        help="noise std added to positions (sensor units), or LOW:HIGH for a per-track std drawn uniformly",
+    )
+
+
+#: ``tune(model_file_path, args) -> dict``: a post-training step for a model kind (e.g. the
+#: ``lstm`` covariance line search, which runs a tracker and so lives in :mod:`agents`); it may
+#: rewrite the model file and returns entries for the log.
+Tuner = Callable[[Path, argparse.Namespace], dict[str, Any]]
+
+
+def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | None = None) -> int:
+    """Entry point of ``track-train``; returns the exit code (2 on bad input)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        if argv[:1] == ["calibrate"]:
+            return _calibrate(build_calibrate_parser().parse_args(argv[1:]))
+        args = build_parser().parse_args(argv)
+        return _train(args, argv, (tuners or {}).get(args.model))
+    except ValueError as exc:
+        print(f"track-train: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def load_data(args: argparse.Namespace) -> TrackSet:
+    """The tracks named by the data arguments (``--env ...`` or ``--tracks FILE --dt DT``)."""
+    from predictors.training.data import tracks_from_env, tracks_from_file
+
+    if args.env:
+        return tracks_from_env(
+            args.env,
+            episodes=args.episodes,
+            seed=args.data_seed,
+            steps=args.steps,
+            **parse_kwargs(args.env_kwargs),
+        )
+    if args.dt is None:
+        raise ValueError("--tracks needs --dt (the recording's frame period in seconds)")
+    return tracks_from_file(args.tracks, dt=args.dt)
+
+
+def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int:
+    from predictors.model_file import save_model
+    from predictors.training.belt import to_model_file, train_belt_model
+    from predictors.training.data import split_tracks
+    from predictors.training.loop import TrainConfig
+    from predictors.training.model_stats import model_statistics
+
+    start = time.perf_counter()
+    data = load_data(args)
+    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
+    s = split.summary()
+    print(
+        f"{len(data)} tracks: {s['train_tracks']} train, {s['validation_tracks']} validation, "
+        f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {args.min_length} frames dropped"
+    )
+    config = TrainConfig(
+        epochs=args.epochs,
+        lr=args.lr,
+        decay_every=args.decay_every,
+        batch_size=args.batch_size,
+        seed=args.seed,
+        device=args.device,
+    )
+    dropout = args.dropout if args.model == "mc-lstm" else 0.0
+    grid = None
+    if args.dropout_grid is not None:
+        if args.model != "mc-lstm":
+            raise ValueError(f"--dropout-grid is for mc-lstm, not {args.model}")
+        dropout, grid = _grid_search(args, split, config)
+    net, features, history = train_belt_model(
+        args.model, split, config, dropout=dropout, noise_std=args.noise_std, progress=not args.no_progress
+    )
+    stats = model_statistics(net, features, split, noise_std=args.noise_std, seed=args.seed)
+    training = {
+        "command": "track-train " + shlex.join(argv),
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        "noise_std": args.noise_std,
+        "history": history.to_dict(),
+    }
+    if grid is not None:
+        training["dropout_grid"] = grid
+    model = to_model_file(
+        net,
+        features,
+        calibration=stats["calibration"],
+        mc=stats["mc"],
+        training=training,
+        data={**dict(data.description), **s},
+        metrics=stats["metrics"],
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    if tune is not None:
+        training["tuning"] = tune(sidecar_path, args)
+        model = _reload(sidecar_path)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
+    save_model(args.out, _with_meta(model, training=training))
+    m = stats["metrics"]
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean per-track "
+        f"error {m['test_mean_error']:.3g}, coverage at 0.999 {m['test_coverage_999']:.4f}"
+    )
+    return 0
+
+
+def _grid_search(args: argparse.Namespace, split: Any, config: Any) -> tuple[float, list[dict[str, float]]]:
+    from predictors.training.model_stats import dropout_grid
+
+    try:
+        rates = [float(r) for r in args.dropout_grid.split(",") if r.strip()]
+    except ValueError:
+        raise ValueError(f"--dropout-grid must be comma-separated rates, got {args.dropout_grid!r}") from None
+    if not rates or not all(0 < r < 1 for r in rates):
+        raise ValueError(f"--dropout-grid rates must be in (0, 1), got {args.dropout_grid!r}")
+    short = dataclasses.replace(config, epochs=args.grid_epochs, decay_every=max(1, args.grid_epochs // 5))
+    grid = dropout_grid(split, rates, short, noise_std=args.noise_std, seed=args.seed)
+    print("dropout grid (validation predictive log-likelihood, mean error):")
+    for row in grid:
+        ll, err = row["validation_log_likelihood"], row["validation_mean_error"]
+        print(f"  {row['dropout']:<8g} {ll:10.4f}  {err:.4g}")
+    best = max(grid, key=lambda r: r["validation_log_likelihood"])
+    print(f"chose dropout {best['dropout']:g}")
+    return float(best["dropout"]), grid
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from predictors.calibration import P_DES, coverage, fit_recalibration, plot_reliability, reliability
+    from predictors.model_file import save_model
+    from predictors.training.data import split_tracks
+    from predictors.training.model_stats import predictions_of
+
+    model = _reload(args.model_file)
+    data = load_data(args)
+    tracks = split_tracks(data, fractions=(1.0, 0.0, 0.0), seed=args.seed, min_length=args.min_length).train
+    uncalibrated = _with_meta(model, calibration={**model.meta.get("calibration", {}), "scale": 1.0})
+    before = predictions_of(uncalibrated, tracks, args.noise_std, args.seed)
+    cal = fit_recalibration(*before.flat(), p_des=P_DES)
+    scaled = _with_meta(
+        model, calibration={**model.meta.get("calibration", {}), "scale": cal.scale, "p_des": P_DES}
+    )
+    after = predictions_of(scaled, tracks, args.noise_std, args.seed)
+    plot = Path(args.plot) if args.plot else Path(str(model.path).removesuffix(".json") + ".reliability.png")
+    cover_before = coverage(before.valid_d2(), P_DES, model.dim)
+    cover_after = coverage(after.valid_d2(), P_DES, model.dim)
+    curves = {
+        f"before (r = 1, coverage@0.999 {cover_before:.4f})": reliability(*before.flat()),
+        f"after (r = {cal.scale:.3g}, coverage@0.999 {cover_after:.4f})": reliability(*after.flat()),
+    }
+    plot_reliability(curves, plot, title=f"{model.kind}: reliability on {len(tracks)} held-out tracks")
+    out = args.out or str(model.path)
+    save_model(out, scaled)
+    old = model.meta.get("calibration", {}).get("scale", 1.0)
+    print(f"r = {cal.scale:.4g} (was {old:.4g}); wrote {out} and {plot}")
+    return 0
+
+
+def _reload(path: str | os.PathLike[str]) -> ModelFile:
+    from predictors.model_file import load_model
+
+    return load_model(path)
+
+
+def _with_meta(model: ModelFile, **entries: Any) -> ModelFile:
+    return dataclasses.replace(model, meta={**model.meta, **entries})
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,338 @@
+"""Merged blobs: touching particles seen by a camera as one centroid.
+
+A camera segments the belt image into connected foreground regions and reports one centroid per
+region, so particles whose silhouettes touch give one detection, at the area-weighted centroid
+of the region, until they separate. This module finds those groups and their centroids for one
+frame, in compiled code (no per-particle Python).
+
+**Silhouettes.** Every particle kind is a *rounded rectangle*: a core rectangle of half extents
+``(a, b)`` (along the particle's axis, across it) grown by a disc of radius ``ρ`` (the Minkowski
+sum). Spheres are a point core (``a = b = 0``) with ``ρ`` the radius; cylinders lying flat and
+cuboids are their length × width box with the rounding radius of their pymunk collision shape
+(:data:`~track_envs.envs.belt_physics.BOX_ROUNDING`), so that two particles in contact in the
+physics are exactly touching silhouettes here. The area of a silhouette is
+
+.. math::
+
+    A = 4ab + 4ρ(a + b) + πρ^2 .
+
+**Touching.** Silhouettes ``i`` and ``j`` touch when the distance between their core rectangles
+is at most ``ρ_i + ρ_j + tol``; the core distance is exact (0 when the cores overlap, by the
+separating axis theorem, else the least distance of a corner of one core to the other). ``tol`` (default
+0.1 mm, about a camera pixel) absorbs pymunk's contact slop and the gap a segmentation cannot
+resolve. Only pairs whose centres are closer than the sum of the circumradii plus ``tol`` are
+tested (particles are bucketed along the belt into cells as wide as the largest such sum, and
+each is compared with the rest of its cell and the next one).
+
+**Groups** are the connected components of the touching relation (three in a row make one
+blob), found by union–find. A blob's centroid is
+
+.. math::
+
+    \\bar x = \\frac{\\sum_{i \\in G} A_i x_i}{\\sum_{i \\in G} A_i}
+
+(the centroid of the union of the silhouettes, neglecting their overlap, which the physics keeps
+below its contact slop). Its *primary* particle is the member with the largest area (ties: the
+first in input order, i.e. the lowest truth id); its members are listed largest area first.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+#: Truth ids listed per merged detection in ``info["detection_ids_merged"]``.
+MAX_MERGED = 8
+#: Default touching tolerance in metres.
+MERGE_TOLERANCE = 1e-4
+
+
+def silhouette_table(shapes: list[tuple[str, float, float]], box_rounding: float) -> NDArray[np.float64]:
+    """Per-kind silhouette parameters ``(a, b, ρ, A)`` (n_kinds, 4).
+
+    Args:
+        shapes: ``(shape, length, width)`` per kind, ``shape`` ``"circle"`` or ``"box"``.
+        box_rounding: Rounding radius ``ρ`` of box silhouettes (metres).
+    """
+    table = np.zeros((len(shapes), 4))
+    for k, (shape, length, width) in enumerate(shapes):
+        a, b, rho = (
+            (0.0, 0.0, 0.5 * length) if shape == "circle" else (0.5 * length, 0.5 * width, box_rounding)
+        )
+        table[k] = a, b, rho, 4 * a * b + 4 * rho * (a + b) + math.pi * rho * rho
+    return table
+
+
+@njit(cache=True)
+def _point_rect_sq(px: float, py: float, x: float, y: float, c: float, s: float, a: float, b: float) -> float:
+    """Squared distance from a point to the rectangle (centre, cos/sin of its angle, half extents)."""
+    u = c * (px - x) + s * (py - y)
+    v = -s * (px - x) + c * (py - y)
+    du = max(abs(u) - a, 0.0)
+    dv = max(abs(v) - b, 0.0)
+    return du * du + dv * dv
+
+
+@njit(cache=True)
+def _separated(
+    dx: float, dy: float, nx: float, ny: float,
+    ci: float, si: float, ai: float, bi: float,
+    cj: float, sj: float, aj: float, bj: float,
+) -> bool:  # fmt: skip
+    """Whether the unit axis ``n`` separates the two rectangles (centre offset ``(dx, dy)``)."""
+    hi = ai * abs(nx * ci + ny * si) + bi * abs(-nx * si + ny * ci)
+    hj = aj * abs(nx * cj + ny * sj) + bj * abs(-nx * sj + ny * cj)
+    return abs(nx * dx + ny * dy) > hi + hj
+
+
+@njit(cache=True)
+def _core_distance(
+    xi: float, yi: float, ci: float, si: float, ai: float, bi: float,
+    xj: float, yj: float, cj: float, sj: float, aj: float, bj: float,
+) -> float:  # fmt: skip
+    """:func:`core_distance` with each angle given by its cosine and sine.
+
+    Two rectangles overlap unless one of their four edge normals separates them (separating axis
+    theorem); two disjoint convex polygons have a closest pair with a vertex of one of them, so
+    their distance is the least distance of a corner of one to the other rectangle.
+    """
+    dx, dy = xj - xi, yj - yi
+    if not (
+        _separated(dx, dy, ci, si, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, -si, ci, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, cj, sj, ci, si, ai, bi, cj, sj, aj, bj)
+        or _separated(dx, dy, -sj, cj, ci, si, ai, bi, cj, sj, aj, bj)
+    ):
+        return 0.0
+    best = np.inf
+    for su in (-1.0, 1.0):
+        for sv in (-1.0, 1.0):
+            px = xj + su * aj * cj - sv * bj * sj
+            py = yj + su * aj * sj + sv * bj * cj
+            best = min(best, _point_rect_sq(px, py, xi, yi, ci, si, ai, bi))
+            px = xi + su * ai * ci - sv * bi * si
+            py = yi + su * ai * si + sv * bi * ci
+            best = min(best, _point_rect_sq(px, py, xj, yj, cj, sj, aj, bj))
+    return math.sqrt(best)
+
+
+@njit(cache=True)
+def core_distance(
+    xi: float, yi: float, ti: float, ai: float, bi: float,
+    xj: float, yj: float, tj: float, aj: float, bj: float,
+) -> float:  # fmt: skip
+    """Least distance between two rotated rectangles (centre, angle, half extents; 0 if they overlap)."""
+    return _core_distance(
+        xi, yi, math.cos(ti), math.sin(ti), ai, bi, xj, yj, math.cos(tj), math.sin(tj), aj, bj
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _find(parent: NDArray[np.int64], i: int) -> int:
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit(cache=True)
+def touching_groups(
+    positions: NDArray[np.float64],
+    angles: NDArray[np.float64],
+    kinds: NDArray[np.int64],
+    table: NDArray[np.float64],
+    tol: float,
+) -> NDArray[np.int64]:
+    """Group label of each particle (n,): the index of the first member of its touching group.
+
+    Args:
+        positions: (n, 2) centres.
+        angles: (n,) orientations (rad).
+        kinds: (n,) row of each particle in ``table``.
+        table: (n_kinds, 4) silhouettes ``(a, b, ρ, A)`` (:func:`silhouette_table`).
+        tol: Touching tolerance (see the module docstring).
+    """
+    n = len(positions)
+    parent = np.arange(n)
+    reach = np.empty(n)  # circumradius of each silhouette
+    inner = np.empty(n)  # inradius
+    cos = np.empty(n)
+    sin = np.empty(n)
+    turned = np.zeros(n, np.bool_)  # cos, sin computed (only particles in a close pair need them)
+    for i in range(n):
+        k = kinds[i]
+        reach[i] = math.sqrt(table[k, 0] ** 2 + table[k, 1] ** 2) + table[k, 2]
+        inner[i] = min(table[k, 0], table[k, 1]) + table[k, 2]
+    if n < 2:
+        return parent
+    # cells along the belt at least as wide as the largest reach of a pair: a touching pair is in
+    # one cell or in two neighbouring ones (a counting sort, no comparison sort)
+    width = 2.0 * reach.max() + tol
+    lo = positions[0, 0]
+    for i in range(n):
+        lo = min(lo, positions[i, 0])
+    cell = np.empty(n, np.int64)
+    n_cells = 1
+    for i in range(n):
+        cell[i] = int((positions[i, 0] - lo) / width)
+        n_cells = max(n_cells, cell[i] + 1)
+    start = np.zeros(n_cells + 2, np.int64)
+    for i in range(n):
+        start[cell[i] + 1] += 1
+    for c in range(n_cells + 1):
+        start[c + 1] += start[c]
+    fill = start.copy()
+    members = np.empty(n, np.int64)
+    for i in range(n):
+        members[fill[cell[i]]] = i
+        fill[cell[i]] += 1
+    for c in range(n_cells):
+        for a in range(start[c], start[c + 1]):
+            i = members[a]
+            # the rest of its own cell, then the whole next cell
+            for b in range(a + 1, start[c + 2]):
+                j = members[b]
+                dx = positions[j, 0] - positions[i, 0]
+                dy = positions[j, 1] - positions[i, 1]
+                d2 = dx * dx + dy * dy
+                if d2 > (reach[i] + reach[j] + tol) ** 2:
+                    continue
+                ki, kj = kinds[i], kinds[j]
+                touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
+                if not touch:
+                    for q in (i, j):
+                        if not turned[q]:
+                            cos[q] = math.cos(angles[q])
+                            sin[q] = math.sin(angles[q])
+                            turned[q] = True
+                    gap = _core_distance(
+                        positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
+                        positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
+                    )  # fmt: skip
+                    touch = gap <= table[ki, 2] + table[kj, 2] + tol
+                if touch:
+                    ri, rj = _find(parent, i), _find(parent, j)
+                    if ri != rj:
+                        parent[max(ri, rj)] = min(ri, rj)
+    for i in range(n):
+        parent[i] = _find(parent, i)
+    return parent
+
+
+@njit(cache=True)
+def merge_blobs(
+    positions: NDArray[np.float64],
+    ids: NDArray[np.int64],
+    angles: NDArray[np.float64],
+    kinds: NDArray[np.int64],
+    table: NDArray[np.float64],
+    tol: float,
+    max_merged: int,
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], int]:
+    """The blobs of one frame.
+
+    Args:
+        positions, angles, kinds, table, tol: As in :func:`touching_groups`.
+        ids: (n,) truth ids.
+        max_merged: Member ids kept per blob (``K``).
+
+    Returns:
+        ``(centres, primary, merged, truncated)``: area-weighted centroid (b, 2) and primary
+        truth id (b,) of every blob (singletons included, in order of their first member);
+        ``merged`` (g, K) the member ids, largest area first, −1 padded, of the ``g`` blobs with
+        two or more members, whose primary ids are ``merged[:, 0]``; ``truncated`` the member ids
+        left out of ``merged`` because a blob had more than ``K``.
+    """
+    n = len(positions)
+    label = touching_groups(positions, angles, kinds, table, tol)
+    size = np.zeros(n, np.int64)
+    for i in range(n):
+        size[label[i]] += 1
+    slot = np.full(n, -1, np.int64)
+    n_blobs = 0
+    n_merged = 0
+    for i in range(n):
+        if label[i] == i:
+            slot[i] = n_blobs
+            n_blobs += 1
+            if size[i] > 1:
+                n_merged += 1
+    centres = np.zeros((n_blobs, 2))
+    weight = np.zeros(n_blobs)
+    primary = np.full(n_blobs, -1, np.int64)
+    best = np.full(n_blobs, -1.0)
+    for i in range(n):
+        b = slot[label[i]]
+        area = table[kinds[i], 3]
+        if size[label[i]] == 1:  # a lone particle's centroid is its centre, bit for bit
+            centres[b, 0] = positions[i, 0]
+            centres[b, 1] = positions[i, 1]
+            weight[b] = 1.0
+        else:
+            centres[b, 0] += area * positions[i, 0]
+            centres[b, 1] += area * positions[i, 1]
+            weight[b] += area
+        if area > best[b]:
+            best[b] = area
+            primary[b] = ids[i]
+    for b in range(n_blobs):
+        centres[b, 0] /= weight[b]
+        centres[b, 1] /= weight[b]
+    merged = np.full((n_merged, max_merged), -1, np.int64)
+    merged_area = np.zeros((n_merged, max_merged))
+    row = np.full(n, -1, np.int64)
+    g = 0
+    for i in range(n):
+        if label[i] == i and size[i] > 1:
+            row[i] = g
+            g += 1
+    truncated = 0
+    for i in range(n):
+        r = row[label[i]]
+        if r < 0:
+            continue
+        area = table[kinds[i], 3]
+        # insertion into the row, largest area first, stable for equal areas
+        at = 0
+        while at < max_merged and merged[r, at] >= 0 and merged_area[r, at] >= area:
+            at += 1
+        if at == max_merged:
+            truncated += 1
+            continue
+        if merged[r, max_merged - 1] >= 0:
+            truncated += 1
+        for k in range(max_merged - 1, at, -1):
+            merged[r, k] = merged[r, k - 1]
+            merged_area[r, k] = merged_area[r, k - 1]
+        merged[r, at] = ids[i]
+        merged_area[r, at] = area
+    return centres, primary, merged, truncated
+
+
+@njit(cache=True)
+def merged_rows(
+    detection_ids: NDArray[np.int64], merged: NDArray[np.int64], max_merged: int
+) -> NDArray[np.int64]:
+    """``info["detection_ids_merged"]`` (max_detections, K): each detection row's truth ids.
+
+    Column 0 is ``detection_ids``; a row whose id is the primary of a merged blob (``merged[g, 0]``)
+    lists the blob's members; every other entry is −1.
+    """
+    m = len(detection_ids)
+    out = np.full((m, max_merged), -1, np.int64)
+    order = np.argsort(merged[:, 0])
+    primaries = merged[order, 0]
+    for r in range(m):
+        d = detection_ids[r]
+        out[r, 0] = d
+        if d < 0 or len(primaries) == 0:
+            continue
+        at = np.searchsorted(primaries, d)
+        if at < len(primaries) and primaries[at] == d:
+            g = order[at]
+            for k in range(1, max_merged):
+                out[r, k] = merged[g, k]
+    return out
