@@ -6,33 +6,55 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
 2. **gate and associate**: squared Mahalanobis costs, χ² gate at ``p_gate``, Hungarian (or greedy)
    assignment with a per-track miss cost (:mod:`agents.association`);
    Tracks and detections left over get a second chance with every predicted covariance scaled by
-   ``recovery_inflation``, so that a particle kicked out of its gate by a collision keeps its track;
+   ``recovery_inflation``, so that a particle kicked out of its gate by a collision keeps its track.
+   The second chance is capped in distance: a leftover track may only take a detection within
+
+   .. math::
+
+       r = k_u \\, u + k_σ \\, σ, \\qquad u = \\max(\\lVert \\bar v \\rVert \\, dt,\\;
+           \\operatorname{median}_i \\lVert ŷ_i - x̂_i \\rVert)
+
+   of its prediction, where ``u`` is the stream's motion per frame (the speed of the velocity
+   prior ``v̄``, or the median predicted displacement of the live tracks when larger), ``σ`` the
+   sensor's noise std and ``k_u = recovery_cap_motion``, ``k_σ = recovery_cap_noise``: an inflated
+   gate of a coasting track grows with every miss, and without the cap it reaches far past the
+   particles next to it;
 3. **update / coast**: assigned tracks are corrected with their detection, the others coast;
 4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks that were not
    updated and whose predicted measurement has left the observed region (grown by ``region_margin``);
 5. **initiate**: a new track from every detection left unassigned. Its velocity prior is learnt
-   online (``velocity_prior="auto"``): the median and spread of the frame-to-frame velocities of
-   young tracks (updated 3–6 times in a row), smoothed over frames — on a belt this is the flow
-   where particles enter, so a track's second measurement is predicted where the flow takes it.
+   online (``velocity_prior="auto"``): every frame, each young track (updated 3–6 times in a row)
+   gives one sample, its frame-to-frame velocity; the last ``FLOW_WINDOW`` samples, over as many
+   frames as it takes to collect them, give the prior's median ``v̄`` and robust variance
+   ``(1.4826 MAD)²`` (re-estimated with every new sample while there are few, every
+   ``FLOW_WINDOW / 8`` samples once the window is full). On a belt this is the flow where
+   particles enter, so a track's second measurement is predicted where the flow takes it. The
+   prior forms from ``MIN_FLOW_SAMPLES`` samples, i.e. from the first track that was updated a
+   few times, so a sparse stream (one particle at a time) has it as early as a dense one. Until
+   then new tracks start from ``velocity_fallback`` when given (e.g. the belt speed), else from
+   the predictor's default. :attr:`GnnAgent.velocity_prior_state` shows the prior.
 
 The report holds every live track at its current (posterior) estimate, and the detection row it
 was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections:
-with the Kalman predictors, the filter steps, the gated costs and the per-track bookkeeping are
-each one compiled loop (numba: :mod:`predictors._kalman_kernels`,
-:mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`), so a frame is a few dozen calls
-whatever the number of tracks.
+with the Kalman predictors, the filter steps, the start states, the gated costs, the
+second-chance costs and the per-track bookkeeping are each one compiled loop (numba:
+:mod:`predictors._kalman_kernels`, :mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`),
+so a frame is a few dozen calls whatever the number of tracks. The kernels compile (or load from
+numba's cache) on first use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny
+synthetic input, so that a live stream does not pause on its first frames.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents import _gnn_kernels as _kernels
-from agents.association import ASSOCIATORS, chi2_gate
+from agents.association import ASSIGNERS, ASSOCIATORS, chi2_gate
 from predictors import PREDICTORS, available_predictors, make_predictor
 from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
@@ -42,8 +64,29 @@ from track_envs.types import Gaussian, SensorSpec
 
 #: Update streaks (consecutive updates) of the young tracks the velocity prior is learnt from.
 YOUNG_STREAK = (3, 6)
-#: Fewest young tracks in a frame for it to update the velocity prior.
-MIN_YOUNG_TRACKS = 3
+#: Velocity samples (one per young track and frame) the learnt prior is taken over, newest first.
+FLOW_WINDOW = 128
+#: Fewest samples for the learnt prior to be used.
+MIN_FLOW_SAMPLES = 3
+
+
+@dataclass(frozen=True)
+class VelocityPriorState:
+    """The velocity prior new tracks start from (read-only copy).
+
+    Attributes:
+        mean: (D,) prior velocity ``v̄``, or None when new tracks start from the predictor's default.
+        variance: (D,) robust variance of the samples per axis (before the widening applied at a
+            track's start), or None.
+        n_samples: Velocity samples in the learnt estimate (0 when not learning).
+        source: ``"learnt"``, ``"fallback"`` (``velocity_fallback`` until enough samples),
+            ``"fixed"`` (a given ``velocity_prior``) or ``"none"``.
+    """
+
+    mean: NDArray[np.float64] | None
+    variance: NDArray[np.float64] | None
+    n_samples: int
+    source: str
 
 
 def _build_predictor(agent: type, predictor: Any, kwargs: dict[str, Any]) -> Any:
@@ -94,6 +137,14 @@ class GnnAgent:
             predictor's own default) or a fixed velocity (D,).
         recovery_inflation: Covariance scale of the second-chance association of leftover tracks
             and detections (1 turns it off).
+        velocity_fallback: With ``velocity_prior="auto"``, the velocity (D,) new tracks start from
+            until the prior is learnt (e.g. the belt speed); None: the predictor's default.
+        recovery_cap_motion: ``k_u``, the second-chance jump cap in multiples of the stream's
+            motion per frame (see the module docstring), >= 0. The default 3 lets a track that
+            coasted a few frames behind or ahead of its particle (a new track whose first velocity
+            was off, a kick) take it back, and keeps it from jumping tens of millimetres onto
+            another particle (at 1 m/s and 200 Hz: 15 mm).
+        recovery_cap_noise: ``k_σ``, the cap's allowance in multiples of the sensor noise std, >= 0.
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
             :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
@@ -109,6 +160,9 @@ class GnnAgent:
         region_margin: float = 0.0,
         velocity_prior: str | NDArray | None = "auto",
         recovery_inflation: float = 25.0,
+        velocity_fallback: NDArray | None = None,
+        recovery_cap_motion: float = 3.0,
+        recovery_cap_noise: float = 5.0,
         **predictor_kwargs: Any,
     ):
         if assignment not in ASSOCIATORS:
@@ -123,15 +177,28 @@ class GnnAgent:
             )
         self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
         self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
+        self._predictor_arg, self._predictor_kwargs = predictor, predictor_kwargs
         self.p_gate = p_gate
         self.assignment = assignment
         self._associate = ASSOCIATORS[assignment]
+        self._assign = ASSIGNERS[assignment]
         self.max_misses = max_misses
         self.region_margin = region_margin
         self.velocity_prior = velocity_prior
         if not (np.isfinite(recovery_inflation) and recovery_inflation >= 1.0):
             raise ValueError(f"recovery_inflation must be a finite number >= 1, got {recovery_inflation!r}")
         self.recovery_inflation = float(recovery_inflation)
+        for name, value in (
+            ("recovery_cap_motion", recovery_cap_motion),
+            ("recovery_cap_noise", recovery_cap_noise),
+        ):
+            if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        self.recovery_cap_motion = float(recovery_cap_motion)
+        self.recovery_cap_noise = float(recovery_cap_noise)
+        self.velocity_fallback = (
+            None if velocity_fallback is None else np.asarray(velocity_fallback, np.float64)
+        )
         self._gate = chi2_gate(p_gate, 1)  # re-derived for the sensor's dimension in reset()
         self._spec: SensorSpec | None = None
 
@@ -147,14 +214,30 @@ class GnnAgent:
         self._misses = np.zeros(0, dtype=np.int64)
         self._streak = np.zeros(0, dtype=np.int64)
         self._last = np.zeros((0, spec.dim))
+        self._detection_rows = np.zeros(0, dtype=np.int64)
         self._next_id = 0
         self._flow_mean: NDArray | None = None
         self._flow_var: NDArray | None = None
+        self._flow_speed = 0.0
+        self._birth_cov: NDArray | None = None
+        self._learning = isinstance(self.velocity_prior, str)
+        self._flow_samples = np.zeros((FLOW_WINDOW, spec.dim))
+        self._n_flow_samples = 0
+        self._flow_head = 0
+        self._flow_fresh = 0
         if self.velocity_prior is not None and not isinstance(self.velocity_prior, str):
             v = np.asarray(self.velocity_prior, dtype=np.float64)
             if v.shape != (spec.dim,):
                 raise ValueError(f"velocity_prior must have shape ({spec.dim},), got {v.shape}")
-            self._flow_mean = v
+            self._set_flow(v, None)
+        elif self._learning and self.velocity_fallback is not None:
+            if self.velocity_fallback.shape != (spec.dim,) or not np.all(np.isfinite(self.velocity_fallback)):
+                raise ValueError(
+                    f"velocity_fallback must be a finite vector of shape ({spec.dim},), "
+                    f"got {self.velocity_fallback.tolist()}"
+                )
+            self._set_flow(self.velocity_fallback.copy(), None)
+        self._noise = max(float(spec.noise_std), 1e-6)  # the predictors' floor R >= (1 µm)²
         lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
         hi = np.asarray(spec.region_high, dtype=np.float64) + self.region_margin
         self._region = (lo, hi)
@@ -167,6 +250,58 @@ class GnnAgent:
         """Live tracks."""
         return len(self._ids)
 
+    @property
+    def velocity_prior_state(self) -> VelocityPriorState:
+        """The velocity prior new tracks start from now: mean, spread, samples and where it comes from."""
+        if self._spec is None:
+            raise RuntimeError("velocity_prior_state needs reset(spec) first")
+        if not self._learning:
+            source = "none" if self._flow_mean is None else "fixed"
+        elif self._n_flow_samples >= MIN_FLOW_SAMPLES:
+            source = "learnt"
+        else:
+            source = "none" if self._flow_mean is None else "fallback"
+        return VelocityPriorState(
+            mean=None if self._flow_mean is None else self._flow_mean.copy(),
+            variance=None if self._flow_var is None else self._flow_var.copy(),
+            n_samples=self._n_flow_samples,
+            source=source,
+        )
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel a frame can use, on a tiny synthetic stream.
+
+        The first frames of a new process that start, associate or recover tracks otherwise pause
+        for tens of milliseconds while the kernels load — frames a live sorter would drop. Call
+        this once before the stream starts; it runs a throwaway copy of this tracker (same
+        arguments, a copy of the predictor) and leaves this one untouched.
+        """
+        import copy
+
+        predictor = (
+            self._predictor_arg
+            if isinstance(self._predictor_arg, str)
+            else copy.deepcopy(self._predictor_arg)
+        )
+        twin = GnnAgent(
+            predictor,
+            p_gate=self.p_gate,
+            assignment=self.assignment,
+            max_misses=self.max_misses,
+            region_margin=self.region_margin,
+            velocity_prior=self.velocity_prior,
+            recovery_inflation=self.recovery_inflation,
+            velocity_fallback=self.velocity_fallback,
+            recovery_cap_motion=self.recovery_cap_motion,
+            recovery_cap_noise=self.recovery_cap_noise,
+            **self._predictor_kwargs,
+        )
+        dim = self._spec.dim if self._spec is not None else 2
+        spec, frames = _warm_up_stream(dim)
+        twin.reset(spec)
+        for obs in frames:
+            twin.act(obs)
+
     # -- one frame ----------------------------------------------------------------------------
     def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
         """Consume one observation and report the live tracks."""
@@ -177,110 +312,214 @@ class GnnAgent:
         m = len(z)
         n = len(self._ids)
         if n == 0:
-            new = np.arange(m)
-            detection_rows = rows
-        else:
-            self._state, prediction = self.predictor.predict(self._state)
-            self.last_prediction = prediction
-            det_of_track = np.full(n, -1, dtype=np.int64)
-            track_rows, det_cols = self._associate(prediction, z, self._gate)
-            det_of_track[track_rows] = det_cols
-            if len(track_rows) < min(n, m):  # tracks and detections left over on both sides
-                self._recover(prediction, z, det_of_track)
-            seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
-                det_of_track,
-                self._misses,
-                self._streak,
-                np.ascontiguousarray(prediction.mean, dtype=np.float64),
-                self._region[0],
-                self._region[1],
-                self.max_misses,
-                YOUNG_STREAK,
-                m,
-            )
-            # rows of coasting tracks (detection −1) are never read by the update
-            z_tracks = z[det_of_track] if m else np.zeros((n, spec.dim))
-            self._state = self.predictor.update(self._state, z_tracks, seen)
-            # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
-            # and the observation row it was then updated with (-1: coasted)
-            self.last_prediction_ids = self._ids.copy()
-            self.last_prediction_detection = _observation_rows(det_of_track, rows)
-            estimate = np.asarray(self.predictor.estimate(self._state).mean)
-            if n_young >= MIN_YOUNG_TRACKS:
-                self._learn_flow(estimate, young)
-            detection_rows = self.last_prediction_detection
-            if n_keep < n:
-                self._state = self._state.take(keep)
-                self._ids, self._misses, self._streak = (
-                    self._ids[keep],
-                    self._misses[keep],
-                    self._streak[keep],
-                )
-                detection_rows, estimate = detection_rows[keep], estimate[keep]
-            self._last = estimate
-            if len(new):
-                detection_rows = np.concatenate([detection_rows, rows[new]])
-        if len(new):
-            self._initiate(z[new])
-        return pack_report(self._ids, self._last, detection_rows, spec.max_tracks)
+            self._initiate(z, rows, np.zeros(0, dtype=np.bool_), 0, np.zeros(0, dtype=np.int64), self._last)
+            return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
+        self._state, prediction = self.predictor.predict(self._state)
+        self.last_prediction = prediction
+        det_of_track = self.associate(prediction, z)
+        predicted = np.ascontiguousarray(prediction.mean, dtype=np.float64)
+        seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
+            det_of_track,
+            self._misses,
+            self._streak,
+            predicted,
+            self._region[0],
+            self._region[1],
+            self.max_misses,
+            YOUNG_STREAK,
+            m,
+        )
+        # rows of coasting tracks (detection −1) are never read by the update
+        z_tracks = z[det_of_track] if m else np.zeros((n, spec.dim))
+        self._state = self.predictor.update(self._state, z_tracks, seen)
+        # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
+        # and the observation row it was then updated with (-1: coasted)
+        self.last_prediction_ids = self._ids
+        self.last_prediction_detection = _observation_rows(det_of_track, rows)
+        estimate = self._estimate_mean(self._state)
+        if n_young and self._learning:
+            self._learn_flow(estimate, young)
+        self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
+        return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
+
+    def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
+        """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``
+        when it has one, which skips the covariance)."""
+        mean_only = getattr(self.predictor, "estimate_mean", None)
+        mean = mean_only(state) if mean_only is not None else self.predictor.estimate(state).mean
+        return np.ascontiguousarray(mean, dtype=np.float64)
+
+    def associate(self, prediction: Gaussian, z: NDArray[np.float64]) -> NDArray[np.int64]:
+        """The detection index of every track this frame (−1: none): gate and assign, then the
+        capped second chance of the leftovers (see the module docstring).
+
+        Args:
+            prediction: Predicted measurements of the ``n`` live tracks.
+            z: (m, D) detections.
+
+        Returns:
+            (n,) int64 detection index per track.
+        """
+        n, m = len(prediction.mean), len(z)
+        det_of_track = np.full(n, -1, dtype=np.int64)
+        track_rows, det_cols = self._associate(prediction, z, self._gate)
+        det_of_track[track_rows] = det_cols
+        if len(track_rows) < min(n, m) and self.recovery_inflation > 1.0:
+            self._recover(prediction, z, det_of_track)
+        return det_of_track
 
     def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
         """Second-chance association of the tracks and detections left over, with inflated gates.
 
         A collision or a kick moves a particle outside its track's gate; before that detection
         starts a new track, the leftovers are matched once more with every predicted covariance
-        scaled by ``recovery_inflation`` (in place on ``det_of_track``). Called when there are
-        leftovers on both sides.
+        scaled by ``recovery_inflation``, among the pairs within the distance cap ``r`` of each
+        other (module docstring; :func:`agents._gnn_kernels.recovery_costs`), in place on
+        ``det_of_track``. Called when there are leftovers on both sides.
         """
-        if self.recovery_inflation <= 1.0:
+        assert self._spec is not None
+        tracks, dets, cost, n_admissible, bad, _ = _kernels.recovery_costs(
+            np.ascontiguousarray(prediction.mean, dtype=np.float64),
+            np.ascontiguousarray(prediction.cov, dtype=np.float64),
+            z,
+            det_of_track,
+            self.recovery_inflation,
+            self._gate,
+            self._last,
+            self._flow_speed * self._spec.dt if self._flow_mean is not None else 0.0,
+            self.recovery_cap_motion,
+            self.recovery_cap_noise * self._noise,
+        )
+        if bad >= 0:
+            raise np.linalg.LinAlgError(f"predicted covariance S of track {bad} is not positive definite")
+        if n_admissible == 0:
             return
-        used = np.zeros(len(z), dtype=bool)
-        used[det_of_track[det_of_track >= 0]] = True
-        tracks = np.flatnonzero(det_of_track < 0)
-        dets = np.flatnonzero(~used)
-        loose = Gaussian(prediction.mean[tracks], prediction.cov[tracks] * self.recovery_inflation)
-        rows, cols = self._associate(loose, z[dets], self._gate)
+        rows, cols = self._assign(cost, self._gate)
         det_of_track[tracks[rows]] = dets[cols]
 
-    def _initiate(self, z: NDArray[np.float64]) -> None:
-        """New tracks at detections ``z`` (k, D), with the learnt velocity prior when there is one."""
-        k = len(z)
-        if self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None:
-            mean = np.broadcast_to(self._flow_mean, z.shape).copy()
-            cov = None
-            if self._flow_var is not None:
-                # the spread of young tracks, doubled, with a floor of 10% of the flow speed: the
-                # prior must admit the particle that deviates, not just the typical one
-                var = 4.0 * self._flow_var + (0.1 * np.linalg.norm(self._flow_mean)) ** 2
-                cov = np.broadcast_to(np.diag(var), (k, len(var), len(var))).copy()
-            born = self.predictor.start(z, velocity=mean, velocity_cov=cov)
-        else:
-            born = self.predictor.start(z)
-        self._state = (
-            born if self._state is None or self.n_tracks == 0 else type(born).concat([self._state, born])
+    def _initiate(
+        self,
+        z_new: NDArray[np.float64],
+        rows_new: NDArray[np.intp],
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        detection_rows: NDArray[np.int64],
+        estimate: NDArray[np.float64],
+    ) -> None:
+        """The kept tracks (``keep``) and new tracks at detections ``z_new`` (k, D), with the
+        velocity prior when there is one: states, ids, counters, estimates, detection rows."""
+        k = len(z_new)
+        prior = self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None
+        velocity, velocity_cov = (self._flow_mean, self._birth_cov) if prior else (None, None)
+        fused = getattr(self.predictor, "survivors_and_births", None)
+        if self._state is not None and fused is not None:
+            if k or n_keep < len(keep):
+                self._state = fused(self._state, keep, n_keep, z_new, velocity, velocity_cov)
+        elif k:
+            if n_keep < len(keep):
+                self._state = self._state.take(keep)
+            if velocity is not None:
+                born = self.predictor.start(
+                    z_new,
+                    velocity=np.broadcast_to(velocity, z_new.shape),
+                    velocity_cov=None
+                    if velocity_cov is None
+                    else np.broadcast_to(velocity_cov, (k, *velocity_cov.shape)),
+                )
+            else:
+                born = self.predictor.start(z_new)
+            self._state = (
+                born if self._state is None or n_keep == 0 else type(born).concat([self._state, born])
+            )
+        elif n_keep < len(keep):
+            self._state = self._state.take(keep)
+        if k == 0 and n_keep == len(keep):  # nobody born, nobody deleted
+            self._last, self._detection_rows = estimate, detection_rows
+            return
+        self._ids, self._misses, self._streak, self._last, self._detection_rows = (
+            _kernels.survivors_and_births(
+                keep,
+                n_keep,
+                self._ids,
+                self._misses,
+                self._streak,
+                estimate,
+                detection_rows,
+                np.ascontiguousarray(z_new, dtype=np.float64),
+                np.asarray(rows_new, dtype=np.int64),
+                self._next_id,
+            )
         )
-        self._ids = np.concatenate([self._ids, np.arange(self._next_id, self._next_id + k, dtype=np.int64)])
         self._next_id += k
-        self._misses = np.concatenate([self._misses, np.zeros(k, dtype=np.int64)])
-        self._streak = np.concatenate([self._streak, np.ones(k, dtype=np.int64)])
-        self._last = np.concatenate([self._last, z])
 
     def _learn_flow(self, estimate: NDArray[np.float64], young: NDArray[np.bool_]) -> None:
-        """Update the velocity prior from the ``young`` tracks (updated 3–6 frames in a row).
+        """Add the velocities of the ``young`` tracks (updated 3–6 frames in a row) to the prior's
+        samples, and re-estimate the prior once there are ``MIN_FLOW_SAMPLES``.
 
         New tracks are born where young tracks were born a few frames ago, so the velocities of
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
         """
-        learning = isinstance(self.velocity_prior, str) and self.velocity_prior == "auto"
-        if not learning or self._spec is None:
-            return
-        v = (estimate[young] - self._last[young]) / self._spec.dt
-        median, spread = _kernels.median_and_mad_variance(np.ascontiguousarray(v, dtype=np.float64))
-        if self._flow_mean is None or self._flow_var is None:
-            self._flow_mean, self._flow_var = median, spread
-        else:
-            self._flow_mean = 0.9 * self._flow_mean + 0.1 * median
-            self._flow_var = 0.9 * self._flow_var + 0.1 * spread
+        assert self._spec is not None
+        self._n_flow_samples, self._flow_head, self._flow_fresh, median, variance, updated = (
+            _kernels.learn_flow(
+                self._flow_samples,
+                self._n_flow_samples,
+                self._flow_head,
+                self._flow_fresh,
+                estimate,
+                self._last,
+                young,
+                self._spec.dt,
+                MIN_FLOW_SAMPLES,
+            )
+        )
+        if updated:
+            self._set_flow(median, variance)
+
+    def _set_flow(self, mean: NDArray[np.float64], variance: NDArray[np.float64] | None) -> None:
+        """Set the velocity prior and what new tracks start from: mean ``v̄`` and, with a spread,
+        the covariance ``diag(4 σ² + (0.1 ‖v̄‖)²)`` — the spread of young tracks doubled, with a
+        floor of 10% of the flow speed: the prior must admit the particle that deviates, not just
+        the typical one."""
+        self._flow_mean, self._flow_var = mean, variance
+        self._flow_speed = float(np.sqrt(mean @ mean))
+        self._birth_cov = (
+            None if variance is None else np.diag(4.0 * variance + (0.1 * self._flow_speed) ** 2)
+        )
+
+
+def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
+    """A few frames that run every path of a frame: births, lone and competing pairs, the
+    second chance, coasting, deletions and an empty frame (for :meth:`GnnAgent.warm_up`)."""
+    dt = 0.01
+    spec = SensorSpec(
+        dt=dt,
+        dim=dim,
+        noise_std=1e-4,
+        p_detect=1.0,
+        clutter_rate=0.0,
+        region_low=(0.0,) * dim,
+        region_high=(1.0,) * dim,
+        max_detections=8,
+        max_tracks=16,
+    )
+    start = np.full((5, dim), 0.1)
+    start[:, -1] = [0.1, 0.5, 0.9, 0.3, 0.3003]  # the last two compete for each other's detections
+    velocity = np.zeros(dim)
+    velocity[0] = 1.0
+    frames: list[dict[str, NDArray]] = []
+    for t in range(9):
+        z = start + t * dt * velocity
+        if t == 6:
+            z[0, 0] += 0.003  # out of its gate, within the second chance
+        if t == 8:
+            z = z[:0]
+        det = np.zeros((spec.max_detections, dim), np.float32)
+        mask = np.zeros(spec.max_detections, np.int8)
+        det[: len(z)], mask[: len(z)] = z, 1
+        frames.append({"detections": det, "mask": mask})
+    frames += [frames[-1]] * (2 + 1)  # coast until deleted, then a frame without tracks
+    return spec, frames
 
 
 def _observation_rows(det_index: NDArray[np.int64], rows: NDArray[np.intp]) -> NDArray[np.int64]:

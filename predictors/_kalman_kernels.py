@@ -29,6 +29,10 @@ from track_envs.types import FloatArray
 UPDATE_OK = 0
 UPDATE_NONFINITE_Z = 1
 UPDATE_NOT_PD = 2
+#: Status codes of :func:`keep_and_start_tracks`.
+START_OK = 0
+START_BAD_KEEP = 1
+START_NONFINITE_VELOCITY = 2
 
 
 @njit(inline="always")
@@ -271,3 +275,99 @@ def update_tracks(
     if bad >= 0:
         return mean_u, cov_u, UPDATE_NOT_PD, bad
     return mean_u, cov_u, UPDATE_OK, -1
+
+
+@njit(cache=True)
+def start_tracks(
+    z: FloatArray, P0: FloatArray, velocity: FloatArray, velocity_cov: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """States of ``n`` new tracks: ``x = [z, v, 0]``, ``P = P0`` with its velocity block replaced.
+
+    Args:
+        z: (n, D) first measurements.
+        P0: (S, S) covariance of a new track (``blockdiag(R, σ_v² I, σ_a² I)``).
+        velocity: (n, D) velocity means, or (0, D) for zeros.
+        velocity_cov: (n, D, D) velocity covariances, or (0, D, D) to keep ``P0``'s block.
+
+    Returns:
+        ``(mean (n, S), cov (n, S, S))``.
+    """
+    n, D = z.shape
+    S = P0.shape[0]
+    mean = np.zeros((n, S))
+    cov = np.empty((n, S, S))
+    has_v = velocity.shape[0] == n and S > D
+    has_vc = velocity_cov.shape[0] == n and S > D
+    for t in range(n):
+        for d in range(D):
+            mean[t, d] = z[t, d]
+            if has_v:
+                mean[t, D + d] = velocity[t, d]
+        for i in range(S):
+            for j in range(S):
+                cov[t, i, j] = P0[i, j]
+        if has_vc:
+            for i in range(D):
+                for j in range(D):
+                    cov[t, D + i, D + j] = velocity_cov[t, i, j]
+    return mean, cov
+
+
+@njit(cache=True)
+def keep_and_start_tracks(
+    mean: FloatArray,
+    cov: FloatArray,
+    keep: NDArray[np.bool_],
+    n_keep: int,
+    z: FloatArray,
+    P0: FloatArray,
+    velocity: FloatArray,
+    velocity_cov: FloatArray,
+) -> tuple[FloatArray, FloatArray, int]:
+    """The tracks with ``keep`` True (in order), followed by new tracks at ``z``: one pass for
+    ``concat([state.take(keep), start(z, ...)])``.
+
+    Args:
+        mean, cov: (n, S) and (n, S, S) states of the live tracks.
+        keep: (n,) survivors; n_keep: their number.
+        z, P0, velocity, velocity_cov: as in :func:`start_tracks` (``velocity`` (D,) or (0,),
+            ``velocity_cov`` (D, D) or (0, 0): the same prior for every new track).
+
+    Returns:
+        ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
+        :data:`START_OK`, :data:`START_BAD_KEEP` (``keep`` does not hold ``n_keep`` True) or
+        :data:`START_NONFINITE_VELOCITY` (the arrays are then not meaningful).
+    """
+    k, D = z.shape
+    S = P0.shape[0]
+    total = n_keep + k
+    out_mean = np.zeros((total, S))
+    out_cov = np.empty((total, S, S))
+    count = 0
+    for i in range(keep.shape[0]):
+        count += keep[i]
+    if count != n_keep:
+        return out_mean, out_cov, START_BAD_KEEP
+    for d in range(velocity.shape[0]):
+        if not np.isfinite(velocity[d]):
+            return out_mean, out_cov, START_NONFINITE_VELOCITY
+    t = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            out_mean[t] = mean[i]
+            out_cov[t] = cov[i]
+            t += 1
+    has_v = velocity.shape[0] == D and S > D
+    has_vc = velocity_cov.shape[0] == D and S > D
+    for b in range(k):
+        for d in range(D):
+            out_mean[t, d] = z[b, d]
+            if has_v:
+                out_mean[t, D + d] = velocity[d]
+        out_cov[t] = P0
+        if has_vc:
+            for i in range(D):
+                for j in range(D):
+                    out_cov[t, D + i, D + j] = velocity_cov[i, j]
+        t += 1
+    return out_mean, out_cov, START_OK

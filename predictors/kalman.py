@@ -9,7 +9,10 @@ The pure functions :func:`kf_predict`, :func:`kf_update` and :func:`measurement_
 on ``n`` tracks at once, each one compiled loop over the tracks (:mod:`predictors._kalman_kernels`,
 no Python per track); :class:`KalmanPredictor` wraps the same kernels in the
 :class:`~predictors.base.Predictor` protocol, its ``predict`` fusing the prediction and the
-predicted measurement into one call.
+predicted measurement into one call. New tracks' states are compiled too
+(:func:`~predictors._kalman_kernels.start_tracks`), and
+:meth:`KalmanPredictor.survivors_and_births` gives ``concat([state.take(keep), start(z)])`` in
+one pass, which a tracker may call instead of the three (the GNN does when a predictor has it).
 """
 
 from __future__ import annotations
@@ -352,6 +355,13 @@ class KalmanPredictor:
         self.F, self.Q, self.H = _f64(F), _f64(Q), _f64(H)
         self.R: FloatArray = np.eye(D) * max(spec.noise_std**2, R_FLOOR)
         self._no_noise = np.zeros((D, D))
+        # covariance of a new track, blockdiag(R, σ_v² I_D, σ_a² I_D) (the blocks the model has)
+        stds2 = [self.initial_velocity_std**2, self.initial_acceleration_std**2][: self.order - 1]
+        self._P0 = np.diag(np.concatenate([np.zeros(D), *[np.full(D, s) for s in stds2]]))
+        self._P0[:D, :D] = self.R
+        self._no_velocity = np.zeros((0, D))
+        self._no_velocity_cov = np.zeros((0, D, D))
+        self._no_prior, self._no_prior_cov = np.zeros(0), np.zeros((0, 0))
         self.dim = D
         self.state_dim = self.order * D
         self._spec = spec
@@ -402,26 +412,72 @@ class KalmanPredictor:
         if not np.all(np.isfinite(zz)):
             raise ValueError("z must be finite in start")
         n, D = zz.shape[0], self.dim
-        mean = np.zeros((n, self.state_dim))
-        mean[:, :D] = zz
-        if self.order >= 2 and self._v0 is not None:
-            mean[:, D : 2 * D] = self._v0
-        stds2 = [self.initial_velocity_std**2, self.initial_acceleration_std**2][: self.order - 1]
-        diag = np.concatenate([np.zeros(D), *[np.full(D, s) for s in stds2]])
-        P0 = np.diag(diag)
-        P0[:D, :D] = self.R
-        cov = np.broadcast_to(P0, (n, *P0.shape)).copy()
+        v = self._no_velocity
         if self.order >= 2 and velocity is not None:
             v = self._check_z(velocity, n)
             if not np.all(np.isfinite(v)):
                 raise ValueError("velocity must be finite in start")
-            mean[:, D : 2 * D] = v
+        elif self.order >= 2 and self._v0 is not None:
+            v = np.broadcast_to(self._v0, (n, D))
+        vc = self._no_velocity_cov
         if self.order >= 2 and velocity_cov is not None:
             vc = np.asarray(velocity_cov, dtype=np.float64)
             if vc.shape != (n, D, D):
                 raise ValueError(f"velocity_cov must have shape ({n}, {D}, {D}), got {vc.shape}")
-            cov[:, D : 2 * D, D : 2 * D] = vc
+        mean, cov = _kernels.start_tracks(_f64(zz), self._P0, _f64(v), _f64(vc))
         return KalmanState(mean=mean, cov=cov)
+
+    def survivors_and_births(
+        self,
+        state: KalmanState,
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        z: NDArray[np.floating],
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> KalmanState:
+        """``concat([state.take(keep), start(z, velocity, velocity_cov)])`` in one compiled pass,
+        with one velocity prior for all new tracks.
+
+        Args:
+            state: The live tracks (n).
+            keep: (n,) boolean, the survivors; n_keep: their number.
+            z: First measurements of the new tracks, (k, D), finite.
+            velocity: Optional velocity prior mean (D,) of every new track; None: ``initial_velocity``.
+            velocity_cov: Optional velocity prior covariance (D, D); None: ``initial_velocity_std``.
+        """
+        self._need_reset()
+        mean, cov = self._check_state(state)
+        D = self.dim
+        mask = np.ascontiguousarray(keep)
+        if mask.shape != (len(mean),) or mask.dtype != np.bool_:
+            raise ValueError(
+                f"keep must be a boolean array of shape ({len(mean)},), got {mask.dtype} {mask.shape}"
+            )
+        zz = _f64(self._check_z(z, None))
+        v = self._v0 if velocity is None else _f64(velocity)
+        if v is None or self.order < 2:
+            v = self._no_prior
+        elif v.shape != (D,):
+            raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
+        vc = self._no_prior_cov if velocity_cov is None or self.order < 2 else _f64(velocity_cov)
+        if vc.shape not in ((0, 0), (D, D)):
+            raise ValueError(f"velocity_cov must have shape ({D}, {D}), got {vc.shape}")
+        mean_out, cov_out, status = _kernels.keep_and_start_tracks(
+            mean, cov, mask, n_keep, zz, self._P0, v, vc
+        )
+        if status == _kernels.START_BAD_KEEP:
+            raise ValueError(f"keep holds {int(mask.sum())} True, not n_keep={n_keep}")
+        if status == _kernels.START_NONFINITE_VELOCITY:
+            raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
+        return KalmanState(mean_out, cov_out)
+
+    def estimate_mean(self, state: KalmanState) -> FloatArray:
+        """The mean of :meth:`estimate`, ``H x`` (n, D), without its covariance: the position block
+        of the state (``H = [I_D, 0]``), as a new C-contiguous array."""
+        self._need_reset()
+        mean, _ = self._check_state(state)
+        return np.ascontiguousarray(mean[:, : self.dim])
 
     def estimate(self, state: KalmanState) -> Gaussian:
         """Current measurement-space estimate of every track, ``N(H x, H P Hᵀ)`` (no noise added)."""

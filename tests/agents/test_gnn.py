@@ -128,6 +128,9 @@ def test_more_live_tracks_than_the_report_holds_is_an_error():
         ({"predictor": "lstm-magic"}, "unknown predictor"),
         ({"velocity_prior": "learned"}, "velocity_prior"),
         ({"p_gate": 1.5}, "p_gate"),
+        ({"recovery_cap_motion": -1.0}, "recovery_cap_motion"),
+        ({"recovery_cap_noise": float("nan")}, "recovery_cap_noise"),
+        ({"velocity_fallback": [1.0, 0.0, 0.0]}, "velocity_fallback"),
     ],
 )
 def test_bad_arguments_are_named(kwargs, message):
@@ -305,3 +308,236 @@ def test_flow_statistics_equal_numpy_median_and_mad() -> None:
         np.testing.assert_allclose(median, np.median(v, axis=0), rtol=0, atol=1e-15)
         mad = np.median(np.abs(v - np.median(v, axis=0)), axis=0)
         np.testing.assert_allclose(variance, (1.4826 * mad) ** 2, rtol=1e-15, atol=0)
+
+
+# -- sparse streams: the velocity prior ---------------------------------------------------------
+
+
+def sparse_stream_positions(
+    n_pairs: int = 20, period: int = 30, dt: float = 0.005, seed: int = 0
+) -> np.ndarray:
+    """One pair of spheres at a time: a leader at ≈1 m/s and a follower 6 mm behind it in its lane.
+
+    Every ``period`` frames a pair enters at x = 0 (lane y random) and leaves at x = 0.1 m, so at
+    most two particles are in view, as on a sparse sorter recording (200 Hz).
+    """
+    rng = np.random.default_rng(seed)
+    frames = n_pairs * period + 40
+    positions = np.full((frames, 2 * n_pairs, 2), np.nan)
+    for k in range(n_pairs):
+        t0 = k * period + int(rng.integers(0, 5))
+        lane = rng.uniform(0.01, 0.19)
+        speed = rng.uniform(0.95, 1.05)
+        for j, lag in enumerate((0.0, 0.006)):
+            x0 = rng.uniform(0.0, 0.005) - lag
+            t = np.arange(t0, frames)
+            x = x0 + speed * dt * (t - t0)
+            inside = (x >= 0.0) & (x <= 0.1)
+            positions[t[inside], 2 * k + j] = np.column_stack(
+                [x[inside], np.full(inside.sum(), lane + 2e-4 * j)]
+            )
+    return positions
+
+
+@pytest.fixture(scope="module")
+def sparse_env(tmp_path_factory):
+    from track_envs.track_csv import write_track_csv
+
+    path = tmp_path_factory.mktemp("sparse") / "sparse.csv"
+    positions = sparse_stream_positions()
+    write_track_csv(path, positions)
+    # 30 µm centroid scatter, as on real recordings
+    return gym.make("BeltReplay-v0", path=str(path), noise_std=3e-5, dt=0.005), len(positions) - 1
+
+
+def run_with_switches(env, agent, frames, score_from=0):
+    """e1 / e2 / e_mean and the ID switches (ClearMot, 2 mm) of the frames from ``score_from`` on,
+    and the velocity prior's state at every frame."""
+    from track_envs.metrics.clear_mot import ClearMot
+
+    errors, mot, states = AssociationErrors(), ClearMot(threshold=0.002), []
+    obs, info = env.reset(seed=0)
+    agent.reset(env.unwrapped.sensor_spec, seed=0)
+    for t in range(frames):
+        report = agent.act(obs)
+        states.append(getattr(agent, "velocity_prior_state", None))
+        if t >= score_from:
+            errors.update(info["truth"], info["detection_ids"], report)
+            mot.update(info["truth"], info["detection_ids"], report)
+        obs, _, _, _, info = env.step(report)
+    return {**errors.compute(), "id_switches": mot.compute()["id_switches"]}, states
+
+
+@pytest.mark.parametrize("predictor", ["kf-cv", "kf-ca"])
+def test_velocity_prior_forms_from_the_first_tracks_of_a_sparse_stream(sparse_env, predictor):
+    # measured (20 pairs): learnt within the first 90 frames (third pair); whole stream kf-ca
+    # e1 0.53, e2 0.10, e_mean 0.17, 73 ID switches, kf-cv e1 = e2 = e_mean = 0.05, 3 switches, all
+    # among the first two pairs (before the prior formed), none after; with the prior learnt only
+    # in frames with >= 3 young tracks (never here): e1 0.95 / 0.97, e2 0.85, e_mean 0.90,
+    # 267 / 641 ID switches (kf-cv / kf-ca)
+    env, frames = sparse_env
+    whole, states = run_with_switches(env, make_agent("gnn", predictor=predictor), frames)
+    assert whole["e2"] <= 0.15 and whole["e_mean"] <= 0.25 and whole["n_particles"] == 40
+    learnt = [t for t, s in enumerate(states) if s.source == "learnt"]
+    assert learnt and learnt[0] <= 100
+    assert states[-1].n_samples > 0 and abs(states[-1].mean[0] - 1.0) < 0.05
+    later, _ = run_with_switches(env, make_agent("gnn", predictor=predictor), frames, score_from=120)
+    assert later["e1"] == 0.0 and later["e2"] == 0.0 and later["id_switches"] == 0
+
+
+def test_a_fallback_velocity_tracks_the_sparse_stream_from_the_first_frame(sparse_env):
+    # measured: e1 = e2 = e_mean = 0 and no ID switch, kf-cv and kf-ca
+    env, frames = sparse_env
+    agent = make_agent("gnn", predictor="kf-ca", velocity_fallback=np.array([1.0, 0.0]))
+    result, states = run_with_switches(env, agent, frames)
+    assert result["e1"] == 0.0 and result["e2"] == 0.0 and result["id_switches"] == 0
+    assert states[5].source == "fallback" and states[-1].source == "learnt"
+
+
+def test_velocity_prior_state_is_the_median_of_the_young_tracks_velocities():
+    agent = make_agent("gnn", predictor="kf-cv")
+    agent.reset(SPEC)
+    assert agent.velocity_prior_state == agent.velocity_prior_state
+    assert agent.velocity_prior_state.source == "none" and agent.velocity_prior_state.n_samples == 0
+    for t in range(8):  # one target at 1 m/s: young (streak 3–6) in frames 2–5
+        agent.act(observation([[0.1 + 0.01 * t, 0.5]]))
+    state = agent.velocity_prior_state
+    assert state.source == "learnt" and state.n_samples == YOUNG_STREAK[1] - YOUNG_STREAK[0] + 1
+    np.testing.assert_allclose(state.mean, [1.0, 0.0], atol=0.02)
+    state.mean[0] = 99.0  # a copy: the tracker's prior is not changed through it
+    assert agent.velocity_prior_state.mean[0] != 99.0
+    fixed = make_agent("gnn", velocity_prior=np.array([1.0, 0.0]))
+    fixed.reset(SPEC)
+    assert fixed.velocity_prior_state.source == "fixed"
+
+
+# -- the second chance is capped in distance ----------------------------------------------------
+
+CAP_SPEC = SensorSpec(
+    dt=0.005,
+    dim=2,
+    noise_std=1e-5,
+    p_detect=1.0,
+    clutter_rate=0.0,
+    region_low=(0.0, 0.0),
+    region_high=(1.0, 1.0),
+    max_detections=4,
+    max_tracks=8,
+)
+
+
+def points(pts):
+    pts = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
+    det = np.zeros((CAP_SPEC.max_detections, 2), np.float32)
+    mask = np.zeros(CAP_SPEC.max_detections, np.int8)
+    det[: len(pts)], mask[: len(pts)] = pts, 1
+    return {"detections": det, "mask": mask}
+
+
+@pytest.mark.parametrize(
+    ("offset", "cap_motion", "recovered"), [(0.010, 3.0, True), (0.018, 3.0, False), (0.018, 4.0, True)]
+)
+def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_motion, recovered):
+    from agents.association import chi2_gate
+
+    # a track at 1 m/s (5 mm per frame) coasts two frames, then its particle is seen `offset` ahead
+    # of the prediction: outside the χ² gate, inside the 25x inflated one; the cap is
+    # cap_motion × 5 mm + 5 × 10 µm (3: the default)
+    wider = {} if cap_motion == 3.0 else {"recovery_cap_motion": cap_motion}
+    agent = make_agent("gnn", predictor="kf-cv", velocity_prior=np.array([1.0, 0.0]), **wider)
+    agent.reset(CAP_SPEC)
+    for t in range(6):
+        agent.act(points([[0.1 + 0.005 * t, 0.5]]))
+    agent.act(points([]))
+    agent.act(points([]))
+    z = np.array([0.1 + 0.005 * 8 + offset, 0.5])
+    report = agent.act(points([z]))
+    prediction = agent.last_prediction
+    d = z - prediction.mean[0]
+    d2 = d @ np.linalg.solve(prediction.cov[0], d)
+    gate = chi2_gate(0.999, 2)
+    assert gate < d2 <= 25 * gate  # only the second chance can take it
+    live = report["mask"] == 1
+    if recovered:
+        assert report["ids"][live].tolist() == [0] and report["detection"][live].tolist() == [0]
+    else:  # the track misses a third time (deleted) and the detection starts a new one
+        assert report["ids"][live].tolist() == [1] and report["detection"][live].tolist() == [0]
+    assert (np.linalg.norm(d) <= cap_motion * 0.005 + 5e-5) == recovered
+
+
+def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
+    from agents import _association_kernels
+    from predictors import _kalman_kernels
+
+    agent = make_agent("gnn", predictor="kf-ca")
+    agent.reset(SPEC)
+    agent.act(observation([[0.1, 0.1]]))
+    before = agent.act(observation([[0.11, 0.1]]))
+    agent.warm_up()
+    assert agent.n_tracks == 1
+    report = agent.act(observation([[0.12, 0.1]]))
+    assert report["ids"][0] == before["ids"][0] and report["detection"][0] == 0
+    kernels = [
+        _gnn_kernels.frame_upkeep,
+        _gnn_kernels.learn_flow,
+        _gnn_kernels.recovery_costs,
+        _gnn_kernels.survivors_and_births,
+        _association_kernels.gated_costs,
+        _association_kernels.rest_problem,
+        _association_kernels.merge_solution,
+        _kalman_kernels.start_tracks,
+        _kalman_kernels.keep_and_start_tracks,
+        _kalman_kernels.predict_and_project_tracks,
+        _kalman_kernels.update_tracks,
+    ]
+    assert [kernel.__name__ for kernel in kernels if not kernel.signatures] == []
+
+
+class Unfused(KalmanPredictor):
+    """The Kalman predictor without its one-pass survivors-and-births (the generic take/start/concat)."""
+
+    survivors_and_births = None
+
+
+@pytest.mark.parametrize("model", ["cv", "ca"])
+def test_one_pass_births_give_the_reports_of_take_start_and_concat(model):
+    env = gym.make("BeltSorter-v0", noise_std=1e-4)
+    reports = []
+    for predictor in (KalmanPredictor(model), Unfused(model)):
+        agent = make_agent("gnn", predictor=predictor)
+        obs, _ = env.reset(seed=4)
+        agent.reset(env.unwrapped.sensor_spec)
+        frames = []
+        for _ in range(120):
+            report = agent.act(obs)
+            frames.append(report)
+            obs, *_ = env.step(report)
+        reports.append(frames)
+    assert sum(int(r["mask"].sum()) for r in reports[0]) > 5000
+    for a, b in zip(*reports, strict=True):
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])
+
+
+@pytest.mark.parametrize("model", ["random-walk", "cv", "ca"])
+def test_survivors_and_births_equals_take_start_concat(model):
+    predictor = KalmanPredictor(model, initial_velocity=None if model == "random-walk" else [0.3, -0.1])
+    predictor.reset(SPEC)
+    rng = np.random.default_rng(1)
+    state = predictor.start(rng.uniform(size=(5, 2)))
+    state, _ = predictor.predict(state)
+    keep = np.array([True, False, True, True, False])
+    z = rng.uniform(size=(3, 2))
+    priors = [(None, None)]
+    if model != "random-walk":
+        priors.append((np.array([1.0, 0.1]), np.array([[0.04, 0.0], [0.0, 0.01]])))
+    for velocity, velocity_cov in priors:
+        got = predictor.survivors_and_births(state, keep, 3, z, velocity, velocity_cov)
+        kwargs = {}
+        if velocity is not None:
+            kwargs = {"velocity": np.tile(velocity, (3, 1)), "velocity_cov": np.tile(velocity_cov, (3, 1, 1))}
+        want = type(state).concat([state.take(keep), predictor.start(z, **kwargs)])
+        np.testing.assert_array_equal(got.mean, want.mean)
+        np.testing.assert_array_equal(got.cov, want.cov)
+    with pytest.raises(ValueError, match="n_keep"):
+        predictor.survivors_and_births(state, keep, 2, z)
