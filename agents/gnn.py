@@ -178,6 +178,7 @@ class GnnAgent:
         self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
         self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
         self._predictor_arg, self._predictor_kwargs = predictor, predictor_kwargs
+        self._spec: SensorSpec | None = None
         self.p_gate = p_gate
         self.assignment = assignment
         self._associate = ASSOCIATORS[assignment]
@@ -199,12 +200,28 @@ class GnnAgent:
         self.velocity_fallback = (
             None if velocity_fallback is None else np.asarray(velocity_fallback, np.float64)
         )
-        self._gate = chi2_gate(p_gate, 1)  # re-derived for the sensor's dimension in reset()
-        self._spec: SensorSpec | None = None
+
+    @property
+    def p_gate(self) -> float:
+        """Gate probability of the χ² gate; settable between frames (the gate follows at once)."""
+        return self._p_gate
+
+    @p_gate.setter
+    def p_gate(self, value: float) -> None:
+        if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+            raise ValueError(f"p_gate must be a probability in (0, 1), got {value!r}")
+        dim = self._spec.dim if self._spec is not None else 1  # re-derived for the sensor in reset()
+        self._gate = chi2_gate(float(value), dim)
+        self._p_gate = float(value)
 
     # -- episode ------------------------------------------------------------------------------
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
-        """Start an episode with sensor ``spec`` (the tracker is deterministic; ``seed`` is unused)."""
+        """Start an episode with sensor ``spec``.
+
+        The tracker itself is deterministic; ``seed`` seeds the random stream handed to predictors
+        that take one (``reset(spec, rng=...)``, e.g. mc-lstm's dropout masks), so the same seed
+        gives the same report.
+        """
         self._spec = spec
         reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
         self._takes_velocity = accepts_velocity_prior(self.predictor)
