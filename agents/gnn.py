@@ -1,4 +1,4 @@
-"""Global nearest neighbour (GNN) multi-target tracker with a pluggable predictor (paper 000's tracker).
+"""Global nearest neighbour (GNN) multi-target tracker (the tracker of Pollithy et al. 2020).
 
 Every frame, for the ``n`` live tracks and the ``m`` detections of the observation:
 
@@ -123,12 +123,12 @@ def _build_predictor(agent: type, predictor: Any, kwargs: dict[str, Any]) -> Any
 
 
 class GnnAgent:
-    """Global nearest neighbour multi-target tracker: χ² gate, Hungarian, pluggable predictor (paper 000).
+    """GNN multi-target tracker: χ² gate, Hungarian, pluggable predictor (Pollithy et al. 2020).
 
     Args:
         predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an
             object implementing the Predictor protocol (its methods are checked here).
-        p_gate: Gate probability of the χ² gate (paper 000: 0.999).
+        p_gate: Gate probability of the χ² gate (Pollithy et al. 2020: 0.999).
         assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
         max_misses: A track is deleted after more than this many consecutive misses.
         region_margin: Tracks are deleted when their prediction leaves the observed region grown

@@ -1,4 +1,4 @@
-"""Bootstrap particle filter of paper 001 (Algorithm 1), batched over targets and particles.
+"""Bootstrap particle filter of Jung et al. (2019) (Algorithm 1), batched over targets and particles.
 
 State of ``T`` independent single-target filters with ``N`` particles each: particles ``x⁽ⁱ⁾``
 (T, N, 2), weights ``w⁽ⁱ⁾`` (T, N), and the history of weighted-mean estimates (T, t, 2). One
@@ -6,7 +6,7 @@ frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
 
 1. **predict**: a displacement model moves every particle, ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})``;
    the Brownian model adds white noise ``σ_p`` (in multiples of ``Δ``), the constant-velocity model
-   adds the last estimated displacement plus that noise, and the LSTM model of paper 001 (a later
+   adds the last estimated displacement plus that noise, and the LSTM model of Jung et al. (2019) (a later
    wave) predicts one common (rotation, speed) step from the estimate history — all through the
    :class:`DisplacementModel` protocol, so the filter never changes;
 2. **update** (only when a measurement ``z`` arrives, Eq. (4)):
@@ -42,7 +42,7 @@ from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
 
-#: Step length ``Δ`` of paper 001; σ_p and σ_m are given in multiples of it.
+#: Step length ``Δ`` of Jung et al. (2019); σ_p and σ_m are given in multiples of it.
 STEP = 0.2
 
 
@@ -67,7 +67,7 @@ class DisplacementModel(Protocol):
 
 
 class Brownian:
-    """Brownian motion: ``x⁽ⁱ⁾ + σ_p·Δ·ε``, ``ε ~ N(0, I_2)`` (paper 001's standard PF).
+    """Brownian motion: ``x⁽ⁱ⁾ + σ_p·Δ·ε``, ``ε ~ N(0, I_2)`` (the standard PF of Jung et al. 2019).
 
     Args:
         sigma_p: Process noise in multiples of ``step``, scalar or one per target (T,).
@@ -98,7 +98,7 @@ class Brownian:
 class ConstantVelocity(Brownian):
     """Constant velocity on the estimates: ``x⁽ⁱ⁾ + (x*_{t−1} − x*_{t−2}) + σ_p·Δ·ε``.
 
-    Like the LSTM model of paper 001 it applies one common displacement to every particle; the
+    Like the LSTM model of Jung et al. (2019) it applies one common displacement to every particle; the
     displacement is zero until a target has two estimates.
     """
 
@@ -332,7 +332,7 @@ def agent_rng(seed: int | None) -> np.random.Generator:
 
 
 class ParticleFilterAgent:
-    """Single-target bootstrap particle filter agent ``"pf"`` (paper 001; module docstring).
+    """Single-target bootstrap particle filter agent ``"pf"`` (Jung et al. 2019; module docstring).
 
     Reports one track (id 0) at the weighted-mean estimate from the first detection on, with the
     detection row it was updated with (−1 when it only predicted).

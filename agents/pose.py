@@ -1,7 +1,7 @@
-"""Keypoint trackers: the single-hypothesis pose tracking baseline of paper 004.
+"""Keypoint trackers: the single-hypothesis pose tracking baseline of Okada et al. (2020).
 
-``PoseBaselineAgent`` ("pose-baseline") is the tracker paper 004 improves on (the Simple-Baseline
-tracker of Xiao et al., ECCV 2018, with the lifetime bookkeeping of paper 004 Algorithm 1).
+``PoseBaselineAgent`` ("pose-baseline") is the tracker Okada et al. (2020) improve on (the Simple-Baseline
+tracker of Xiao et al., ECCV 2018, with the lifetime bookkeeping of Okada et al. (2020), Algorithm 1).
 Every frame, for the ``n`` active tracks and the ``m`` detected poses:
 
 1. **predict**: each track's next pose by constant keypoint velocity,
@@ -21,7 +21,7 @@ Every frame, for the ``n`` active tracks and the ``m`` detected poses:
 5. **initiate**: a new track (lifetime ``initial_lifetime``) from every unmatched detection;
    its undetected keypoints are placed at the centroid of its detected ones.
 
-The report holds the tracks updated or started this frame (as paper 004 Algorithm 1 outputs the
+The report holds the tracks updated or started this frame (as Algorithm 1 of Okada et al. (2020) outputs the
 detected poses with their track ids), or every active track with ``report_coasting=True``.
 """
 
@@ -42,7 +42,7 @@ MAX_LIFETIME = 30
 
 
 class PoseBaselineAgent:
-    """Single-hypothesis pose tracker (paper 004 baseline): constant keypoint velocity, OKS, Hungarian.
+    """Single-hypothesis pose tracker (the baseline of Okada et al. 2020): constant velocity, OKS, Hungarian.
 
     Args:
         oks_threshold: Smallest OKS at which a predicted and a detected pose may be matched.

@@ -1,4 +1,4 @@
-"""Paper 001's Brownian-side experiments with the batched bootstrap particle filter.
+"""The Brownian-side experiments of Jung et al. (2019) with the batched bootstrap particle filter.
 
 Reproduces, for the standard PF (Brownian displacement model), on the sine scene of SineTarget-v0:
 

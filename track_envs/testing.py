@@ -1,7 +1,7 @@
 """Public conformance checks for third-party environments, agents and predictors.
 
 Each check raises ``AssertionError`` with a message naming what broke the contract of
-ARCHITECTURE.md (the observation, the report, ``info``, seeding; the Predictor and Agent
+docs/architecture.md (the observation, the report, ``info``, seeding; the Predictor and Agent
 protocols). Use them in your own tests::
 
     from track_envs.testing import check_agent, check_predictor, check_tracking_env

@@ -157,7 +157,7 @@ class Group:
     agent_kwargs: tuple[tuple[str, Any], ...] = ()
 
 
-#: Paper 000 Fig. 7 sweeps the measurement noise on the belt from 0 to 0.5 mm.
+#: Pollithy et al. (2020), Fig. 7, sweep the measurement noise on the belt from 0 to 0.5 mm.
 NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
 
 #: Measurement noise of the suites' BeltReplay-v0 cells. The replay has no noise by
@@ -175,7 +175,7 @@ SUITES: dict[str, tuple[Group, ...]] = {
             env_kwargs=(("noise_std", REPLAY_NOISE),),
         ),
     ),
-    # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of paper 000.
+    # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of Pollithy et al. (2020).
     "full": (
         Group(
             envs=tuple(e for e in track_envs.ENV_IDS if e not in ("BeltSorter-v0", "BeltReplay-v0")),

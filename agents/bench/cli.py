@@ -46,7 +46,7 @@ same metrics on every engine; only the "timing" part of a record differs.
 SUITE_HELP = """\
 suites: "quick" = every env x every agent/predictor that applies x 2 seeds, 100-step episodes;
 "full" = 10 seeds, full-length episodes, plus the BeltSorter-v0 noise_std sweep 0..5e-4 of
-paper 000 Fig. 7. In both, BeltReplay-v0 runs with noise_std=1e-4 so that seeds differ.
+Pollithy et al. (2020) Fig. 7. In both, BeltReplay-v0 runs with noise_std=1e-4 so that seeds differ.
 A TOML suite holds [[group]] tables with keys envs, agents, predictors, seeds (count or list),
 episodes, steps, env_kwargs (table), sweep (table of lists) and agent_kwargs (table).
 Flags given with a suite override that key in every group, except --envs, which selects: a

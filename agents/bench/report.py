@@ -20,7 +20,7 @@ Files written into the out dir by :func:`write_report`:
     (group, metric) with mean, std, n; ``records.csv``: one row per cell, every metric;
     ``plots/<env>_bars.png``: metric per agent/predictor (error bars: std over seeds);
     ``plots/<env>_<param>_sweep.png``: metric versus a swept env kwarg, one curve per
-    agent/predictor with a ±std band (the form of paper 000 Fig. 7 and paper 001 Fig. 7).
+    agent/predictor with a ±std band (the form of Pollithy et al. 2020, Fig. 7, and Jung et al. 2019, Fig. 7).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.belt_statistics import DEM_FIGURES, belt_statistics
 from track_envs.report import empty_report
 
-# DEM figures per data set (paper 000's authors' three belts): entry speed, exit speed.
+# DEM figures per data set (the three belts of Pollithy et al. 2020): entry speed, exit speed.
 KIND_FIGURES = {
     "sphere": {"entry_speed": 1.12, "exit_speed": 1.44, "frames_seen": 31.0},
     "cylinder": {"entry_speed": 1.00, "exit_speed": 1.43, "frames_seen": 33.0},

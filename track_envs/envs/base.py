@@ -10,7 +10,7 @@ A concrete environment only simulates and senses. It implements
 * :meth:`TrackingEnv._canvas` — the :class:`~track_envs.rendering.Canvas` a frame is drawn on;
 * :meth:`TrackingEnv._draw` — a snapshot onto that canvas;
 
-and this base class does the rest of the contract of ARCHITECTURE.md: the ``Dict`` observation
+and this base class does the rest of the contract of docs/architecture.md: the ``Dict`` observation
 (padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
 reveals identity), the report action and its validation, ``info`` with the truth and the
 per-detection ``detection_ids``, the per-frame reward, rendering of detections and reported tracks.

@@ -27,10 +27,10 @@ class BeltSorterEnv(TrackingEnv):
     """Optical belt sorting: many bulk particles on a conveyor belt, their centroids seen by a camera.
 
     ## Description
-    A top-down 2-D pymunk simulation of the conveyor belt of an optical belt sorter (paper 000,
+    A top-down 2-D pymunk simulation of the conveyor belt of an optical belt sorter (Pollithy et al. 2020,
     Pollithy et al., Fig. 2). Particles land on the belt upstream of the camera window with the
     speed of the feeding chute, are accelerated toward belt speed by Coulomb belt friction,
-    collide with each other and with the side walls (out-of-model motion, paper 000 Fig. 1), and
+    collide with each other and with the side walls (out-of-model motion, Pollithy et al. 2020, Fig. 1), and
     leave past the belt end. A camera sees a window of the belt at 100 Hz and reports centroids.
     Units are metres and seconds. The defaults reproduce the authors' DEM statistics of their belt:
     median along-belt speed rising from ≈1.0–1.12 m/s at the window entry to ≈1.44 m/s at its exit,
@@ -76,7 +76,7 @@ class BeltSorterEnv(TrackingEnv):
     - ``particle_kind``: ``"sphere"``, ``"cylinder"`` (default, the paper's DEM dataset),
       ``"cuboid"``, ``"mixture"`` or a mapping of kinds to weights.
     - ``noise_std``: measurement noise std in metres added to each centroid (default 1e-4;
-      paper 000 sweeps 0–5e-4).
+      Pollithy et al. (2020) sweep 0–5e-4).
     - ``measurement_noise_std``: the noise std the sensor spec declares to a tracker
       (``sensor_spec.noise_std``); default ``noise_std``. A different value simulates a tracker
       that is told the wrong noise.

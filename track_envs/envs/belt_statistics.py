@@ -1,4 +1,4 @@
-"""Flow statistics of a belt episode, comparable with the authors' DEM figures (paper 000).
+"""Flow statistics of a belt episode, comparable with the authors' DEM figures (Pollithy et al. 2020).
 
 :func:`belt_statistics` runs an environment and summarises the true motion of the particles in
 the camera window. Particles already in the window at the first frame or still in it at the

@@ -44,7 +44,7 @@ class KeypointWalkersEnv(TrackingEnv):
     """Several people walk through a video frame; a pose detector reports their 17 COCO keypoints.
 
     ## Description
-    The multi-person pose tracking scenes of paper 004 (Okada et al., SMC pose tracking with a
+    The multi-person pose tracking scenes of Okada et al. (2020) (SMC pose tracking with a
     probabilistic pose predictor, evaluated on PoseTrack 2018), with the detector CNN replaced
     by a detector model. A 1280 × 720 px camera at 30 fps looks at a ground plane; up to
     ``num_people`` people at once enter from the left and right borders, walk across and leave.
@@ -53,7 +53,8 @@ class KeypointWalkersEnv(TrackingEnv):
     (:mod:`track_envs.envs.skeleton`): person-specific height and proportions, a walking gait with
     person-specific cadence and stride, arms counter to legs. ``camera_pan`` adds a global image
     shift whose velocity changes abruptly (fast camera motion is the main failure of
-    single-hypothesis trackers in paper 004). Crowd dynamics: :class:`~track_envs.envs.skeleton.Crowd`.
+    single-hypothesis trackers in Okada et al. (2020)). Crowd dynamics:
+    :class:`~track_envs.envs.skeleton.Crowd`.
 
     Visibility of each keypoint: inside the frame; not inside the body silhouette (capsules
     around torso, head and limbs) of a person closer to the camera; not self-occluded (the far

@@ -1,4 +1,4 @@
-"""SineTarget-v0 and PiecewiseTarget-v0: one target, missed detections and occlusion (paper 001).
+"""SineTarget-v0 and PiecewiseTarget-v0: one target, missed detections and occlusion (Jung et al. 2019).
 
 Both scenes follow Jung, Schlangen and Charlish, "Sequential Monte Carlo Filtering with Long
 Short-Term Memory Prediction" (FUSION 2019), Sec. IV: one target moves with step ``Δ`` (0.2) per
@@ -31,9 +31,9 @@ from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.sensors import CLUTTER_ID
 from track_envs.types import SensorSpec
 
-#: Step length ``Δ`` of paper 001 (x-advance per frame of the sine curve).
+#: Step length ``Δ`` of Jung et al. (2019) (x-advance per frame of the sine curve).
 STEP = 0.2
-#: A track is lost when its mean estimation error exceeds this (paper 001, Sec. IV-B4), in
+#: A track is lost when its mean estimation error exceeds this (Jung et al. 2019, Sec. IV-B4), in
 #: trajectory units.
 LOST_THRESHOLD = 5.0
 
@@ -44,7 +44,7 @@ def n_frames_for(periods: float, step: float = STEP) -> int:
 
 
 def sine_trajectory(n_frames: int, step: float = STEP) -> NDArray[np.float64]:
-    """The local sine curve of paper 001, Eq. (5): ``x_t = (t·Δ, sin(t·Δ))``, shape (n_frames, 2)."""
+    """The local sine curve of Jung et al. (2019), Eq. (5): ``x_t = (t·Δ, sin(t·Δ))``, shape (n_frames, 2)."""
     t = np.arange(n_frames, dtype=np.float64)
     return np.stack([t * step, np.sin(t * step)], axis=1)
 
@@ -56,7 +56,7 @@ def piecewise_trajectory(
     segment_steps: tuple[int, int] = (10, 50),
     max_heading_deg: float = 60.0,
 ) -> NDArray[np.float64]:
-    """A local piecewise-linear trajectory (paper 001, Fig. 8) from the origin, shape (n_frames, 2).
+    """A local piecewise-linear trajectory (Jung et al. 2019, Fig. 8) from the origin, shape (n_frames, 2).
 
     Segments have a heading uniform in ``[-max_heading_deg, max_heading_deg]`` from the x-axis and
     a length uniform in ``segment_steps`` (inclusive) steps; every step has length ``Δ``.
@@ -293,10 +293,10 @@ class SingleTargetEnv(TrackingEnv):
 
 
 class SineTargetEnv(SingleTargetEnv):
-    """One target on the sine curve of paper 001, seen by a point sensor with misses and occlusion.
+    """One target on the sine curve of Jung et al. (2019), seen by a point sensor with misses and occlusion.
 
     ## Description
-    The target follows ``x_t = (t·Δ, sin(t·Δ))`` (paper 001, Eq. (5)), ``Δ = step = 0.2``, for
+    The target follows ``x_t = (t·Δ, sin(t·Δ))`` (Jung et al. 2019, Eq. (5)), ``Δ = step = 0.2``, for
     ``periods`` (25) periods, ``t = 0 … 785``; the curve is rotated by ``rotation_deg`` about the
     origin and then shifted by ``offset``. The truth is noise-free. Each frame the sensor detects the
     target with probability ``p_detect`` (never inside the occlusion interval
@@ -314,7 +314,7 @@ class SineTargetEnv(SingleTargetEnv):
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c``, p = 2, α = 2) of the report against the target, which counts as
-    visible throughout (the occlusion hides it from the sensor only: paper 001 scores the estimate
+    visible throughout (the occlusion hides it from the sensor only: Jung et al. (2019) score the estimate
     through the occlusion).
 
     ## Starting State
@@ -349,7 +349,7 @@ class SineTargetEnv(SingleTargetEnv):
 
 
 class PiecewiseTargetEnv(SingleTargetEnv):
-    """One target on a random piecewise-linear trajectory (paper 001, Fig. 8), same sensor.
+    """One target on a random piecewise-linear trajectory (Jung et al. 2019, Fig. 8), same sensor.
 
     ## Description
     As :class:`SineTargetEnv`, but the local trajectory starts at the origin and is made of straight

@@ -3,7 +3,7 @@
 Pfaff, Kurz, Pieper et al., "Improving Multitarget Tracking Using Orientation Estimates for
 Sorting Bulk Materials", MFI 2017 (reference [15] of Pollithy, Reith-Braun, Pfaff, Hanebeck,
 "Estimating Uncertainties of Recurrent Neural Networks in Application to Multitarget Tracking",
-MFI 2020, paper 000 of this project, Sec. V-C). Ideally all measurements of one particle go to one
+MFI 2020, Sec. V-C). Ideally all measurements of one particle go to one
 track and only they do. Over an episode collect, for every track, the set of particles whose
 measurements it was updated with (clutter ignored) and, for every particle, the set of tracks its
 measurements went to. Then
@@ -98,7 +98,7 @@ def _add_merged_frame(
 
 
 class AssociationErrors:
-    """Streaming e1 / e2 / e_mean of an episode (Pfaff et al. 2017; paper 000, Sec. V-C).
+    """Streaming e1 / e2 / e_mean of an episode (Pfaff et al. 2017; Pollithy et al. 2020, Sec. V-C).
 
     Each frame contributes the (track id, particle id) pairs of the report rows (mask 1) whose
     ``detection`` row holds a real measurement (``detection_ids[row] >= 0``); coasting rows

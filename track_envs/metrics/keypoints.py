@@ -27,7 +27,7 @@ are counted per type with py-motmetrics' rules (:class:`~track_envs.metrics.clea
     \\mathrm{MOTA} = 1 - \\frac{\\sum_k (\\mathrm{FN}_k + \\mathrm{FP}_k + \\mathrm{IDSW}_k)}
         {\\sum_k \\mathrm{GT}_k}.
 
-The nose's switches are reported on their own (paper 004, Table II, uses the nose's
+The nose's switches are reported on their own (Okada et al. 2020, Table II, uses the nose's
 ``num_switches`` as its tracking-error measure). The head size comes from the truth:
 ``info["truth"]["head_size"]`` when present (the environment's PoseTrack-style head size, 0.6 × the
 head box diagonal), else ``head_fraction · scale``.
@@ -74,7 +74,7 @@ COCO_SIGMAS: NDArray[np.float64] = (
     / 10.0
 )
 
-#: Keypoint groups of PoseTrack tables (paper 004 Table I): head, shoulders, elbows, ...
+#: Keypoint groups of PoseTrack tables (Okada et al. 2020, Table I): head, shoulders, elbows, ...
 KEYPOINT_GROUPS: dict[str, tuple[int, ...]] = {
     "head": (0, 1, 2, 3, 4),
     "shoulders": (5, 6),
@@ -262,7 +262,7 @@ class KeypointMota:
 
         Returns:
             ``mota`` (total over keypoints), ``id_switches`` (total), ``num_misses``,
-            ``num_false_positives``, ``num_objects`` (totals), ``id_switches_nose`` (paper 004
+            ``num_false_positives``, ``num_objects`` (totals), ``id_switches_nose`` (Okada et al. 2020,
             Table II), ``mota_<keypoint>`` and ``id_switches_<keypoint>`` for each of the 17, and
             ``mota_<group>`` for the groups of :data:`KEYPOINT_GROUPS`. Ratios over zero are NaN.
         """

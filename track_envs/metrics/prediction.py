@@ -3,14 +3,14 @@
 These score a predictor's predicted measurement distribution against what then happened, so they
 take explicit arrays (``update(mean, cov, target)``), not the report.
 
-* Mean absolute prediction error per track (paper 000, Pollithy et al. 2020, Sec. V): for track
+* Mean absolute prediction error per track (Pollithy et al. 2020, Sec. V): for track
   ``k`` with predictions ``ŷ_{k,t}`` and the measurements ``y_{k,t}`` it was then updated with,
   ``MAE_k = mean_t ||ŷ_{k,t} − y_{k,t}||_2``; the score is the average of ``MAE_k`` over tracks.
 * NEES (normalised estimation error squared; Bar-Shalom, Li, Kirubarajan, "Estimation with
   Applications to Tracking and Navigation", 2001, Sec. 5.4): with
   ``d_i² = (y_i − μ_i)ᵀ Σ_i⁻¹ (y_i − μ_i)``, ``NEES = mean_i d_i² / D`` (≈ 1 when calibrated,
   since ``d²`` is χ²-distributed with ``D`` degrees of freedom).
-* Reliability curve (paper 000, Sec. IV-E; Kuleshov, Fenner, Ermon, "Accurate Uncertainties for
+* Reliability curve (Pollithy et al. 2020, Sec. IV-E; Kuleshov, Fenner, Ermon, "Accurate Uncertainties for
   Deep Learning Using Calibrated Regression", ICML 2018): for each expected confidence level
   ``p``, the empirical level ``p_emp(p) = mean_i 1{d_i² ≤ F⁻¹_{χ²_D}(p)}``; calibrated
   predictions lie on the diagonal. The calibration error is ``mean_p |p_emp(p) − p|``.

@@ -1,13 +1,13 @@
-"""Single-target estimation error and track loss (paper 001, Sec. IV).
+"""Single-target estimation error and track loss (Jung et al. 2019, Sec. IV).
 
 For one target with true positions ``x_t`` and the tracker's estimates ``x̂_t`` over the frames
 ``t`` of an episode that have an estimate:
 
-* mean error ``ē = mean_t ||x̂_t − x_t||_2`` of the reported (weighted-mean) estimate. Paper 001's
+* mean error ``ē = mean_t ||x̂_t − x_t||_2`` of the reported (weighted-mean) estimate. Jung et al.'s (2019)
   Figs. 4, 5 and 7a average the error over the particles instead, which a metric that sees only
   the report cannot compute; the two agree closely once the particle cloud is tight;
 * ``rmse = sqrt(mean_t ||x̂_t − x_t||²)``;
-* ``lost = 1`` if ``ē > 5`` trajectory units (paper 001, Sec. IV-B4 calls such a track lost), else
+* ``lost = 1`` if ``ē > 5`` trajectory units (Jung et al. 2019, Sec. IV-B4 calls such a track lost), else
   0; an episode without any estimate is lost;
 * ``occlusion_error``: ``ē`` restricted to the frames of the occlusion interval (NaN if none).
 
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from track_envs.metrics.base import live_report
 
-#: Mean error above which a track counts as lost (paper 001), trajectory units.
+#: Mean error above which a track counts as lost (Jung et al. 2019), trajectory units.
 LOST_THRESHOLD = 5.0
 
 

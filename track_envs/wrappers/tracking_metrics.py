@@ -13,7 +13,7 @@ from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, Metric
 
 
 def point_metrics(c: float) -> list[Metric]:
-    """Metrics of multi-target point scenes: association errors e1 / e2 / e_mean (paper 000), CLEAR
+    """Metrics of multi-target point scenes: association errors e1 / e2 / e_mean (Pollithy et al. 2020), CLEAR
     MOT with match threshold ``c`` (MOTA, ID switches, IDF1) and per-frame GOSPA (c, p = 2, α = 2)."""
     return [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c)]
 
