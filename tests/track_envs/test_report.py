@@ -42,7 +42,11 @@ def test_every_space_sample_validates():
     space = report_space(6, (2,), np.zeros(2), np.ones(2), 4)
     space.seed(0)
     for _ in range(20):
-        validate_report(space.sample(), 6, (2,), np.array([1, 0, 1, 0], np.int8))
+        sample = space.sample()
+        checked = validate_report(sample, 6, (2,), np.array([1, 0, 1, 0], np.int8))
+        live = sample["ids"][sample["mask"] == 1]
+        assert len(np.unique(live)) == len(live) and (live >= 0).all()
+        assert checked is not None
 
 
 def test_repeated_live_ids_are_rejected_naming_rows_and_ids():
