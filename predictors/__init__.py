@@ -24,6 +24,21 @@ def available_predictors() -> list[str]:
     return PREDICTORS.names()
 
 
+def predictor_applies_to(name: str, env_id: str) -> bool:
+    """Whether predictor ``name`` is meant for ``env_id``.
+
+    A factory may declare ``envs``, the env ids its model was made for (the belt LSTMs: the belt
+    envs, whose geometry and motion their weights learnt); factories without it apply to every
+    point env.
+    """
+    envs = getattr(PREDICTORS.factory(name), "envs", None)
+    return envs is None or env_id in envs
+
+
+#: The env ids of the optical belt, where the belt LSTMs apply.
+BELT_ENVS = ("BeltSorter-v0", "BeltReplay-v0")
+
+
 def make_predictor(name: str, **kwargs: Any) -> Any:
     """Build the predictor registered as ``name`` (an unknown name raises ``ValueError`` listing them)."""
     return PREDICTORS.make(name, **kwargs)
@@ -95,6 +110,10 @@ def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: in
     from predictors.lstm import LSTMPredictor
 
     return LSTMPredictor("mc-lstm", weights, particle_kind=particle_kind, samples=samples)
+
+
+for _factory in (lstm, nll_lstm, mc_lstm):
+    _factory.envs = BELT_ENVS  # type: ignore[attr-defined]
 
 
 def _register_builtin() -> None:

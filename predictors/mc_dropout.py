@@ -100,10 +100,12 @@ def _pad_axis1(a: np.ndarray, k: int) -> np.ndarray:
     return np.concatenate([a, pad], axis=1)
 
 
-def _block(rows_of: list[np.ndarray], n: int, values: np.ndarray) -> tuple[np.ndarray, BoolArray]:
+def _block(
+    rows_of: list[np.ndarray], n: int, values: np.ndarray, dtype: type = np.float64
+) -> tuple[np.ndarray, BoolArray]:
     """Gather per-track sample rows into a padded (n, K, W) block and its validity mask."""
     k = max((len(r) for r in rows_of), default=0)
-    block = np.zeros((n, k, values.shape[-1]))
+    block: np.ndarray = np.zeros((n, k, values.shape[-1]), dtype=dtype)
     valid = np.zeros((n, k), dtype=bool)
     counts = np.array([len(r) for r in rows_of], dtype=np.int64)
     valid[:] = np.arange(k)[None, :] < counts[:, None]
@@ -124,6 +126,7 @@ class GroupedMC:
 
     def __init__(self, net: Any, widths: tuple[int, ...], keep: float):
         self.net, self.widths, self.keep = net, widths, keep
+        self.dtype = net.head_w.dtype.type  # float32 for the fast path, float64 for the reference
         self.cuts = np.cumsum(widths)[:-1]
 
     def start(self, x: FloatArray, masks: FloatArray) -> MCState:
@@ -137,15 +140,16 @@ class GroupedMC:
         clean = ~(l1 | l2 | head)
         flat = masks.reshape(n * T, -1)
         index = np.arange(n * T).reshape(n, T)
-        a_mask, a_valid = _block([index[i][l1[i]] for i in range(n)], n, flat)
-        b_mask, b_valid = _block([index[i][l2[i]] for i in range(n)], n, flat[:, w_in + w_h1 :])
+        dt = self.dtype
+        a_mask, a_valid = _block([index[i][l1[i]] for i in range(n)], n, flat, dt)
+        b_mask, b_valid = _block([index[i][l2[i]] for i in range(n)], n, flat[:, w_in + w_h1 :], dt)
         c_mask, c_valid = _block(
-            [index[i][head[i]] for i in range(n)], n, flat[:, w_in + w_h1 + w_x2 + w_h2 :]
+            [index[i][head[i]] for i in range(n)], n, flat[:, w_in + w_h1 + w_x2 + w_h2 :], dt
         )
         h1, c1, h2, c2 = self.net.zero_state(n)
         ka, kb = a_mask.shape[1], b_mask.shape[1]
-        z1, z2 = np.zeros((n, ka, w_h1)), np.zeros((n, ka, w_h2))
-        zb = np.zeros((n, kb, w_h2))
+        z1, z2 = np.zeros((n, ka, w_h1), dt), np.zeros((n, ka, w_h2), dt)
+        zb = np.zeros((n, kb, w_h2), dt)
         state = MCState(
             h1, c1, h2, c2, clean.sum(axis=1).astype(np.int64),
             a_mask, a_valid, z1, z1.copy(), z2, z2.copy(),

@@ -29,7 +29,7 @@ import gymnasium as gym
 
 import track_envs
 from agents import AGENTS, agent_applies_to, available_agents
-from predictors import available_predictors
+from predictors import available_predictors, predictor_applies_to
 
 #: The predictor column of a cell whose agent takes no predictor.
 NO_PREDICTOR = "-"
@@ -267,12 +267,20 @@ def check_kwarg_type(env_id: str, name: str, value: Any, default: Any) -> None:
         raise ValueError(f"{env_id} {name}={value!r}: {name} must be {want} (default {default!r})")
 
 
+def agent_applies_to_env(env_id: str, agent: str) -> bool:
+    """Whether ``agent`` tracks the targets of ``env_id`` (position shape and target count)."""
+    return agent_applies_to(agent, *env_shape(env_id))
+
+
 def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
     """Predictor column values for ``agent`` on ``env_id``: ``[]`` if the agent does not apply,
-    ``["-"]`` if it takes no predictor, else ``predictors``."""
-    if not agent_applies_to(agent, *env_shape(env_id)):
+    ``["-"]`` if it takes no predictor, else those of ``predictors`` meant for the env
+    (:func:`predictors.predictor_applies_to`: the belt LSTMs run on the belt envs only)."""
+    if not agent_applies_to_env(env_id, agent):
         return []
-    return list(predictors) if agent_takes_predictor(agent) else [NO_PREDICTOR]
+    if not agent_takes_predictor(agent):
+        return [NO_PREDICTOR]
+    return [p for p in predictors if predictor_applies_to(p, env_id)]
 
 
 def validate_group(group: Group) -> None:

@@ -181,12 +181,12 @@ def cmd_list(_: argparse.Namespace) -> int:
         from gymnasium.envs.registration import load_env_creator
 
         creator = load_env_creator(entry) if isinstance(entry, str) else entry
-        agents = [a for a in available_agents() if cells_mod.applicable(env_id, a, ["x"])]
+        agents = [a for a in available_agents() if cells_mod.agent_applies_to_env(env_id, a)]
         print(f"  {env_id:<20} {describe(creator)}")
         print(f"  {'':<20} agents: {', '.join(agents)}")
     print("\nagents:")
     for name in available_agents():
-        envs = [e for e in track_envs.ENV_IDS if cells_mod.applicable(e, name, ["x"])]
+        envs = [e for e in track_envs.ENV_IDS if cells_mod.agent_applies_to_env(e, name)]
         takes = (
             "takes --predictors" if cells_mod.agent_takes_predictor(name) else f"predictor {NO_PREDICTOR!r}"
         )
@@ -195,7 +195,9 @@ def cmd_list(_: argparse.Namespace) -> int:
     print("\npredictors:")
     users = [a for a in available_agents() if cells_mod.agent_takes_predictor(a)]
     for name in available_predictors():
-        envs = sorted({e for a in users for e in track_envs.ENV_IDS if cells_mod.applicable(e, a, ["x"])})
+        envs = sorted(
+            {e for a in users for e in track_envs.ENV_IDS if cells_mod.applicable(e, a, [name])}
+        )
         print(f"  {name:<20} {describe(PREDICTORS.factory(name))}")
         print(f"  {'':<20} used by: {', '.join(users)}; envs: {', '.join(envs)}")
     print(f"\nsuites: {', '.join(SUITES)} (or a .toml file; see track-bench run --help)")
