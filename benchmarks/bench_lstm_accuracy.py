@@ -32,7 +32,7 @@ from predictors.training.evaluate import one_step_predictions
 from predictors.training.model_stats import spec_of
 
 NOISE_LEVELS = (0.0, 1e-4, 3e-4, 5e-4)
-Q_GRID = {"cv": np.logspace(-3, 2, 11), "ca": np.logspace(-1, 4, 11)}
+Q_GRID = {"cv": np.logspace(-5, 2, 15), "ca": np.logspace(-3, 4, 15)}
 VALIDATION_SEED, TEST_SEED = 1500, 2000
 
 

@@ -112,14 +112,14 @@ class LSTMWeights:
 class FastLSTMLayer:
     """An LSTM layer prepared for few numpy calls per step (float32).
 
-    The fused weight ``W = [W_ih; W_hh]`` (In + H, 4H) has its gate columns reordered to
-    ``i, f, o, g`` and the sigmoid gates' columns (and bias) pre-multiplied by ½, so one ``tanh``
-    over the whole pre-activation gives ``tanh(a/2)`` for the three sigmoid gates
-    (``σ(a) = ½ tanh(a/2) + ½``) and ``tanh(a_g)`` for the cell input.
+    The fused weight ``W = [W_ih; W_hh; b]`` (In + H + 1, 4H) multiplies ``[x, h, 1]``, so the
+    bias comes with the product. Its gate columns are reordered to ``i, f, o, g`` and the sigmoid
+    gates' columns pre-multiplied by ½, so one ``tanh`` over the whole pre-activation gives
+    ``tanh(a/2)`` for the three sigmoid gates (``σ(a) = ½ tanh(a/2) + ½``) and ``tanh(a_g)`` for the
+    cell input.
     """
 
     w: NDArray[np.float32]
-    b: NDArray[np.float32]
     n_in: int
 
     @classmethod
@@ -130,8 +130,8 @@ class FastLSTMLayer:
             [np.arange(0, H), np.arange(H, 2 * H), np.arange(3 * H, 4 * H), np.arange(2 * H, 3 * H)]
         )
         scale = np.concatenate([np.full(3 * H, 0.5), np.ones(H)])
-        w = np.vstack([layer.w_ih, layer.w_hh])[:, order] * scale
-        return cls(w.astype(np.float32), (layer.b[order] * scale).astype(np.float32), layer.w_ih.shape[0])
+        w = np.vstack([layer.w_ih, layer.w_hh, layer.b[None, :]])[:, order] * scale
+        return cls(w.astype(np.float32), layer.w_ih.shape[0])
 
     @property
     def hidden(self) -> int:
@@ -142,11 +142,12 @@ class FastLSTMLayer:
         self, x: NDArray[np.floating], h: NDArray[np.floating], c: NDArray[np.floating]
     ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """New ``(h, c)`` (float32) of rows ``x`` (n, In) with state ``h, c`` (n, H)."""
-        H = self.hidden
-        xh = np.empty((len(x), self.n_in + H), dtype=np.float32)
-        xh[:, : self.n_in] = x
-        xh[:, self.n_in :] = h
-        t = np.tanh(xh @ self.w + self.b)
+        H, k = self.hidden, self.n_in
+        xh = np.empty((len(x), k + H + 1), dtype=np.float32)
+        xh[:, :k] = x
+        xh[:, k : k + H] = h
+        xh[:, k + H] = 1.0
+        t = np.tanh(xh @ self.w)
         gates = t[:, : 3 * H]
         gates *= 0.5
         gates += 0.5

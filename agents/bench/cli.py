@@ -195,9 +195,7 @@ def cmd_list(_: argparse.Namespace) -> int:
     print("\npredictors:")
     users = [a for a in available_agents() if cells_mod.agent_takes_predictor(a)]
     for name in available_predictors():
-        envs = sorted(
-            {e for a in users for e in track_envs.ENV_IDS if cells_mod.applicable(e, a, [name])}
-        )
+        envs = sorted({e for a in users for e in track_envs.ENV_IDS if cells_mod.applicable(e, a, [name])})
         print(f"  {name:<20} {describe(PREDICTORS.factory(name))}")
         print(f"  {'':<20} used by: {', '.join(users)}; envs: {', '.join(envs)}")
     print(f"\nsuites: {', '.join(SUITES)} (or a .toml file; see track-bench run --help)")
