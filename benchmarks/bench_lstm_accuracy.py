@@ -52,16 +52,16 @@ def entry_velocity(data: TrackSet) -> tuple[np.ndarray, float]:
 def tuned_kalman(model: str, validation: TrackSet, noise: float) -> tuple[float, KalmanPredictor]:
     """The Kalman predictor of the ``q`` that predicts the validation tracks best."""
     velocity, spread = entry_velocity(validation)
-    best: tuple[float, KalmanPredictor] | None = None
+    best: tuple[float, float, KalmanPredictor] | None = None
     for q in Q_GRID[model]:
         kf = KalmanPredictor(
             model, q=float(q), initial_velocity=velocity, initial_velocity_std=max(spread, 1e-3)
         )
         score = float(np.mean(per_track_errors(kf, validation, noise, seed=1)))
         if best is None or score < best[0]:
-            best = (float(q), kf)
+            best = (score, float(q), kf)
     assert best is not None
-    return best
+    return best[1], best[2]
 
 
 def main() -> None:
