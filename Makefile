@@ -40,6 +40,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_particle_filter.py
 	$(PY) benchmarks/bench_keypoints.py
 	$(PY) benchmarks/bench_runner_overhead.py
+	$(PY) benchmarks/bench_lstm.py
+	$(PY) benchmarks/bench_lstm_accuracy.py
 	$(PY) benchmarks/bench_rendering.py
 
 clean:
