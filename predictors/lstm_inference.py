@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -54,6 +55,23 @@ class LSTMLayer:
         )
         c_new = f * c + i * g
         return o * np.tanh(c_new), c_new
+
+
+def two_layer_step(net: Any, x: Any, state: Any, masks: Any = None) -> tuple[Any, Any]:
+    """Both layers and the head of ``net`` (:class:`LSTMWeights` or :class:`FastLSTMWeights`).
+
+    ``masks``: ``None``, or five arrays ``(m_x, m_h1, m_x2, m_h2, m_head)`` multiplying the
+    layer-1 input and state, the layer-2 input and state and the head input.
+    """
+    h1, c1, h2, c2 = state
+    if masks is None:
+        h1, c1 = net.layer1.step(x, h1, c1)
+        h2, c2 = net.layer2.step(h1, h2, c2)
+        return h2 @ net.head_w + net.head_b, (h1, c1, h2, c2)
+    m_x, m_h1, m_x2, m_h2, m_head = masks
+    h1, c1 = net.layer1.step(x * m_x, h1 * m_h1, c1)
+    h2, c2 = net.layer2.step(h1 * m_x2, h2 * m_h2, c2)
+    return (h2 * m_head) @ net.head_w + net.head_b, (h1, c1, h2, c2)
 
 
 @dataclass(frozen=True)
@@ -97,15 +115,7 @@ class LSTMWeights:
         ``masks``: five (n, width) arrays (keep / (1 − p)) for the layer-1 input and state, the
         layer-2 input and state and the head input, as :meth:`BeltLSTMNet.step` applies them.
         """
-        h1, c1, h2, c2 = state
-        if masks is None:
-            h1, c1 = self.layer1.step(x, h1, c1)
-            h2, c2 = self.layer2.step(h1, h2, c2)
-            return h2 @ self.head_w + self.head_b, (h1, c1, h2, c2)
-        m_x, m_h1, m_x2, m_h2, m_head = masks
-        h1, c1 = self.layer1.step(x * m_x, h1 * m_h1, c1)
-        h2, c2 = self.layer2.step(h1 * m_x2, h2 * m_h2, c2)
-        return (h2 * m_head) @ self.head_w + self.head_b, (h1, c1, h2, c2)
+        return two_layer_step(self, x, state, masks)
 
 
 @dataclass(frozen=True)
@@ -197,12 +207,4 @@ class FastLSTMWeights:
         masks: tuple[NDArray[np.floating], ...] | None = None,
     ) -> tuple[NDArray[np.float32], tuple[NDArray[np.float32], ...]]:
         """One step, as :meth:`LSTMWeights.step`, in float32."""
-        h1, c1, h2, c2 = state
-        if masks is None:
-            h1, c1 = self.layer1.step(x, h1, c1)
-            h2, c2 = self.layer2.step(h1, h2, c2)
-            return h2 @ self.head_w + self.head_b, (h1, c1, h2, c2)
-        m_x, m_h1, m_x2, m_h2, m_head = masks
-        h1, c1 = self.layer1.step(x * m_x, h1 * m_h1, c1)
-        h2, c2 = self.layer2.step(h1 * m_x2, h2 * m_h2, c2)
-        return (h2 * m_head) @ self.head_w + self.head_b, (h1, c1, h2, c2)
+        return two_layer_step(self, x, state, masks)
