@@ -77,8 +77,9 @@ def frame_upkeep(
         hit = det >= 0
         seen[i] = hit
         if hit:
-            used[det] = True
-            n_used += 1
+            if not used[det]:  # a merged blob's detection may update several tracks
+                used[det] = True
+                n_used += 1
             misses_out[i] = 0
             streak_out[i] = streak[i] + 1
         else:

@@ -55,6 +55,7 @@ from numpy.typing import NDArray
 
 from agents import _gnn_kernels as _kernels
 from agents.association import ASSIGNERS, ASSOCIATORS, chi2_gate
+from agents.merges import share_blobs
 from predictors import PREDICTORS, available_predictors, make_predictor
 from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
@@ -145,6 +146,10 @@ class GnnAgent:
             was off, a kick) take it back, and keeps it from jumping tens of millimetres onto
             another particle (at 1 m/s and 200 Hz: 15 mm).
         recovery_cap_noise: ``k_σ``, the cap's allowance in multiples of the sensor noise std, >= 0.
+        blob_extent: Merged blobs (:mod:`agents.merges`): a track left without a detection whose
+            prediction lies within this distance (sensor units) of a detection another track took,
+            itself predicted within it, shares that detection; the blob's tracks are updated as a
+            rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
             :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
@@ -163,6 +168,7 @@ class GnnAgent:
         velocity_fallback: NDArray | None = None,
         recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
+        blob_extent: float = 0.0,
         **predictor_kwargs: Any,
     ):
         if assignment not in ASSOCIATORS:
@@ -197,6 +203,9 @@ class GnnAgent:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         self.recovery_cap_motion = float(recovery_cap_motion)
         self.recovery_cap_noise = float(recovery_cap_noise)
+        if not (isinstance(blob_extent, int | float) and np.isfinite(blob_extent) and blob_extent >= 0):
+            raise ValueError(f"blob_extent must be a finite distance >= 0, got {blob_extent!r}")
+        self.blob_extent = float(blob_extent)
         self.velocity_fallback = (
             None if velocity_fallback is None else np.asarray(velocity_fallback, np.float64)
         )
@@ -311,6 +320,7 @@ class GnnAgent:
             velocity_fallback=self.velocity_fallback,
             recovery_cap_motion=self.recovery_cap_motion,
             recovery_cap_noise=self.recovery_cap_noise,
+            blob_extent=self.blob_extent,
             **self._predictor_kwargs,
         )
         dim = self._spec.dim if self._spec is not None else 2
@@ -335,6 +345,9 @@ class GnnAgent:
         self.last_prediction = prediction
         det_of_track = self.associate(prediction, z)
         predicted = np.ascontiguousarray(prediction.mean, dtype=np.float64)
+        shared = None
+        if self.blob_extent > 0 and m:
+            det_of_track, shared = share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
         seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
             det_of_track,
             self._misses,
@@ -347,7 +360,7 @@ class GnnAgent:
             m,
         )
         # rows of coasting tracks (detection −1) are never read by the update
-        z_tracks = z[det_of_track] if m else np.zeros((n, spec.dim))
+        z_tracks = shared if shared is not None else z[det_of_track] if m else np.zeros((n, spec.dim))
         self._state = self.predictor.update(self._state, z_tracks, seen)
         # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
         # and the observation row it was then updated with (-1: coasted)
