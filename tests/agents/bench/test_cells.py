@@ -14,7 +14,7 @@ from agents import available_agents
 from agents.bench import NO_PREDICTOR, Cell, Group, expand, load_suite
 from agents.bench.cells import NOISE_SWEEP, applicable, override
 from agents.bench.cli import main, parse_sweep, parse_value
-from predictors import available_predictors
+from predictors import available_predictors, predictor_applies_to
 
 
 def test_quick_suite_covers_every_applicable_combination_with_two_seeds():
@@ -25,9 +25,12 @@ def test_quick_suite_covers_every_applicable_combination_with_two_seeds():
     assert {c.seed for c in cells} == {0, 1}
     # keypoints: only the pose tracker, without a predictor
     assert {(a, p) for e, a, p in combos if e == "KeypointWalkers-v0"} == {("pose-baseline", NO_PREDICTOR)}
-    # gnn runs once per predictor on every point env; predictor-free agents once with "-"
+    # gnn runs once per predictor meant for the env (the belt LSTMs on the belt envs only);
+    # predictor-free agents once with "-"
     for env_id in set(track_envs.ENV_IDS) - {"KeypointWalkers-v0"}:
-        assert {p for e, a, p in combos if e == env_id and a == "gnn"} == set(available_predictors())
+        meant = {p for p in available_predictors() if predictor_applies_to(p, env_id)}
+        assert {p for e, a, p in combos if e == env_id and a == "gnn"} == meant
+        assert ("lstm" in meant) == (env_id in ("BeltSorter-v0", "BeltReplay-v0"))
         assert {p for e, a, p in combos if e == env_id and a in ("detections", "pf")} == {NO_PREDICTOR}
         assert "pose-baseline" not in {a for e, a, _ in combos if e == env_id}
     assert all(c.steps is not None and c.steps <= 100 for c in cells)
