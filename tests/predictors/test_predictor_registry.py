@@ -7,16 +7,14 @@ import pytest
 from predictors import available_predictors, make_predictor
 from track_envs.registry import UnknownArgumentError
 
-
 FIRST_ARGUMENT = {"lstm": "weights", "nll-lstm": "weights", "mc-lstm": "weights"}
 
 
 @pytest.mark.parametrize("name", available_predictors())
 def test_an_unknown_keyword_names_the_predictor_and_its_arguments(name: str) -> None:
     first = FIRST_ARGUMENT.get(name, "q")
-    with pytest.raises(
-        UnknownArgumentError, match=rf"predictor '{name}' has no argument 'gate'; its arguments are \['{first}'"
-    ):
+    expected = rf"predictor '{name}' has no argument 'gate'; its arguments are \['{first}'"
+    with pytest.raises(UnknownArgumentError, match=expected):
         make_predictor(name, gate=3)
 
 
