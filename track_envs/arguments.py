@@ -10,6 +10,7 @@ arrays; bools are refused (``True`` is no noise level).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from numbers import Integral, Real
 from typing import Any
 
@@ -29,44 +30,42 @@ def _is_real(value: Any) -> bool:
     return isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
 
 
+def _checked_real(name: str, value: Any, kind: str, valid: str, ok: Callable[[float], bool]) -> float:
+    """``value`` as a float; ``ValueError`` "``name`` must be a number``kind``" if it is not a real
+    number, "``name`` must be ``valid``" if it fails ``ok``."""
+    if not _is_real(value):
+        raise ValueError(f"{name} must be a number{kind}, got {_got(value)}")
+    out = float(value)
+    if not ok(out):
+        raise ValueError(f"{name} must be {valid}, got {value!r}")
+    return out
+
+
 def check_number(name: str, value: Any) -> float:
     """``value`` as a finite float, or ``ValueError`` naming ``name`` if it is not a finite number."""
-    if not _is_real(value):
-        raise ValueError(f"{name} must be a number, got {_got(value)}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return out
+    return _checked_real(name, value, "", "a finite number", math.isfinite)
 
 
 def check_probability(name: str, value: Any) -> float:
     """``value`` as a float, or ``ValueError`` naming ``name`` if it is not a number in [0, 1]."""
-    if not _is_real(value):
-        raise ValueError(f"{name} must be a number (a probability in [0, 1]), got {_got(value)}")
-    out = float(value)
-    if not 0.0 <= out <= 1.0:  # also refuses NaN
-        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
-    return out
+    # the comparison also refuses NaN
+    return _checked_real(
+        name, value, " (a probability in [0, 1])", "a probability in [0, 1]", lambda x: 0.0 <= x <= 1.0
+    )
 
 
 def check_non_negative(name: str, value: Any) -> float:
     """``value`` as a float, or ``ValueError`` naming ``name`` if it is not a finite number >= 0."""
-    if not _is_real(value):
-        raise ValueError(f"{name} must be a number (finite, >= 0), got {_got(value)}")
-    out = float(value)
-    if not (math.isfinite(out) and out >= 0.0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return out
+    return _checked_real(
+        name, value, " (finite, >= 0)", "a finite number >= 0", lambda x: math.isfinite(x) and x >= 0.0
+    )
 
 
 def check_positive(name: str, value: Any) -> float:
     """``value`` as a float, or ``ValueError`` naming ``name`` if it is not a finite number > 0."""
-    if not _is_real(value):
-        raise ValueError(f"{name} must be a number (finite, > 0), got {_got(value)}")
-    out = float(value)
-    if not (math.isfinite(out) and out > 0.0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return out
+    return _checked_real(
+        name, value, " (finite, > 0)", "a finite number > 0", lambda x: math.isfinite(x) and x > 0.0
+    )
 
 
 def check_int(name: str, value: Any, low: int, high: int | None = None) -> int:

@@ -29,8 +29,28 @@ PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
 
 def _equal(a: Any, b: Any) -> bool:
     if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, tuple | list):
+        return isinstance(b, tuple | list) and len(a) == len(b) and all(map(_equal, a, b))
     return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+
+
+def assert_equal_trees(a: Any, b: Any, where: str = "") -> None:
+    """Assert nested dicts / tuples / lists of arrays and numbers are equal bit for bit.
+
+    Raises:
+        AssertionError: naming the first key path where they differ.
+    """
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and a.keys() == b.keys(), f"{where or 'top'}: keys differ"
+        for k in a:
+            assert_equal_trees(a[k], b[k], f"{where}[{k!r}]")
+    elif isinstance(a, tuple | list):
+        assert isinstance(b, tuple | list) and len(a) == len(b), f"{where or 'top'}: lengths differ"
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_equal_trees(x, y, f"{where}[{i}]")
+    else:
+        np.testing.assert_array_equal(a, b, err_msg=where)
 
 
 def check_tracking_env(env: gym.Env, steps: int = 20, seed: int = 0) -> None:

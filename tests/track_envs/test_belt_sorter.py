@@ -16,6 +16,7 @@ import track_envs  # noqa: F401
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.belt_statistics import DEM_FIGURES, belt_statistics
 from track_envs.report import empty_report
+from track_envs.testing import assert_equal_trees as assert_tree_equal
 
 # DEM figures per data set (the three belts of Pollithy et al. 2020): entry speed, exit speed.
 KIND_FIGURES = {
@@ -180,20 +181,6 @@ def test_reward_is_zero_for_a_perfect_report_and_negative_otherwise():
 
 
 # -- copying and pickling (the contract tests check 500 frames of every env id) ---------------------
-
-
-def assert_tree_equal(a, b) -> None:
-    """Nested dicts / tuples / lists of arrays and numbers equal bit for bit."""
-    if isinstance(a, dict):
-        assert a.keys() == b.keys()
-        for k in a:
-            assert_tree_equal(a[k], b[k])
-    elif isinstance(a, tuple | list):
-        assert len(a) == len(b)
-        for x, y in zip(a, b, strict=True):
-            assert_tree_equal(x, y)
-    else:
-        np.testing.assert_array_equal(a, b)
 
 
 def belt_frames(env, n: int) -> list[tuple]:

@@ -13,6 +13,7 @@ from gymnasium.utils.env_checker import check_env
 
 import track_envs
 from track_envs.report import empty_report
+from track_envs.testing import assert_equal_trees as assert_tree_equal
 
 ENV_IDS = list(track_envs.ENV_IDS)
 # check_env recommends a normalised Box action space for RL policies; a report holds positions in
@@ -45,19 +46,6 @@ def rollout(env_id: str, seed: int, steps: int, **kwargs):
         if terminated or truncated:
             break
     return frames
-
-
-def assert_tree_equal(a, b):
-    if isinstance(a, dict):
-        assert a.keys() == b.keys()
-        for k in a:
-            assert_tree_equal(a[k], b[k])
-    elif isinstance(a, tuple | list):
-        assert len(a) == len(b)
-        for x, y in zip(a, b, strict=True):
-            assert_tree_equal(x, y)
-    else:
-        np.testing.assert_array_equal(a, b)
 
 
 def test_registration_is_idempotent():

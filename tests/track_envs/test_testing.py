@@ -82,3 +82,17 @@ def test_a_predictor_without_the_protocol_methods_is_caught():
         AssertionError, match=r"it lacks \['reset', 'start', 'predict', 'update', 'estimate'\]"
     ):
         check_predictor(object(), spec)
+
+
+def test_assert_equal_trees_names_where_trees_differ():
+    import numpy as np
+    import pytest
+
+    from track_envs.testing import assert_equal_trees
+
+    tree = {"a": (np.arange(3), [1.0, {"b": np.zeros(2)}])}
+    assert_equal_trees(tree, {"a": (np.arange(3), [1.0, {"b": np.zeros(2)}])})
+    with pytest.raises(AssertionError, match=r"\['a'\]\[1\]\[1\]\['b'\]"):
+        assert_equal_trees(tree, {"a": (np.arange(3), [1.0, {"b": np.ones(2)}])})
+    with pytest.raises(AssertionError, match="lengths differ"):
+        assert_equal_trees(tree, {"a": (np.arange(3),)})

@@ -171,10 +171,16 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
 
         Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
         """
+        ids, positions = truth.visible_part()
+        return self._sense_points(positions, ids)
+
+    def _sense_points(
+        self, positions: NDArray[np.float64], ids: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """The point sensor (noise, misses, clutter) over sources at ``positions`` with ``ids``."""
         from track_envs.sensors import sense_points
 
         spec = self.sensor_spec
-        ids, positions = truth.visible_part()
         return sense_points(
             positions,
             ids,

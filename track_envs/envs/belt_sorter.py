@@ -15,7 +15,6 @@ from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.blobs import MAX_MERGED, MERGE_TOLERANCE, merge_blobs, merged_rows, silhouette_table
-from track_envs.sensors import sense_points
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -229,7 +228,6 @@ class BeltSorterEnv(TrackingEnv):
         """Detections of the blobs (merged touching particles) or, without merging, of each particle."""
         if not self.merge_touching:
             return super()._sense(truth)
-        spec = self.sensor_spec
         e = truth.extra
         centres, primary, self._merged, truncated = merge_blobs(
             truth.positions,
@@ -241,16 +239,7 @@ class BeltSorterEnv(TrackingEnv):
             MAX_MERGED,
         )
         self._truncated_merge_ids += truncated
-        return sense_points(
-            centres,
-            primary,
-            self.np_random,
-            noise_std=self.added_noise_std,
-            p_detect=spec.p_detect,
-            clutter_rate=spec.clutter_rate,
-            clutter_low=self._clutter_low,
-            clutter_high=self._clutter_high,
-        )
+        return self._sense_points(centres, primary)
 
     def _observe(self, ended: bool = False) -> tuple[dict[str, NDArray], dict[str, Any]]:
         """The base observation with the merged ids of every detection row in ``info``."""
