@@ -100,17 +100,16 @@ def _pad_axis1(a: np.ndarray, k: int) -> np.ndarray:
     return np.concatenate([a, pad], axis=1)
 
 
-def _block(
-    rows_of: list[np.ndarray], n: int, values: np.ndarray, dtype: type = np.float64
-) -> tuple[np.ndarray, BoolArray]:
-    """Gather per-track sample rows into a padded (n, K, W) block and its validity mask."""
-    k = max((len(r) for r in rows_of), default=0)
-    block: np.ndarray = np.zeros((n, k, values.shape[-1]), dtype=dtype)
-    valid = np.zeros((n, k), dtype=bool)
-    counts = np.array([len(r) for r in rows_of], dtype=np.int64)
-    valid[:] = np.arange(k)[None, :] < counts[:, None]
-    if k:
-        block[valid] = values.reshape(-1, values.shape[-1])[np.concatenate(rows_of)] if counts.sum() else 0.0
+def _block(selected: BoolArray, values: np.ndarray, dtype: type = np.float64) -> tuple[np.ndarray, BoolArray]:
+    """The samples ``selected`` (n, T) of each track, in order, as a padded (n, K, W) block of
+    their ``values`` (n, T, W) and its validity mask (n, K); K is the largest count."""
+    n = selected.shape[0]
+    counts = selected.sum(axis=1)
+    k = int(counts.max()) if n else 0
+    first = np.argsort(~selected, axis=1, kind="stable")[:, :k]  # selected samples first, in order
+    valid = np.arange(k)[None, :] < counts[:, None]
+    block: np.ndarray = np.take_along_axis(values, first[..., None], axis=1).astype(dtype)
+    block[~valid] = 0.0
     return block, valid
 
 
@@ -131,21 +130,17 @@ class GroupedMC:
 
     def start(self, x: FloatArray, masks: FloatArray) -> MCState:
         """Group the masks (n, T, ΣW) of new tracks and run their first step on inputs ``x`` (n, In)."""
-        n, T, _ = masks.shape
+        n = masks.shape[0]
         dropped = masks == 0.0
         w_in, w_h1, w_x2, w_h2, _ = self.widths
         l1 = dropped[..., : w_in + w_h1].any(axis=-1)
         l2 = ~l1 & dropped[..., w_in + w_h1 : w_in + w_h1 + w_x2 + w_h2].any(axis=-1)
         head = ~l1 & ~l2 & dropped[..., w_in + w_h1 + w_x2 + w_h2 :].any(axis=-1)
         clean = ~(l1 | l2 | head)
-        flat = masks.reshape(n * T, -1)
-        index = np.arange(n * T).reshape(n, T)
         dt = self.dtype
-        a_mask, a_valid = _block([index[i][l1[i]] for i in range(n)], n, flat, dt)
-        b_mask, b_valid = _block([index[i][l2[i]] for i in range(n)], n, flat[:, w_in + w_h1 :], dt)
-        c_mask, c_valid = _block(
-            [index[i][head[i]] for i in range(n)], n, flat[:, w_in + w_h1 + w_x2 + w_h2 :], dt
-        )
+        a_mask, a_valid = _block(l1, masks, dt)
+        b_mask, b_valid = _block(l2, masks[..., w_in + w_h1 :], dt)
+        c_mask, c_valid = _block(head, masks[..., w_in + w_h1 + w_x2 + w_h2 :], dt)
         h1, c1, h2, c2 = self.net.zero_state(n)
         ka, kb = a_mask.shape[1], b_mask.shape[1]
         z1, z2 = np.zeros((n, ka, w_h1), dt), np.zeros((n, ka, w_h2), dt)
