@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
-from track_envs.envs.skeleton import FLIP_INDEX, LIMBS
+from track_envs.envs.skeleton import FLIP_INDEX, LIMBS, WalkerParams
 from track_envs.report import empty_report, pack_report
 
 CLEAN = {"clutter_rate": 0.0, "swap_prob": 0.0, "p_detect": 1.0, "p_keypoint": 1.0}
@@ -184,3 +184,20 @@ def test_rendering_draws_people_detections_and_tracks():
     frame = env.render()
     assert frame.shape[1:] == (1280, 3) and frame.shape[0] > 720 and frame.dtype == np.uint8  # + footer
     assert (frame != plain).any(axis=2).sum() > 500
+
+
+@pytest.mark.parametrize(
+    "fields, name",
+    [
+        ({"fps": 0.0}, "fps"),
+        ({"width": 1.5}, "width"),
+        ({"focal": -900.0}, "focal"),
+        ({"turn_std": np.nan}, "turn_std"),
+        ({"depth_range": (14.0, 4.0)}, "depth_range"),
+        ({"speed_range": (1.0,)}, "speed_range"),
+        ({"height_range": (0.0, 1.9)}, r"height_range\[0\]"),
+    ],
+)
+def test_bad_walker_params_are_named(fields, name):
+    with pytest.raises(ValueError, match=name):
+        WalkerParams(**fields)

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.arguments import check_int, check_non_negative, check_number, check_positive
+
 #: Limb edges of the COCO skeleton (0-based keypoint indices), as drawn by COCO tools.
 SKELETON_EDGES: NDArray[np.int64] = np.array(
     [
@@ -231,6 +233,22 @@ class WalkerParams:
     pan_change_rate: float = 1.0  # per second: the pan velocity jumps to a new value
     pillar_depth: float = 3.0
     pillar_width: float = 0.45
+
+    def __post_init__(self) -> None:
+        check_int("width", self.width, 1)
+        check_int("height", self.height, 1)
+        for name in ("fps", "focal", "camera_height", "stride_factor", "pillar_depth"):
+            check_positive(name, getattr(self, name))
+        check_number("horizon", self.horizon)
+        for name in ("heading_std", "event_rate", "turn_std", "pan_change_rate", "pillar_width"):
+            check_non_negative(name, getattr(self, name))
+        for name in ("depth_range", "height_range", "speed_range", "stop_duration", "vanish_duration"):
+            value = getattr(self, name)
+            if not (isinstance(value, tuple | list) and len(value) == 2):
+                raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
+            low, high = (check_positive(f"{name}[{k}]", v) for k, v in enumerate(value))
+            if low > high:
+                raise ValueError(f"{name} must have low <= high, got {value!r}")
 
 
 @dataclass(frozen=True)
