@@ -16,8 +16,13 @@ frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
    (Thrun, Burgard, Fox, "Probabilistic Robotics", 2005, Table 4.4) and ``w⁽ⁱ⁾ = 1/N``.
 
 A filter starts at its first measurement ``z₀``: ``x⁽ⁱ⁾ ~ N(z₀, Σ₀)``, ``Σ₀ = σ₀² I``, ``w = 1/N``.
-All per-frame work is numpy over (T, N); parameters may differ per target ((T,) arrays), which is
+All per-frame work is batched over (T, N); parameters may differ per target ((T,) arrays), which is
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
+A model that moves every particle of a target by one common displacement plus white noise
+(:class:`CommonDisplacementModel`: Brownian, constant velocity, the LSTM of Jung et al.) runs the
+whole frame in one compiled pass (:mod:`agents.particle_kernels`); any other
+:class:`DisplacementModel` runs the numpy path through its ``propose``. Both draw the same random
+numbers from the filter's generator in the same order, and agree to rounding.
 
 The agent ``"pf"`` (:class:`ParticleFilterAgent`) tracks one target with ``T = 1``.
 Clutter: when the sensor has clutter (``spec.clutter_rate > 0``) or a frame holds more than one
@@ -38,12 +43,26 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.particle_kernels import (
+    add_common,
+    all_finite,
+    count_new,
+    frame,
+    predict_common,
+    resample_rows,
+    update_rows,
+)
 from track_envs.observation import check_observation
-from track_envs.report import pack_report
+from track_envs.report import empty_report
 from track_envs.types import SensorSpec
 
 #: Step length ``Δ`` of Jung et al. (2019); σ_p and σ_m are given in multiples of it.
 STEP = 0.2
+
+
+#: Particles (T·N) from which the compiled path draws inside the kernels (see
+#: ``BatchParticleFilter._compiled_frame``).
+RNG_IN_KERNEL_PARTICLES = 512
 
 
 def _check_sigma(name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -63,6 +82,26 @@ class DisplacementModel(Protocol):
         """Predicted particles (T, N, 2) from ``particles`` (T, N, 2) and the history of weighted-mean
         estimates ``history`` (T, t, 2) (oldest first; NaN for frames before a target's filter
         started), drawing every random number from ``rng``."""
+        ...
+
+
+@runtime_checkable
+class CommonDisplacementModel(DisplacementModel, Protocol):
+    """A displacement model that moves every particle of a target by one common displacement plus
+    white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
+
+    The filter runs such models in one compiled pass (:mod:`agents.particle_kernels`) and calls
+    :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
+    targets; after a (re)start a target's history is NaN except its newest estimate.
+    """
+
+    #: ``σ_p·Δ``, the white-noise std per axis: a scalar or one per target (T,).
+    std: NDArray[np.float64]
+
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Common displacement (T, 2) of every particle of each target this frame, finite (zeros
+        where unknown), from the weighted-mean estimates ``history`` (T, t, 2), oldest first, NaN
+        before a target's filter (re)started."""
         ...
 
 
@@ -86,6 +125,10 @@ class Brownian:
         noise *= std
         return noise
 
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Zeros (T, 2): Brownian motion has no drift."""
+        return np.zeros((history.shape[0], 2))
+
     def propose(
         self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
     ) -> NDArray[np.float64]:
@@ -102,15 +145,21 @@ class ConstantVelocity(Brownian):
     displacement is zero until a target has two estimates.
     """
 
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``v = x*_{t−1} − x*_{t−2}`` (T, 2), zero where a target has fewer than two estimates."""
+        if history.shape[1] < 2:
+            return np.zeros((history.shape[0], 2))
+        v = history[:, -1] - history[:, -2]
+        v[~np.isfinite(v)] = 0.0
+        return v
+
     def propose(
         self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
     ) -> NDArray[np.float64]:
         """``particles + v + σ_p·Δ·ε`` with ``v`` the last estimated displacement (T, 2)."""
         noise = self._noise(particles.shape, rng)
         noise += particles
-        if history.shape[1] >= 2:
-            v = history[:, -1] - history[:, -2]
-            noise += np.where(np.isfinite(v), v, 0.0)[:, None, :]
+        noise += self.displacement(history)[:, None, :]
         return noise
 
 
@@ -160,6 +209,8 @@ def systematic_resample(weights: ArrayLike, u: float) -> NDArray[np.intp]:
 class BatchParticleFilter:
     """``T`` bootstrap particle filters of ``N`` particles stepped together (module docstring).
 
+    ``fused`` says whether the model runs the compiled path (a :class:`CommonDisplacementModel`).
+
     Args:
         n_targets: ``T``.
         n_particles: ``N`` >= 1.
@@ -195,6 +246,16 @@ class BatchParticleFilter:
         self.sigma_0 = np.broadcast_to(_check_sigma("sigma_0", sigma_0), (self.T,))
         self.sigma_m = np.broadcast_to(sm, (self.T,))
         self._inv_2var = (0.5 / self.sigma_m**2)[:, None]
+        # contiguous copies and scratch of the compiled path
+        self._inv_2var_flat = np.ascontiguousarray(self._inv_2var[:, 0])
+        self._sigma_0 = np.ascontiguousarray(self.sigma_0, dtype=np.float64)
+        self._no_displacement = np.zeros((self.T, 2))
+        self._no_std = np.zeros(1)
+        self._new = np.zeros(self.T, dtype=bool)
+        self._low = np.zeros(self.T, dtype=bool)
+        self._no_cloud = np.zeros((0, self.N, 2))
+        self._rng_in_kernel = self.T * self.N >= RNG_IN_KERNEL_PARTICLES
+        self._noise = np.empty((0, self.N, 2) if self._rng_in_kernel else (self.T, self.N, 2))
         self.resample_threshold = float(resample_threshold)
         self.particles = np.zeros((self.T, self.N, 2))
         self.weights = np.full((self.T, self.N), 1.0 / self.N)
@@ -222,9 +283,26 @@ class BatchParticleFilter:
         cov = np.matmul((d * self.weights[..., None]).transpose(0, 2, 1), d)
         return mean, cov
 
+    @property
+    def model(self) -> DisplacementModel:
+        """The displacement model; a :class:`CommonDisplacementModel` runs the compiled path."""
+        return self._model
+
+    @model.setter
+    def model(self, model: DisplacementModel) -> None:
+        self._model = model
+        self.fused = isinstance(model, CommonDisplacementModel)
+
     def predict(self) -> None:
         """Move every particle with the displacement model (step 1)."""
-        self.particles = self.model.propose(self.particles, self.history, self.rng)
+        if self.fused:
+            displacement, std = self._common_step()
+            if self._rng_in_kernel:
+                predict_common(self.particles, displacement, std, self.rng)
+            else:
+                add_common(self.particles, displacement, std, self.rng.standard_normal(out=self._noise))
+        else:
+            self.particles = self.model.propose(self.particles, self.history, self.rng)
 
     def update(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
         """Weight (Eq. (4)) or start the filters that have a measurement, estimate, resample.
@@ -236,6 +314,8 @@ class BatchParticleFilter:
         Returns:
             The estimates (T, 2) of this frame, NaN where a filter has not started.
         """
+        if self.fused:
+            return self._compiled_frame(z, has_z, predict=False)
         z = np.asarray(z, dtype=np.float64).reshape(self.T, 2)
         has = np.asarray(has_z, dtype=bool).reshape(self.T)
         weigh = has & self.started
@@ -259,9 +339,89 @@ class BatchParticleFilter:
         return estimate
 
     def step(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
-        """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2)."""
+        """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2).
+
+        For a :class:`CommonDisplacementModel` the whole frame is one compiled pass
+        (:func:`agents.particle_kernels.frame`)."""
+        if self.fused:
+            return self._compiled_frame(z, has_z, predict=True)
         self.predict()
         return self.update(z, has_z)
+
+    def _common_step(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The model's displacement (T, 2) and noise std (1,) or (T,), checked."""
+        model: Any = self._model
+        displacement = np.ascontiguousarray(model.displacement(self.history), dtype=np.float64)
+        if displacement.shape != (self.T, 2) or not all_finite(displacement):
+            raise ValueError(
+                f"{type(model).__name__}.displacement() must return finite values of shape "
+                f"({self.T}, 2), got {displacement.shape}: {displacement[:3].tolist()}"
+            )
+        std = np.asarray(model.std, dtype=np.float64).reshape(-1)
+        if std.shape[0] not in (1, self.T):
+            raise ValueError(
+                f"{type(model).__name__}.std must be a scalar or have {self.T} entries, got {std.shape}"
+            )
+        return displacement, std
+
+    def _compiled_frame(self, z: ArrayLike, has_z: ArrayLike, *, predict: bool) -> NDArray[np.float64]:
+        """Frame of the compiled path: as predict (optionally) + update of the numpy path.
+
+        Passing a Generator into a compiled function costs ≈10 µs, more than a small frame's work:
+        below :data:`RNG_IN_KERNEL_PARTICLES` particles in all, numpy makes the same draws from
+        the same generator outside the kernels (numba's draws equal numpy's), so the result does
+        not depend on the choice."""
+        z = np.ascontiguousarray(z, dtype=np.float64).reshape(self.T, 2)
+        has = np.ascontiguousarray(has_z, dtype=bool).reshape(self.T)
+        displacement, std = self._common_step() if predict else (self._no_displacement, self._no_std)
+        if self.length == self._history.shape[1]:
+            self._grow()
+        estimate = np.empty((self.T, 2))
+        if self._rng_in_kernel:
+            n_low, n_new = frame(
+                self.particles,
+                self.weights,
+                self.started,
+                z,
+                has,
+                predict,
+                displacement,
+                std,
+                self._sigma_0,
+                self._inv_2var_flat,
+                self.resample_threshold,
+                self.rng,
+                estimate,
+                self._new,
+                self._low,
+            )
+        else:
+            if predict:
+                add_common(self.particles, displacement, std, self.rng.standard_normal(out=self._noise))
+            n_new = count_new(self.started, has)
+            cloud = self.rng.standard_normal((n_new, self.N, 2)) if n_new else self._no_cloud
+            n_low = update_rows(
+                self.particles,
+                self.weights,
+                self.started,
+                z,
+                has,
+                cloud,
+                self._sigma_0,
+                self._inv_2var_flat,
+                self.resample_threshold,
+                estimate,
+                self._new,
+                self._low,
+            )
+            if n_low:
+                resample_rows(self.particles, self.weights, self._low, self.rng.random(n_low))
+        self.resampled += n_low
+        if n_new:  # a (re)started target has no past (see update)
+            self._history[self._new, : self.length] = np.nan
+        self._history[:, self.length] = estimate
+        self.length += 1
+        return estimate
 
     def _weigh(self, rows: slice | NDArray[np.intp], z: NDArray[np.float64]) -> None:
         diff = self.particles[rows] - z[:, None, :]
@@ -278,11 +438,14 @@ class BatchParticleFilter:
         w /= total
         self.weights[rows] = w
 
+    def _grow(self) -> None:
+        grown = np.full((self.T, 2 * self.length, 2), np.nan)
+        grown[:, : self.length] = self._history
+        self._history = grown
+
     def _append(self, estimate: NDArray[np.float64]) -> None:
         if self.length == self._history.shape[1]:
-            grown = np.full((self.T, 2 * self.length, 2), np.nan)
-            grown[:, : self.length] = self._history
-            self._history = grown
+            self._grow()
         self._history[:, self.length] = estimate
         self.length += 1
 
@@ -317,6 +480,11 @@ def make_displacement_model(model: str | DisplacementModel, sigma_p: ArrayLike, 
             f"model must be a name in {sorted(DISPLACEMENT_MODELS)} or have propose(), got {model!r}"
         )
     return model
+
+
+# the update arguments of a single-target frame without / with a measurement (never written)
+_NO_Z = np.zeros((1, 2))
+_HAS = (np.zeros(1, dtype=bool), np.ones(1, dtype=bool))
 
 
 def agent_rng(seed: int | None) -> np.random.Generator:
@@ -425,28 +593,39 @@ class ParticleFilterAgent:
         spec, pf = self._spec, self.filter
         rows, z = check_observation(obs, spec)
         clutter = spec.clutter_rate > 0
+        m = len(rows)
+        if pf.started[0] and (m == 0 or (m == 1 and not clutter)):
+            # nothing to choose: the whole frame in one pass
+            pick = m - 1
+            estimate = pf.step(z if m else _NO_Z, _HAS[m])
+        else:
+            pick = self._choose(pf, z, clutter)
+            estimate = pf.update(z[pick : pick + 1] if pick >= 0 else _NO_Z, _HAS[int(pick >= 0)])
+        self._previous = z
+        report = empty_report(spec.max_tracks, (2,))
+        if pf.started[0]:  # one track, id 0, at the estimate
+            report["positions"][0] = estimate[0]
+            report["detection"][0] = rows[pick] if pick >= 0 else -1
+            report["mask"][0] = 1
+        return report
+
+    def _choose(self, pf: BatchParticleFilter, z: NDArray[np.float64], clutter: bool) -> int:
+        """Predict (a started filter) and pick the detection to update with: the gated nearest one,
+        a confirmed one to (re)start on with clutter, the first otherwise; −1 for none."""
         pick = -1
         if pf.started[0]:
             pf.predict()
-            if len(rows) == 1 and not clutter:
+            if len(z) == 1 and not clutter:
                 pick = 0
-            elif len(rows):
+            elif len(z):
                 pick = self._gated_nearest(z)
                 self._misses = 0 if pick >= 0 else self._misses + 1
                 if clutter and self._misses >= self.max_misses:
                     pf.started[0] = False
                     self._misses = 0
-        if not pf.started[0] and len(rows):
+        if not pf.started[0] and len(z):
             pick = self._confirmed(z) if clutter else 0  # rows are shuffled by the env
-        self._previous = z
-        zt = z[pick] if pick >= 0 else np.zeros(2)
-        estimate = pf.update(zt[None], np.array([pick >= 0]))
-        if not pf.started[0]:
-            return pack_report(
-                np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros(0, np.int64), spec.max_tracks
-            )
-        row = rows[pick] if pick >= 0 else -1
-        return pack_report(np.zeros(1, np.int64), estimate, np.array([row], np.int64), spec.max_tracks)
+        return pick
 
     def _confirmed(self, z: NDArray[np.float64]) -> int:
         """Index into ``z`` of the detection nearest to a previous-frame detection within
