@@ -47,7 +47,7 @@ from agents.particle_kernels import (
     add_common,
     all_finite,
     count_new,
-    frame,
+    log_likelihood,
     predict_common,
     resample_rows,
     update_rows,
@@ -60,8 +60,8 @@ from track_envs.types import SensorSpec
 STEP = 0.2
 
 
-#: Particles (T·N) from which the compiled path draws inside the kernels (see
-#: ``BatchParticleFilter._compiled_frame``).
+#: Particles (T·N) from which the compiled prediction draws its noise inside the kernel, below
+#: which numpy draws it (see ``BatchParticleFilter.predict``).
 RNG_IN_KERNEL_PARTICLES = 512
 
 
@@ -249,8 +249,7 @@ class BatchParticleFilter:
         # contiguous copies and scratch of the compiled path
         self._inv_2var_flat = np.ascontiguousarray(self._inv_2var[:, 0])
         self._sigma_0 = np.ascontiguousarray(self.sigma_0, dtype=np.float64)
-        self._no_displacement = np.zeros((self.T, 2))
-        self._no_std = np.zeros(1)
+        self._lik = np.empty((self.T, self.N))
         self._new = np.zeros(self.T, dtype=bool)
         self._low = np.zeros(self.T, dtype=bool)
         self._no_cloud = np.zeros((0, self.N, 2))
@@ -296,6 +295,8 @@ class BatchParticleFilter:
     def predict(self) -> None:
         """Move every particle with the displacement model (step 1)."""
         if self.fused:
+            # passing a Generator into a compiled function costs ≈10 µs, more than drawing a few
+            # hundred numbers with numpy; numba's draws equal numpy's, so either gives the same
             displacement, std = self._common_step()
             if self._rng_in_kernel:
                 predict_common(self.particles, displacement, std, self.rng)
@@ -341,8 +342,8 @@ class BatchParticleFilter:
     def step(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
         """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2).
 
-        For a :class:`CommonDisplacementModel` the whole frame is one compiled pass
-        (:func:`agents.particle_kernels.frame`)."""
+        For a :class:`CommonDisplacementModel` the frame runs the compiled kernels
+        (:mod:`agents.particle_kernels`)."""
         if self.fused:
             return self._compiled_frame(z, has_z, predict=True)
         self.predict()
@@ -365,58 +366,37 @@ class BatchParticleFilter:
         return displacement, std
 
     def _compiled_frame(self, z: ArrayLike, has_z: ArrayLike, *, predict: bool) -> NDArray[np.float64]:
-        """Frame of the compiled path: as predict (optionally) + update of the numpy path.
-
-        Passing a Generator into a compiled function costs ≈10 µs, more than a small frame's work:
-        below :data:`RNG_IN_KERNEL_PARTICLES` particles in all, numpy makes the same draws from
-        the same generator outside the kernels (numba's draws equal numpy's), so the result does
-        not depend on the choice."""
+        """Frame of the compiled path (:mod:`agents.particle_kernels`), the same steps and draws as
+        predict (optionally) + update of the numpy path; ``exp`` is numpy's (vectorised)."""
         z = np.ascontiguousarray(z, dtype=np.float64).reshape(self.T, 2)
         has = np.ascontiguousarray(has_z, dtype=bool).reshape(self.T)
-        displacement, std = self._common_step() if predict else (self._no_displacement, self._no_std)
+        if predict:
+            self.predict()
         if self.length == self._history.shape[1]:
             self._grow()
+        n_new = count_new(self.started, has)
+        cloud = self.rng.standard_normal((n_new, self.N, 2)) if n_new else self._no_cloud
+        lik = self._lik
+        log_likelihood(self.particles, self.started, z, has, self._inv_2var_flat, lik)
+        np.exp(lik, out=lik)
         estimate = np.empty((self.T, 2))
-        if self._rng_in_kernel:
-            n_low, n_new = frame(
-                self.particles,
-                self.weights,
-                self.started,
-                z,
-                has,
-                predict,
-                displacement,
-                std,
-                self._sigma_0,
-                self._inv_2var_flat,
-                self.resample_threshold,
-                self.rng,
-                estimate,
-                self._new,
-                self._low,
-            )
-        else:
-            if predict:
-                add_common(self.particles, displacement, std, self.rng.standard_normal(out=self._noise))
-            n_new = count_new(self.started, has)
-            cloud = self.rng.standard_normal((n_new, self.N, 2)) if n_new else self._no_cloud
-            n_low = update_rows(
-                self.particles,
-                self.weights,
-                self.started,
-                z,
-                has,
-                cloud,
-                self._sigma_0,
-                self._inv_2var_flat,
-                self.resample_threshold,
-                estimate,
-                self._new,
-                self._low,
-            )
-            if n_low:
-                resample_rows(self.particles, self.weights, self._low, self.rng.random(n_low))
-        self.resampled += n_low
+        n_low = update_rows(
+            self.particles,
+            self.weights,
+            self.started,
+            z,
+            has,
+            lik,
+            cloud,
+            self._sigma_0,
+            self.resample_threshold,
+            estimate,
+            self._new,
+            self._low,
+        )
+        if n_low:
+            resample_rows(self.particles, self.weights, self._low, self.rng.random(n_low))
+            self.resampled += n_low
         if n_new:  # a (re)started target has no past (see update)
             self._history[self._new, : self.length] = np.nan
         self._history[:, self.length] = estimate

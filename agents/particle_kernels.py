@@ -1,21 +1,21 @@
-"""Compiled (numba) frame of the batched bootstrap particle filter (agents/particle.py).
+"""Compiled (numba) kernels of the batched bootstrap particle filter (agents/particle.py).
 
-One pass over the (T, N) particles does what the numpy path of
-:class:`agents.particle.BatchParticleFilter` does in several: for a displacement model that moves
-every particle of target ``t`` by one common displacement ``d_t`` plus white noise of std ``s_t``,
+For a displacement model that moves every particle of target ``t`` by one common displacement
+``d_t`` plus white noise of std ``s_t``, a frame of :class:`agents.particle.BatchParticleFilter` is
+a few single passes over the (T, N) particles instead of the numpy path's many temporaries:
 
-1. **predict**: ``x⁽ⁱ⁾ ← x⁽ⁱ⁾ + s_t·ε⁽ⁱ⁾ + d_t``, ``ε⁽ⁱ⁾ ~ N(0, I_2)``;
-2. **update** (Eq. (4) of Jung, Schlangen, Charlish, FUSION 2019):
-   ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z_t||² / (2σ_m²))``, or a new cloud ``x⁽ⁱ⁾ = z_t + σ₀·ε⁽ⁱ⁾`` with
-   ``w = 1/N`` for a target whose filter starts this frame;
-3. **estimate**: ``x*_t = Σ_i w⁽ⁱ⁾ x⁽ⁱ⁾``;
-4. **resample**: systematic resampling when ``N_eff = 1 / Σ_i (w⁽ⁱ⁾)² < threshold·N``.
+1. **predict** (:func:`predict_common`): ``x⁽ⁱ⁾ ← x⁽ⁱ⁾ + s_t·ε⁽ⁱ⁾ + d_t``, ``ε⁽ⁱ⁾ ~ N(0, I_2)``;
+2. **update** (Eq. (4) of Jung, Schlangen, Charlish, FUSION 2019; :func:`log_likelihood`, numpy's
+   vectorised ``exp``, :func:`update_rows`): ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z_t||² / (2σ_m²))``, or a
+   new cloud ``x⁽ⁱ⁾ = z_t + σ₀·ε⁽ⁱ⁾`` with ``w = 1/N`` for a target whose filter starts this frame;
+3. **estimate**: ``x*_t = Σ_i w⁽ⁱ⁾ x⁽ⁱ⁾``, in the same pass as ``N_eff = 1 / Σ_i (w⁽ⁱ⁾)²``;
+4. **resample** (:func:`resample_rows`): systematic resampling where ``N_eff < threshold·N``.
 
 Every random number comes from the filter's ``np.random.Generator`` (numba draws from it exactly as
 numpy does), in the numpy path's order: the prediction noise of all rows (C order of (T, N, 2)),
 then the clouds of the starting rows, then one uniform per resampled row. Given the same
 generator state the two paths therefore draw the same numbers; their weights and estimates agree
-to rounding (numba's ``exp`` and sequential sums against numpy's vectorised ones).
+to rounding (sequential sums against numpy's pairwise ones).
 """
 
 from __future__ import annotations
@@ -84,42 +84,6 @@ def add_common(
 
 
 @njit(cache=True)
-def _weigh_row(
-    particles: NDArray[np.float64],
-    weights: NDArray[np.float64],
-    zx: float,
-    zy: float,
-    inv_2var: float,
-    lik: NDArray[np.float64],
-) -> None:
-    """Eq. (4) for one target: ``w ∝ w·exp(ℓ − max ℓ)``, ``ℓ = −||x − z||²/(2σ_m²)``; the likelihood
-    alone when every prior weight underflowed against it."""
-    n = weights.shape[0]
-    top = -np.inf
-    for i in range(n):
-        dx = particles[i, 0] - zx
-        dy = particles[i, 1] - zy
-        ll = (dx * dx + dy * dy) * -inv_2var
-        lik[i] = ll
-        top = max(top, ll)
-    total = 0.0
-    lik_total = 0.0
-    for i in range(n):
-        e = math.exp(lik[i] - top)
-        lik[i] = e
-        lik_total += e
-        w = weights[i] * e
-        weights[i] = w
-        total += w
-    if not (total > 0.0 and math.isfinite(total)):
-        for i in range(n):
-            weights[i] = lik[i]
-        total = lik_total
-    for i in range(n):
-        weights[i] /= total
-
-
-@njit(cache=True)
 def count_new(started: NDArray[np.bool_], has_z: NDArray[np.bool_]) -> int:
     """How many rows start this frame (a measurement, not started yet)."""
     n_new = 0
@@ -129,15 +93,43 @@ def count_new(started: NDArray[np.bool_], has_z: NDArray[np.bool_]) -> int:
 
 
 @njit(cache=True)
+def log_likelihood(
+    particles: NDArray[np.float64],
+    started: NDArray[np.bool_],
+    z: NDArray[np.float64],
+    has_z: NDArray[np.bool_],
+    inv_2var: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:
+    """``out[t] = ℓ − max ℓ``, ``ℓ⁽ⁱ⁾ = −||x⁽ⁱ⁾ − z_t||² / (2σ_m²)`` (T, N), for the started rows with a
+    measurement; 0 elsewhere. ``exp(out)`` is the likelihood of Eq. (4) up to a factor per row."""
+    n_t, n = out.shape
+    for t in range(n_t):
+        if not (has_z[t] and started[t]):
+            out[t] = 0.0
+            continue
+        zx, zy, c = z[t, 0], z[t, 1], inv_2var[t]
+        top = -np.inf
+        for i in range(n):
+            dx = particles[t, i, 0] - zx
+            dy = particles[t, i, 1] - zy
+            ll = (dx * dx + dy * dy) * -c
+            out[t, i] = ll
+            top = max(top, ll)
+        for i in range(n):
+            out[t, i] -= top
+
+
+@njit(cache=True)
 def update_rows(
     particles: NDArray[np.float64],
     weights: NDArray[np.float64],
     started: NDArray[np.bool_],
     z: NDArray[np.float64],
     has_z: NDArray[np.bool_],
+    lik: NDArray[np.float64],
     cloud: NDArray[np.float64],
     sigma_0: NDArray[np.float64],
-    inv_2var: NDArray[np.float64],
     threshold: float,
     estimate: NDArray[np.float64],
     new: NDArray[np.bool_],
@@ -145,27 +137,40 @@ def update_rows(
 ) -> int:
     """Steps 2–3 and the resampling test, in place; returns the number of rows to resample.
 
+    A started row with a measurement gets ``w ∝ w·lik`` (Eq. (4); the likelihood alone when every
+    prior weight underflowed against it); a row that starts gets the cloud ``z_t + σ₀·ε``, ``w = 1/N``.
+
     Args:
         particles: (T, N, 2) predicted particles.
         weights: (T, N) normalised weights.
         started: (T,) whether each filter has started; set for the rows that start now.
         z: (T, 2) measurements; row ``t`` is read only where ``has_z[t]``.
         has_z: (T,) whether row ``t`` has a measurement this frame.
+        lik: (T, N) likelihoods, ``exp`` of :func:`log_likelihood`.
         cloud: (n_new, N, 2) standard-normal draws of the starting rows' clouds, in row order.
         sigma_0: (T,) std of a starting cloud.
-        inv_2var: (T,) ``1 / (2σ_m²)``.
         threshold: Resample where ``N_eff < threshold·N``.
         estimate: (T, 2) output, the weighted means (NaN where a filter has not started).
         new: (T,) output, the rows that started this frame.
         low: (T,) output, the rows to resample.
     """
     n_t, n = weights.shape
-    lik = np.empty(n)
     k = 0
     for t in range(n_t):
         new[t] = has_z[t] and not started[t]
         if has_z[t] and started[t]:
-            _weigh_row(particles[t], weights[t], z[t, 0], z[t, 1], inv_2var[t], lik)
+            total = 0.0
+            for i in range(n):
+                w = weights[t, i] * lik[t, i]
+                weights[t, i] = w
+                total += w
+            if not (total > 0.0 and math.isfinite(total)):
+                total = 0.0
+                for i in range(n):
+                    weights[t, i] = lik[t, i]
+                    total += lik[t, i]
+            for i in range(n):
+                weights[t, i] /= total
         elif new[t]:
             s0 = sigma_0[t]
             for i in range(n):
@@ -220,41 +225,6 @@ def resample_rows(
             particles[t, i, 0] = copy[picks[i], 0]
             particles[t, i, 1] = copy[picks[i], 1]
             weights[t, i] = 1.0 / n
-
-
-@njit(cache=True)
-def frame(
-    particles: NDArray[np.float64],
-    weights: NDArray[np.float64],
-    started: NDArray[np.bool_],
-    z: NDArray[np.float64],
-    has_z: NDArray[np.bool_],
-    predict: bool,
-    displacement: NDArray[np.float64],
-    std: NDArray[np.float64],
-    sigma_0: NDArray[np.float64],
-    inv_2var: NDArray[np.float64],
-    threshold: float,
-    rng: np.random.Generator,
-    estimate: NDArray[np.float64],
-    new: NDArray[np.bool_],
-    low: NDArray[np.bool_],
-) -> tuple[int, int]:
-    """One whole frame of ``T`` filters in place, every draw from ``rng`` (module docstring): step 1
-    (:func:`predict_common`, when ``predict``), :func:`update_rows`, :func:`resample_rows`.
-
-    Arguments as in :func:`predict_common` and :func:`update_rows`; returns the numbers of rows
-    resampled and started.
-    """
-    if predict:
-        predict_common(particles, displacement, std, rng)
-    cloud = rng.standard_normal((count_new(started, has_z), weights.shape[1], 2))
-    n_low = update_rows(
-        particles, weights, started, z, has_z, cloud, sigma_0, inv_2var, threshold, estimate, new, low
-    )
-    if n_low:
-        resample_rows(particles, weights, low, rng.random(n_low))
-    return n_low, cloud.shape[0]
 
 
 @njit(cache=True)

@@ -18,7 +18,7 @@ from agents.particle import (
     systematic_resample,
     systematic_resample_batch,
 )
-from agents.particle_kernels import resample_rows, systematic_indices, update_rows
+from agents.particle_kernels import log_likelihood, resample_rows, systematic_indices, update_rows
 
 
 class ProposeOnly:
@@ -65,7 +65,8 @@ def test_named_models_take_the_compiled_path_and_others_the_numpy_path():
 @pytest.mark.parametrize("n_targets, n_particles", [(1, 10), (3, 50), (3, 1000)])
 def test_compiled_frame_equals_the_numpy_path(model_cls, n_targets, n_particles):
     """Same draws in the same order (the generators end in the same state), the same resampling,
-    and weights, particles and estimates equal to rounding; (3, 1000) draws inside the kernel."""
+    and weights, particles and estimates equal to rounding; (3, 1000) draws its prediction noise
+    inside the kernel."""
     z, has = scene(n_targets, 60)
     sigma_p = np.linspace(0.5, 2.0, n_targets)
     fused, est_fused = run(model_cls(sigma_p), n_targets, n_particles, z, has)
@@ -147,9 +148,13 @@ def test_compiled_update_equals_equation_4_and_the_weighted_mean():
     has = np.array([True, False, True])
     weights = prior.copy()
     estimate, new, low = np.empty((t, 2)), np.zeros(t, bool), np.zeros(t, bool)
+    started = np.ones(t, bool)
+    lik = np.full((t, n), np.nan)
+    log_likelihood(particles, started, z, has, np.full(t, 0.5 / sigma_m**2), lik)
+    assert (lik[has] <= 0).all() and (lik[has].max(axis=1) == 0).all() and (lik[~has] == 0).all()
     n_low = update_rows(
-        particles, weights, np.ones(t, bool), z, has, np.zeros((0, n, 2)), np.full(t, 0.1),
-        np.full(t, 0.5 / sigma_m**2), 0.5, estimate, new, low,
+        particles, weights, started, z, has, np.exp(lik), np.zeros((0, n, 2)), np.full(t, 0.1), 0.5,
+        estimate, new, low,
     )  # fmt: skip
     lik = np.exp(-((particles - z[:, None]) ** 2).sum(axis=2) / (2 * sigma_m**2))
     expected = np.where(has[:, None], prior * lik, prior)
@@ -167,12 +172,13 @@ def test_underflowed_prior_keeps_the_likelihood():
     particles = np.array([[[0.0, 0.0], [1.0, 0.0]]])
     weights = np.array([[0.0, 0.0]])
     estimate, new, low = np.empty((1, 2)), np.zeros(1, bool), np.zeros(1, bool)
+    lik = np.exp(-0.5 * np.array([[0.04, 0.64]]))
     update_rows(
-        particles, weights, np.ones(1, bool), np.array([[0.2, 0.0]]), np.ones(1, bool),
-        np.zeros((0, 2, 2)), np.ones(1), np.array([0.5]), 0.5, estimate, new, low,
+        particles, weights, np.ones(1, bool), np.array([[0.2, 0.0]]), np.ones(1, bool), lik,
+        np.zeros((0, 2, 2)), np.ones(1), 0.5, estimate, new, low,
     )  # fmt: skip
-    lik = np.exp(-0.5 * np.array([0.04, 0.64]))
-    np.testing.assert_allclose(weights[0], lik / lik.sum(), rtol=1e-14)
+    np.testing.assert_allclose(weights[0], lik[0] / lik.sum(), rtol=1e-14)
+    np.testing.assert_allclose(estimate[0], [lik[0, 1] / lik.sum(), 0.0], rtol=1e-14)
 
 
 @pytest.mark.parametrize("model_cls", [Brownian, ConstantVelocity])
