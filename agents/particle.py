@@ -209,7 +209,8 @@ def systematic_resample(weights: ArrayLike, u: float) -> NDArray[np.intp]:
 class BatchParticleFilter:
     """``T`` bootstrap particle filters of ``N`` particles stepped together (module docstring).
 
-    ``fused`` says whether the model runs the compiled path (a :class:`CommonDisplacementModel`).
+    ``fused`` says whether the model runs the compiled path (a :class:`CommonDisplacementModel`);
+    that path updates ``particles`` and ``weights`` in place (copy them to keep a frame's cloud).
 
     Args:
         n_targets: ``T``.
