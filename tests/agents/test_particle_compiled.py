@@ -258,3 +258,45 @@ def test_bad_std_is_named():
     pf = BatchParticleFilter(2, 5, model, sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0))
     with pytest.raises(ValueError, match=r"Brownian.std must be a scalar or have 2 entries"):
         pf.step(np.zeros((2, 2)), np.ones(2, bool))
+
+
+class CountingConstantVelocity(ConstantVelocity):
+    """Records the history every displacement() call sees."""
+
+    def __init__(self):
+        super().__init__(0.5)
+        self.seen = []
+
+    def displacement(self, history):
+        self.seen.append(history.copy())
+        return super().displacement(history)
+
+
+def test_displacement_is_called_once_per_frame_with_the_history_before_the_update():
+    z, has = scene(2, 12)
+    has[:] = True
+    model = CountingConstantVelocity()
+    pf = BatchParticleFilter(2, 30, model, sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0))
+    for f in range(6):
+        pf.step(z[f], has[f])
+    for f in range(6, 12):  # the agent's way: predict, choose, update
+        pf.predict()
+        pf.update(z[f], has[f])
+    assert len(model.seen) == 12
+    for f, history in enumerate(model.seen):
+        assert history.shape == (2, f, 2)
+        np.testing.assert_array_equal(history, pf.history[:, :f])
+
+
+def test_restarted_target_shows_the_model_a_history_of_nan_but_its_newest_estimate():
+    model = CountingConstantVelocity()
+    pf = BatchParticleFilter(1, 50, model, sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0))
+    for _ in range(4):
+        pf.step(np.zeros((1, 2)), np.array([True]))
+    pf.started[:] = False
+    pf.step(np.array([[5.0, 5.0]]), np.array([True]))
+    pf.step(np.array([[5.0, 5.0]]), np.array([True]))
+    history = model.seen[-1]
+    assert history.shape == (1, 5, 2)
+    assert np.isnan(history[0, :4]).all() and np.isfinite(history[0, 4]).all()
+    np.testing.assert_array_equal(model.displacement(history), np.zeros((1, 2)))
