@@ -32,20 +32,26 @@ def systematic_indices(weights: NDArray[np.float64], u: float, out: NDArray[np.i
     """Systematic resampling of one weight vector (N,) with the uniform draw ``u`` into ``out`` (N,).
 
     Position ``p_k = (u + k) / N`` picks the first ``j`` with ``p_k < cumsum(w)[j]``, ``N − 1`` when
-    rounding puts it beyond the last cumulative sum (filterpy's rule, bit for bit).
+    rounding puts it beyond the last cumulative sum (filterpy's rule, bit for bit). Without the
+    data-dependent branches of the sequential merge: ``n_j = #{k : p_k < cumsum_j}`` is
+    ``⌈N·cumsum_j − u⌉`` corrected by one step against the exact comparison (as in
+    :func:`agents.particle.systematic_resample_batch`), and ``out[k] = #{j : n_j ≤ k}``.
     """
     n = weights.shape[0]
-    cumsum = np.empty(n)
+    marks = np.zeros(n + 1, np.intp)
     acc = 0.0
     for j in range(n):
         acc += weights[j]
-        cumsum[j] = acc
+        c = min(max(math.ceil(acc * n - u), 0), n)
+        if c < n and (u + c) / n < acc:
+            c += 1
+        if c > 0 and (u + (c - 1)) / n >= acc:
+            c -= 1
+        marks[c] += 1
     j = 0
     for k in range(n):
-        p = (u + k) / n
-        while j < n - 1 and p >= cumsum[j]:
-            j += 1
-        out[k] = j
+        j += marks[k]
+        out[k] = min(j, n - 1)
 
 
 @njit(cache=True)

@@ -106,6 +106,37 @@ def test_separate_predict_and_update_equal_step():
     np.testing.assert_array_equal(pf.particles, pf_step.particles)
 
 
+def sequential_systematic(w, u):
+    """The textbook merge (filterpy's loop, the last index where rounding runs past the end)."""
+    n, cumsum, out, j = len(w), np.cumsum(w), [], 0
+    for k in range(n):
+        while j < n - 1 and (u + k) / n >= cumsum[j]:
+            j += 1
+        out.append(j)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_compiled_resampling_equals_the_sequential_rule(seed):
+    """Weights on the grid of positions (ties between p_k and cumsum_j), degenerate and spiky ones."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 300))
+    kind = seed % 3
+    if kind == 0:  # multiples of 1/n: cumulative sums on the positions for u = 0
+        w = rng.integers(0, 4, n).astype(float)
+    elif kind == 1:  # one or two particles carry (almost) everything
+        w = np.full(n, 1e-300)
+        w[rng.integers(0, n, 2)] = 1.0
+    else:
+        w = rng.random(n) ** 8
+    w[0] += 1.0
+    w /= w.sum()
+    for u in (0.0, 0.5, float(rng.random()), np.nextafter(1.0, 0.0)):
+        out = np.empty(n, np.intp)
+        systematic_indices(w, u, out)
+        np.testing.assert_array_equal(out, sequential_systematic(w, u))
+
+
 @pytest.mark.parametrize("seed", range(30))
 def test_compiled_resampling_equals_the_numpy_rule(seed):
     """The numpy rule equals filterpy's bit for bit (test_particle.py); so does the compiled one."""
