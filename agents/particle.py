@@ -20,7 +20,7 @@ All per-frame work is batched over (T, N); parameters may differ per target ((T,
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
 A model that moves every particle of a target by one common displacement plus white noise
 (:class:`CommonDisplacementModel`: Brownian, constant velocity, the LSTM of Jung et al.) runs the
-whole frame in one compiled pass (:mod:`agents.particle_kernels`); any other
+frame in a few compiled single passes (:mod:`agents.particle_kernels`); any other
 :class:`DisplacementModel` runs the numpy path through its ``propose``. Both draw the same random
 numbers from the filter's generator in the same order, and agree to rounding.
 
@@ -90,7 +90,7 @@ class CommonDisplacementModel(DisplacementModel, Protocol):
     """A displacement model that moves every particle of a target by one common displacement plus
     white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
 
-    The filter runs such models in one compiled pass (:mod:`agents.particle_kernels`) and calls
+    The filter runs such models on its compiled path (:mod:`agents.particle_kernels`) and calls
     :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
     targets; after a (re)start a target's history is NaN except its newest estimate.
     """
@@ -241,6 +241,8 @@ class BatchParticleFilter:
             raise ValueError(f"sigma_m must be > 0, got {sigma_m!r}")
         if not 0.0 <= resample_threshold <= 1.0:
             raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         self.T, self.N = int(n_targets), int(n_particles)
         self.model = model
         self.rng = rng
@@ -576,7 +578,7 @@ class ParticleFilterAgent:
         clutter = spec.clutter_rate > 0
         m = len(rows)
         if pf.started[0] and (m == 0 or (m == 1 and not clutter)):
-            # nothing to choose: the whole frame in one pass
+            # nothing to choose: predict and update in one call
             pick = m - 1
             estimate = pf.step(z if m else _NO_Z, _HAS[m])
         else:

@@ -331,3 +331,9 @@ def test_restarted_target_shows_the_model_a_history_of_nan_but_its_newest_estima
     assert history.shape == (1, 5, 2)
     assert np.isnan(history[0, :4]).all() and np.isfinite(history[0, 4]).all()
     np.testing.assert_array_equal(model.displacement(history), np.zeros((1, 2)))
+
+
+@pytest.mark.parametrize("rng", [np.random.RandomState(0), 0, None])
+def test_rng_must_be_a_generator(rng):
+    with pytest.raises(ValueError, match=r"rng must be a numpy\.random\.Generator"):
+        BatchParticleFilter(1, 5, Brownian(), sigma_m=0.1, sigma_0=0.1, rng=rng)
