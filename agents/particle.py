@@ -16,8 +16,13 @@ frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
    (Thrun, Burgard, Fox, "Probabilistic Robotics", 2005, Table 4.4) and ``w⁽ⁱ⁾ = 1/N``.
 
 A filter starts at its first measurement ``z₀``: ``x⁽ⁱ⁾ ~ N(z₀, Σ₀)``, ``Σ₀ = σ₀² I``, ``w = 1/N``.
-All per-frame work is numpy over (T, N); parameters may differ per target ((T,) arrays), which is
+All per-frame work is batched over (T, N); parameters may differ per target ((T,) arrays), which is
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
+A model that moves every particle of a target by one common displacement plus white noise
+(:class:`CommonDisplacementModel`: Brownian, constant velocity, the LSTM of Jung et al.) runs the
+frame in a few compiled single passes (:mod:`agents.particle_kernels`); any other
+:class:`DisplacementModel` runs the numpy path through its ``propose``. Both draw the same random
+numbers from the filter's generator in the same order, and agree to rounding.
 
 The agent ``"pf"`` (:class:`ParticleFilterAgent`) tracks one target with ``T = 1``.
 Clutter: when the sensor has clutter (``spec.clutter_rate > 0``) or a frame holds more than one
@@ -39,12 +44,26 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.particle_kernels import (
+    add_common,
+    all_finite,
+    count_new,
+    log_likelihood,
+    predict_common,
+    resample_rows,
+    update_rows,
+)
 from track_envs.observation import check_observation
-from track_envs.report import pack_report
+from track_envs.report import empty_report
 from track_envs.types import SensorSpec
 
 #: Step length ``Δ`` of Jung et al. (2019); σ_p and σ_m are given in multiples of it.
 STEP = 0.2
+
+
+#: Particles (T·N) from which the compiled prediction draws its noise inside the kernel, below
+#: which numpy draws it (see ``BatchParticleFilter.predict``).
+RNG_IN_KERNEL_PARTICLES = 512
 
 
 def _check_sigma(name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -64,6 +83,26 @@ class DisplacementModel(Protocol):
         """Predicted particles (T, N, 2) from ``particles`` (T, N, 2) and the history of weighted-mean
         estimates ``history`` (T, t, 2) (oldest first; NaN for frames before a target's filter
         started), drawing every random number from ``rng``."""
+        ...
+
+
+@runtime_checkable
+class CommonDisplacementModel(DisplacementModel, Protocol):
+    """A displacement model that moves every particle of a target by one common displacement plus
+    white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
+
+    The filter runs such models on its compiled path (:mod:`agents.particle_kernels`) and calls
+    :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
+    targets; after a (re)start a target's history is NaN except its newest estimate.
+    """
+
+    #: ``σ_p·Δ``, the white-noise std per axis: a scalar or one per target (T,).
+    std: NDArray[np.float64]
+
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Common displacement (T, 2) of every particle of each target this frame, finite (zeros
+        where unknown), from the weighted-mean estimates ``history`` (T, t, 2), oldest first, NaN
+        before a target's filter (re)started."""
         ...
 
 
@@ -87,6 +126,10 @@ class Brownian:
         noise *= std
         return noise
 
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Zeros (T, 2): Brownian motion has no drift."""
+        return np.zeros((history.shape[0], 2))
+
     def propose(
         self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
     ) -> NDArray[np.float64]:
@@ -103,15 +146,21 @@ class ConstantVelocity(Brownian):
     displacement is zero until a target has two estimates.
     """
 
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``v = x*_{t−1} − x*_{t−2}`` (T, 2), zero where a target has fewer than two estimates."""
+        if history.shape[1] < 2:
+            return np.zeros((history.shape[0], 2))
+        v = history[:, -1] - history[:, -2]
+        v[~np.isfinite(v)] = 0.0
+        return v
+
     def propose(
         self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
     ) -> NDArray[np.float64]:
         """``particles + v + σ_p·Δ·ε`` with ``v`` the last estimated displacement (T, 2)."""
         noise = self._noise(particles.shape, rng)
         noise += particles
-        if history.shape[1] >= 2:
-            v = history[:, -1] - history[:, -2]
-            noise += np.where(np.isfinite(v), v, 0.0)[:, None, :]
+        noise += self.displacement(history)[:, None, :]
         return noise
 
 
@@ -170,6 +219,9 @@ def systematic_resample(weights: ArrayLike, u: float) -> NDArray[np.intp]:
 class BatchParticleFilter:
     """``T`` bootstrap particle filters of ``N`` particles stepped together (module docstring).
 
+    ``fused`` says whether the model runs the compiled path (a :class:`CommonDisplacementModel`);
+    that path updates ``particles`` and ``weights`` in place (copy them to keep a frame's cloud).
+
     Args:
         n_targets: ``T``.
         n_particles: ``N`` >= 1.
@@ -199,12 +251,23 @@ class BatchParticleFilter:
             raise ValueError(f"sigma_m must be > 0, got {sigma_m!r}")
         if not 0.0 <= resample_threshold <= 1.0:
             raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         self.T, self.N = int(n_targets), int(n_particles)
         self.model = model
         self.rng = rng
         self.sigma_0 = np.broadcast_to(_check_sigma("sigma_0", sigma_0), (self.T,))
         self.sigma_m = np.broadcast_to(sm, (self.T,))
         self._inv_2var = (0.5 / self.sigma_m**2)[:, None]
+        # contiguous copies and scratch of the compiled path
+        self._inv_2var_flat = np.ascontiguousarray(self._inv_2var[:, 0])
+        self._sigma_0 = np.ascontiguousarray(self.sigma_0, dtype=np.float64)
+        self._lik = np.empty((self.T, self.N))
+        self._new = np.zeros(self.T, dtype=bool)
+        self._low = np.zeros(self.T, dtype=bool)
+        self._no_cloud = np.zeros((0, self.N, 2))
+        self._rng_in_kernel = self.T * self.N >= RNG_IN_KERNEL_PARTICLES
+        self._noise = np.empty((0, self.N, 2) if self._rng_in_kernel else (self.T, self.N, 2))
         self.resample_threshold = float(resample_threshold)
         self.particles = np.zeros((self.T, self.N, 2))
         self.weights = np.full((self.T, self.N), 1.0 / self.N)
@@ -232,9 +295,28 @@ class BatchParticleFilter:
         cov = np.matmul((d * self.weights[..., None]).transpose(0, 2, 1), d)
         return mean, cov
 
+    @property
+    def model(self) -> DisplacementModel:
+        """The displacement model; a :class:`CommonDisplacementModel` runs the compiled path."""
+        return self._model
+
+    @model.setter
+    def model(self, model: DisplacementModel) -> None:
+        self._model = model
+        self.fused = isinstance(model, CommonDisplacementModel)
+
     def predict(self) -> None:
         """Move every particle with the displacement model (step 1)."""
-        self.particles = self.model.propose(self.particles, self.history, self.rng)
+        if self.fused:
+            # passing a Generator into a compiled function costs ≈10 µs, more than drawing a few
+            # hundred numbers with numpy; numba's draws equal numpy's, so either gives the same
+            displacement, std = self._common_step()
+            if self._rng_in_kernel:
+                predict_common(self.particles, displacement, std, self.rng)
+            else:
+                add_common(self.particles, displacement, std, self.rng.standard_normal(out=self._noise))
+        else:
+            self.particles = self.model.propose(self.particles, self.history, self.rng)
 
     def update(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
         """Weight (Eq. (4)) or start the filters that have a measurement, estimate, resample.
@@ -246,6 +328,8 @@ class BatchParticleFilter:
         Returns:
             The estimates (T, 2) of this frame, NaN where a filter has not started.
         """
+        if self.fused:
+            return self._compiled_frame(z, has_z, predict=False)
         z = np.asarray(z, dtype=np.float64).reshape(self.T, 2)
         has = np.asarray(has_z, dtype=bool).reshape(self.T)
         weigh = has & self.started
@@ -269,9 +353,68 @@ class BatchParticleFilter:
         return estimate
 
     def step(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
-        """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2)."""
+        """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2).
+
+        For a :class:`CommonDisplacementModel` the frame runs the compiled kernels
+        (:mod:`agents.particle_kernels`)."""
+        if self.fused:
+            return self._compiled_frame(z, has_z, predict=True)
         self.predict()
         return self.update(z, has_z)
+
+    def _common_step(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The model's displacement (T, 2) and noise std (1,) or (T,), checked."""
+        model: Any = self._model
+        displacement = np.ascontiguousarray(model.displacement(self.history), dtype=np.float64)
+        if displacement.shape != (self.T, 2) or not all_finite(displacement):
+            raise ValueError(
+                f"{type(model).__name__}.displacement() must return finite values of shape "
+                f"({self.T}, 2), got {displacement.shape}: {displacement[:3].tolist()}"
+            )
+        std = np.asarray(model.std, dtype=np.float64).reshape(-1)
+        if std.shape[0] not in (1, self.T):
+            raise ValueError(
+                f"{type(model).__name__}.std must be a scalar or have {self.T} entries, got {std.shape}"
+            )
+        return displacement, std
+
+    def _compiled_frame(self, z: ArrayLike, has_z: ArrayLike, *, predict: bool) -> NDArray[np.float64]:
+        """Frame of the compiled path (:mod:`agents.particle_kernels`), the same steps and draws as
+        predict (optionally) + update of the numpy path; ``exp`` is numpy's (vectorised)."""
+        z = np.ascontiguousarray(z, dtype=np.float64).reshape(self.T, 2)
+        has = np.ascontiguousarray(has_z, dtype=bool).reshape(self.T)
+        if predict:
+            self.predict()
+        if self.length == self._history.shape[1]:
+            self._grow()
+        n_new = count_new(self.started, has)
+        cloud = self.rng.standard_normal((n_new, self.N, 2)) if n_new else self._no_cloud
+        lik = self._lik
+        log_likelihood(self.particles, self.started, z, has, self._inv_2var_flat, lik)
+        np.exp(lik, out=lik)
+        estimate = np.empty((self.T, 2))
+        n_low = update_rows(
+            self.particles,
+            self.weights,
+            self.started,
+            z,
+            has,
+            lik,
+            cloud,
+            self._sigma_0,
+            self.resample_threshold,
+            estimate,
+            self._new,
+            self._low,
+        )
+        if n_low:
+            resample_rows(self.particles, self.weights, self._low, self.rng.random(n_low))
+            self.resampled += n_low
+        if n_new:  # a (re)started target has no past (see update)
+            self._history[self._new, : self.length] = np.nan
+        self._history[:, self.length] = estimate
+        self.length += 1
+        return estimate
 
     def _weigh(self, rows: slice | NDArray[np.intp], z: NDArray[np.float64]) -> None:
         diff = self.particles[rows] - z[:, None, :]
@@ -288,11 +431,14 @@ class BatchParticleFilter:
         w /= total
         self.weights[rows] = w
 
+    def _grow(self) -> None:
+        grown = np.full((self.T, 2 * self.length, 2), np.nan)
+        grown[:, : self.length] = self._history
+        self._history = grown
+
     def _append(self, estimate: NDArray[np.float64]) -> None:
         if self.length == self._history.shape[1]:
-            grown = np.full((self.T, 2 * self.length, 2), np.nan)
-            grown[:, : self.length] = self._history
-            self._history = grown
+            self._grow()
         self._history[:, self.length] = estimate
         self.length += 1
 
@@ -341,6 +487,11 @@ def make_displacement_model(
             f"model must be a name in {sorted(DISPLACEMENT_MODELS)} or have propose(), got {model!r}"
         )
     return model
+
+
+# the update arguments of a single-target frame without / with a measurement (never written)
+_NO_Z = np.zeros((1, 2))
+_HAS = (np.zeros(1, dtype=bool), np.ones(1, dtype=bool))
 
 
 def agent_rng(seed: int | None) -> np.random.Generator:
@@ -454,28 +605,39 @@ class ParticleFilterAgent:
         spec, pf = self._spec, self.filter
         rows, z = check_observation(obs, spec)
         clutter = spec.clutter_rate > 0
+        m = len(rows)
+        if pf.started[0] and (m == 0 or (m == 1 and not clutter)):
+            # nothing to choose: predict and update in one call
+            pick = m - 1
+            estimate = pf.step(z if m else _NO_Z, _HAS[m])
+        else:
+            pick = self._choose(pf, z, clutter)
+            estimate = pf.update(z[pick : pick + 1] if pick >= 0 else _NO_Z, _HAS[int(pick >= 0)])
+        self._previous = z
+        report = empty_report(spec.max_tracks, (2,))
+        if pf.started[0]:  # one track, id 0, at the estimate
+            report["positions"][0] = estimate[0]
+            report["detection"][0] = rows[pick] if pick >= 0 else -1
+            report["mask"][0] = 1
+        return report
+
+    def _choose(self, pf: BatchParticleFilter, z: NDArray[np.float64], clutter: bool) -> int:
+        """Predict (a started filter) and pick the detection to update with: the gated nearest one,
+        a confirmed one to (re)start on with clutter, the first otherwise; −1 for none."""
         pick = -1
         if pf.started[0]:
             pf.predict()
-            if len(rows) == 1 and not clutter:
+            if len(z) == 1 and not clutter:
                 pick = 0
-            elif len(rows):
+            elif len(z):
                 pick = self._gated_nearest(z)
                 self._misses = 0 if pick >= 0 else self._misses + 1
                 if clutter and self._misses >= self.max_misses:
                     pf.started[0] = False
                     self._misses = 0
-        if not pf.started[0] and len(rows):
+        if not pf.started[0] and len(z):
             pick = self._confirmed(z) if clutter else 0  # rows are shuffled by the env
-        self._previous = z
-        zt = z[pick] if pick >= 0 else np.zeros(2)
-        estimate = pf.update(zt[None], np.array([pick >= 0]))
-        if not pf.started[0]:
-            return pack_report(
-                np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros(0, np.int64), spec.max_tracks
-            )
-        row = rows[pick] if pick >= 0 else -1
-        return pack_report(np.zeros(1, np.int64), estimate, np.array([row], np.int64), spec.max_tracks)
+        return pick
 
     def _confirmed(self, z: NDArray[np.float64]) -> int:
         """Index into ``z`` of the detection nearest to a previous-frame detection within
