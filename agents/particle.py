@@ -6,8 +6,9 @@ frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
 
 1. **predict**: a displacement model moves every particle, ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})``;
    the Brownian model adds white noise ``σ_p`` (in multiples of ``Δ``), the constant-velocity model
-   adds the last estimated displacement plus that noise, and the LSTM model of Jung et al. (2019) (a later
-   wave) predicts one common (rotation, speed) step from the estimate history — all through the
+   adds the last estimated displacement plus that noise, and the LSTM model of Jung et al. (2019)
+   (:class:`agents.lstm_displacement.LSTMDisplacement`, ``model="lstm"``) predicts one common
+   (rotation, speed) step from the estimate history plus that noise — all through the
    :class:`DisplacementModel` protocol, so the filter never changes;
 2. **update** (only when a measurement ``z`` arrives, Eq. (4)):
    ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z||² / (2σ_m²))``; without a measurement the filter only predicts;
