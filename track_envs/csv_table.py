@@ -59,6 +59,28 @@ class Table:
     names: list[str] | None
     first_row: int
     label: str
+    body: bytes = b""
+    delimiter: str = ","
+
+    def integers(self, column: int) -> NDArray[np.int64]:
+        """Column ``column`` (0-based) as int64, exact beyond 2**53 (where floats round): the
+        cells are re-read as integers only when some value is that large. The column must hold
+        integers in every row (checked by the caller on :attr:`values`)."""
+        values = self.values[:, column]
+        if not len(values) or np.abs(values).max() < 2.0**53:
+            return values.astype(np.int64)
+        frame = pd.read_csv(
+            io.BytesIO(self.body),
+            header=None,
+            names=list(range(self.values.shape[1])),
+            usecols=[column],
+            index_col=False,
+            sep=self.delimiter,
+            dtype={column: np.int64},
+            engine="c",
+            quoting=csv.QUOTE_NONE,
+        )
+        return np.ascontiguousarray(frame[column].to_numpy(dtype=np.int64))
 
     def error(self, row: int, column: int, what: str) -> DetectionFileError:
         """An error about cell ``values[row, column]`` (0-based), named as the file shows it."""
@@ -133,7 +155,7 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
     if names is not None:
         n_columns = max(n_columns, len(names))
     values = _parse(body, label, first_row, n_columns, delimiter)
-    return Table(values, names, first_row, label)
+    return Table(values, names, first_row, label, body, delimiter)
 
 
 def _field_count(body: bytes, delimiter: str, label: str, first_row: int) -> int:

@@ -124,7 +124,7 @@ def read_mot_rows(
     order = np.argsort(frame, kind="stable")
     return MotRows(
         frame=frame[order],
-        ids=ids[keep].astype(np.int64)[order],
+        ids=table.integers(1)[keep][order],
         centres=np.ascontiguousarray(centres[keep][order]),
         confidence=confidence[keep][order],
         n_frames=n_frames,

@@ -166,7 +166,7 @@ def _read_long(path: str | os.PathLike[str]) -> Tracks:
             raise table.error(
                 r,
                 col[name],
-                f"holds {v[r, col[name]]!r}; expected {expected}",
+                f"holds {float(v[r, col[name]])!r}; expected {expected}",
             )
     frame = v[:, col["frame"]].astype(np.int64)
     if np.any(np.diff(frame) < 0) or (len(frame) and frame[0] < 0):
@@ -179,7 +179,7 @@ def _read_long(path: str | os.PathLike[str]) -> Tracks:
     detection = v[:, col["detection"]].astype(np.int64) if "detection" in col else None
     positions = np.stack([v[:, col["x"]], v[:, col["y"]]], axis=1)
     n_frames = int(frame[-1]) + 1 if len(frame) else 0
-    return Tracks(frame, v[:, col["id"]].astype(np.int64), positions, n_frames, cov, detection)
+    return Tracks(frame, table.integers(col["id"]), positions, n_frames, cov, detection)
 
 
 def _check_unique(tracks: Tracks, path: str | os.PathLike[str]) -> None:
