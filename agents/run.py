@@ -27,7 +27,7 @@ from track_envs.tracks import Tracks
 from track_envs.types import SensorSpec
 
 #: Frames packed (and reports gathered) per block.
-BLOCK = 512
+BLOCK = 128
 
 
 def packed_block(

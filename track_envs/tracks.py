@@ -14,6 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+#: Reports of at most this many rows are gathered whole (one copy beats a slice per report).
+_FEW_ROWS = 64
+
 
 @dataclass(frozen=True, eq=False)
 class Tracks:
@@ -88,11 +91,22 @@ class Tracks:
         ``reports[t - first_frame]``."""
         if not reports:
             return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), first_frame)
-        masks = np.stack([np.asarray(r["mask"]) for r in reports]) == 1
-        frame_of, row = np.nonzero(masks)
-        ids = np.stack([np.asarray(r["ids"]) for r in reports])[frame_of, row]
-        positions = np.stack([np.asarray(r["positions"]) for r in reports])[frame_of, row]
-        detection = np.stack([np.asarray(r["detection"]) for r in reports])[frame_of, row]
+        rows = len(reports[0]["mask"])
+        live = np.concatenate([r["mask"] for r in reports]) == 1  # (frames * rows,)
+        counts = live.reshape(len(reports), rows).sum(axis=1)
+        frame_of = np.repeat(np.arange(len(reports)), counts)
+        keys = ("ids", "positions", "detection")
+        prefix = rows > _FEW_ROWS and np.array_equal(
+            live.reshape(len(reports), rows), np.arange(rows) < counts[:, None]
+        )
+        if prefix:  # many rows, the live ones first (pack_report): copy those only
+            n_live = counts.tolist()
+            ids, positions, detection = (
+                np.concatenate([np.asarray(r[key])[:n] for r, n in zip(reports, n_live, strict=True)])
+                for key in keys
+            )
+        else:  # few rows (or live rows anywhere): everything, then the live rows
+            ids, positions, detection = (np.concatenate([r[key] for r in reports])[live] for key in keys)
         cov = None
         if covariances is not None and all(c is not None for c in covariances):
             cov = np.concatenate([np.asarray(c, dtype=np.float64) for c in covariances if c is not None])

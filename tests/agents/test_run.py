@@ -171,3 +171,20 @@ def test_a_bad_detection_file_is_named_by_track_run(tmp_path, capsys):
 def test_streams_from_frames_keep_order():
     d = Detections.from_frames([np.array([[1.0, 2.0]]), np.zeros((0, 2))])
     assert d.n_frames == 2 and d.counts.tolist() == [1, 0]
+
+
+def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys):
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "track_detection_file.py"
+    spec = importlib.util.spec_from_file_location("track_detection_file", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    metrics = module.main(["--out", str(tmp_path), "--steps", "60"])
+    assert metrics["mota"] > 0.5 and "e1" in metrics
+    assert (tmp_path / "tracks.txt").stat().st_size > 1000
+    # the README's second command: the wide detections, dt from the time column
+    episode = tmp_path / "episode-000"
+    argv = [str(episode / "det.csv"), "--time-column=time", "--noise-std=1e-4", f"--out={tmp_path / 'w.csv'}"]
+    assert main([*argv, "--format=wide", "--no-progress"]) == 0
+    assert read_tracks(tmp_path / "w.csv").n_frames == 60
