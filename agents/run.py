@@ -3,9 +3,10 @@
 :func:`run_agent` is the loop of the tracking contract without an environment: it packs each
 frame's detections into an observation (:func:`track_envs.observation.pack_observation`, rows in
 the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
-block of frames at a time into one array (no per-frame allocation), and the reports are turned
-into :class:`~track_envs.tracks.Tracks` a block at a time (one vectorised gather), so the loop
-adds little to the agent's own time per frame (see BENCHMARKS.md).
+block of frames at a time into one array (no per-frame allocation), and the reports' arrays
+(not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
+10 µs a frame) are turned into :class:`~track_envs.tracks.Tracks` a block at a time (one
+vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
 
 An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
 the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
@@ -26,8 +27,9 @@ from track_envs.detections import Detections
 from track_envs.tracks import Tracks
 from track_envs.types import SensorSpec
 
-#: Frames packed (and reports gathered) per block.
-BLOCK = 128
+#: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
+#: per-block costs are spread over many frames of small reports, and large reports stay in cache.
+BLOCK_ROWS = 32768
 
 
 def packed_block(
@@ -75,8 +77,8 @@ def run_agent(
     Returns:
         :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
         values as float64), the detection row each track was updated with (−1: coasted) and,
-        with ``covariance``, the covariances. Reports are kept by reference until their block is
-        gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
+        with ``covariance``, the covariances. A report's arrays are kept by reference until their
+        block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
 
     Raises:
         ValueError: a frame with more detections than ``spec.max_detections`` (named), or
@@ -100,18 +102,27 @@ def run_agent(
         agent.reset(spec, seed=seed)
     covariances = getattr(agent, "track_covariances", None) if covariance else None
     bar = _progress(stream.n_frames, progress)
+    act = agent.act
+    block = int(np.clip(BLOCK_ROWS // spec.max_tracks, 64, 4096))
     parts: list[Tracks] = []
     try:
-        for start in range(0, stream.n_frames, BLOCK):
-            stop = min(start + BLOCK, stream.n_frames)
+        for start in range(0, stream.n_frames, block):
+            stop = min(start + block, stream.n_frames)
             det, mask = packed_block(stream, start, stop, spec)
-            reports = []
+            ids: list[NDArray] = []
+            positions: list[NDArray] = []
+            rows: list[NDArray] = []
+            live: list[NDArray] = []
             covs: list[NDArray | None] | None = [] if covariances is not None else None
-            for k in range(stop - start):
-                reports.append(agent.act({"detections": det[k], "mask": mask[k]}))
+            for frame_detections, frame_mask in zip(det, mask, strict=True):
+                report = act({"detections": frame_detections, "mask": frame_mask})
+                ids.append(report["ids"])
+                positions.append(report["positions"])
+                rows.append(report["detection"])
+                live.append(report["mask"])
                 if covs is not None:
                     covs.append(covariances())  # type: ignore[misc]
-            parts.append(Tracks.from_reports(reports, covs, first_frame=start))
+            parts.append(Tracks.from_columns(ids, positions, rows, live, covariances=covs, first_frame=start))
             if bar is not None:
                 bar.update(stop - start)
     finally:

@@ -89,30 +89,42 @@ class Tracks:
         per frame, and optionally the (n_live, D, D) covariances of each report's live rows in row
         order (all or none: a None entry drops the covariance). Frame ``t`` of the result is
         ``reports[t - first_frame]``."""
-        if not reports:
+        columns = [[r[key] for r in reports] for key in ("ids", "positions", "detection", "mask")]
+        return cls.from_columns(*columns, covariances=covariances, first_frame=first_frame)
+
+    @classmethod
+    def from_columns(
+        cls,
+        ids: Sequence[NDArray],
+        positions: Sequence[NDArray],
+        detection: Sequence[NDArray],
+        mask: Sequence[NDArray],
+        *,
+        covariances: Sequence[NDArray | None] | None = None,
+        first_frame: int = 0,
+    ) -> Tracks:
+        """:meth:`from_reports` with the reports' arrays given key by key (one list per key, one
+        array per frame), which is how :func:`agents.run.run_agent` keeps them: arrays, not dicts,
+        so that the reports of a block hold no objects Python's garbage collector scans."""
+        if not len(mask):
             return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), first_frame)
-        rows = len(reports[0]["mask"])
-        live = np.concatenate([r["mask"] for r in reports]) == 1  # (frames * rows,)
-        counts = live.reshape(len(reports), rows).sum(axis=1)
-        frame_of = np.repeat(np.arange(len(reports)), counts)
-        keys = ("ids", "positions", "detection")
-        prefix = rows > _FEW_ROWS and np.array_equal(
-            live.reshape(len(reports), rows), np.arange(rows) < counts[:, None]
-        )
+        n, rows = len(mask), len(mask[0])
+        live = np.concatenate(mask) == 1  # (frames * rows,)
+        counts = live.reshape(n, rows).sum(axis=1)
+        frame_of = np.repeat(np.arange(n), counts)
+        keyed = (ids, positions, detection)
+        prefix = rows > _FEW_ROWS and np.array_equal(live.reshape(n, rows), np.arange(rows) < counts[:, None])
         if prefix:  # many rows, the live ones first (pack_report): copy those only
             n_live = counts.tolist()
-            ids, positions, detection = (
-                np.concatenate([np.asarray(r[key])[:n] for r, n in zip(reports, n_live, strict=True)])
-                for key in keys
-            )
+            out = [np.concatenate([a[:k] for a, k in zip(arrays, n_live, strict=True)]) for arrays in keyed]
         else:  # few rows (or live rows anywhere): everything, then the live rows
-            ids, positions, detection = (np.concatenate([r[key] for r in reports])[live] for key in keys)
+            out = [np.concatenate(arrays)[live] for arrays in keyed]
         cov = None
         if covariances is not None and all(c is not None for c in covariances):
             cov = np.concatenate([np.asarray(c, dtype=np.float64) for c in covariances if c is not None])
-            if len(cov) != len(ids):
+            if len(cov) != len(out[0]):
                 cov = None
-        return cls(frame_of + first_frame, ids, positions, len(reports) + first_frame, cov, detection)
+        return cls(frame_of + first_frame, out[0], out[1], n + first_frame, cov, out[2])
 
     @classmethod
     def concatenate(cls, parts: Sequence[Tracks], n_frames: int = 0) -> Tracks:
