@@ -43,6 +43,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_lstm.py
 	$(PY) benchmarks/bench_lstm_accuracy.py
 	$(PY) benchmarks/bench_rendering.py
+	$(PY) benchmarks/bench_track_run.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

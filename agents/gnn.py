@@ -276,6 +276,15 @@ class GnnAgent:
         """Live tracks."""
         return len(self._ids)
 
+    def track_covariances(self) -> NDArray[np.float64]:
+        """(n, D, D) covariance of every live track's current estimate, in the row order of the last
+        report (the predictor's ``estimate(state).cov``, no measurement noise added)."""
+        if self._spec is None:
+            raise RuntimeError("track_covariances() needs reset(spec) first")
+        if self._state is None or not len(self._ids):
+            return np.zeros((0, self._spec.dim, self._spec.dim))
+        return np.asarray(self.predictor.estimate(self._state).cov, dtype=np.float64)
+
     @property
     def velocity_prior_state(self) -> VelocityPriorState:
         """The velocity prior new tracks start from now: mean, spread, samples and where it comes from."""

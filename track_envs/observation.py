@@ -107,3 +107,38 @@ def _live_detections(mask: NDArray, flat: NDArray) -> tuple[int, NDArray[np.intp
                 z[k, c] = value
             k += 1
     return status, rows, z
+
+
+def pack_observation(detections: NDArray[np.floating], spec: SensorSpec) -> dict[str, NDArray]:
+    """Pad one frame's ``m`` detections into an observation of ``spec.max_detections`` rows (the
+    twin of :func:`track_envs.report.pack_report`).
+
+    The rows keep their order (row ``i`` is ``detections[i]``), as float32, padding rows zero and
+    mask 0 — what an environment hands an agent, without the shuffling and clipping.
+
+    Args:
+        detections: (m, D) positions (D = ``spec.dim``), finite.
+        spec: The sensor spec the agent was reset with.
+
+    Raises:
+        ValueError: if ``m > spec.max_detections`` (no detection is dropped silently), the
+            shape is not (m, D), or a detection is not finite.
+    """
+    z = np.asarray(detections)
+    if z.ndim != 2 or z.shape[1] != spec.dim:
+        raise ValueError(f"detections must have shape (m, {spec.dim}), got {z.shape}")
+    m = len(z)
+    if m > spec.max_detections:
+        raise ValueError(
+            f"{m} detections do not fit an observation of max_detections={spec.max_detections}; "
+            "raise max_detections in the sensor spec"
+        )
+    if not np.isfinite(z).all():
+        raise ValueError(
+            f"detections rows {np.flatnonzero(~np.isfinite(z).all(axis=1))[:10].tolist()} hold NaN or inf"
+        )
+    packed = np.zeros((spec.max_detections, spec.dim), dtype=np.float32)
+    packed[:m] = z
+    mask = np.zeros(spec.max_detections, dtype=np.int8)
+    mask[:m] = 1
+    return {"detections": packed, "mask": mask}

@@ -15,6 +15,9 @@ ENV_SPECS: dict[str, dict[str, Any]] = {
     "BeltReplay-v0": {
         "entry_point": "track_envs.envs.belt_replay:BeltReplayEnv",
     },
+    "DetectionReplay-v0": {
+        "entry_point": "track_envs.envs.detection_replay:DetectionReplayEnv",
+    },
     "KeypointWalkers-v0": {
         "entry_point": "track_envs.envs.keypoint_walkers:KeypointWalkersEnv",
         "max_episode_steps": 300,

@@ -87,6 +87,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     detection_shape: tuple[int, ...]
     truth_extra_shapes: dict[str, tuple[int, ...]]
     gospa_c: float
+    #: Shuffle the detection rows every frame (a replay may keep its file's order).
+    shuffle_rows: bool = True
 
     # -- set-up -------------------------------------------------------------------------------
     def _setup_spaces(
@@ -285,7 +287,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         else:
             truth = self._truth()
             z, source = self._sense(truth)
-        order = self.np_random.permutation(len(z))
+        order = self.np_random.permutation(len(z)) if self.shuffle_rows else np.arange(len(z))
         if len(order) > spec.max_detections:
             if not self._dropped_detections:
                 warnings.warn(

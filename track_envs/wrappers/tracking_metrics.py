@@ -44,6 +44,10 @@ class TrackingMetrics(gym.Wrapper):
     and count an association of a merged detection to either particle's track as correct (see
     :mod:`track_envs.metrics.merged`); every other metric receives ``info["detection_ids"]``.
 
+    An environment without ground truth (``has_truth = False``, DetectionReplay-v0) gets no
+    metric that needs truth (a metric says it does not with ``needs_truth = False``); the last
+    step's ``info["episode_metrics_note"]`` says what was skipped.
+
     Args:
         env: A tracking environment (wrapped or not).
         metrics: Streaming metrics (see :class:`track_envs.metrics.Metric`); default
@@ -53,6 +57,17 @@ class TrackingMetrics(gym.Wrapper):
     def __init__(self, env: gym.Env, metrics: Sequence[Metric] | None = None):
         super().__init__(env)
         self.metrics: list[Metric] = list(metrics) if metrics is not None else default_metrics(env)
+        self.note: str | None = None
+        try:
+            has_truth = bool(env.get_wrapper_attr("has_truth"))
+        except AttributeError:
+            has_truth = True
+        if not has_truth:
+            skipped = [type(m).__name__ for m in self.metrics if getattr(m, "needs_truth", True)]
+            self.metrics = [m for m in self.metrics if not getattr(m, "needs_truth", True)]
+            self.note = "the environment has no ground truth: metrics that need it are skipped" + (
+                f" ({', '.join(skipped)})" if skipped else " (every point metric: MOTA, IDF1, GOSPA, e1, e2)"
+            )
         self._truth: dict[str, NDArray] | None = None
         self._detection_ids: NDArray[np.int64] | None = None
         self._merged_ids: NDArray[np.int64] | None = None
@@ -76,6 +91,8 @@ class TrackingMetrics(gym.Wrapper):
         if terminated or truncated:
             info = dict(info)
             info["episode_metrics"] = self.episode_metrics()
+            if self.note is not None:
+                info["episode_metrics_note"] = self.note
         return obs, float(reward), terminated, truncated, info
 
     def episode_metrics(self) -> dict[str, float]:

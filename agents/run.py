@@ -1,0 +1,139 @@
+"""Run any agent over recorded detections, outside a gym loop, and get its tracks.
+
+:func:`run_agent` is the loop of the tracking contract without an environment: it packs each
+frame's detections into an observation (:func:`track_envs.observation.pack_observation`, rows in
+the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
+block of frames at a time into one array (no per-frame allocation), and the reports' arrays
+(not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
+10 µs a frame) are turned into :class:`~track_envs.tracks.Tracks` a block at a time (one
+vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
+
+An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
+the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
+its predictor's estimate); ``covariance=True`` collects them.
+
+The command-line front end is ``track-run`` (:mod:`agents.run_cli`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from track_envs.detections import Detections
+from track_envs.tracks import Tracks
+from track_envs.types import SensorSpec
+
+#: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
+#: per-block costs are spread over many frames of small reports, and large reports stay in cache.
+BLOCK_ROWS = 32768
+
+
+def packed_block(
+    detections: Detections, start: int, stop: int, spec: SensorSpec
+) -> tuple[NDArray[np.float32], NDArray[np.int8]]:
+    """Observations of frames ``start:stop`` as arrays (frames, max_detections, D) float32 and
+    (frames, max_detections) int8: frame ``t``'s detections in rows ``0..m_t-1``, in order."""
+    lo, hi = detections.offsets[start], detections.offsets[stop]
+    counts = np.diff(detections.offsets[start : stop + 1])
+    frame = np.repeat(np.arange(stop - start), counts)
+    slot = np.arange(hi - lo) - np.repeat(detections.offsets[start:stop] - lo, counts)
+    det = np.zeros((stop - start, spec.max_detections, spec.dim), dtype=np.float32)
+    mask = np.zeros((stop - start, spec.max_detections), dtype=np.int8)
+    det[frame, slot] = detections.points[lo:hi]
+    mask[frame, slot] = 1
+    return det, mask
+
+
+def run_agent(
+    agent: Any,
+    detections: Detections | Sequence[ArrayLike],
+    spec: SensorSpec,
+    *,
+    seed: int | None = 0,
+    covariance: bool = False,
+    progress: bool = False,
+    reset: bool = True,
+) -> Tracks:
+    """Track a stream of detections with ``agent``; return every frame's reported tracks.
+
+    Args:
+        agent: An object with ``reset(spec, *, seed)`` and ``act(obs) -> report`` (the Agent
+            protocol), or a registered agent name (``"gnn"``, ...) built with default arguments.
+        detections: The stream: :class:`~track_envs.detections.Detections` or one (m_t, D)
+            array per frame.
+        spec: The sensor spec the agent is told (see
+            :func:`~track_envs.detections.detection_sensor_spec`); ``max_detections`` must hold
+            the fullest frame.
+        seed: Passed to ``agent.reset`` (the same seed gives the same tracks).
+        covariance: Collect the covariance of every reported position from the agent's
+            ``track_covariances()``; ignored (``Tracks.cov`` None) for an agent without it.
+        progress: Show a tqdm progress bar (frames) on stderr.
+        reset: Call ``agent.reset(spec, seed=seed)`` first (False: the caller has).
+
+    Returns:
+        :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
+        values as float64), the detection row each track was updated with (−1: coasted) and,
+        with ``covariance``, the covariances. A report's arrays are kept by reference until their
+        block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
+
+    Raises:
+        ValueError: a frame with more detections than ``spec.max_detections`` (named), or
+            detections whose dimension is not ``spec.dim``.
+    """
+    if isinstance(agent, str):
+        from agents import make_agent
+
+        agent = make_agent(agent)
+    stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
+    if stream.dim != spec.dim:
+        raise ValueError(f"the detections are {stream.dim}-d but the sensor spec is {spec.dim}-d")
+    counts = stream.counts
+    if stream.n_frames and counts.max() > spec.max_detections:
+        t = int(np.argmax(counts > spec.max_detections))
+        raise ValueError(
+            f"frame {t} holds {counts[t]} detections, more than max_detections={spec.max_detections}; "
+            f"the fullest frame holds {counts.max()}"
+        )
+    if reset:
+        agent.reset(spec, seed=seed)
+    covariances = getattr(agent, "track_covariances", None) if covariance else None
+    bar = _progress(stream.n_frames, progress)
+    act = agent.act
+    block = int(np.clip(BLOCK_ROWS // spec.max_tracks, 64, 4096))
+    parts: list[Tracks] = []
+    try:
+        for start in range(0, stream.n_frames, block):
+            stop = min(start + block, stream.n_frames)
+            det, mask = packed_block(stream, start, stop, spec)
+            ids: list[NDArray] = []
+            positions: list[NDArray] = []
+            rows: list[NDArray] = []
+            live: list[NDArray] = []
+            covs: list[NDArray | None] | None = [] if covariances is not None else None
+            for frame_detections, frame_mask in zip(det, mask, strict=True):
+                report = act({"detections": frame_detections, "mask": frame_mask})
+                ids.append(report["ids"])
+                positions.append(report["positions"])
+                rows.append(report["detection"])
+                live.append(report["mask"])
+                if covs is not None:
+                    covs.append(covariances())  # type: ignore[misc]
+            parts.append(Tracks.from_columns(ids, positions, rows, live, covariances=covs, first_frame=start))
+            if bar is not None:
+                bar.update(stop - start)
+    finally:
+        if bar is not None:
+            bar.close()
+    return Tracks.concatenate(parts, stream.n_frames)
+
+
+def _progress(total: int, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="frame", desc="track-run", dynamic_ncols=True)

@@ -1,0 +1,231 @@
+"""The ``track-run`` command: any agent over a detection file, tracks out, metrics with ground truth."""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from agents import AGENTS, available_agents, make_agent
+from agents.bench.cli import parse_kwargs
+from agents.run import run_agent
+from predictors import available_predictors
+
+EPILOG = """\
+examples:
+  track-run det.txt --agent gnn --predictor kf-ca --dt 0.04 --out tracks.txt
+  track-run sorter.csv --swap-xy --scale 1e-4 --dt 0.005 --noise-std 1e-4 --out tracks.csv --format wide
+  track-run sorter.csv --time-column time --out tracks.csv --format long --covariance
+  track-run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
+
+Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; boxes
+reduced to their centres) or a wide per-frame CSV (optional header; frame column, count column,
+optionally a time column, then x, y pairs padded with NaN). --input-format auto reads .txt as MOT
+and anything else as wide. Column options take an index (from 0) or a header name.
+Outputs (--format): mot (MOTChallenge rows, frames from 1: py-motmetrics and TrackEval read it),
+wide (one row per frame, one x, y pair per track id: BeltReplay-v0 reads it back) or long
+(frame,id,x,y[,var_x,cov_xy,var_y],detection with a header).
+The sensor spec the tracker is told: --dt (or inferred from --time-column), --noise-std (the
+measurement noise std, in the detections' units after --scale: the tracker's R), --region (or
+the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
+With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
+distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
+"""
+
+
+def _region(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    try:
+        x0, y0, x1, y1 = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"bad --region {text!r}: use XLOW,YLOW,XHIGH,YHIGH") from None
+    return (x0, y0), (x1, y1)
+
+
+def _column(text: str) -> int | str | None:
+    """A column option: an index (from 0), a header name, or none."""
+    if text.lower() == "none":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        return text
+
+
+def _header(text: str) -> bool | str:
+    values: dict[str, bool | str] = {"auto": "auto", "yes": True, "true": True, "no": False, "false": False}
+    if text.lower() not in values:
+        raise argparse.ArgumentTypeError(f"bad --header {text!r}: use auto, yes or no")
+    return values[text.lower()]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of ``track-run``."""
+    p = argparse.ArgumentParser(
+        prog="track-run",
+        description="Track a file of per-frame detections (no identities) with any agent; write the tracks.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide)")
+    p.add_argument("--input-format", choices=["auto", "mot", "wide"], default="auto")
+    g = p.add_argument_group("reading the detections")
+    g.add_argument("--header", type=_header, default="auto", help="wide: auto (default), yes or no")
+    g.add_argument(
+        "--frame-column", type=_column, default=0, help="wide: frame-number column (default 0; none)"
+    )
+    g.add_argument("--count-column", type=_column, default=1, help="wide: count column (default 1; none)")
+    g.add_argument(
+        "--time-column", type=_column, default=None, help="wide: time column in seconds (infers dt)"
+    )
+    g.add_argument(
+        "--xy-columns", type=_column, default=None, help="wide: first x column (default: after the others)"
+    )
+    g.add_argument("--delimiter", default=",", help="field separator (default ',')")
+    g.add_argument(
+        "--min-confidence", type=float, default=None, help="mot: drop detections below this confidence"
+    )
+    g.add_argument(
+        "--swap-xy", action="store_true", help="swap x and y (sorters often write the belt direction as y)"
+    )
+    g.add_argument("--scale", type=float, default=1.0, help="multiply positions (e.g. metres per pixel)")
+    g = p.add_argument_group("the tracker and the sensor it is told of")
+    g.add_argument("--agent", default="gnn", choices=available_agents(), help="default gnn")
+    g.add_argument(
+        "--predictor", choices=available_predictors(), help="for agents that take one (default kf-ca)"
+    )
+    g.add_argument(
+        "--agent-kwargs", type=parse_kwargs, default=(), metavar="NAME=V,...", help="make_agent arguments"
+    )
+    g.add_argument("--dt", type=float, help="frame period in seconds (default: inferred from --time-column)")
+    g.add_argument("--noise-std", type=float, default=0.0, help="measurement noise std per axis (default 0)")
+    g.add_argument("--p-detect", type=float, default=1.0, help="declared detection probability (default 1)")
+    g.add_argument(
+        "--clutter-rate", type=float, default=0.0, help="declared clutter detections per frame (default 0)"
+    )
+    g.add_argument(
+        "--region", type=_region, help="XLOW,YLOW,XHIGH,YHIGH (default: the detections' bounding box)"
+    )
+    g.add_argument("--max-detections", type=int, help="observation rows (default: the fullest frame, >= 16)")
+    g.add_argument("--max-tracks", type=int, help="report rows (default: twice the fullest frame, >= 16)")
+    g.add_argument("--seed", type=int, default=0, help="agent seed (default 0)")
+    g = p.add_argument_group("output and scoring")
+    g.add_argument("--out", required=True, help="track file to write")
+    g.add_argument("--format", choices=["mot", "wide", "long"], default="mot", help="default mot")
+    g.add_argument(
+        "--box-size", type=float, default=0.0, help="mot: box width/height about each point (default 0)"
+    )
+    g.add_argument(
+        "--covariance",
+        action="store_true",
+        help="long: add each track's covariance (where the agent has one)",
+    )
+    g.add_argument("--gt", help="ground-truth tracks (.txt MOT gt, .csv / .zip wide track layout, or long)")
+    g.add_argument("--gt-format", choices=["auto", "mot", "wide", "long"], default="auto")
+    g.add_argument("--metrics", action="store_true", help="score the tracks against --gt and print the table")
+    g.add_argument(
+        "--threshold", type=float, default=0.005, help="match distance and GOSPA cut-off (default 0.005)"
+    )
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def _read_options(args: argparse.Namespace, fmt: str) -> dict[str, Any]:
+    common: dict[str, Any] = {"swap_xy": args.swap_xy, "scale": args.scale, "delimiter": args.delimiter}
+    if fmt == "mot":
+        return common | {"min_confidence": args.min_confidence}
+    return common | {
+        "header": args.header,
+        "frame_column": args.frame_column,
+        "count_column": args.count_column,
+        "time_column": args.time_column,
+        "xy_columns": args.xy_columns,
+    }
+
+
+def build_agent(name: str, predictor: str | None, kwargs: dict[str, Any]) -> Any:
+    """``make_agent(name, predictor=..., **kwargs)`` (``--predictor`` for an agent without one: an error)."""
+    takes = "predictor" in inspect.signature(AGENTS.factory(name)).parameters
+    if predictor is not None and not takes:
+        raise ValueError(f"agent {name!r} takes no predictor; drop --predictor")
+    if takes:
+        kwargs = {"predictor": predictor or "kf-ca"} | kwargs
+    return make_agent(name, **kwargs)
+
+
+def format_metrics(metrics: dict[str, float]) -> str:
+    """A two-column table of the metrics."""
+    width = max(map(len, metrics), default=6)
+    rows = [f"{'metric':<{width}}  value", f"{'-' * width}  {'-' * 12}"]
+    rows += [f"{k:<{width}}  {v:.6g}" for k, v in metrics.items()]
+    return "\n".join(rows)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read, track, write, score (the body of :func:`main`)."""
+    from track_envs.detection_files import detection_format, read_detections
+    from track_envs.detections import detection_sensor_spec
+    from track_envs.track_files import read_tracks, write_tracks
+    from track_envs.track_scoring import score_tracks
+
+    if args.covariance and args.format != "long":
+        raise ValueError("--covariance needs --format long (MOT and wide files hold no covariance)")
+    if args.metrics and not args.gt:
+        raise ValueError("--metrics needs --gt GT (the ground-truth file)")
+    fmt = detection_format(args.detections, args.input_format)
+    start = time.perf_counter()
+    detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
+    spec = detection_sensor_spec(
+        detections,
+        dt=args.dt,
+        region=args.region,
+        measurement_noise_std=args.noise_std,
+        p_detect=args.p_detect,
+        clutter_rate=args.clutter_rate,
+        max_detections=args.max_detections,
+        max_tracks=args.max_tracks,
+    )
+    agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
+    warm_up = getattr(agent, "warm_up", None)
+    if callable(warm_up):  # compile / load the kernels before the first frame
+        warm_up()
+    read_s = time.perf_counter() - start
+    tracks = run_agent(
+        agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
+    )
+    write_tracks(args.out, tracks, args.format, box_size=args.box_size)
+    print(
+        f"track-run: {detections.n_frames} frames, {len(detections)} detections (read in {read_s:.2f} s) -> "
+        f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
+        file=sys.stderr,
+    )
+    if args.gt:
+        truth = read_tracks(args.gt, args.gt_format, min_confidence=1.0 if _is_mot(args) else None)
+        if args.metrics:
+            metrics, notes = score_tracks(tracks, truth, threshold=args.threshold, detections=detections)
+            print(format_metrics(metrics))
+            for note in notes:
+                print(f"note: {note}", file=sys.stderr)
+    return 0
+
+
+def _is_mot(args: argparse.Namespace) -> bool:
+    from track_envs.track_files import track_format
+
+    return track_format(args.gt, args.gt_format) == "mot"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``track-run`` console script."""
+    args = build_parser().parse_args(argv)
+    try:
+        return run(args)
+    except (ValueError, OSError) as exc:
+        print(f"track-run: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,190 @@
+"""run_agent and track-run: a recorded BeltSorter-v0 episode tracked from its files equals the gym loop."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import track_envs  # noqa: F401  (registers the envs)
+from agents import make_agent
+from agents.run import run_agent
+from agents.run_cli import format_metrics, main
+from track_envs.detections import Detections
+from track_envs.observation import check_observation, pack_observation
+from track_envs.track_files import read_tracks
+from track_envs.types import SensorSpec
+from track_envs.wrappers import RecordTracking, TrackingMetrics
+
+STEPS = 120
+ENV_KWARGS = {"merge_touching": False, "clutter_rate": 2.0, "p_detect": 0.95, "noise_std": 2e-4}
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory) -> tuple[Path, dict, dict, SensorSpec]:
+    """A BeltSorter-v0 episode tracked by gnn in the gym loop, recorded to files."""
+    folder = tmp_path_factory.mktemp("belt")
+    env = RecordTracking(
+        TrackingMetrics(gym.make("BeltSorter-v0", max_episode_steps=STEPS, **ENV_KWARGS)), folder
+    )
+    obs, _ = env.reset(seed=5)
+    spec = env.unwrapped.sensor_spec
+    agent = make_agent("gnn", predictor="kf-cv")
+    agent.reset(spec, seed=5)
+    while True:
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if terminated or truncated:
+            break
+    assert env.last_episode is not None
+    return folder / "episode-000", env.last_episode, info["episode_metrics"], spec
+
+
+def spec_flags(spec: SensorSpec) -> list[str]:
+    lo, hi = spec.region_low, spec.region_high
+    return [
+        f"--noise-std={spec.noise_std}",
+        f"--p-detect={spec.p_detect}",
+        f"--clutter-rate={spec.clutter_rate}",
+        f"--region={lo[0]},{lo[1]},{hi[0]},{hi[1]}",
+        f"--max-detections={spec.max_detections}",
+        f"--max-tracks={spec.max_tracks}",
+        "--seed=5",
+        "--no-progress",
+    ]
+
+
+@pytest.mark.parametrize("fmt", ["mot", "wide"])
+def test_track_run_on_the_recorded_detections_gives_the_gym_loops_tracks_and_metrics(
+    recorded, tmp_path, capsys, fmt
+):
+    folder, episode, gym_metrics, spec = recorded
+    if fmt == "mot":
+        det, gt, dt_flag, out = folder / "det.txt", folder / "gt.txt", [f"--dt={spec.dt}"], tmp_path / "t.txt"
+    else:
+        det, gt, dt_flag, out = (
+            folder / "det.csv",
+            folder / "gt.csv",
+            ["--time-column=time"],
+            tmp_path / "t.csv",
+        )
+    code = main(
+        [
+            str(det),
+            "--agent=gnn",
+            "--predictor=kf-cv",
+            *dt_flag,
+            *spec_flags(spec),
+            f"--out={out}",
+            f"--format={fmt}",
+            f"--gt={gt}",
+            "--metrics",
+            f"--threshold={0.005}",
+        ]
+    )
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert read_tracks(out, n_frames=STEPS).equals(episode["tracks"])
+    if fmt == "mot":  # the MOT det.txt carries the truth ids: every metric, e1 / e2 included
+        assert captured.out.strip() == format_metrics(gym_metrics)
+        assert gym_metrics["id_switches"] > 0 and gym_metrics["e1"] > 0  # a test with errors to get right
+    else:  # no truth ids in the wide file: the same figures without e1 / e2, and a note
+        expected = {
+            k: v for k, v in gym_metrics.items() if k not in ("e1", "e2", "e_mean", "n_tracks", "n_particles")
+        }
+        assert captured.out.strip() == format_metrics(expected)
+        assert "e1, e2, e_mean skipped" in captured.err
+
+
+def test_run_agent_equals_the_gym_loop_with_covariances(recorded):
+    _, episode, _, spec = recorded
+    agent = make_agent("gnn", predictor="kf-cv")
+    tracks = run_agent(agent, episode["detections"], spec, seed=5, covariance=True)
+    assert tracks.equals(episode["tracks"])
+    assert tracks.cov is not None and tracks.cov.shape == (len(tracks), 2, 2)
+    assert np.all(np.linalg.eigvalsh(tracks.cov) > 0)
+    np.testing.assert_array_equal(tracks.detection, episode["tracks"].detection)
+
+
+def test_run_agent_takes_plain_arrays_and_agents_without_covariances():
+    frames = [np.array([[0.1, 0.1], [0.5, 0.5]]), np.zeros((0, 2)), np.array([[0.2, 0.1]])]
+    spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 4, 8)
+    tracks = run_agent("detections", frames, spec, covariance=True)
+    assert tracks.cov is None and tracks.n_frames == 3
+    np.testing.assert_array_equal(tracks.frame, [0, 0, 2])
+    np.testing.assert_array_equal(tracks.positions, np.concatenate(frames).astype(np.float32))
+    with pytest.raises(ValueError, match="frame 0 holds 2 detections, more than max_detections=1"):
+        run_agent("detections", frames, SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 1, 8))
+
+
+def test_pack_observation_is_the_observation_an_agent_reads():
+    spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 5, 8)
+    z = np.array([[0.1, 0.2], [0.3, 0.4]])
+    obs = pack_observation(z, spec)
+    assert obs["detections"].dtype == np.float32 and obs["mask"].tolist() == [1, 1, 0, 0, 0]
+    rows, back = check_observation(obs, spec)
+    np.testing.assert_array_equal(rows, [0, 1])
+    np.testing.assert_array_equal(back, z.astype(np.float32))
+    with pytest.raises(ValueError, match="6 detections do not fit an observation of max_detections=5"):
+        pack_observation(np.zeros((6, 2)), spec)
+    with pytest.raises(ValueError, match=r"rows \[1\] hold NaN"):
+        pack_observation(np.array([[0.0, 0.0], [np.nan, 0.0]]), spec)
+
+
+def test_track_run_long_output_holds_covariances(tmp_path, capsys):
+    det = tmp_path / "d.csv"
+    det.write_text("frame,count,x0,y0,x1,y1\n0,2,0.1,0.1,0.5,0.5\n1,2,0.11,0.1,0.5,0.51\n2,1,0.12,0.1,,\n")
+    assert main([str(det), "--dt=0.01", "--noise-std=0.001", f"--out={tmp_path / 't.csv'}", "--format=long",
+                 "--covariance", "--no-progress"]) == 0  # fmt: skip
+    tracks = read_tracks(tmp_path / "t.csv")
+    assert tracks.cov is not None and len(tracks) >= 5 and tracks.n_frames == 3
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--out=t.txt"], "dt .* is not given"),
+        (["--dt=0.01", "--out=t.txt", "--format=mot", "--covariance"], "--covariance needs --format long"),
+        (["--dt=0.01", "--out=t.txt", "--metrics"], "--metrics needs --gt"),
+        (["--dt=0.01", "--out=t.txt", "--agent=detections", "--predictor=kf-cv"], "takes no predictor"),
+    ],
+)
+def test_track_run_errors_are_one_line_with_exit_code_2(tmp_path, capsys, monkeypatch, argv, message):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "d.csv").write_text("0,1,0.1,0.1\n1,1,0.2,0.1\n")
+    assert main(["d.csv", "--no-progress", *argv]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith("track-run: error:") and re.search(message, err) and not (tmp_path / "t.txt").exists()
+    )
+
+
+def test_a_bad_detection_file_is_named_by_track_run(tmp_path, capsys):
+    det = tmp_path / "d.csv"
+    det.write_text("0,1,0.1,0.1\n1,1,oops,0.1\n")
+    assert main([str(det), "--dt=0.01", f"--out={tmp_path / 't.txt'}", "--no-progress"]) == 2
+    assert f"{det}: row 2, column 3 holds text 'oops'" in capsys.readouterr().err
+
+
+def test_streams_from_frames_keep_order():
+    d = Detections.from_frames([np.array([[1.0, 2.0]]), np.zeros((0, 2))])
+    assert d.n_frames == 2 and d.counts.tolist() == [1, 0]
+
+
+def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys):
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "track_detection_file.py"
+    spec = importlib.util.spec_from_file_location("track_detection_file", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    metrics = module.main(["--out", str(tmp_path), "--steps", "60"])
+    assert metrics["mota"] > 0.5 and "e1" in metrics
+    assert (tmp_path / "tracks.txt").stat().st_size > 1000
+    # the README's second command: the wide detections, dt from the time column
+    episode = tmp_path / "episode-000"
+    argv = [str(episode / "det.csv"), "--time-column=time", "--noise-std=1e-4", f"--out={tmp_path / 'w.csv'}"]
+    assert main([*argv, "--format=wide", "--no-progress"]) == 0
+    assert read_tracks(tmp_path / "w.csv").n_frames == 60

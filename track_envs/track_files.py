@@ -1,0 +1,197 @@
+"""Write and read tracks (a tracker's output, or ground truth) as MOTChallenge, wide or long CSV.
+
+* ``mot``: MOTChallenge rows (Milan et al., "MOT16: A Benchmark for Multi-Object Tracking", 2016),
+  frame ``t`` of the stream written as frame ``t + 1``. Tracker output is
+  ``frame, id, bb_left, bb_top, bb_width, bb_height, conf, -1, -1, -1``; ground truth
+  (``truth=True``) is ``frame, id, bb_left, bb_top, bb_width, bb_height, 1, 1, 1`` (considered,
+  class 1, visibility 1), so that py-motmetrics (``motmetrics.io.loadtxt(path, fmt="mot15-2D")``,
+  ground truth with ``min_confidence=1``) and TrackEval read both unchanged. A point is written as a
+  box of ``box_size`` (default 0) about it: motmetrics' Euclidean distance on the ``X, Y`` fields
+  (``compare_to_groundtruth(gt, ts, "euc", distfields=["X", "Y"], distth=c)``) then scores the
+  points themselves, and the file reads back bit for bit.
+* ``wide``: the recorded-track layout of BeltReplay-v0 (:mod:`track_envs.track_csv`): no header,
+  one row per frame, one ``(x, y)`` column pair per id, NaN where the id has no track; column pair
+  ``k`` holds the ``k``-th smallest id (for ids numbered 0, 1, 2, ... the id itself).
+* ``long``: a header ``frame,id,x,y`` then one row per track and frame, plus ``var_x,cov_xy,var_y``
+  where the tracks have covariances and ``detection`` (the detection index within the frame the
+  track was updated with, −1: coasted) where they have it.
+
+Every float is written as its ``repr``, so each format reads back bit for bit (the wide format
+keeps no ids other than the column order, and no covariance).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from track_envs.csv_table import DetectionFileError, read_table
+from track_envs.detection_files import _write_mot, read_mot_rows
+from track_envs.track_csv import load_track_csv, write_track_csv
+from track_envs.tracks import Tracks
+
+TRACK_FORMATS = ("mot", "wide", "long")
+LONG_COLUMNS = ("frame", "id", "x", "y")
+COV_COLUMNS = ("var_x", "cov_xy", "var_y")
+
+
+def write_tracks(
+    path: str | os.PathLike[str],
+    tracks: Tracks,
+    format: str = "mot",
+    *,
+    truth: bool = False,
+    box_size: float = 0.0,
+) -> None:
+    """Write ``tracks`` in ``format`` (``"mot"``, ``"wide"`` or ``"long"``; module docstring).
+
+    Args:
+        path: Output file.
+        tracks: 2-d tracks.
+        format: The layout.
+        truth: MOT only: write ground-truth rows (``1, 1, 1`` flags) instead of tracker rows.
+        box_size: MOT only: width and height of the box written about each point.
+
+    Raises:
+        ValueError: an unknown format, tracks that are not 2-d, or (wide) no track at all.
+    """
+    if format not in TRACK_FORMATS:
+        raise ValueError(f"format must be one of {list(TRACK_FORMATS)}, got {format!r}")
+    if tracks.positions.shape[1] != 2:
+        raise ValueError(f"track files hold 2-d points; these tracks are {tracks.positions.shape[1]}-d")
+    if format == "mot":
+        tail = ["1", "1", "1"] if truth else ["1.0", "-1,-1,-1"]
+        _write_mot(path, tracks.frame + 1, tracks.ids, tracks.positions, box_size, tail)
+    elif format == "wide":
+        if not len(tracks):
+            raise ValueError("the wide track layout needs at least one track (one column pair)")
+        grid, _ = tracks.to_wide()
+        write_track_csv(path, grid)
+    else:
+        _write_long(path, tracks)
+
+
+def read_tracks(
+    path: str | os.PathLike[str],
+    format: str = "auto",
+    *,
+    n_frames: int | None = None,
+    min_confidence: float | None = None,
+) -> Tracks:
+    """Read tracks (or ground truth) written in ``format``.
+
+    Args:
+        path: The file.
+        format: ``"mot"``, ``"wide"``, ``"long"`` or ``"auto"`` (:func:`track_format`).
+        n_frames: Frames of the stream, when longer than the file's last frame.
+        min_confidence: MOT only: drop rows whose confidence (the "considered" flag of ground
+            truth) is below this.
+
+    Raises:
+        DetectionFileError: naming the file and the row and column of the first bad cell, or
+            (MOT, long) an id that appears twice in one frame.
+    """
+    fmt = track_format(path, format)
+    if fmt == "mot":
+        rows = read_mot_rows(path, min_confidence=min_confidence)
+        tracks = Tracks(rows.frame, rows.ids, rows.centres, rows.n_frames)
+    elif fmt == "wide":
+        tracks = Tracks.from_wide(load_track_csv(path))
+    else:
+        tracks = _read_long(path)
+    _check_unique(tracks, path)
+    return tracks if n_frames is None else tracks.with_frames(n_frames)
+
+
+def track_format(path: str | os.PathLike[str], format: str = "auto") -> str:
+    """``format``, or for ``"auto"``: ``mot`` for ``.txt``, ``wide`` for ``.zip`` and for a ``.csv``
+    without a header, ``long`` for a ``.csv`` whose first line starts with ``frame,id``."""
+    if format != "auto":
+        if format not in TRACK_FORMATS:
+            raise ValueError(f"format must be one of {['auto', *TRACK_FORMATS]}, got {format!r}")
+        return format
+    suffix = Path(path).suffix.lower()
+    if suffix == ".txt":
+        return "mot"
+    if suffix == ".zip":
+        return "wide"
+    try:
+        with open(path, "rb") as handle:
+            start = handle.read(64).lstrip(b"\xef\xbb\xbf").replace(b" ", b"")
+    except OSError:
+        return "wide"  # the reader names the problem
+    return "long" if start.startswith(b"frame,id") else "wide"
+
+
+def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
+    columns: dict[str, object] = {
+        "frame": tracks.frame,
+        "id": tracks.ids,
+        "x": tracks.positions[:, 0],
+        "y": tracks.positions[:, 1],
+    }
+    if tracks.cov is not None:
+        columns |= {"var_x": tracks.cov[:, 0, 0], "cov_xy": tracks.cov[:, 0, 1], "var_y": tracks.cov[:, 1, 1]}
+    if tracks.detection is not None:
+        columns["detection"] = tracks.detection
+    text = [
+        list(map(repr, np.asarray(v).tolist()))
+        if name not in ("frame", "id", "detection")
+        else list(map(str, np.asarray(v).tolist()))
+        for name, v in columns.items()
+    ]
+    lines = [",".join(columns), *map(",".join, zip(*text, strict=True)), ""]
+    Path(path).write_text("\n".join(lines), encoding="ascii")
+
+
+def _read_long(path: str | os.PathLike[str]) -> Tracks:
+    table = read_table(path, header=True)
+    assert table.names is not None
+    missing = [c for c in LONG_COLUMNS if c not in table.names]
+    if missing:
+        raise DetectionFileError(
+            f"{table.label}: the header lacks {missing}; a long track file starts {','.join(LONG_COLUMNS)}"
+        )
+    col = {n: table.column(n, "column") for n in table.names}
+    v = table.values
+    for name in ("frame", "id", "x", "y"):
+        bad = ~np.isfinite(v[:, col[name]])
+        expected = "an integer" if name in ("frame", "id") else "a finite number"
+        if name in ("frame", "id"):
+            bad |= v[:, col[name]] != np.round(v[:, col[name]])
+        if bad.any():
+            r = int(np.argmax(bad))
+            raise table.error(
+                r,
+                col[name],
+                f"holds {float(v[r, col[name]])!r}; expected {expected}",
+            )
+    frame = v[:, col["frame"]].astype(np.int64)
+    if np.any(np.diff(frame) < 0) or (len(frame) and frame[0] < 0):
+        r = int(np.argmax(np.diff(frame) < 0)) + 1 if len(frame) > 1 else 0
+        raise table.error(r, col["frame"], "goes back in time; rows must be sorted by frame (from 0)")
+    cov = None
+    if all(c in col for c in COV_COLUMNS):
+        vx, cxy, vy = (v[:, col[c]] for c in COV_COLUMNS)
+        cov = np.stack([np.stack([vx, cxy], -1), np.stack([cxy, vy], -1)], axis=1)
+    detection = v[:, col["detection"]].astype(np.int64) if "detection" in col else None
+    positions = np.stack([v[:, col["x"]], v[:, col["y"]]], axis=1)
+    n_frames = int(frame[-1]) + 1 if len(frame) else 0
+    return Tracks(frame, table.integers(col["id"]), positions, n_frames, cov, detection)
+
+
+def _check_unique(tracks: Tracks, path: str | os.PathLike[str]) -> None:
+    """Raise if an id appears twice in a frame (metrics need one row per id and frame)."""
+    if len(tracks) < 2:
+        return
+    order = np.lexsort((tracks.ids, tracks.frame))
+    f, i = tracks.frame[order], tracks.ids[order]
+    twice = np.flatnonzero((f[1:] == f[:-1]) & (i[1:] == i[:-1]))
+    if len(twice):
+        k = order[twice[0]]
+        raise DetectionFileError(
+            f"{os.fspath(path)}: id {tracks.ids[k]} appears twice in frame {tracks.frame[k]} (from 0); "
+            "a track has one position per frame"
+        )
