@@ -164,10 +164,17 @@ NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
 #: default, so without it every seed would give the same episode (and a std of 0).
 REPLAY_NOISE = 1e-4
 
+#: Envs without truth (a replay of a user's detections): nothing to score, so no suite runs them.
+NO_TRUTH_ENVS = ("DetectionReplay-v0",)
+
 SUITES: dict[str, tuple[Group, ...]] = {
-    # every env × every agent/predictor that applies × 2 seeds, short episodes.
+    # every env with truth × every agent/predictor that applies × 2 seeds, short episodes.
     "quick": (
-        Group(envs=tuple(e for e in track_envs.ENV_IDS if e != "BeltReplay-v0"), seeds=(0, 1), steps=100),
+        Group(
+            envs=tuple(e for e in track_envs.ENV_IDS if e not in ("BeltReplay-v0", *NO_TRUTH_ENVS)),
+            seeds=(0, 1),
+            steps=100,
+        ),
         Group(
             envs=("BeltReplay-v0",),
             seeds=(0, 1),
@@ -178,7 +185,9 @@ SUITES: dict[str, tuple[Group, ...]] = {
     # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of Pollithy et al. (2020).
     "full": (
         Group(
-            envs=tuple(e for e in track_envs.ENV_IDS if e not in ("BeltSorter-v0", "BeltReplay-v0")),
+            envs=tuple(
+                e for e in track_envs.ENV_IDS if e not in ("BeltSorter-v0", "BeltReplay-v0", *NO_TRUTH_ENVS)
+            ),
             seeds=tuple(range(10)),
         ),
         Group(
