@@ -32,6 +32,7 @@ not drift forever. Without clutter the first detection starts the filter and it 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from typing import Any, Protocol, runtime_checkable
 
@@ -114,7 +115,16 @@ class ConstantVelocity(Brownian):
         return noise
 
 
-DISPLACEMENT_MODELS: dict[str, type[Brownian]] = {"brownian": Brownian, "cv": ConstantVelocity}
+def _lstm(sigma_p: ArrayLike, step: float, weights: Any = None) -> Any:
+    """The learned displacement model of Jung et al. (2019) (:mod:`agents.lstm_displacement`)."""
+    from agents.lstm_displacement import LSTMDisplacement
+
+    return LSTMDisplacement(weights, sigma_p, step)
+
+
+DISPLACEMENT_MODELS: dict[str, Any] = {"brownian": Brownian, "cv": ConstantVelocity, "lstm": _lstm}
+#: The named models that take a model file (``model_weights``).
+LEARNED_MODELS = ("lstm",)
 
 
 def systematic_resample_batch(weights: NDArray[np.float64], u: ArrayLike) -> NDArray[np.intp]:
@@ -306,12 +316,26 @@ class BatchParticleFilter:
         self.resampled += len(rows)
 
 
-def make_displacement_model(model: str | DisplacementModel, sigma_p: ArrayLike, step: float) -> Any:
-    """A model by name (``"brownian"``, ``"cv"``) or the object itself."""
+def make_displacement_model(
+    model: str | DisplacementModel, sigma_p: ArrayLike, step: float, weights: Any = None
+) -> Any:
+    """A model by name (``"brownian"``, ``"cv"``, ``"lstm"``) or the object itself.
+
+    ``weights``: the model file of a learned model (``"lstm"``; ``None``: its shipped weights).
+    """
     if isinstance(model, str):
         if model not in DISPLACEMENT_MODELS:
             raise ValueError(f"unknown model {model!r}; valid names are {sorted(DISPLACEMENT_MODELS)}")
+        if model in LEARNED_MODELS:
+            return DISPLACEMENT_MODELS[model](sigma_p, step, weights)
+        if weights is not None:
+            raise ValueError(
+                f"model_weights={weights!r} is for a learned model {list(LEARNED_MODELS)}, "
+                f"not model={model!r}"
+            )
         return DISPLACEMENT_MODELS[model](sigma_p, step)
+    if weights is not None:
+        raise ValueError(f"model_weights={weights!r} is for a learned model by name, not model={model!r}")
     if not isinstance(model, DisplacementModel):
         raise ValueError(
             f"model must be a name in {sorted(DISPLACEMENT_MODELS)} or have propose(), got {model!r}"
@@ -339,7 +363,11 @@ class ParticleFilterAgent:
 
     Args:
         n_particles: ``N`` (default 100).
-        model: ``"brownian"`` (default), ``"cv"`` or a :class:`DisplacementModel`.
+        model: ``"brownian"`` (default), ``"cv"``, ``"lstm"`` (the learned displacement model of
+            Jung et al. 2019, :class:`agents.lstm_displacement.LSTMDisplacement`) or a
+            :class:`DisplacementModel`.
+        model_weights: The ``displacement-lstm`` model file of ``model="lstm"`` (path with or
+            without suffix); default the shipped weights trained on the noiseless sine.
         sigma_p: Process noise in multiples of ``step`` (default 1.0); used by the named models.
         sigma_m: Measurement noise of the likelihood in multiples of ``step``; default the sensor's
             ``noise_std`` (floored at ``0.05·step`` so that a noise-free sensor still weighs).
@@ -360,6 +388,7 @@ class ParticleFilterAgent:
         *,
         n_particles: int = 100,
         model: str | DisplacementModel = "brownian",
+        model_weights: str | os.PathLike[str] | None = None,
         sigma_p: float = 1.0,
         sigma_m: float | None = None,
         sigma_0: float | None = None,
@@ -386,7 +415,7 @@ class ParticleFilterAgent:
             raise ValueError(f"resample_threshold must be in [0, 1], got {resample_threshold!r}")
         self.n_particles = int(n_particles)
         self.step = float(step)
-        self.model = make_displacement_model(model, sigma_p, self.step)
+        self.model = make_displacement_model(model, sigma_p, self.step, model_weights)
         self.sigma_m = sigma_m
         self.sigma_0 = sigma_0
         self.resample_threshold = float(resample_threshold)

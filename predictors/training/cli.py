@@ -1,4 +1,7 @@
-"""The ``track-train`` command: train a belt LSTM on env truth or a recorded track file.
+"""The ``track-train`` command: train a learned motion model on env truth, a track file or the sine.
+
+Model kinds: the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-lstm``) and the displacement LSTM of the
+LSTM particle filter (``displacement-lstm``, :mod:`predictors.training.displacement`).
 
 Examples::
 
@@ -8,9 +11,13 @@ Examples::
     track-train mc-lstm --env BeltSorter-v0 --episodes 2 --dropout 0.002 --out models/mc
     track-train calibrate models/nll-lstm-cylinder --env BeltSorter-v0 --data-seed 5000 \
         --noise-std 1e-4 --plot reliability.png
+    track-train displacement-lstm --sine --window 128 --stride 8 --epochs 1000 --decay-every 250 \
+        --batch-size 16 --out models/displacement-lstm-sine
+    track-train displacement-lstm --env PiecewiseTarget-v0 --episodes 8 --window 128 --out models/pw
 
 The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.model_file`); pass it to a
-tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``.
+tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
+the particle filter as ``make_agent("pf", model="lstm", model_weights="OUT")``.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from predictors.belt_lstm_net import HEAD_OUTPUTS
+from predictors.displacement_inference import KIND as DISPLACEMENT_KIND
 from predictors.model_file import ModelFile
 
 if TYPE_CHECKING:
@@ -59,18 +67,30 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``track-train``."""
     p = argparse.ArgumentParser(
         prog="track-train",
-        description="Train a belt LSTM motion model (lstm, nll-lstm, mc-lstm) and write a model file.",
+        description="Train a belt LSTM motion model (lstm, nll-lstm, mc-lstm) or the particle filter's "
+        "displacement LSTM (displacement-lstm) and write a model file.",
         epilog=__doc__.split("Examples::", 1)[1].split("The output", 1)[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("model", choices=sorted(HEAD_OUTPUTS), help="model kind (or 'calibrate', see below)")
+    p.add_argument(
+        "model",
+        choices=[*sorted(HEAD_OUTPUTS), DISPLACEMENT_KIND],
+        help="model kind (or 'calibrate', see below)",
+    )
     _add_data_args(p)
     p.add_argument("--min-length", type=int, default=5, help="drop tracks with fewer frames")
     p.add_argument("--epochs", type=int, default=1000)
     p.add_argument("--lr", type=float, default=0.01)
     p.add_argument("--decay-every", type=int, default=200)
     p.add_argument("--batch-size", type=int, default=None, help="tracks per step (default: all)")
-    p.add_argument("--dropout", type=float, default=0.002, help="mc-lstm dropout rate")
+    p.add_argument(
+        "--dropout",
+        type=float,
+        default=None,
+        help="mc-lstm: variational dropout rate (default 0.002); displacement-lstm: input dropout rate "
+        "(default 0.25)",
+    )
+    p.add_argument("--hidden", type=int, default=25, help="displacement-lstm hidden units")
     p.add_argument(
         "--dropout-grid",
         default=None,
@@ -108,6 +128,29 @@ def _add_data_args(p: argparse.ArgumentParser) -> None:
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--env", help="a point env whose truth gives the tracks, e.g. BeltSorter-v0")
     src.add_argument("--tracks", help="a recorded track file (BeltReplay CSV/zip layout)")
+    src.add_argument(
+        "--sine",
+        action="store_true",
+        help="the noiseless sine x_t = (t*step, sin(t*step)) of Jung et al. (2019), eq. (5), as one track",
+    )
+    p.add_argument("--periods", type=float, default=25.0, help="--sine: sine periods")
+    p.add_argument(
+        "--sine-step", type=float, default=0.2, help="--sine: the step Δ (recorded as the data's step)"
+    )
+    p.add_argument(
+        "--data-step",
+        type=float,
+        default=None,
+        help="the step Δ of --env / --tracks data where it has one (a displacement model records it, so a "
+        "filter with another Δ rescales speeds)",
+    )
+    p.add_argument(
+        "--window",
+        type=int,
+        default=None,
+        help="cut tracks into windows of this many frames (default: whole tracks; 128 for --sine)",
+    )
+    p.add_argument("--stride", type=int, default=8, help="frames between --window starts")
     p.add_argument("--env-kwargs", nargs="*", default=[], metavar="NAME=VALUE", help="env arguments")
     p.add_argument("--episodes", type=int, default=4, help="env episodes (seeds --data-seed, +1, ...)")
     p.add_argument("--steps", type=int, default=None, help="frames per env episode (default: whole)")
@@ -134,6 +177,8 @@ def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | Non
         if argv[:1] == ["calibrate"]:
             return _calibrate(build_calibrate_parser().parse_args(argv[1:]), argv)
         args = build_parser().parse_args(argv)
+        if args.model == DISPLACEMENT_KIND:
+            return _train_displacement(args, argv)
         return _train(args, argv, (tuners or {}).get(args.model))
     except ValueError as exc:
         print(f"track-train: error: {exc}", file=sys.stderr)
@@ -143,18 +188,26 @@ def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | Non
 def load_data(args: argparse.Namespace) -> TrackSet:
     """The tracks named by the data arguments (``--env ...`` or ``--tracks FILE --dt DT``)."""
     from predictors.training.data import tracks_from_env, tracks_from_file
+    from predictors.training.displacement import sine_tracks, window_tracks
 
     if args.env:
-        return tracks_from_env(
+        data = tracks_from_env(
             args.env,
             episodes=args.episodes,
             seed=args.data_seed,
             steps=args.steps,
             **parse_kwargs(args.env_kwargs),
         )
-    if args.dt is None:
-        raise ValueError("--tracks needs --dt (the recording's frame period in seconds)")
-    return tracks_from_file(args.tracks, dt=args.dt)
+    elif getattr(args, "sine", False):
+        data = sine_tracks(args.periods, args.sine_step)
+    else:
+        if args.dt is None:
+            raise ValueError("--tracks needs --dt (the recording's frame period in seconds)")
+        data = tracks_from_file(args.tracks, dt=args.dt)
+    window = getattr(args, "window", None)
+    if window is None and getattr(args, "sine", False):
+        window = 128
+    return data if window is None else window_tracks(data, window, args.stride)
 
 
 def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int:
@@ -180,7 +233,9 @@ def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int
         seed=args.seed,
         device=args.device,
     )
-    dropout = args.dropout if args.model == "mc-lstm" else 0.0
+    if args.dropout is not None and args.model != "mc-lstm":
+        raise ValueError(f"--dropout is for mc-lstm and displacement-lstm, not {args.model}")
+    dropout = (0.002 if args.dropout is None else args.dropout) if args.model == "mc-lstm" else 0.0
     grid = None
     if args.dropout_grid is not None:
         if args.model != "mc-lstm":
@@ -217,6 +272,70 @@ def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int
     print(
         f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean per-track "
         f"error {m['test_mean_error']:.3g}, coverage at 0.999 {m['test_coverage_999']:.4f}"
+    )
+    return 0
+
+
+def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
+    from predictors.displacement_inference import DisplacementLSTM
+    from predictors.model_file import save_model
+    from predictors.training.belt import noisy_tracks
+    from predictors.training.data import TrackSplit, split_tracks
+    from predictors.training.displacement import (
+        displacement_metrics,
+        to_model_file,
+        train_displacement_model,
+    )
+    from predictors.training.loop import TrainConfig
+
+    start = time.perf_counter()
+    data = load_data(args)
+    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
+    if args.noise_std != 0.0:  # one noisy copy per part, seeded
+        split = TrackSplit(
+            noisy_tracks(split.train, args.noise_std, args.seed),
+            noisy_tracks(split.validation, args.noise_std, args.seed + 1),
+            noisy_tracks(split.test, args.noise_std, args.seed + 2),
+            split.dropped,
+            split.min_length,
+        )
+    s = split.summary()
+    print(
+        f"{len(data)} tracks: {s['train_tracks']} train, {s['validation_tracks']} validation, "
+        f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {args.min_length} frames dropped"
+    )
+    config = TrainConfig(
+        epochs=args.epochs,
+        lr=args.lr,
+        decay_every=args.decay_every,
+        batch_size=args.batch_size,
+        seed=args.seed,
+        device=args.device,
+    )
+    dropout = 0.25 if args.dropout is None else args.dropout
+    step = args.sine_step if args.sine else args.data_step
+    net, features, history = train_displacement_model(
+        split, config, hidden=args.hidden, dropout=dropout, step=step, progress=not args.no_progress
+    )
+    test = split.test if len(split.test) else split.validation if len(split.validation) else split.train
+    metrics = displacement_metrics(
+        DisplacementLSTM.from_model_file(to_model_file(net, features)), test.tracks
+    )
+    training = {
+        "command": "track-train " + shlex.join(argv),
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        "noise_std": args.noise_std,
+        "history": history.to_dict(),
+        "wall_time_s": round(time.perf_counter() - start, 1),
+    }
+    model = to_model_file(
+        net, features, training=training, data={**dict(data.description), **s}, metrics=metrics
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: one-step position "
+        f"error {metrics['test_mean_error']:.3g}, rotation RMSE {metrics['test_rotation_rmse']:.3g} rad, "
+        f"speed RMSE {metrics['test_speed_rmse']:.3g}"
     )
     return 0
 

@@ -1,0 +1,195 @@
+"""The LSTM displacement model of the particle filter (agents/lstm_displacement.py) and ``pf`` with
+``model="lstm"``: the common-displacement contract, state per target, restarts, rotation
+invariance, accuracy against the Brownian model, bad arguments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import track_envs  # noqa: F401
+from agents import make_agent
+from agents.lstm_displacement import LSTMDisplacement
+from agents.particle import BatchParticleFilter, Brownian, DisplacementModel
+from predictors.lstm import shipped_weights
+from predictors.model_file import ModelFileError
+from track_envs.envs.single_target import draw_detections, n_frames_for, sine_trajectory, to_world
+from track_envs.testing import check_agent
+from track_envs.wrappers import TrackingMetrics
+
+SINE = sine_trajectory(n_frames_for(25.0))
+
+
+def _histories(x: np.ndarray) -> list[np.ndarray]:
+    """The histories (T, t, 2), t = 1 … n, a filter passes while it estimates ``x`` (T, n, 2)."""
+    return [x[:, :t] for t in range(1, x.shape[1] + 1)]
+
+
+def test_is_a_displacement_model_and_propose_is_displacement_plus_noise() -> None:
+    a, b = LSTMDisplacement(sigma_p=[0.5, 2.0]), LSTMDisplacement(sigma_p=[0.5, 2.0])
+    assert isinstance(a, DisplacementModel)
+    np.testing.assert_array_equal(a.std, [0.1, 0.4])
+    x = np.stack([SINE[:30], SINE[:30] * 2.0])
+    particles = np.random.default_rng(0).normal(size=(2, 50, 2))
+    for history in _histories(x):
+        got = a.propose(particles, history, np.random.default_rng(len(history[0])))
+        eps = np.random.default_rng(len(history[0])).standard_normal(particles.shape)
+        expected = particles + b.displacement(history)[:, None, :] + a.std[:, None, None] * eps
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+
+
+def test_follows_the_noiseless_sine_from_its_estimates() -> None:
+    model = LSTMDisplacement()
+    errors = []
+    for t, history in enumerate(_histories(SINE[None, :-1]), start=1):
+        d = model.displacement(history)
+        if t >= 2:  # a heading exists from the first step on
+            errors.append(np.linalg.norm(history[0, -1] + d[0] - SINE[t]))
+        else:
+            np.testing.assert_array_equal(d, 0.0)
+    assert np.mean(errors) < 0.004 and np.max(errors[10:]) < 0.02  # Δ = 0.2
+
+
+def test_state_is_per_target_and_a_restart_resets_it() -> None:
+    rng = np.random.default_rng(1)
+    x = np.stack([SINE[:60], to_world(SINE[:60], 30.0, (5.0, 1.0)), SINE[:60] + rng.normal(0, 0.02, (60, 2))])
+    x[2, :25] = np.nan  # target 2 (re)starts at frame 25: NaN before, as the filter's history is
+    batched, alone = LSTMDisplacement(), [LSTMDisplacement() for _ in range(3)]
+    for t, history in enumerate(_histories(x), start=1):
+        d = batched.displacement(history)
+        for k in range(3):
+            if k == 2 and t < 25:
+                continue
+            dk = alone[k].displacement(history[k : k + 1, max(0, 24 if k == 2 else 0) :])
+            np.testing.assert_allclose(d[k], dk[0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(LSTMDisplacement().displacement(np.full((2, 4, 2), np.nan)), 0.0)
+
+
+def test_rotation_invariance() -> None:
+    a, b = LSTMDisplacement(), LSTMDisplacement()
+    rot = to_world(SINE[:80], 45.0, (3.0, -2.0))
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    for h, g in zip(_histories(SINE[None, :80]), _histories(rot[None]), strict=True):
+        d, e = a.displacement(h)[0], b.displacement(g)[0]
+        np.testing.assert_allclose(e, [c * d[0] - s * d[1], s * d[0] + c * d[1]], atol=1e-9)
+
+
+def test_the_cost_does_not_depend_on_the_particle_count() -> None:
+    """One LSTM step per target: the displacement is the same for N = 1 and N = 2000."""
+    outs = []
+    for n in (1, 2000):
+        model = LSTMDisplacement(sigma_p=0.0)
+        for history in _histories(SINE[None, :20]):
+            moved = model.propose(np.zeros((1, n, 2)), history, np.random.default_rng(0))
+        outs.append(moved[0])
+        assert model._h.shape == (1, 25)
+    np.testing.assert_array_equal(outs[1], np.broadcast_to(outs[0], (2000, 2)))
+
+
+def _batched_runs(model: object, rotation: float, runs: int = 16, periods: float = 25.0) -> float:
+    """Mean error of ``runs`` filters (one batch) on the sine rotated by ``rotation`` degrees."""
+    truth = to_world(sine_trajectory(n_frames_for(periods)), rotation, (0.0, 0.0))
+    rng = np.random.default_rng(11)
+    pf = BatchParticleFilter(runs, 100, model, sigma_m=0.1, sigma_0=0.1, rng=rng)  # type: ignore[arg-type]
+    errors = []
+    for t, x in enumerate(truth):
+        z, seen = draw_detections(np.broadcast_to(x, (runs, 2)), rng, noise_std=0.1, p_detect=0.5)
+        if t == 0:
+            seen[:] = True
+        else:
+            pf.predict()
+        errors.append(np.linalg.norm(pf.update(z, seen) - x, axis=1))
+    return float(np.mean(errors))
+
+
+def test_lstm_pf_beats_brownian_and_is_rotation_invariant() -> None:
+    """Jung et al. (2019), Exp. 1 setting (N = 100, p_d = 0.5, σ_p = σ_m = 0.5). Measured over 16
+    batched runs: Brownian 14.0, LSTM 0.281 on the sine and 0.277 rotated by 45°."""
+    brownian = _batched_runs(Brownian(0.5), 0.0)
+    lstm, rotated = (
+        _batched_runs(LSTMDisplacement(sigma_p=0.5), 0.0),
+        _batched_runs(LSTMDisplacement(sigma_p=0.5), 45.0),
+    )
+    assert lstm < 0.4 < 5.0 < brownian
+    assert abs(rotated - lstm) < 0.1 * lstm
+
+
+def test_pf_agent_with_lstm_passes_the_agent_checks() -> None:
+    env = gym.make("SineTarget-v0", p_detect=0.5, periods=3.0)
+    check_agent(make_agent("pf", model="lstm"), env, steps=60)
+    check_agent(make_agent("pf", model="lstm"), gym.make("SineTarget-v0", clutter_rate=2.0), steps=60)
+
+
+def _episode(seed: int, **agent_kwargs: object) -> tuple[dict, list]:
+    env = TrackingMetrics(gym.make("SineTarget-v0", p_detect=0.5, periods=5.0))
+    agent = make_agent("pf", n_particles=100, sigma_p=0.5, **agent_kwargs)
+    obs, _ = env.reset(seed=seed)
+    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
+    reports = []
+    while True:
+        reports.append(agent.act(obs))
+        obs, _, terminated, truncated, info = env.step(reports[-1])
+        if terminated or truncated:
+            return info["episode_metrics"], reports
+
+
+def test_same_agent_seed_same_report() -> None:
+    (m1, a), (m2, b) = _episode(3, model="lstm"), _episode(3, model="lstm")
+    np.testing.assert_equal(m1, m2)  # NaN occlusion error without an occlusion
+    for x, y in zip(a, b, strict=True):
+        for key in x:
+            np.testing.assert_array_equal(x[key], y[key])
+    assert m1["mean_error"] < 0.5
+
+
+def test_user_weights_by_path(tmp_path: Path) -> None:
+    from agents.train import main
+
+    out = tmp_path / "mine"
+    argv = ["displacement-lstm", "--sine", "--periods", "4", "--window", "48", "--epochs", "5"]
+    assert main([*argv, "--no-progress", "--out", str(out)]) == 0
+    model = make_agent("pf", model="lstm", model_weights=str(out)).model
+    assert isinstance(model, LSTMDisplacement) and model.net.path == out.with_suffix(".json")
+    metrics, _ = _episode(0, model="lstm", model_weights=out)
+    assert np.isfinite(metrics["mean_error"])
+
+
+def test_bad_arguments_are_named() -> None:
+    with pytest.raises(ModelFileError, match=r"holds a 'nll-lstm' model; expected 'displacement-lstm'"):
+        make_agent("pf", model="lstm", model_weights=shipped_weights("nll-lstm", "cylinder"))
+    with pytest.raises(ModelFileError, match=r"missing\.json does not exist"):
+        make_agent("pf", model="lstm", model_weights="missing")
+    with pytest.raises(
+        ValueError, match=r"model_weights='w' is for a learned model \['lstm'\], not model='cv'"
+    ):
+        make_agent("pf", model="cv", model_weights="w")
+    with pytest.raises(ValueError, match=r"sigma_p must be finite and >= 0, got -1"):
+        make_agent("pf", model="lstm", sigma_p=-1.0)
+    with pytest.raises(ValueError, match=r"speed_scale must be a finite number > 0, got 0.0"):
+        LSTMDisplacement(speed_scale=0.0)
+    model = LSTMDisplacement()
+    bad = np.zeros((1, 3, 2))
+    bad[0, 1, 0] = np.nan
+    with pytest.raises(
+        ValueError, match=r"history\[\(0, 1\)\] is \[nan, 0.0\]: an estimate is either finite"
+    ):
+        model.displacement(bad)
+    with pytest.raises(ValueError, match=r"must not hold ±inf; history\[\(0, 2\)\] is \[inf, 0.0\]"):
+        model.displacement(np.array([[[0.0, 0.0], [1.0, 0.0], [np.inf, 0.0]]]))
+    with pytest.raises(ValueError, match=r"history must have shape \(T, t, 2\), got \(3, 2\)"):
+        model.displacement(np.zeros((3, 2)))
+
+
+def test_speed_scale_follows_the_step() -> None:
+    """The sine model records Δ = 0.2; a filter with Δ = 2 (the sine in other units) scales speeds."""
+    assert LSTMDisplacement(step=2.0).speed_scale == pytest.approx(10 * LSTMDisplacement().speed_scale)
+    model = LSTMDisplacement(step=2.0)
+    big = 10.0 * SINE[None, :40]
+    small = LSTMDisplacement()
+    for h in _histories(big):
+        d = model.displacement(h)
+        e = small.displacement(h / 10.0)
+    np.testing.assert_allclose(d, 10.0 * e, rtol=1e-9)
