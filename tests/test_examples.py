@@ -8,8 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.particle import DISPLACEMENT_MODELS
-
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -32,10 +30,8 @@ def test_belt_sorter_episode_prints_metrics_and_writes_a_png(tmp_path, capsys):
 
 
 def test_pf_paper_figures_quick_runs_every_experiment_with_both_filters(tmp_path, capsys):
-    learned = "lstm" if "lstm" in DISPLACEMENT_MODELS else "cv"
-    out = load("pf_paper_figures").main(
-        ["--quick", "--runs", "8", "--learned", learned, "--out", str(tmp_path)]
-    )
+    learned = "lstm"
+    out = load("pf_paper_figures").main(["--quick", "--runs", "8", "--out", str(tmp_path)])
     assert [Path(f).name for f in out["files"]] == [
         "fig3_tracks.png",
         "fig4_error_grid.png",
@@ -52,8 +48,10 @@ def test_pf_paper_figures_quick_runs_every_experiment_with_both_filters(tmp_path
     brownian = out["fig4_error"]["brownian"]
     # p_detect = 1 tracks better than p_detect = 0.3 at the same σ_p
     assert np.all(brownian[1] < brownian[0])
-    # the learned model beats Brownian motion at low p_d and low σ_p
-    assert out["fig4_gain"][0, 0] > 20, out["fig4_gain"]
+    # the LSTM-PF gains > 60% over the Brownian PF at low p_d and low σ_p (84-89% over seeds 0-3), and
+    # is better in every cell of the N × σ_p grid (14% in its worst cell over those seeds)
+    assert out["fig4_gain"][0, 0] > 60, out["fig4_gain"]
+    assert np.all(out["fig5_gain"] > 0), out["fig5_gain"]
     assert out["fig7_lost"]["brownian"].shape == (2,)
     tables = (tmp_path / "tables.md").read_text()
     assert tables.count("| claim | paper | ours |") == 1 and len(out["claims"]) >= 10

@@ -8,7 +8,6 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import jung2019 as exp
-from agents.particle import DISPLACEMENT_MODELS
 from track_envs.envs.single_target import to_world
 
 
@@ -20,10 +19,10 @@ def test_a_rotated_scene_is_the_rotation_of_the_unrotated_one_under_the_same_see
         )
 
 
-@pytest.mark.skipif("lstm" not in DISPLACEMENT_MODELS, reason="needs the learned displacement model")
 def test_the_lstm_filter_is_rotation_invariant():
     # (r, s) does not change under a rotation; only the filters' own draws are not rotated with the scene
-    rot = exp.exp1_rotation(6, models=("lstm",), periods=6.0, seed=0)
+    # (over 24 runs of 8 periods the two errors agree within 3.5% for seeds 0-7)
+    rot = exp.exp1_rotation(24, models=("lstm",), periods=8.0, seed=0)
     e0, e45 = (float(np.nanmean(rot[r].filters["lstm"].mean_error)) for r in (0.0, 45.0))
     assert abs(e45 / e0 - 1) < 0.10, (e0, e45)
 
