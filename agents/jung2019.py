@@ -53,6 +53,9 @@ class FilterRuns:
         spread: (K, F) weighted mean distance ``Σ_i w⁽ⁱ⁾ ||x⁽ⁱ⁾ − x_t||`` of the particles to the truth
             at the end of each frame (after a resampling), traced runs.
         spread_std: (K, F) weighted standard deviation of those distances over the particles.
+        particle_error: (T,) the error of Jung et al. (2019), Sec. IV: the particles' weighted mean
+            distance to the truth (as ``spread``), averaged over the frames of each run.
+        errors: (T, F) estimation error of every run and frame (NaN before a start) when asked for.
     """
 
     mean_error: NDArray[np.float64]
@@ -60,6 +63,21 @@ class FilterRuns:
     estimates: NDArray[np.float64]
     spread: NDArray[np.float64]
     spread_std: NDArray[np.float64]
+    particle_error: NDArray[np.float64]
+    errors: NDArray[np.float64] | None = None
+
+
+@dataclass
+class GridRuns:
+    """Per-run errors of one filter over a parameter grid, shape (..., runs) each.
+
+    Attributes:
+        estimate: Mean estimation error of each run (:attr:`FilterRuns.mean_error`).
+        particles: Mean particle distance to the truth of each run (:attr:`FilterRuns.particle_error`).
+    """
+
+    estimate: NDArray[np.float64]
+    particles: NDArray[np.float64]
 
 
 @dataclass
@@ -96,6 +114,7 @@ def run_batch(
     rotation_deg: float = 0.0,
     n_runs: int | None = None,
     trace: ArrayLike = (),
+    per_frame: bool = False,
     seed: int = 0,
     desc: str = "",
 ) -> Batch:
@@ -112,6 +131,7 @@ def run_batch(
         rotation_deg: Rotation of the scene about the origin (degrees).
         n_runs: ``T`` when neither ``truth`` nor the parameters have a run axis (default: their size).
         trace: Indices of the runs whose estimates and particle spread are recorded.
+        per_frame: Also keep the estimation error of every run and frame (:attr:`FilterRuns.errors`).
         seed: Seed of the measurements and of the filters' draws.
         desc: tqdm label.
 
@@ -155,6 +175,8 @@ def run_batch(
     est_trace = {name: np.full((k, n_frames, 2), np.nan) for name in models}
     spread = {name: np.full((k, n_frames), np.nan) for name in models}
     spread_std = {name: np.full((k, n_frames), np.nan) for name in models}
+    p_total = {name: np.zeros(t_runs) for name in models}
+    errors = {name: np.full((t_runs, n_frames), np.nan) if per_frame else None for name in models}
     for frame in tqdm(range(n_frames), desc=desc, leave=False, mininterval=0.5, disable=not desc):
         here = x_local[:, frame] if x_local.ndim == 3 else np.broadcast_to(x_local[frame], (t_runs, 2))
         occluded = False if occ is None else (occ[0] <= frame) & (frame < occ[1])
@@ -171,20 +193,31 @@ def run_batch(
             count[name][ok] += 1
             if ok.any():
                 over_time[name][frame] = err[ok].mean()
+            table = errors[name]
+            if table is not None:
+                table[:, frame] = err
+            dist = np.linalg.norm(pf.particles - x[:, None, :], axis=2)
+            mean = np.einsum("tn,tn->t", pf.weights, dist)
+            p_total[name][ok] += mean[ok]
             if k:
                 est_trace[name][:, frame] = estimate[traced]
-                dist = np.linalg.norm(pf.particles[traced] - x[traced, None, :], axis=2)
-                w = pf.weights[traced]
-                mean = np.einsum("kn,kn->k", w, dist)
-                var = np.einsum("kn,kn->k", w, (dist - mean[:, None]) ** 2)
+                d, w, m = dist[traced], pf.weights[traced], mean[traced]
+                var = np.einsum("kn,kn->k", w, (d - m[:, None]) ** 2)
                 started = pf.started[traced]
-                spread[name][started, frame] = mean[started]
+                spread[name][started, frame] = m[started]
                 spread_std[name][started, frame] = np.sqrt(var[started])
     for name in models:
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_error = total[name] / count[name]
+            particle_error = p_total[name] / count[name]
         batch.filters[name] = FilterRuns(
-            mean_error, over_time[name], est_trace[name], spread[name], spread_std[name]
+            mean_error,
+            over_time[name],
+            est_trace[name],
+            spread[name],
+            spread_std[name],
+            particle_error,
+            errors[name],
         )
     return batch
 
@@ -193,6 +226,23 @@ def gain_percent(brownian: ArrayLike, learned: ArrayLike) -> NDArray[np.float64]
     """``100 · (e_B − e_L) / e_B``: the accuracy gained by the learned model, percent."""
     b = np.asarray(brownian, dtype=np.float64)
     return 100.0 * (b - np.asarray(learned, dtype=np.float64)) / b
+
+
+def paired_gain(brownian: ArrayLike, learned: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gain of the mean errors and its standard error from per-run errors (..., runs) of both filters.
+
+    The runs are paired (the filters see the same measurements): with ``d = e_B − e_L`` per run, the
+    gain is ``100 · mean(d) / mean(e_B)`` and its standard error ``100 · std(d) / (√runs · mean(e_B))``
+    (runs without an error in either filter are left out).
+    """
+    b, lrn = np.asarray(brownian, dtype=np.float64), np.asarray(learned, dtype=np.float64)
+    ok = np.isfinite(b) & np.isfinite(lrn)
+    n = ok.sum(axis=-1)
+    d = np.where(ok, b - lrn, 0.0)
+    b_mean = np.where(ok, b, 0.0).sum(axis=-1) / n
+    d_mean = d.sum(axis=-1) / n
+    d_var = (np.where(ok, d - d_mean[..., None], 0.0) ** 2).sum(axis=-1) / np.maximum(n - 1, 1)
+    return 100.0 * d_mean / b_mean, 100.0 * np.sqrt(d_var / n) / b_mean
 
 
 def lost_and_kept(mean_error: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -207,6 +257,19 @@ def lost_and_kept(mean_error: NDArray[np.float64]) -> tuple[NDArray[np.float64],
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_kept = np.where(n_kept > 0, kept.sum(axis=1) / n_kept, np.nan)
     return mean_kept, 100.0 * lost.mean(axis=1)
+
+
+def after_turns(scenes: ArrayLike, window: int = 10) -> NDArray[np.bool_]:
+    """(T, F) mask of the frames ``t … t + window − 1`` after each turn of piecewise-linear scenes
+    (T, F, 2): frames whose step ``x_t − x_{t−1}`` has another heading than the step before."""
+    x = np.asarray(scenes, dtype=np.float64)
+    v = np.diff(x, axis=1)
+    heading = np.arctan2(v[..., 1], v[..., 0])
+    turn = np.zeros(x.shape[:2], dtype=bool)
+    turn[:, 2:] = ~np.isclose(heading[:, 1:], heading[:, :-1], atol=1e-9)
+    kernel = np.ones(window, dtype=np.int64)
+    counts = np.stack([np.convolve(row.astype(np.int64), kernel)[: x.shape[1]] for row in turn])
+    return counts > 0
 
 
 def sine(periods: float) -> NDArray[np.float64]:
@@ -257,11 +320,14 @@ def exp2_grid(
     models: tuple[str, ...] = MODELS,
     periods: float = 25.0,
     seed: int = 1,
-) -> dict[str, NDArray[np.float64]]:
-    """Exp. 2 (Fig. 4): mean error (len(p), len(σ_p)) over ``runs`` runs, N = 100, σ_m = 0.5."""
+) -> dict[str, GridRuns]:
+    """Exp. 2 (Fig. 4): the errors of every run (len(p), len(σ_p), runs), N = 100, σ_m = 0.5."""
     p, s, _ = np.meshgrid(np.asarray(p_values), np.asarray(sigma_values), np.arange(runs), indexing="ij")
     batch = run_batch(sine(periods), p.ravel(), s.ravel(), 100, models=models, seed=seed, desc="Exp. 2")
-    return {name: np.nanmean(f.mean_error.reshape(p.shape), axis=2) for name, f in batch.filters.items()}
+    return {
+        name: GridRuns(f.mean_error.reshape(p.shape), f.particle_error.reshape(p.shape))
+        for name, f in batch.filters.items()
+    }
 
 
 def exp3_grid(
@@ -272,14 +338,17 @@ def exp3_grid(
     models: tuple[str, ...] = MODELS,
     periods: float = 25.0,
     seed: int = 2,
-) -> dict[str, NDArray[np.float64]]:
-    """Exp. 3 (Fig. 5): mean error (len(N), len(σ_p)) at p_d = 0.9, σ_m = 0.5, one batch per N."""
+) -> dict[str, GridRuns]:
+    """Exp. 3 (Fig. 5): the errors of every run (len(N), len(σ_p), runs) at p_d = 0.9, σ_m = 0.5, one
+    batch per N."""
     s = np.repeat(np.asarray(sigma_values, dtype=np.float64), runs)
-    out = {name: np.zeros((len(n_values), len(s) // runs)) for name in models}
+    shape = (len(n_values), len(s) // runs, runs)
+    out = {name: GridRuns(np.zeros(shape), np.zeros(shape)) for name in models}
     for i, n in enumerate(n_values):
         batch = run_batch(sine(periods), 0.9, s, n, models=models, seed=seed + 10 * i, desc=f"Exp. 3 (N={n})")
         for name, f in batch.filters.items():
-            out[name][i] = np.nanmean(f.mean_error.reshape(-1, runs), axis=1)
+            out[name].estimate[i] = f.mean_error.reshape(-1, runs)
+            out[name].particles[i] = f.particle_error.reshape(-1, runs)
     return out
 
 
@@ -342,7 +411,8 @@ def exp5_piecewise(
     seed: int = 5,
 ) -> Batch:
     """Exp. 5 (Fig. 8): piecewise-linear targets (PiecewiseTarget-v0), σ_m = σ_p = 0.5, N = 100,
-    ``p_detect`` (paper: 0.5); one trajectory per run, run 0 traced."""
+    ``p_detect`` (paper: 0.5); one trajectory per run (:func:`piecewise_scenes` of ``seed``), run 0
+    traced, the error of every frame kept."""
     return run_batch(
         piecewise_scenes(runs, periods, seed),
         p_detect,
@@ -350,6 +420,7 @@ def exp5_piecewise(
         100,
         models=models,
         trace=[0],
+        per_frame=True,
         seed=seed,
         desc=f"Exp. 5 (p_d={p_detect:g})",
     )

@@ -122,20 +122,32 @@ def claims(res: dict[str, Any], learned: str) -> list[tuple[str, str, str]]:
     kp, ks = max(1, len(p) // 4), max(1, len(s) // 4)  # the lowest quarter of each axis
     corner = g4[:kp, :ks]
     cells = ", ".join(f"p_d={p[i]:g}, σ_p={s[j]:g}: {corner[i, j]:.0f}%" for i, j in np.ndindex(kp, ks))
-    rows.append(("gain at low p_d and low σ_p (Fig. 4c)", "> 60%", f"{cells} (min {np.nanmin(corner):.0f}%)"))
+    paper = np.nanmin(res["fig4_particle_gain"][:kp, :ks])
+    rows.append(
+        (
+            "gain at low p_d and low σ_p (Fig. 4c)",
+            "> 60%",
+            f"{cells} (min {np.nanmin(corner):.0f}%; in the particle error min {paper:.0f}%)",
+        )
+    )
 
-    def worse(grid: NDArray, row_name: str, row_values: Any) -> str:
+    def worse(key: str, row_name: str, row_values: Any) -> str:
+        grid, se = res[f"{key}_gain"], res[f"{key}_gain_se"]
         bad = ~(grid > 0)
         if not bad.any():
             return "better in every cell"
-        groups = [
-            f"{row_name}={row_values[i]:g}: σ_p ∈ {{{', '.join(f'{v:g}' for v in s[bad[i]])}}}"
-            for i in range(len(grid))
-            if bad[i].any()
+        cells = [
+            f"{row_name}={row_values[i]:g}, σ_p={s[j]:g} ({grid[i, j]:.1f} ± {se[i, j]:.1f}%)"
+            for i, j in zip(*np.nonzero(bad), strict=True)
         ]
-        return f"not better in {int(bad.sum())}/{grid.size} cells: " + "; ".join(groups)
+        noise = (
+            "all within 2 standard errors of 0"
+            if np.all(-grid[bad] < 2 * se[bad])
+            else "not all within noise"
+        )
+        return f"not better in {int(bad.sum())}/{grid.size} cells: " + "; ".join(cells) + f" ({noise})"
 
-    rows.append((f"{lab} better than Brownian in every cell of Fig. 4", "yes", worse(g4, "p_d", p)))
+    rows.append((f"{lab} better than Brownian in every cell of Fig. 4", "yes", worse("fig4", "p_d", p)))
     e4 = res["fig4_error"]
 
     def best_sigma(grid: NDArray) -> str:
@@ -149,16 +161,29 @@ def claims(res: dict[str, Any], learned: str) -> list[tuple[str, str, str]]:
             "best σ_p: " + best_sigma(e4["brownian"]),
         )
     )
-    rows.append((f"{lab} needs only a small σ_p (Fig. 4b)", "yes", "best σ_p: " + best_sigma(e4[learned])))
+    small = int(np.argmin(np.abs(s - 0.5)))
+    rise = 100 * (e4[learned][:, small] / np.nanmin(e4[learned], axis=1) - 1)
+    rows.append(
+        (
+            f"{lab} needs only a small σ_p (Fig. 4b)",
+            "yes",
+            f"best σ_p: {best_sigma(e4[learned])}; error at σ_p={s[small]:g} above the row's best by"
+            f" ≤ {np.nanmax(rise[p >= 0.5]):.0f}% for p_d ≥ 0.5, {np.nanmax(rise):.0f}% at most",
+        )
+    )
     g5 = res["fig5_gain"]
-    rows.append((f"{lab} better in every cell of Fig. 5", "yes", worse(g5, "N", res["n_values"])))
-    per_n = np.nanmedian(g5, axis=1)
+    rows.append((f"{lab} better in every cell of Fig. 5", "yes", worse("fig5", "N", res["n_values"])))
+
+    def per_n(grid: NDArray) -> str:
+        return ", ".join(
+            f"{n}: {v:.0f}%" for n, v in zip(res["n_values"], np.nanmedian(grid, axis=1), strict=True)
+        )
+
     rows.append(
         (
             "Fig. 5c gain hardly depends on N",
             "colour scale 20–40%",
-            "median gain per N: "
-            + ", ".join(f"{n}: {v:.0f}%" for n, v in zip(res["n_values"], per_n, strict=True)),
+            f"median gain per N: {per_n(g5)}; in the particle error: {per_n(res['fig5_particle_gain'])}",
         )
     )
     lengths, lost = res["lengths"], res["fig7_lost"]
@@ -208,13 +233,14 @@ def claims(res: dict[str, Any], learned: str) -> list[tuple[str, str, str]]:
             f"mean error 45° / 0° = {ratio:.3f} ({e1[0.0][learned]:.3f} vs {e1[45.0][learned]:.3f})",
         )
     )
-    e5, ref = res["fig8_error"], res["fig8_sine"]
+    e5, ref, turns = res["fig8_error"], res["fig8_sine"], res["fig8_turns"]
     rows.append(
         (
             "the sine-trained LSTM hurts on a piecewise-linear target, most with missed detections (Fig. 8)",
             "yes (qualitative)",
             "; ".join(
-                f"p_d={p:g}: {lab} {e[learned]:.3f} (sine {fmt(ref[p][learned]) if p in ref else '—'}),"
+                f"p_d={p:g}: {lab} {e[learned]:.3f} (sine {fmt(ref[p][learned]) if p in ref else '—'};"
+                f" after turns {turns[p][learned][0]:.3f}, elsewhere {turns[p][learned][1]:.3f}),"
                 f" Brownian {e['brownian']:.3f}"
                 for p, e in e5.items()
             ),
@@ -263,18 +289,31 @@ def fig3(st: Setup, res: dict[str, Any]) -> None:
 
 
 def grid_figure(
-    st: Setup, res: dict[str, Any], key: str, grid: dict[str, NDArray], rows: list[str], what: str
+    st: Setup, res: dict[str, Any], key: str, per_run: dict[str, exp.GridRuns], rows: list[str], what: str
 ) -> None:
-    """Heatmaps and tables of an error grid of both filters and the gain (Figs. 4, 5)."""
-    gain = exp.gain_percent(grid["brownian"], grid[st.learned])
-    res[f"{key}_error"], res[f"{key}_gain"] = grid, gain
+    """Heatmaps and tables of an error grid of both filters (from per-run errors (..., runs)) and the
+    gain with its paired standard error (Figs. 4, 5)."""
+    grid = {name: np.nanmean(e.estimate, axis=-1) for name, e in per_run.items()}
+    gain, se = exp.paired_gain(per_run["brownian"].estimate, per_run[st.learned].estimate)
+    res[f"{key}_error"], res[f"{key}_gain"], res[f"{key}_gain_se"] = grid, gain, se
+    paper, _ = exp.paired_gain(per_run["brownian"].particles, per_run[st.learned].particles)
+    res[f"{key}_particle_gain"] = paper
     cols = [f"{v:g}" for v in res["sigma_values"]]
     panels = [("(a) Brownian PF", grid["brownian"]), (f"(b) {st.label(st.learned)}", grid[st.learned])]
     heatmaps(st.out / f"{key}_{what}.png", [*panels, ("(c) gain %", gain)], rows, cols, res[f"{key}_ylabel"])
     corner = f"{res[f'{key}_ylabel']} \\ σ_p"
     for name in st.models:
         st.emit(f"{st.label(name)}, mean error:\n\n" + markdown_grid(corner, rows, cols, grid[name]) + "\n")
-    st.emit("Gain (%):\n\n" + markdown_grid(corner, rows, cols, gain, 0))
+    lines = [f"| {corner} | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for r, g_row, se_row in zip(rows, gain, se, strict=True):
+        lines.append(
+            f"| {r} | " + " | ".join(f"{g:.0f} ± {e:.0f}" for g, e in zip(g_row, se_row, strict=True)) + " |"
+        )
+    st.emit("Gain (%) ± its standard error over the paired runs:\n\n" + "\n".join(lines) + "\n")
+    st.emit(
+        "Gain (%) in the paper's error (the particles' mean distance to the truth):\n\n"
+        + markdown_grid(corner, rows, cols, paper, 0)
+    )
 
 
 def fig4(st: Setup, res: dict[str, Any]) -> None:
@@ -381,17 +420,27 @@ def fig8(st: Setup, res: dict[str, Any]) -> None:
         f"\n## Exp. 5 / Fig. 8 — piecewise-linear targets (PiecewiseTarget-v0), N = 100, σ_p = σ_m = 0.5"
         f" ({st.runs} runs)\n"
     )
-    st.emit("| p_d | filter | mean error | median over runs | % lost | same filter on the sine |")
-    st.emit("|---|---|---|---|---|---|")
+    st.emit(
+        "| p_d | filter | mean error | median over runs | % lost | in the 10 frames after a turn | elsewhere"
+        " | same filter on the sine |"
+    )
+    st.emit("|---|---|---|---|---|---|---|---|")
+    res["fig8_turns"] = {}
+    turns = exp.after_turns(exp.piecewise_scenes(st.runs, st.periods, st.seed + 5))
     for p_detect in (0.5, low):
         pw = exp.exp5_piecewise(st.runs, p_detect, models=st.models, periods=st.periods, seed=st.seed + 5)
         res["fig8_error"][p_detect] = {m: float(np.nanmean(f.mean_error)) for m, f in pw.filters.items()}
+        res["fig8_turns"][p_detect] = {}
         for name, f in pw.filters.items():
+            assert f.errors is not None
+            split = (float(np.nanmean(f.errors[turns])), float(np.nanmean(f.errors[~turns])))
+            res["fig8_turns"][p_detect][name] = split
             lost = 100 * np.mean(~(f.mean_error <= exp.LOST_THRESHOLD))
             median = fmt(np.nanmedian(f.mean_error))
             ref = fmt(sine_ref[p_detect][name]) if p_detect in sine_ref else "—"
             mean = fmt(res["fig8_error"][p_detect][name])
-            st.emit(f"| {p_detect:g} | {st.label(name)} | {mean} | {median} | {lost:.0f} | {ref} |")
+            cells = f"{mean} | {median} | {lost:.0f} | {fmt(split[0])} | {fmt(split[1])} | {ref}"
+            st.emit(f"| {p_detect:g} | {st.label(name)} | {cells} |")
         if p_detect == 0.5:
             fig, ax = plt.subplots(figsize=(12, 4.5))
             frames = slice(0, 120 if st.quick else 400)

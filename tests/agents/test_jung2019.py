@@ -48,6 +48,8 @@ def test_traced_runs_record_estimates_truth_and_the_particle_spread():
     np.testing.assert_allclose(g.spread, np.linalg.norm(g.estimates - one.truth, axis=2), atol=1e-12)
     np.testing.assert_allclose(g.spread_std, 0.0, atol=1e-12)
     np.testing.assert_allclose(g.mean_error, g.spread.mean(axis=1))
+    np.testing.assert_allclose(g.particle_error, g.mean_error)
+    assert np.all(f.particle_error >= f.mean_error)  # Jensen: Σ w |x⁽ⁱ⁾ − x| >= |Σ w x⁽ⁱ⁾ − x| per frame
 
 
 def test_piecewise_scenes_are_the_env_trajectories():
@@ -58,12 +60,27 @@ def test_piecewise_scenes_are_the_env_trajectories():
         np.testing.assert_allclose(scenes[r], env.unwrapped.trajectory)
 
 
+def test_after_turns_marks_the_frames_after_each_change_of_heading():
+    steps = np.array([[1.0, 0.0]] * 4 + [[0.0, 1.0]] * 5 + [[1.0, 0.0]] * 3)
+    scene = np.concatenate([np.zeros((1, 2)), np.cumsum(steps, axis=0)])[None]
+    mask = exp.after_turns(scene, window=3)
+    assert np.flatnonzero(mask[0]).tolist() == [5, 6, 7, 10, 11, 12]
+    batch = exp.run_batch(scene, 1.0, 0.5, 20, models=("brownian",), per_frame=True, seed=0)
+    errors = batch.filters["brownian"].errors
+    assert errors is not None and errors.shape == (1, 13)
+    np.testing.assert_allclose(np.nanmean(errors, axis=1), batch.filters["brownian"].mean_error)
+
+
 def test_lost_and_kept_and_gain():
     mean_kept, lost = exp.lost_and_kept(np.array([[1.0, 3.0, 6.0, np.nan], [7.0, 8.0, 9.0, 10.0]]))
     np.testing.assert_allclose(mean_kept[0], 2.0)
     assert np.isnan(mean_kept[1])
     np.testing.assert_allclose(lost, [50.0, 100.0])
     np.testing.assert_allclose(exp.gain_percent([2.0, 1.0], [0.5, 1.5]), [75.0, -50.0])
+    # paired runs: d = (1, 2), mean 1.5 against a Brownian mean of 3; the NaN run is left out
+    gain, se = exp.paired_gain([[2.0, 4.0, np.nan]], [[1.0, 2.0, 0.5]])
+    np.testing.assert_allclose(gain, [50.0])
+    np.testing.assert_allclose(se, [100.0 * np.sqrt(0.5) / np.sqrt(2.0) / 3.0])
 
 
 def test_bad_arguments_are_named():
