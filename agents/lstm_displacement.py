@@ -18,7 +18,6 @@ a heading (two distinct estimates) its displacement is zero.
 from __future__ import annotations
 
 import os
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +29,8 @@ from predictors.model_file import ModelFile
 FloatArray = NDArray[np.float64]
 #: Step length ``Δ`` of Jung et al. (2019) (agents.particle.STEP).
 STEP = 0.2
+#: Implementations of one frame (equal to float rounding).
+BACKENDS = ("numba", "numpy")
 
 
 def _check_sigma(name: str, value: ArrayLike) -> FloatArray:
@@ -51,10 +52,14 @@ class LSTMDisplacement:
         speed_scale: The network's speed scale ``s̄`` in the filter's units; default the model
             file's, rescaled by ``step / Δ_model`` where the file records the step ``Δ_model`` of
             its training data (so the sine model follows a sine drawn with another ``Δ`` or unit).
+        backend: ``"numba"`` (one compiled pass over the targets,
+            :meth:`predictors.displacement_inference.DisplacementLSTM.frame`) or ``"numpy"`` (the
+            composition of :mod:`predictors.displacement` and
+            :mod:`predictors.displacement_inference` it is tested equal to).
 
     Raises:
         ModelFileError: a missing or corrupt model file, or one of another kind.
-        ValueError: a bad ``sigma_p``, ``step`` or ``speed_scale`` (naming the value).
+        ValueError: a bad ``sigma_p``, ``step``, ``speed_scale`` or ``backend`` (naming the value).
     """
 
     def __init__(
@@ -64,7 +69,11 @@ class LSTMDisplacement:
         step: float = STEP,
         *,
         speed_scale: float | None = None,
+        backend: str = "numba",
     ):
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        self.backend = backend
         self.sigma_p = _check_sigma("sigma_p", sigma_p)
         if not (np.isfinite(step) and step > 0):
             raise ValueError(f"step must be a finite number > 0, got {step!r}")
@@ -96,16 +105,26 @@ class LSTMDisplacement:
             ValueError: for a history that is not (T, t, 2), holds ±inf, or an estimate with one
                 coordinate NaN (naming the target and frame).
         """
-        x = self._check_history(history)
-        n, t = x.shape[0], x.shape[1]
+        history = np.asarray(history, dtype=np.float64)
+        if history.ndim != 3 or history.shape[2] != 2:
+            raise ValueError(f"history must have shape (T, t, 2), got {history.shape}")
+        n, t = history.shape[0], history.shape[1]
+        x = self._check_history(history[:, -2:], t)  # older estimates were read on earlier frames
         if n != len(self._h) or t < self._length:  # another filter, or a new episode
             self._reset_state(n)
         self._length = t
         if t == 0:
             return np.zeros((n, 2))
         newest = x[:, -1]
-        live = np.isfinite(newest[:, 0])
         previous = x[:, -2] if t >= 2 else np.full((n, 2), np.nan)
+        if self.backend == "numba":
+            state = (self._h, self._c, self._heading, self._has_heading)
+            return self.net.frame(newest, previous, state, speed_scale=self.speed_scale)
+        return self._displacement_numpy(newest, previous)
+
+    def _displacement_numpy(self, newest: FloatArray, previous: FloatArray) -> FloatArray:
+        n = len(newest)
+        live = np.isfinite(newest[:, 0])
         restart = ~live | ~np.isfinite(previous[:, 0])
         if restart.any():
             self._h[restart], self._c[restart] = 0.0, 0.0
@@ -125,22 +144,23 @@ class LSTMDisplacement:
         noise = rng.standard_normal(particles.shape)
         noise *= self.std if self.std.ndim == 0 else self.std[:, None, None]
         noise += particles
-        noise += self.displacement(history)[:, None, :]
+        # (T, N·2) += (T, 2) tiled N times: one long inner loop (a (T, 1, 2) broadcast runs N loops of 2)
+        noise.reshape(len(noise), -1)[:] += np.tile(self.displacement(history), noise.shape[1])
         return noise
 
     @staticmethod
-    def _check_history(history: Any) -> FloatArray:
-        x = np.asarray(history, dtype=np.float64)
-        if x.ndim != 3 or x.shape[2] != 2:
-            raise ValueError(f"history must have shape (T, t, 2), got {x.shape}")
+    def _check_history(x: FloatArray, t: int) -> FloatArray:
+        """``x``: the last (up to) two frames of a history of ``t`` frames."""
+        first = t - x.shape[1]
         if np.isinf(x).any():
-            where = tuple(int(i) for i in np.argwhere(np.isinf(x))[0][:2])
-            raise ValueError(f"history must not hold ±inf; history[{where}] is {x[where].tolist()}")
+            target, frame = (int(i) for i in np.argwhere(np.isinf(x))[0][:2])
+            where = (target, first + frame)
+            raise ValueError(f"history must not hold ±inf; history[{where}] is {x[target, frame].tolist()}")
         half = np.isnan(x[..., 0]) != np.isnan(x[..., 1])
         if half.any():
-            where = tuple(int(i) for i in np.argwhere(half)[0])
+            target, frame = (int(i) for i in np.argwhere(half)[0])
             raise ValueError(
-                f"history[{where}] is {x[where].tolist()}: an estimate is either finite or all NaN "
-                "(before a target's filter started)"
+                f"history[{(target, first + frame)}] is {x[target, frame].tolist()}: an estimate is "
+                "either finite or all NaN (before a target's filter started)"
             )
         return x

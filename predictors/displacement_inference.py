@@ -183,3 +183,38 @@ class DisplacementLSTM:
         )
         out, h_new, c_new = self.step_scaled(x, h, c)
         return out[:, 0] * f.rotation_scale, out[:, 1] * ss, h_new, c_new
+
+    def frame(
+        self,
+        newest: FloatArray,
+        previous: FloatArray,
+        state: tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]],
+        *,
+        speed_scale: float | None = None,
+    ) -> FloatArray:
+        """One filter frame for every target in one compiled pass: the displacements (T, 2).
+
+        From the newest two estimates ``newest, previous`` (T, 2) (NaN where unknown): the
+        ``(r, s)`` of the last step, one LSTM step, and ``ŝ (cos(c + r̂), sin(c + r̂))`` applied to
+        the heading ``c`` (:func:`predictors._displacement_kernels.displacement_frame`).
+        ``state = (h, c, heading, has_heading)`` ((T, H), (T, H), (T,), (T,)) is updated in place;
+        a target whose ``previous`` is NaN (re)starts from the zero state.
+        """
+        from predictors._displacement_kernels import displacement_frame
+
+        h, c, heading, has_heading = state
+        return displacement_frame(
+            np.ascontiguousarray(newest, dtype=np.float64),
+            np.ascontiguousarray(previous, dtype=np.float64),
+            h,
+            c,
+            heading,
+            has_heading,
+            self.layer.w_ih,
+            self.layer.w_hh,
+            self.layer.b,
+            self.head_w,
+            self.head_b,
+            self.features.rotation_scale,
+            self.features.speed_scale if speed_scale is None else float(speed_scale),
+        )
