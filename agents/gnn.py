@@ -44,10 +44,11 @@ and coasting is that roll-out, so the prediction is the one from the last update
 
 All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
 steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
-are each one compiled loop (numba: :mod:`predictors._kalman_kernels`, :mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`),
-so a frame is a few dozen calls whatever the number of tracks. The kernels compile (or load from
-numba's cache) on first use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny
-synthetic input, so that a live stream does not pause on its first frames.
+are each one compiled loop (numba: :mod:`predictors._kalman_kernels`,
+:mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`), so a frame is a few dozen
+calls whatever the number of tracks. The kernels compile (or load from numba's cache) on first
+use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny synthetic input, so that a
+live stream does not pause on its first frames.
 """
 
 from __future__ import annotations

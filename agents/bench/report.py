@@ -41,12 +41,25 @@ from numpy.typing import ArrayLike, NDArray
 from agents.bench.cells import Cell
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
-HEADLINE = ("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean")
+HEADLINE = (
+    ("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean")
+    + ("sorting_hit_rate", "sorting_time_p95_ms", "sorting_lateral_p95_mm")
+)
+#: The error keys of the sorting prediction (track_envs.metrics.sorting), lower is better.
+SORTING_ERRORS = frozenset(
+    f"sorting_{axis}_{stat}_{unit}"
+    for axis, unit in (("time", "ms"), ("lateral", "mm"))
+    for stat in ("rmse", "p50", "p90", "p95", "p99")
+)
 LOWER_IS_BETTER = frozenset(
     {"e1", "e2", "e_mean", "id_switches", "gospa", "mean_error", "rmse", "lost", "motp", "num_misses"}
     | {"num_false_positives", "num_fragmentations", "occlusion_error", "frames_without_estimate"}
+    | SORTING_ERRORS
 )
-HIGHER_IS_BETTER = frozenset({"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision"})
+HIGHER_IS_BETTER = frozenset(
+    {"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision", "sorting_hit_rate"}
+    | {"sorting_predicted"}
+)
 #: Metrics that cannot be negative (every scored metric but MOTA, which is 1 - errors / truths).
 NON_NEGATIVE = (LOWER_IS_BETTER | HIGHER_IS_BETTER | {"e1", "e2", "num_switches"}) - {"mota"}
 #: Ratio of the largest to the smallest positive value beyond which a y axis is logarithmic.

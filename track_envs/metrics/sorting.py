@@ -28,8 +28,9 @@ and were in the camera window (``truth["visible"]``) in at least ``min_visible_f
 of the episode, so particles already past the window when the episode began are not counted.
 
 Keys (prefix ``sorting_``): ``particles`` (scored), ``predicted`` (fraction with a prediction),
-``hit_rate``, ``time_rmse_ms``, ``time_p95_ms`` (95th percentile of ``|Δt|``),
-``time_bias_ms`` (mean ``Δt``), ``lateral_rmse_mm``, ``lateral_p95_mm``, ``lateral_bias_mm``,
+``hit_rate``, ``time_rmse_ms``, ``time_bias_ms`` (mean ``Δt``), ``time_p50_ms``,
+``time_p90_ms``, ``time_p95_ms``, ``time_p99_ms`` (percentiles of ``|Δt|``: its distribution),
+``lateral_rmse_mm``, ``lateral_bias_mm``, ``lateral_p50_mm`` … ``lateral_p99_mm``,
 ``nees`` (mean), ``nees_in_95`` (fraction below 5.99), ``unmatched_predictions`` (predictions
 of tracks that followed clutter or no particle that crossed). Error statistics are over the
 predicted particles, NaN when there are none. Lengths are reported in mm assuming the sensor
@@ -183,16 +184,18 @@ class SortingPrediction:
         return out
 
 
+#: Percentiles of the absolute errors reported (``_pNN_`` keys): the error distribution.
+PERCENTILES = (50, 90, 95, 99)
+
+
 def _error_stats(prefix: str, unit: str, error: NDArray[np.float64]) -> dict[str, float]:
-    """RMSE, 95th percentile of the absolute error and mean (bias) of ``error``; NaN when empty."""
+    """RMSE, mean (bias) and the :data:`PERCENTILES` of the absolute error; NaN when empty."""
+    keys = [f"{prefix}_rmse_{unit}", f"{prefix}_bias_{unit}"] + [f"{prefix}_p{q}_{unit}" for q in PERCENTILES]
     if not len(error):
-        nan = float("nan")
-        return {f"{prefix}_rmse_{unit}": nan, f"{prefix}_p95_{unit}": nan, f"{prefix}_bias_{unit}": nan}
-    return {
-        f"{prefix}_rmse_{unit}": float(np.sqrt(np.mean(error**2))),
-        f"{prefix}_p95_{unit}": float(np.percentile(np.abs(error), 95)),
-        f"{prefix}_bias_{unit}": float(np.mean(error)),
-    }
+        return dict.fromkeys(keys, float("nan"))
+    values = [float(np.sqrt(np.mean(error**2))), float(np.mean(error))]
+    values += [float(v) for v in np.percentile(np.abs(error), PERCENTILES)]
+    return dict(zip(keys, values, strict=True))
 
 
 def _nees(error: NDArray[np.float64], cov: NDArray[np.float64]) -> NDArray[np.float64]:
