@@ -68,12 +68,12 @@ def test_belt_sorter_reports_each_crossing_once_within_its_frame():
     env = gym.make("BeltSorter-v0", noise_std=0.0)
     u = env.unwrapped
     assert u.sensor_spec.sorting_line == pytest.approx(u.physics.window_length + 0.05)
-    obs, info = env.reset(seed=1)
+    _, info = env.reset(seed=1)
     report = empty_report(u.sensor_spec.max_tracks, (2,))
     seen: set[int] = set()
     crossed: list[int] = []
     for _ in range(120):
-        obs, _, _, _, info = env.step(report)
+        _, _, _, _, info = env.step(report)
         truth = info["truth"]
         assert truth["nozzle_ids"].shape == truth["nozzle_times"].shape == (u.max_targets,)
         live = truth["nozzle_ids"] >= 0
@@ -91,10 +91,10 @@ def test_belt_sorter_reports_each_crossing_once_within_its_frame():
 def test_without_a_nozzle_bar_there_are_no_crossings():
     env = gym.make("BeltSorter-v0", nozzle_offset=None)
     assert env.unwrapped.sensor_spec.sorting_line is None
-    obs, info = env.reset(seed=0)
+    env.reset(seed=0)
     report = empty_report(env.unwrapped.sensor_spec.max_tracks, (2,))
     for _ in range(30):
-        obs, _, _, _, info = env.step(report)
+        _, _, _, _, info = env.step(report)
         assert np.all(info["truth"]["nozzle_ids"] == -1)
 
 
@@ -136,14 +136,14 @@ def test_replay_crossings_match_the_closed_form(tmp_path):
     env = gym.make("BeltReplay-v0", path=path, region=((0.0, 0.0), (0.3, 0.18)), nozzle_offset=0.1)
     line = env.unwrapped.sensor_spec.sorting_line
     assert line == pytest.approx(0.4)
-    obs, info = env.reset(seed=0)
+    env.reset(seed=0)
     report = empty_report(env.unwrapped.sensor_spec.max_tracks, (2,))
     got = {}
     while True:
-        obs, _, terminated, truncated, info = env.step(report)
+        _, _, terminated, truncated, info = env.step(report)
         live = info["truth"]["nozzle_ids"] >= 0
         for i, t, y in zip(
-            *(info["truth"][k][live] for k in ("nozzle_ids", "nozzle_times", "nozzle_lateral"))
+            *(info["truth"][k][live] for k in ("nozzle_ids", "nozzle_times", "nozzle_lateral")), strict=True
         ):
             got[int(i)] = (t, y)
         if terminated or truncated:
@@ -164,5 +164,5 @@ def test_replay_that_does_not_reach_the_bar_says_so(tmp_path):
 
 def test_recorded_crossings_skip_gaps():
     tracks = np.array([[[0.1, 0.0]], [[np.nan, np.nan]], [[0.5, 0.0]]])
-    frame, ids, times, lateral = recorded_crossings(tracks, 0.3, 0.01)
+    _, ids, _, _ = recorded_crossings(tracks, 0.3, 0.01)
     assert len(ids) == 0

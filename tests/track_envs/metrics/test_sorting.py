@@ -91,7 +91,7 @@ def test_tolerances_are_configurable():
     base = run_case()
     m2 = SortingPrediction(lateral_tolerance=4e-3)
     for metric in (m, m2):
-        for frame in range(3):
+        for _ in range(3):
             metric.update(truth((1, 2, 3)), detections(1, 2, 3), report([(10, 0), (11, 1)]))
         metric.update(
             truth(),
