@@ -113,3 +113,53 @@ def test_every_belt_predictor_predicts_crossings(name):
     assert metrics["sorting_particles"] > 50
     assert metrics["sorting_predicted"] > 0.8
     assert metrics["sorting_time_p50_ms"] < 5.0 and metrics["sorting_lateral_p50_mm"] < 5.0
+
+
+class _Wrapped:
+    """A Kalman predictor behind a plain object, so that the generic roll-out runs."""
+
+    def __init__(self, inner):
+        self.inner = inner
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+
+@pytest.mark.parametrize("name", ["kf-cv", "kf-ca"])
+def test_kalman_closed_form_equals_the_frame_by_frame_roll_out(name):
+    predictor = make_predictor(name)
+    predictor.reset(SPEC)
+    rng = np.random.default_rng(0)
+    z = np.column_stack([rng.uniform(0.3, 0.4, 12), rng.uniform(0.0, 0.18, 12)])
+    v = np.column_stack([rng.uniform(0.6, 1.5, 12), rng.normal(0, 0.05, 12)])
+    v[3, 0] = -0.2  # moving backwards: no crossing
+    state = predictor.start(z, velocity=v, velocity_cov=np.broadcast_to(np.eye(2) * 1e-3, (12, 2, 2)))
+    for _ in range(2):  # a few frames of coasting give the filters their full covariance
+        state, _ = predictor.predict(state)
+    closed = predict_crossings(predictor, state, LINE, 7, SPEC.dt)
+    generic = predict_crossings(_Wrapped(predictor), state, LINE, 7, SPEC.dt)
+    np.testing.assert_array_equal(closed[0], generic[0])
+    assert not closed[0][3] and closed[0].sum() == 11
+    np.testing.assert_allclose(closed[1], generic[1], rtol=1e-12, equal_nan=True)
+    np.testing.assert_allclose(closed[2], generic[2], rtol=1e-9, atol=1e-18, equal_nan=True)
+
+
+def test_kalman_crossing_covariance_matches_monte_carlo():
+    # a constant-velocity state with small uncertainty and no process noise: the crossing of
+    # each sample is exact, t = (L - x) / v_x, y_c = y + v_y t
+    predictor = make_predictor("kf-cv", q=1e-12)
+    predictor.reset(SPEC)
+    mean = np.array([[0.38, 0.09, 1.2, 0.05]])
+    cov = np.diag([4e-8, 9e-8, 1e-4, 4e-5])[None]
+    from predictors.kalman import KalmanState
+
+    ok, m, c = predict_crossings(predictor, KalmanState(mean, cov), LINE, 0, SPEC.dt)
+    assert ok.all()
+    samples = np.random.default_rng(1).multivariate_normal(mean[0], cov[0], 200_000)
+    t = (LINE - samples[:, 0]) / samples[:, 2]
+    y = samples[:, 1] + samples[:, 3] * t
+    assert m[0] == pytest.approx([t.mean(), y.mean()], rel=1e-3)
+    sample = np.cov(np.stack([t, y]))
+    np.testing.assert_allclose(np.diag(c[0]), np.diag(sample), rtol=0.02)
+    scale = np.sqrt(np.outer(np.diag(sample), np.diag(sample)))
+    np.testing.assert_allclose(c[0] / scale, sample / scale, atol=0.01)  # correlations
