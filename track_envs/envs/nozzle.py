@@ -39,24 +39,21 @@ MAX_NOZZLE_OFFSET = 0.25
 
 
 def check_nozzle_offset(value: Any, high: float = MAX_NOZZLE_OFFSET) -> float | None:
-    """``value`` as a float in ``(0, high]`` metres, ``None`` (no nozzle bar) as ``None``.
+    """``value`` as a float in ``(0, high]`` (sensor units, metres on the belt), ``None`` (no
+    nozzle bar) as ``None``.
 
     Raises:
         ValueError: naming ``nozzle_offset``, its valid range and the value given.
     """
     if value is None:
         return None
+    span = "> 0" if math.isinf(high) else f"in (0, {high}]"
+    valid = f"a distance {span} downstream of the camera window (m on the belt), or None for no nozzle bar"
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(
-            f"nozzle_offset must be a distance in (0, {high}] metres downstream of the camera window, "
-            f"or None for no nozzle bar; got {value!r} ({type(value).__name__})"
-        )
+        raise ValueError(f"nozzle_offset must be a number ({valid}), got {value!r} ({type(value).__name__})")
     out = float(value)
     if not (math.isfinite(out) and 0.0 < out <= high):
-        raise ValueError(
-            f"nozzle_offset must be a distance in (0, {high}] metres downstream of the camera window, "
-            f"or None for no nozzle bar; got {value!r}"
-        )
+        raise ValueError(f"nozzle_offset must be {valid}, got {value!r}")
     return out
 
 
