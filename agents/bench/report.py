@@ -376,6 +376,8 @@ def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
 
 #: Percentile keys of the sorting errors (track_envs.metrics.sorting.PERCENTILES).
 SORTING_PERCENTILES = (50, 90, 95, 99)
+#: The default hit tolerances of the sorting score (SortingPrediction): ±2 ms, ±1.5 mm.
+SORTING_TOLERANCES = {"time": 2.0, "lateral": 1.5}
 
 
 def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
@@ -396,6 +398,9 @@ def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
             values = [r.mean.get(f"sorting_{axis}_p{q}_{unit}", math.nan) for q in SORTING_PERCENTILES]
             others = params_text(r.setting)
             ax.plot(SORTING_PERCENTILES, values, marker="o", ms=3, label=f"{_label(r)}, {others}")
+        tolerance = SORTING_TOLERANCES[axis]
+        ax.axhline(tolerance, color="k", lw=0.8, ls="--")
+        ax.text(50, tolerance, f" valve tolerance {tolerance:g} {unit}", fontsize=7, va="bottom")
         ax.set_yscale("log")
         ax.set_xlabel("percentile")
         ax.set_ylabel(f"|error| ({unit})")
