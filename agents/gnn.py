@@ -39,7 +39,8 @@ was updated with (−1 when it coasted). When the sensor has a nozzle bar downst
 (``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
 crossing of the bar in the report's sorting channel (:mod:`track_envs.sorting_channel`): its
 predictor rolled forward from the track's state without further measurements
-(:func:`agents.sorting.predict_crossings`). A deleted track has coasted since its last update,
+(:func:`agents.sorting.predict_crossings`; a track slower than a third of the flow is given
+up, see :meth:`GnnAgent._rollout_steps`). A deleted track has coasted since its last update,
 and coasting is that roll-out, so the prediction is the one from the last update.
 
 All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
@@ -63,7 +64,7 @@ from numpy.typing import NDArray
 from agents import _gnn_kernels as _kernels
 from agents.association import ASSIGNERS, ASSOCIATORS, chi2_gate
 from agents.merges import share_blobs
-from agents.sorting import predict_crossings
+from agents.sorting import MAX_STEPS, predict_crossings
 from predictors import PREDICTORS, available_predictors, make_predictor
 from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
@@ -400,6 +401,19 @@ class GnnAgent:
             )
         return report
 
+    def _rollout_steps(self) -> int:
+        """Frames a deleted track is rolled forward at most: three times what the flow (the velocity
+        prior's speed) takes from the region's end to the nozzle bar, plus 5, in ``[10, MAX_STEPS]``
+        (all ``MAX_STEPS`` while there is no prior). A track slower than that is no particle on
+        the belt (clutter, a stalled estimate) and gets no prediction; rolling it forward for
+        ``MAX_STEPS`` frames would cost a learned predictor as many network steps."""
+        assert self._spec is not None and self._spec.sorting_line is not None
+        if self._flow_mean is None or self._flow_speed <= 0:
+            return MAX_STEPS
+        reach = self._spec.sorting_line - self._spec.region_high[0]
+        steps = int(np.ceil(3.0 * reach / (self._flow_speed * self._spec.dt))) + 5
+        return int(np.clip(steps, 10, MAX_STEPS))
+
     def _predict_sorting(self, keep: NDArray[np.bool_], n_keep: int) -> dict[str, NDArray] | None:
         """The sorting channel of this frame: the predicted crossings of the tracks deleted now."""
         assert self._spec is not None and self._spec.sorting_line is not None
@@ -407,7 +421,12 @@ class GnnAgent:
             return self._no_sorting
         gone = ~keep
         ok, mean, cov = predict_crossings(
-            self.predictor, self._state.take(gone), self._spec.sorting_line, self._frame, self._spec.dt
+            self.predictor,
+            self._state.take(gone),
+            self._spec.sorting_line,
+            self._frame,
+            self._spec.dt,
+            self._rollout_steps(),
         )
         return pack_sorting(self._ids[gone][ok], mean[ok], cov[ok], self._spec.max_tracks)
 

@@ -511,7 +511,7 @@ class BeltWorld:
             poses = True
         self._trim_parking()
         h = self.dt / p.substeps
-        found = []
+        crossings = _NO_CROSSINGS
         for i in range(p.substeps):
             belt_friction(self._rows, self._row_truth, self._row_kind, self._decel, self._spin_decel, h)
             self._write(poses=poses and i == 0)
@@ -528,14 +528,17 @@ class BeltWorld:
                     self.line_x - self.travel,
                 )
                 if len(ids):
-                    found.append((ids, (i + fraction) / p.substeps, lateral))
-        self.crossings = (
-            _NO_CROSSINGS
-            if not found
-            else found[0]
-            if len(found) == 1
-            else tuple(np.concatenate(parts) for parts in zip(*found, strict=True))  # type: ignore[assignment]
-        )
+                    found = (ids, (i + fraction) / p.substeps, lateral)
+                    crossings = (
+                        found
+                        if crossings is _NO_CROSSINGS
+                        else (
+                            np.concatenate([crossings[0], found[0]]),
+                            np.concatenate([crossings[1], found[1]]),
+                            np.concatenate([crossings[2], found[2]]),
+                        )
+                    )
+        self.crossings = crossings
         self.time += self.dt
 
     def warm_up(self) -> None:
