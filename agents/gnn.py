@@ -39,7 +39,7 @@ was updated with (−1 when it coasted). When the sensor has a nozzle bar downst
 (``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
 crossing of the bar in the report's sorting channel (:mod:`track_envs.sorting_channel`): its
 predictor rolled forward from the track's state without further measurements
-(:func:`agents.sorting.predict_crossings`; a track slower than a third of the flow is given
+(:func:`agents.sorting.predict_crossings`; a track slower than a sixth of the flow is given
 up, see :meth:`GnnAgent._rollout_steps`). A deleted track has coasted since its last update,
 and coasting is that roll-out, so the prediction is the one from the last update.
 
@@ -402,8 +402,8 @@ class GnnAgent:
         return report
 
     def _rollout_steps(self) -> int:
-        """Frames a deleted track is rolled forward at most: three times what the flow (the velocity
-        prior's speed) takes from the region's end to the nozzle bar, plus 5, in ``[10, MAX_STEPS]``
+        """Frames a deleted track is rolled forward at most: six times what the flow (the velocity
+        prior's speed) takes from the region's end to the nozzle bar, plus 10, in ``[20, MAX_STEPS]``
         (all ``MAX_STEPS`` while there is no prior). A track slower than that is no particle on
         the belt (clutter, a stalled estimate) and gets no prediction; rolling it forward for
         ``MAX_STEPS`` frames would cost a learned predictor as many network steps."""
@@ -411,8 +411,8 @@ class GnnAgent:
         if self._flow_mean is None or self._flow_speed <= 0:
             return MAX_STEPS
         reach = self._spec.sorting_line - self._spec.region_high[0]
-        steps = int(np.ceil(3.0 * reach / (self._flow_speed * self._spec.dt))) + 5
-        return int(np.clip(steps, 10, MAX_STEPS))
+        steps = int(np.ceil(6.0 * reach / (self._flow_speed * self._spec.dt))) + 10
+        return int(np.clip(steps, 20, MAX_STEPS))
 
     def _predict_sorting(self, keep: NDArray[np.bool_], n_keep: int) -> dict[str, NDArray] | None:
         """The sorting channel of this frame: the predicted crossings of the tracks deleted now."""
