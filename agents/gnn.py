@@ -35,13 +35,21 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
    the predictor's default. :attr:`GnnAgent.velocity_prior_state` shows the prior.
 
 The report holds every live track at its current (posterior) estimate, and the detection row it
-was updated with (−1 when it coasted). All per-frame work is batched over tracks and detections:
-with the Kalman predictors, the filter steps, the start states, the gated costs, the
-second-chance costs and the per-track bookkeeping are each one compiled loop (numba:
-:mod:`predictors._kalman_kernels`, :mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`),
-so a frame is a few dozen calls whatever the number of tracks. The kernels compile (or load from
-numba's cache) on first use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny
-synthetic input, so that a live stream does not pause on its first frames.
+was updated with (−1 when it coasted). When the sensor has a nozzle bar downstream
+(``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
+crossing of the bar in the report's sorting channel (:mod:`track_envs.sorting_channel`): its
+predictor rolled forward from the track's state without further measurements
+(:func:`agents.sorting.predict_crossings`; a track slower than a sixth of the flow is given
+up, see :meth:`GnnAgent._rollout_steps`). A deleted track has coasted since its last update,
+and coasting is that roll-out, so the prediction is the one from the last update.
+
+All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
+steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
+are each one compiled loop (numba: :mod:`predictors._kalman_kernels`,
+:mod:`agents._association_kernels`, :mod:`agents._gnn_kernels`), so a frame is a few dozen
+calls whatever the number of tracks. The kernels compile (or load from numba's cache) on first
+use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny synthetic input, so that a
+live stream does not pause on its first frames.
 """
 
 from __future__ import annotations
@@ -56,11 +64,13 @@ from numpy.typing import NDArray
 from agents import _gnn_kernels as _kernels
 from agents.association import ASSIGNERS, ASSOCIATORS, chi2_gate
 from agents.merges import share_blobs
+from agents.sorting import MAX_STEPS, predict_crossings
 from predictors import PREDICTORS, available_predictors, make_predictor
 from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
 from track_envs.observation import check_observation
 from track_envs.registry import UnknownArgumentError, check_keywords, missing_methods, named_arguments
 from track_envs.report import pack_report
+from track_envs.sorting_channel import empty_sorting, pack_sorting
 from track_envs.types import Gaussian, SensorSpec
 
 #: Update streaks (consecutive updates) of the young tracks the velocity prior is learnt from.
@@ -270,6 +280,9 @@ class GnnAgent:
         self.last_prediction: Gaussian | None = None
         self.last_prediction_ids = np.zeros(0, dtype=np.int64)
         self.last_prediction_detection = np.zeros(0, dtype=np.int64)
+        self._frame = 0
+        self._no_sorting = None if spec.sorting_line is None else empty_sorting(spec.max_tracks)
+        self._sorting = self._no_sorting
 
     @property
     def n_tracks(self) -> int:
@@ -349,7 +362,8 @@ class GnnAgent:
         n = len(self._ids)
         if n == 0:
             self._initiate(z, rows, np.zeros(0, dtype=np.bool_), 0, np.zeros(0, dtype=np.int64), self._last)
-            return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
+            self._sorting = self._no_sorting
+            return self._report()
         self._state, prediction = self.predictor.predict(self._state)
         self.last_prediction = prediction
         det_of_track = self.associate(prediction, z)
@@ -371,6 +385,8 @@ class GnnAgent:
         # rows of coasting tracks (detection −1) are never read by the update
         z_tracks = shared if shared is not None else z[det_of_track] if m else np.zeros((n, spec.dim))
         self._state = self.predictor.update(self._state, z_tracks, seen)
+        if self._no_sorting is not None:
+            self._sorting = self._predict_sorting(keep, n_keep)
         # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
         # and the observation row it was then updated with (-1: coasted)
         self.last_prediction_ids = self._ids
@@ -379,7 +395,49 @@ class GnnAgent:
         if n_young and self._learning:
             self._learn_flow(estimate, young)
         self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
-        return pack_report(self._ids, self._last, self._detection_rows, spec.max_tracks)
+        return self._report()
+
+    def _report(self) -> dict[str, NDArray]:
+        """The report of the live tracks, with the sorting channel when the sensor has a nozzle bar."""
+        assert self._spec is not None
+        report = pack_report(self._ids, self._last, self._detection_rows, self._spec.max_tracks)
+        self._frame += 1
+        if self._sorting is not None:
+            report.update(
+                {k: v.copy() for k, v in self._sorting.items()}
+                if self._sorting is self._no_sorting
+                else self._sorting
+            )
+        return report
+
+    def _rollout_steps(self) -> int:
+        """Frames a deleted track is rolled forward at most: six times what the flow (the velocity
+        prior's speed) takes from the region's end to the nozzle bar, plus 10, in ``[20, MAX_STEPS]``
+        (all ``MAX_STEPS`` while there is no prior). A track slower than that is no particle on
+        the belt (clutter, a stalled estimate) and gets no prediction; rolling it forward for
+        ``MAX_STEPS`` frames would cost a learned predictor as many network steps."""
+        assert self._spec is not None and self._spec.sorting_line is not None
+        if self._flow_mean is None or self._flow_speed <= 0:
+            return MAX_STEPS
+        reach = self._spec.sorting_line - self._spec.region_high[0]
+        steps = int(np.ceil(6.0 * reach / (self._flow_speed * self._spec.dt))) + 10
+        return int(np.clip(steps, 20, MAX_STEPS))
+
+    def _predict_sorting(self, keep: NDArray[np.bool_], n_keep: int) -> dict[str, NDArray] | None:
+        """The sorting channel of this frame: the predicted crossings of the tracks deleted now."""
+        assert self._spec is not None and self._spec.sorting_line is not None
+        if n_keep == len(keep):
+            return self._no_sorting
+        gone = ~keep
+        ok, mean, cov = predict_crossings(
+            self.predictor,
+            self._state.take(gone),
+            self._spec.sorting_line,
+            self._frame,
+            self._spec.dt,
+            self._rollout_steps(),
+        )
+        return pack_sorting(self._ids[gone][ok], mean[ok], cov[ok], self._spec.max_tracks)
 
     def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
         """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``

@@ -8,6 +8,10 @@ naive reference (``benchmarks/naive_belt.py``: per-body joints for belt friction
 read-out) through its own loop. The env is timed with ``merge_touching=False`` (one detection per
 particle, as the reference senses) and with the default merged blobs. Prints frames/s and the
 ratios; timings are the best of three repetitions; "visible" counts particles in the window.
+
+The cost of the nozzle bar (particles simulated until they pass it 0.05 m past the window, and
+the crossing truth) is the default env against ``nozzle_offset=None`` in the same run
+(``--nozzle-only`` times just that).
 """
 
 from __future__ import annotations
@@ -33,7 +37,9 @@ from track_envs.report import empty_report
 LOADS = {150: 470.0, 500: 1560.0}
 
 
-def time_env(feed_rate: float, frames: int, seed: int, merge_touching: bool = False) -> tuple[float, float]:
+def time_env(
+    feed_rate: float, frames: int, seed: int, merge_touching: bool = False, nozzle_offset: float | None = 0.05
+) -> tuple[float, float]:
     params = BeltParams(feed_rate=feed_rate, feed_burstiness=0.0)
     env = gym.make(
         "BeltSorter-v0",
@@ -42,6 +48,7 @@ def time_env(feed_rate: float, frames: int, seed: int, merge_touching: bool = Fa
         max_tracks=1024,
         max_targets=1024,
         merge_touching=merge_touching,
+        nozzle_offset=nozzle_offset,
     )
     report = empty_report(1024, (2,))
     best = np.inf
@@ -78,7 +85,11 @@ def main() -> None:
     )
     parser.add_argument("--frames", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--nozzle-only", action="store_true", help="time only the nozzle bar's cost")
     args = parser.parse_args()
+    nozzle_cost(args.frames, args.seed)
+    if args.nozzle_only:
+        return
     rows = []
     for target, feed in LOADS.items():
         frames = args.frames if target == 150 else max(args.frames // 3, 200)
@@ -102,6 +113,18 @@ def main() -> None:
             f"| ≈{target} (measured {vis:.0f}) | {env_fps:.0f} | {merged_fps:.0f} | {naive_fps:.0f} "
             f"| {env_fps / naive_fps:.1f}x | {merged_fps / naive_fps:.1f}x |"
         )
+
+
+def nozzle_cost(frames: int, seed: int) -> None:
+    """Frames/s of the default env (nozzle bar 0.05 m downstream) and without a bar, merged blobs on."""
+    print("| particles in window | with nozzle bar frames/s | without frames/s | ratio |")
+    print("|---|---|---|---|")
+    for target, feed in LOADS.items():
+        n = frames if target == 150 else max(frames // 3, 200)
+        with_bar, visible = time_env(feed, n, seed, merge_touching=True)
+        without, _ = time_env(feed, n, seed, merge_touching=True, nozzle_offset=None)
+        ratio = with_bar / without
+        print(f"| ≈{target} (measured {visible:.0f}) | {with_bar:.0f} | {without:.0f} | {ratio:.3f} |")
 
 
 if __name__ == "__main__":

@@ -92,6 +92,11 @@ class LSTMPredictor:
             ``"float64"`` (the reference path the tests compare with).
     """
 
+    #: A coasting track's estimate is the one-step prediction from its fed-back input, not a
+    #: multi-step covariance: a tracker rolling it forward without measurements sums the
+    #: one-step covariances instead.
+    rollout_covariance = "accumulate"
+
     def __init__(
         self,
         kind: str,

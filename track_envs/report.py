@@ -11,6 +11,10 @@ detection  (max_tracks,)         int64   detection row the track was updated wit
 mask       (max_tracks,)         int8    1 for a real track row
 ========== ===================== ======= ==========================================================
 
+A report may also carry the optional sorting channel (``sorting_ids``, ``sorting_mask``,
+``sorting_mean``, ``sorting_cov``: predicted nozzle-bar crossings, see
+:mod:`track_envs.sorting_channel`); a report without it is valid as before.
+
 An all-zero mask (the empty report) is valid. The ids of the live rows (mask 1) must be
 non-negative, at most :data:`ID_LIMIT` and distinct within the report: a repeated id would let
 one identity claim several targets (and inflate MOTA), so :func:`validate_report` rejects it.
@@ -32,8 +36,11 @@ from gymnasium import spaces
 from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.sorting_channel import SORTING_KEY_SET, SORTING_KEYS, SortingPredictions, validate_sorting
+
 REPORT_KEYS = ("ids", "positions", "detection", "mask")
 _REPORT_KEY_SET = frozenset(REPORT_KEYS)
+_WITH_SORTING = _REPORT_KEY_SET | SORTING_KEY_SET
 #: Largest track id a report may hold (the bound of the action space's ``"ids"`` box).
 ID_LIMIT = 2**62
 
@@ -50,7 +57,9 @@ class ReportSpace(spaces.Dict):
     sampled by their boxes; ``mask`` and ``probability`` are passed to them as ``spaces.Dict``
     passes them (boxes accept ``None`` per key only).
 
-    :meth:`contains` also requires the ids of the live rows (mask 1) to be distinct.
+    :meth:`contains` also requires the ids of the live rows (mask 1) to be distinct, and accepts
+    a report that carries a valid optional sorting channel (:mod:`track_envs.sorting_channel`),
+    which the space does not sample.
     """
 
     def sample(
@@ -65,7 +74,14 @@ class ReportSpace(spaces.Dict):
         return report
 
     def contains(self, x: Any) -> bool:
-        """Whether ``x`` lies in every box and its live rows carry distinct ids."""
+        """Whether ``x`` lies in every box and its live rows carry distinct ids (and its sorting
+        channel, when it has one, is valid)."""
+        if isinstance(x, dict) and x.keys() == _WITH_SORTING:
+            try:
+                validate_sorting(x, len(np.asarray(x["mask"])), ID_LIMIT)
+            except ValueError:
+                return False
+            x = {k: x[k] for k in REPORT_KEYS}
         if not super().contains(x):
             return False
         ids = np.asarray(x["ids"])[np.asarray(x["mask"]) != 0]
@@ -148,11 +164,14 @@ class Report:
         positions: (n, *P) float64 positions.
         detection: (n,) int64 detection rows, -1 where the track coasted or the index pointed
             at padding.
+        sorting: The live rows of the optional sorting channel, or ``None`` when the report has
+            none.
     """
 
     ids: NDArray[np.int64]
     positions: NDArray[np.float64]
     detection: NDArray[np.int64]
+    sorting: SortingPredictions | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -186,16 +205,27 @@ def validate_report(
     Raises:
         ValueError: naming the key, the expected shape or dtype, or the offending rows: a mask
             value other than 0/1; a live row (mask 1) with a non-finite position, an id outside
-            ``[0, ID_LIMIT]``, or an id another live row also carries.
+            ``[0, ID_LIMIT]``, or an id another live row also carries; a bad optional sorting
+            channel (:func:`track_envs.sorting_channel.validate_sorting`).
     """
     if type(report) is not dict and not isinstance(report, Mapping):
         raise ValueError(
             f"the action must be a report dict with keys {REPORT_KEYS}, got {type(report).__name__}"
         )
-    if report.keys() != _REPORT_KEY_SET:
-        missing = [k for k in REPORT_KEYS if k not in report]
-        extra = [k for k in report if k not in REPORT_KEYS]
-        raise ValueError(f"report keys must be {REPORT_KEYS}; missing {missing}, unexpected {extra}")
+    keys = report.keys()
+    sorting = None
+    if keys != _REPORT_KEY_SET:
+        if keys != _WITH_SORTING:
+            missing = [k for k in REPORT_KEYS if k not in report]
+            present = [k for k in SORTING_KEYS if k in report]
+            if present and len(present) < len(SORTING_KEYS):
+                missing += [k for k in SORTING_KEYS if k not in report]
+            extra = [k for k in report if k not in _WITH_SORTING]
+            raise ValueError(
+                f"report keys must be {REPORT_KEYS}, optionally with the sorting channel {SORTING_KEYS}; "
+                f"missing {missing}, unexpected {extra}"
+            )
+        sorting = validate_sorting(report, max_tracks, ID_LIMIT)
     mask = _require(report, "mask", (max_tracks,), "iub", "0/1 integers")
     ids = _require(report, "ids", (max_tracks,), "iu", "integers")
     positions = _require(report, "positions", (max_tracks, *position_shape), "f", "floats")
@@ -212,6 +242,7 @@ def validate_report(
         ids=live_ids,
         positions=live_positions.reshape(len(live_ids), *position_shape),
         detection=live_detection,
+        sorting=sorting,
     )
 
 

@@ -33,6 +33,12 @@ class SensorSpec:
         max_detections: Number of rows of the padded ``"detections"`` observation.
         max_tracks: Number of rows of the report (the action).
         units: Name of the sensor unit, for plots and tables.
+        sorting_line: Where a sorter acts on the targets after they leave the observed region:
+            the coordinate ``x = sorting_line`` (axis 0, the transport direction, downstream of
+            ``region_high[0]``) of the nozzle bar of an optical belt sorter, or ``None`` where
+            there is none. A tracker that knows it can predict when and where across the belt
+            each target crosses it (the report's optional sorting channel,
+            :mod:`track_envs.report`).
     """
 
     dt: float
@@ -45,6 +51,7 @@ class SensorSpec:
     max_detections: int
     max_tracks: int
     units: str = "m"
+    sorting_line: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.dt > 0 and np.isfinite(self.dt)):
@@ -70,6 +77,13 @@ class SensorSpec:
             raise ValueError(
                 "SensorSpec.max_detections and max_tracks must be >= 1, got "
                 f"{self.max_detections!r} and {self.max_tracks!r}"
+            )
+        if self.sorting_line is not None and not (
+            np.isfinite(self.sorting_line) and self.sorting_line > self.region_high[0]
+        ):
+            raise ValueError(
+                f"SensorSpec.sorting_line must be a finite coordinate downstream of region_high[0]="
+                f"{self.region_high[0]!r} (or None), got {self.sorting_line!r}"
             )
 
     @property

@@ -200,6 +200,25 @@ SUITES: dict[str, tuple[Group, ...]] = {
 }
 
 
+#: The belt predictors the sorting suite compares: the Kalman filters and the learned ones.
+SORTING_PREDICTORS = ("kf-cv", "kf-ca", "lstm", "nll-lstm", "mc-lstm")
+#: Nozzle bars of the sorting suite: close to the camera window and farther downstream (m).
+NOZZLE_OFFSETS = (0.02, 0.10)
+
+# how well each predictor tells the sorter when and where a particle passes the nozzle bar,
+# over the noise sweep of Pollithy et al. (2020) and two nozzle distances (sorting_* metrics).
+SUITES["sorting"] = (
+    Group(
+        envs=("BeltSorter-v0",),
+        agents=("gnn",),
+        predictors=SORTING_PREDICTORS,
+        seeds=(0, 1, 2),
+        steps=500,
+        sweep=(("noise_std", NOISE_SWEEP), ("nozzle_offset", NOZZLE_OFFSETS)),
+    ),
+)
+
+
 def check_names(kind: str, names: Iterable[str], valid: Sequence[str]) -> None:
     """Raise ``ValueError`` naming every unknown entry of ``names`` and listing ``valid``."""
     unknown = [n for n in names if n not in valid]

@@ -323,7 +323,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=SUITE_HELP + "\n\n" + EPILOG,
         formatter_class=fmt,
     )
-    p.add_argument("--suite", default="quick", help="quick, full, or a .toml suite file (default quick)")
+    p.add_argument(
+        "--suite", default="quick", help="quick, full, sorting, or a .toml suite file (default quick)"
+    )
     p.add_argument("--envs", type=_checked("env", track_envs.ENV_IDS), help="comma list of env ids")
     p.add_argument("--agents", type=_checked("agent", available_agents()), help="comma list of agents")
     p.add_argument(

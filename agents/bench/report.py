@@ -20,7 +20,10 @@ Files written into the out dir by :func:`write_report`:
     (group, metric) with mean, std, n; ``records.csv``: one row per cell, every metric;
     ``plots/<env>_bars.png``: metric per agent/predictor (error bars: std over seeds);
     ``plots/<env>_<param>_sweep.png``: metric versus a swept env kwarg, one curve per
-    agent/predictor with a ±std band (the form of Pollithy et al. 2020, Fig. 7, and Jung et al. 2019, Fig. 7).
+    agent/predictor with a ±std band (the form of Pollithy et al. 2020, Fig. 7, and Jung et al. 2019, Fig. 7);
+    ``plots/<env>_sorting_errors.png`` (envs with ``sorting_*`` metrics): the distribution of the
+    temporal and lateral errors of the predicted nozzle-bar crossings, as their percentiles
+    (50, 90, 95, 99) per agent/predictor and setting, at the default noise when it was swept.
 """
 
 from __future__ import annotations
@@ -41,12 +44,25 @@ from numpy.typing import ArrayLike, NDArray
 from agents.bench.cells import Cell
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
-HEADLINE = ("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean")
+HEADLINE = (
+    *("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean"),
+    *("sorting_hit_rate", "sorting_time_p95_ms", "sorting_lateral_p95_mm"),
+)
+#: The error keys of the sorting prediction (track_envs.metrics.sorting), lower is better.
+SORTING_ERRORS = frozenset(
+    f"sorting_{axis}_{stat}_{unit}"
+    for axis, unit in (("time", "ms"), ("lateral", "mm"))
+    for stat in ("rmse", "p50", "p90", "p95", "p99")
+)
 LOWER_IS_BETTER = frozenset(
     {"e1", "e2", "e_mean", "id_switches", "gospa", "mean_error", "rmse", "lost", "motp", "num_misses"}
     | {"num_false_positives", "num_fragmentations", "occlusion_error", "frames_without_estimate"}
+    | SORTING_ERRORS
 )
-HIGHER_IS_BETTER = frozenset({"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision"})
+HIGHER_IS_BETTER = frozenset(
+    {"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision", "sorting_hit_rate"}
+    | {"sorting_predicted"}
+)
 #: Metrics that cannot be negative (every scored metric but MOTA, which is 1 - errors / truths).
 NON_NEGATIVE = (LOWER_IS_BETTER | HIGHER_IS_BETTER | {"e1", "e2", "num_switches"}) - {"mota"}
 #: Ratio of the largest to the smallest positive value beyond which a y axis is logarithmic.
@@ -352,7 +368,46 @@ def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
     paths = [_save(bar_figure(env_rows), out / f"{env_id}_bars.png")]
     for param in _swept(env_rows):
         paths.append(_save(sweep_figure(env_rows, param), out / f"{env_id}_{param}_sweep.png"))
+    sorting = sorting_error_figure(env_rows)
+    if sorting is not None:
+        paths.append(_save(sorting, out / f"{env_id}_sorting_errors.png"))
     return paths
+
+
+#: Percentile keys of the sorting errors (track_envs.metrics.sorting.PERCENTILES).
+SORTING_PERCENTILES = (50, 90, 95, 99)
+#: The default hit tolerances of the sorting score (SortingPrediction): ±2 ms, ±1.5 mm.
+SORTING_TOLERANCES = {"time": 2.0, "lateral": 1.5}
+
+
+def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
+    """Percentiles of ``|Δt|`` (ms) and ``|Δy|`` (mm) of the predicted crossings, one curve per
+    contestant and setting; where ``noise_std`` was swept, the rows at the value nearest 1e-4."""
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in env_rows if "sorting_time_p50_ms" in r.mean]
+    if not rows:
+        return None
+    noise = sorted({float(v) for r in rows if (v := dict(r.setting).get("noise_std")) is not None})
+    if len(noise) > 1:
+        chosen = min(noise, key=lambda v: abs(v - 1e-4))
+        rows = [r for r in rows if dict(r.setting).get("noise_std") == chosen]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), squeeze=False)
+    for ax, (axis, unit) in zip(axes[0], (("time", "ms"), ("lateral", "mm")), strict=True):
+        for r in rows:
+            values = [r.mean.get(f"sorting_{axis}_p{q}_{unit}", math.nan) for q in SORTING_PERCENTILES]
+            others = params_text(r.setting)
+            ax.plot(SORTING_PERCENTILES, values, marker="o", ms=3, label=f"{_label(r)}, {others}")
+        tolerance = SORTING_TOLERANCES[axis]
+        ax.axhline(tolerance, color="k", lw=0.8, ls="--")
+        ax.text(50, tolerance, f" valve tolerance {tolerance:g} {unit}", fontsize=7, va="bottom")
+        ax.set_yscale("log")
+        ax.set_xlabel("percentile")
+        ax.set_ylabel(f"|error| ({unit})")
+        ax.set_title(f"{axis} error of the predicted crossing")
+    axes[0][1].legend(fontsize=5)
+    fig.suptitle(f"{env_rows[0].env_id}: sorting error distribution (mean over seeds)")
+    return fig
 
 
 def _save(fig: Any, path: Path) -> Path:

@@ -71,7 +71,9 @@ E_MEAN_BOUNDS = {"lstm": 0.12, "nll-lstm": 0.12, "mc-lstm": 0.125}
 @pytest.mark.parametrize("kind", sorted(E_MEAN_BOUNDS))
 @pytest.mark.parametrize("merge", [True, False])
 def test_tracking_belt_sorter_at_0_1_mm(kind: str, merge: bool) -> None:
-    env = TrackingMetrics(gym.make("BeltSorter-v0", noise_std=1e-4, merge_touching=merge))
+    # the stream the bounds were measured on: without the nozzle bar, whose particles stay on the
+    # simulated belt longer (the seed's stream departs after a few dozen frames)
+    env = TrackingMetrics(gym.make("BeltSorter-v0", noise_std=1e-4, merge_touching=merge, nozzle_offset=None))
     agent = make_agent("gnn", predictor=kind)
     obs, _ = env.reset(seed=0)
     agent.reset(env.get_wrapper_attr("sensor_spec"), seed=0)

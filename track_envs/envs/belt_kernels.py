@@ -225,3 +225,51 @@ def padded_state(
         out_angle[i] = angle[i]
         out_kind[i] = kind[i]
     return out_ids, out_position, out_visible, out_velocity, out_angle, out_kind
+
+
+@njit(cache=True)
+def line_crossings(
+    before: NDArray[np.float64],
+    after: NDArray[np.float64],
+    truth: NDArray[np.int64],
+    line_before: float,
+    line_after: float,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """The particles whose ground-frame ``x`` reached the line ``x = L`` during one physics step.
+
+    ``before`` and ``after`` are the row tables at the start and the end of the step (belt
+    frame); the line sits at belt-frame ``line_before = L − s₀`` at the start and
+    ``line_after = L − s₁`` at the end (``s`` the belt's travel). Within a step pymunk moves a
+    body on a straight line at its end-of-step velocity (semi-implicit Euler) and the belt
+    travels uniformly, so the ground-frame position is linear in time and the crossing is exact:
+
+    .. math::
+
+        f = \\frac{L − x_0}{x_1 − x_0}, \\qquad y_c = y_0 + f\\,(y_1 − y_0)
+
+    with ground-frame ``x₀ < L <= x₁`` and ``f ∈ (0, 1]`` the fraction of the step at which the
+    particle crosses. Rows parked or landed during the step (label changed) are skipped by
+    requiring the same truth id before and after, which the caller guarantees by passing the
+    labels of the step.
+
+    Returns:
+        ids (k,) int64, fractions (k,), lateral positions ``y_c`` (k,), in row order.
+    """
+    n = 0
+    for r in range(len(truth)):
+        if truth[r] >= 0 and before[r, 0] < line_before and after[r, 0] >= line_after:
+            n += 1
+    ids = np.empty(n, np.int64)
+    fraction = np.empty(n)
+    lateral = np.empty(n)
+    k = 0
+    for r in range(len(truth)):
+        if truth[r] >= 0 and before[r, 0] < line_before and after[r, 0] >= line_after:
+            x0 = before[r, 0] - line_before  # ground-frame x₀ − L < 0
+            x1 = after[r, 0] - line_after  # ground-frame x₁ − L >= 0
+            f = -x0 / (x1 - x0)
+            ids[k] = truth[r]
+            fraction[k] = f
+            lateral[k] = before[r, 1] + f * (after[r, 1] - before[r, 1])
+            k += 1
+    return ids, fraction, lateral

@@ -56,6 +56,7 @@ from track_envs.envs.belt_kernels import (
     PARKED,
     belt_friction,
     land,
+    line_crossings,
     park_exits,
     park_row,
     window_state,
@@ -263,6 +264,7 @@ class BeltState:
 
 
 Handles = tuple[pymunk.Body, pymunk.Shape]
+_NO_CROSSINGS = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
 
 
 class BeltWorld:
@@ -280,6 +282,10 @@ class BeltWorld:
         rng: Generator for every random draw (landing times, places, speeds, kinds).
         dt: Camera frame period (s); each :meth:`step` advances this much.
         max_parked: Parked bodies kept in the space before the surplus is removed.
+        line_x: Ground-frame ``x`` of a line across the belt (the nozzle bar of a sorter) whose
+            crossings :meth:`step` records in :attr:`crossings`, or ``None``. Particles stay on
+            the belt until they are past it: the belt end (where particles are removed) is
+            ``max(window_length + exit_margin, line_x)``.
     """
 
     def __init__(
@@ -289,8 +295,16 @@ class BeltWorld:
         rng: np.random.Generator,
         dt: float,
         max_parked: int = 128,
+        line_x: float | None = None,
     ):
         self.params = params
+        self.line_x = None if line_x is None else float(line_x)
+        self.belt_end = params.window_length + params.exit_margin
+        if self.line_x is not None:
+            self.belt_end = max(self.belt_end, self.line_x)
+        #: The line crossings of the last :meth:`step`: truth ids (k,), the fraction of the frame
+        #: period at which each particle crossed (k,) in (0, 1], its lateral position ``y`` (k,).
+        self.crossings: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]] = _NO_CROSSINGS
         self.kind_names = list(kinds)
         self.kind_weights = np.array([kinds[k] for k in self.kind_names])
         self.kinds = [PARTICLE_KINDS[k] for k in self.kind_names]
@@ -324,7 +338,7 @@ class BeltWorld:
         space.add(walls)
         thickness = 0.01
         x0 = p.drop_x - p.drop_spread - 0.05
-        x1 = p.window_length + p.exit_margin + 0.05
+        x1 = max(p.window_length + p.exit_margin + 0.05, self.belt_end + 0.02)
         for y in (-thickness, p.window_width + thickness):
             wall = pymunk.Segment(walls, (x0, y), (x1, y), thickness)
             wall.friction = 0.3
@@ -488,7 +502,7 @@ class BeltWorld:
     def step(self) -> None:
         """Advance one camera frame: parking past the end, feed, belt friction, collisions."""
         p = self.params
-        exits = park_exits(self._rows, self._row_truth, p.window_length + p.exit_margin - self.travel)
+        exits = park_exits(self._rows, self._row_truth, self.belt_end - self.travel)
         self._n_parked += exits
         poses = exits > 0
         count = self._feed_count()
@@ -497,14 +511,34 @@ class BeltWorld:
             poses = True
         self._trim_parking()
         h = self.dt / p.substeps
+        crossings = _NO_CROSSINGS
         for i in range(p.substeps):
-            if i:
-                self._read()
             belt_friction(self._rows, self._row_truth, self._row_kind, self._decel, self._spin_decel, h)
             self._write(poses=poses and i == 0)
+            before, travel_before = self._rows, self.travel
             self.space.step(h)
             self.travel += p.belt_speed * h
-        self._read()
+            self._read()
+            if self.line_x is not None:
+                ids, fraction, lateral = line_crossings(
+                    before,
+                    self._rows,
+                    self._row_truth,
+                    self.line_x - travel_before,
+                    self.line_x - self.travel,
+                )
+                if len(ids):
+                    found = (ids, (i + fraction) / p.substeps, lateral)
+                    crossings = (
+                        found
+                        if crossings is _NO_CROSSINGS
+                        else (
+                            np.concatenate([crossings[0], found[0]]),
+                            np.concatenate([crossings[1], found[1]]),
+                            np.concatenate([crossings[2], found[2]]),
+                        )
+                    )
+        self.crossings = crossings
         self.time += self.dt
 
     def warm_up(self) -> None:

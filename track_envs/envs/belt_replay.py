@@ -17,6 +17,12 @@ from track_envs.arguments import (
     check_vector,
 )
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.envs.nozzle import (
+    check_nozzle_offset,
+    pack_crossings,
+    recorded_crossings,
+    warn_dropped_crossings,
+)
 from track_envs.track_csv import load_track_csv
 from track_envs.types import SensorSpec
 
@@ -55,8 +61,16 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Info
     ``t``, ``frame``, ``truth`` (``ids``, ``positions``, ``visible``, ``velocities`` by finite
-    differences, zero for a particle seen once), ``detection_ids``, ``dropped_detections``,
-    ``dropped_targets``.
+    differences, zero for a particle seen once, and the nozzle bar's ``nozzle_ids``,
+    ``nozzle_times``, ``nozzle_lateral``, see :mod:`track_envs.envs.nozzle`; empty without
+    ``nozzle_offset``), ``detection_ids``, ``dropped_detections``, ``dropped_targets``.
+
+    Nozzle bar: with ``nozzle_offset`` the line ``x = L = region x_high + nozzle_offset`` gets the
+    crossing truth of BeltSorter-v0, from the recorded positions: a particle crosses between two
+    consecutive recorded frames ``x₀ < L <= x₁``, interpolated linearly in time and ``y``. Only
+    the particles inside the observed region are then visible (detected and scored as truth), and
+    ``sensor_spec.sorting_line`` is ``L``. A recording that does not reach ``L`` (as the shipped
+    sample, which ends at the camera window) cannot give the crossings: the constructor says so.
 
     ## Arguments
     - ``path``: the track file (``.csv`` or ``.zip``); default: the sample shipped with the package.
@@ -72,6 +86,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``max_detections``, ``max_tracks``: rows of the observation and the report; default the most
       particles visible in any frame plus room for clutter (at least 16).
     - ``gospa_c``: GOSPA cut-off in the file's units (default 0.005).
+    - ``nozzle_offset``: distance in the file's units from the region's ``x_high`` to the nozzle
+      bar (> 0), or ``None`` (default: no nozzle bar).
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
@@ -95,6 +111,7 @@ class BeltReplayEnv(TrackingEnv):
         max_detections: int | None = None,
         max_tracks: int | None = None,
         gospa_c: float = 0.005,
+        nozzle_offset: float | None = None,
         render_mode: str | None = None,
     ):
         self.path = str(path) if path is not None else sample_recording_path()
@@ -133,6 +150,9 @@ class BeltReplayEnv(TrackingEnv):
             if measurement_noise_std is None
             else check_non_negative("measurement_noise_std", measurement_noise_std)
         )
+        self.nozzle_offset = check_nozzle_offset(nozzle_offset, high=np.inf)
+        line = None if self.nozzle_offset is None else float(high[0]) + self.nozzle_offset
+        self._crossings = self._recorded_crossings(line, dt)
         spec = SensorSpec(
             dt=dt,
             dim=2,
@@ -143,6 +163,7 @@ class BeltReplayEnv(TrackingEnv):
             region_high=(float(high[0]), float(high[1])),
             max_detections=int(max_detections),
             max_tracks=int(max_tracks),
+            sorting_line=line,
         )
         margin = 10 * added + 0.05 * float(np.max(high - low))
         self._setup_spaces(
@@ -155,6 +176,48 @@ class BeltReplayEnv(TrackingEnv):
             render_mode=render_mode,
         )
         self._index = 0
+
+    def _recorded_crossings(self, line: float | None, dt: float) -> tuple[NDArray, ...]:
+        """The crossings of ``x = line`` in the recording, grouped by the frame that reports them
+        (frame offsets (frames + 1,), ids, times, lateral positions).
+
+        Raises:
+            ValueError: when the recording does not reach the line.
+        """
+        n_frames = self.tracks.shape[0]
+        if line is None:
+            return np.zeros(n_frames + 1, dtype=np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+        reach = float(np.nanmax(self.tracks[..., 0]))
+        if reach < line:
+            raise ValueError(
+                f"{self.path}: the recorded positions end at x = {reach:.6g}, before the nozzle bar at "
+                f"x = {line:.6g} (region x_high + nozzle_offset), so this recording cannot give the "
+                "nozzle crossings; give nozzle_offset=None, or a recording that covers the bar and a "
+                "region whose x_high lies at least nozzle_offset before where the positions end"
+            )
+        frame, ids, times, lateral = recorded_crossings(self.tracks, line, dt)
+        return np.searchsorted(frame, np.arange(n_frames + 1)), ids, times, lateral
+
+    def _padded_truth(self, truth: Truth, m: int) -> dict[str, NDArray]:
+        """The base class's padded truth and the nozzle crossings reported in this frame."""
+        packed = super()._padded_truth(truth, m)
+        offsets, ids, times, lateral = self._crossings
+        i = self._index
+        lo, hi = (offsets[i], offsets[i + 1]) if i < self.n_frames else (0, 0)
+        nozzle, dropped = pack_crossings(ids[lo:hi], times[lo:hi], lateral[lo:hi], self.max_targets)
+        if dropped:
+            warn_dropped_crossings(dropped, self._frame, self.max_targets)
+        packed.update(nozzle)
+        return packed
+
+    def default_metrics(self) -> list[Any]:
+        """The point metrics and, with a nozzle bar, the sorting prediction (``sorting_*``)."""
+        from track_envs.metrics.sorting import SortingPrediction
+
+        metrics = super().default_metrics()
+        if self.nozzle_offset is not None:
+            metrics.append(SortingPrediction())
+        return metrics
 
     @property
     def n_frames(self) -> int:
@@ -172,10 +235,16 @@ class BeltReplayEnv(TrackingEnv):
     def _truth(self) -> Truth:
         lo, hi = self._offsets[self._index], self._offsets[self._index + 1]
         ids = self._particle_of[lo:hi]
+        positions = self.tracks[self._index, ids]
+        visible = (
+            np.ones(len(ids), dtype=bool)
+            if self.nozzle_offset is None
+            else self.sensor_spec.contains(positions)
+        )
         return Truth(
             ids=ids.astype(np.int64),
-            positions=self.tracks[self._index, ids],
-            visible=np.ones(len(ids), dtype=bool),
+            positions=positions,
+            visible=visible,
             extra={
                 "velocities": _finite_difference_velocities(
                     self.tracks, self._index, ids, self.sensor_spec.dt

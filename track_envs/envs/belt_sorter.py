@@ -15,6 +15,12 @@ from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.blobs import MAX_MERGED, MERGE_TOLERANCE, merge_blobs, merged_rows, silhouette_table
+from track_envs.envs.nozzle import (
+    DEFAULT_NOZZLE_OFFSET,
+    check_nozzle_offset,
+    pack_crossings,
+    warn_dropped_crossings,
+)
 from track_envs.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
@@ -61,7 +67,8 @@ class BeltSorterEnv(TrackingEnv):
 
     ## Info
     ``t``, ``frame``, ``truth`` (``ids``, ``positions``, ``visible``, ``velocities`` (m/s),
-    ``angles`` (rad), ``kinds`` (index into ``kind_names``)), ``detection_ids``,
+    ``angles`` (rad), ``kinds`` (index into ``kind_names``), and the nozzle bar's
+    ``nozzle_ids``, ``nozzle_times``, ``nozzle_lateral``), ``detection_ids``,
     ``dropped_detections``, ``dropped_targets``, and for merged blobs:
 
     - ``detection_ids``: for a merged detection, the id of its largest-area particle (ties: the
@@ -70,6 +77,16 @@ class BeltSorterEnv(TrackingEnv):
       row, largest area first, −1 padded; column 0 equals ``detection_ids``, columns 1–7 are −1
       except on merged detections. A blob of more than 8 particles lists its 8 largest.
     - ``truncated_merge_ids``: member ids left out of ``detection_ids_merged`` so far this episode.
+
+    The nozzle bar (:mod:`track_envs.envs.nozzle`): a line across the belt at
+    ``x = L = window_length + nozzle_offset``. Particles stay on the simulated belt until they
+    are past it, and each frame's ``truth`` lists the particles that crossed it since the previous
+    frame: ``nozzle_ids`` (max_targets,) int64, −1 padded; ``nozzle_times``, the crossing time in
+    seconds on the clock of ``t``, interpolated within the physics substep in which the centroid
+    reached ``L`` (exact: within a substep a body moves on a straight line); ``nozzle_lateral``,
+    its ``y`` there. ``sensor_spec.sorting_line`` is ``L``, so a tracker can predict the crossing
+    (the report's optional sorting channel, :mod:`track_envs.report`), scored by
+    :class:`~track_envs.metrics.sorting.SortingPrediction` (``sorting_*`` metrics).
 
     ## Arguments
     - ``particle_kind``: ``"sphere"``, ``"cylinder"`` (default, the paper's DEM dataset),
@@ -90,6 +107,9 @@ class BeltSorterEnv(TrackingEnv):
       (default ``True``); ``False`` senses every particle on its own, as the first release did.
     - ``merge_tolerance``: largest gap in metres between silhouettes that still counts as
       touching (default 1e-4).
+    - ``nozzle_offset``: distance in metres from the end of the camera window to the nozzle bar,
+      in ``(0, 0.25]`` (default 0.05); ``None``: no nozzle bar (no crossings, no
+      ``sorting_line``, particles removed ``exit_margin`` past the window as before).
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Copying and pickling
@@ -124,6 +144,11 @@ class BeltSorterEnv(TrackingEnv):
       ``truncated_merge_ids``; ``measurement_noise_std`` declares the sensor's noise separately
       from the noise added. With ``merge_touching=False`` every stream is bit for bit the first
       release's; with it on, a seed gives the same stream up to the first frame with a merge.
+    - v0, nozzle bar: ``nozzle_offset`` (default 0.05 m) and the crossing truth. Particles are
+      simulated until they pass the bar, which lies beyond the old removal point
+      (``exit_margin`` = 0.02 m past the window), so the bodies pymunk holds change and a seed's
+      stream departs from the earlier one after a few dozen frames (the statistics do not
+      change). ``nozzle_offset=None`` gives the earlier streams bit for bit.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -145,8 +170,10 @@ class BeltSorterEnv(TrackingEnv):
         gospa_c: float = 0.005,
         merge_touching: bool = True,
         merge_tolerance: float = MERGE_TOLERANCE,
+        nozzle_offset: float | None = DEFAULT_NOZZLE_OFFSET,
         render_mode: str | None = None,
     ):
+        self.nozzle_offset = check_nozzle_offset(nozzle_offset)
         params = physics if physics is not None else BeltParams()
         if not isinstance(params, BeltParams):
             raise ValueError(f"physics must be a BeltParams, got {type(params).__name__}")
@@ -191,6 +218,7 @@ class BeltSorterEnv(TrackingEnv):
             max_detections=int(max_detections),
             max_tracks=int(max_tracks),
             units="m",
+            sorting_line=None if self.nozzle_offset is None else p.window_length + self.nozzle_offset,
         )
         margin = 10 * added + 0.01
         self._setup_spaces(
@@ -209,8 +237,18 @@ class BeltSorterEnv(TrackingEnv):
         self._truncated_merge_ids = 0
         # the episode is a function of this generator state and the frame count (see __getstate__)
         self._scene_start: dict[str, Any] = dict(self.np_random.bit_generator.state)
-        self.world = BeltWorld(self.physics, self.kinds, self.np_random, self.sensor_spec.dt)
+        self.world = BeltWorld(
+            self.physics,
+            self.kinds,
+            self.np_random,
+            self.sensor_spec.dt,
+            line_x=self.sensor_spec.sorting_line,
+        )
         self.world.warm_up()
+        self.world.crossings = (
+            self.world.crossings[0][:0],
+            *self.world.crossings[1:],
+        )  # warm-up's: not shown
 
     def _advance(self) -> bool:
         assert self.world is not None
@@ -255,6 +293,14 @@ class BeltSorterEnv(TrackingEnv):
         ids, positions, visible, velocities, angles, kinds = padded_state(
             truth.ids, truth.positions, e["velocities"], e["angles"], e["kinds"], m, self.max_targets
         )
+        assert self.world is not None
+        crossed, fraction, lateral = self.world.crossings
+        frame_start = (self._frame - 1) * self.sensor_spec.dt  # the crossings happened since frame - 1
+        nozzle, dropped = pack_crossings(
+            crossed, frame_start + fraction * self.sensor_spec.dt, lateral, self.max_targets
+        )
+        if dropped:
+            warn_dropped_crossings(dropped, self._frame, self.max_targets)
         return {
             "ids": ids,
             "positions": positions,
@@ -262,7 +308,18 @@ class BeltSorterEnv(TrackingEnv):
             "velocities": velocities,
             "angles": angles,
             "kinds": kinds,
+            **nozzle,
         }
+
+    def default_metrics(self) -> list[Any]:
+        """The point metrics (association errors, CLEAR MOT, GOSPA) and, with a nozzle bar, the
+        sorting prediction (``sorting_*`` keys, :class:`~track_envs.metrics.SortingPrediction`)."""
+        from track_envs.metrics.sorting import SortingPrediction
+
+        metrics = super().default_metrics()
+        if self.nozzle_offset is not None:
+            metrics.append(SortingPrediction())
+        return metrics
 
     # -- pickling and copying -----------------------------------------------------------------
     def __getstate__(self) -> dict[str, Any]:

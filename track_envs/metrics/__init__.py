@@ -8,6 +8,7 @@ from track_envs.metrics.gospa_stream import GospaMetric
 from track_envs.metrics.keypoints import KeypointMota, PoseOks, oks, pairwise_oks
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 from track_envs.metrics.single_target import SingleTargetError
+from track_envs.metrics.sorting import SortingPrediction
 
 __all__ = [
     "AssociationErrors",
@@ -21,6 +22,7 @@ __all__ = [
     "PredictionError",
     "Reliability",
     "SingleTargetError",
+    "SortingPrediction",
     "gospa",
     "mahalanobis_sq",
     "oks",

@@ -8,7 +8,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric
+from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, SortingPrediction
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -38,6 +38,10 @@ def test_episode_metrics_on_truncation_equal_the_metrics_fed_by_hand():
         for metric in by_hand:
             # the env lists the particles behind merged detections; these metrics read them
             metric.update(info["truth"], info["detection_ids_merged"], report)
+    sorting = SortingPrediction()  # the nozzle bar's score reads the primary id of each detection
+    for info, report in zip(infos[:-1], reports, strict=True):
+        sorting.update(info["truth"], info["detection_ids"], report)
+    by_hand.append(sorting)
     expected = {k: v for m in by_hand for k, v in m.compute().items()}
     assert result.keys() == expected.keys()
     for key, value in expected.items():
