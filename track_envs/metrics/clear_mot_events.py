@@ -303,9 +303,10 @@ def _match_components(
     motmetrics' dense problem prices impossible pairs so high that its optimum has the most
     possible pairs and, among those, the least summed distance; the components of the free pairs
     are independent, so that optimum is the union of the components' optima. Where each is
-    unique, by more than the rounding scipy's solver can make on the dense matrix (a margin of
-    ``2⁻³⁰`` of its largest entry, about 10⁷ times its rounding unit), it is what motmetrics gets. Returns False (``partner`` then
-    partly written) when some component's optimum is not so certainly unique.
+    unique by more than the rounding scipy's solver can make on the dense matrix (a margin of
+    ``2⁻³⁰`` of its largest entry, about 10⁷ of its rounding units), that union is what
+    motmetrics gets. Returns False (``partner`` then partly written) when some component's
+    optimum is not so certainly unique.
     """
     m, n = len(row_taken), len(col_taken)
     largest = 0.0
