@@ -10,12 +10,15 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    then minimising their summed distance (motmetrics prices impossible pairs at
    ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
    m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
-   column belongs to every such optimum, so when all remaining possible pairs are lone pairs
-   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs) the optimum is unique and is
-   taken directly. Otherwise the matrix motmetrics builds is solved by
-   the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`), so ties are broken as
-   motmetrics breaks them. In row order, a match whose truth was last matched to another id is
-   an ID switch.
+   column belongs to every such optimum and is taken directly
+   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs). The other connected
+   components of the free pairs are independent: each is solved on its own by enumerating its
+   matchings, and where every component's optimum is unique (no other matching with as many
+   pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
+   Otherwise (a tie, or a component with more than 4,096 matchings) the matrix motmetrics
+   builds is solved by the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`),
+   so ties are broken as motmetrics breaks them. In row order, a match whose truth was last
+   matched to another id is an ID switch.
 3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
    missed since its previous match is a fragmentation.
 
