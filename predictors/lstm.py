@@ -243,6 +243,28 @@ class LSTMPredictor:
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks)
 
+    def survivors_and_births(
+        self,
+        state: Any,
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        z: NDArray[np.floating],
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> Any:
+        """``concat([state.take(keep), start(z)])``, the survivors' fields written once
+        (:meth:`~predictors.base.BatchState.take_and_append`). A belt LSTM takes no velocity
+        prior: ``velocity`` and ``velocity_cov`` are ignored."""
+        del velocity, velocity_cov
+        if not len(z):
+            return state.take(keep)
+        born = self.start(z)
+        if n_keep == 0:
+            return born
+        if type(state) is LSTMTrackState:
+            return state.take_and_append(keep, born)
+        return type(born).concat([state.take(keep) if n_keep < len(keep) else state, born])
+
     def estimate(self, state: Any) -> Gaussian:
         """Each track's last measurement, or its prediction once predicted (and while it coasts)."""
         return Gaussian(state.z.copy(), state.z_cov.copy())
