@@ -79,7 +79,7 @@ class BatchState:
             if same_kind and v.shape[1:] == b.shape[1:]:
                 o = np.empty((k + len(b), *v.shape[1:]), dtype=v.dtype)
                 if mode == "clip":
-                    np.take(v, index, axis=0, out=o[:k], mode="clip")
+                    v.take(index, axis=0, out=o[:k], mode="clip")
                 else:
                     o[:k] = v[index]
                 o[k:] = b
