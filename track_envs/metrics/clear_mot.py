@@ -211,8 +211,8 @@ class ClearMot:
         truth_ids, x, visible = truth_arrays(truth)
         hids, y, rows, mask = report_arrays(report)
         merged = as_merged(detection_ids) if np.ndim(detection_ids) != 1 else None
-        if merged is not None and (merged.shape[1] < 2 or not np.any(merged[:, 1] >= 0)):
-            merged = None
+        if merged is not None and merged.shape[1] < 2:
+            merged = None  # (a frame without merged updates costs the merged kernel nothing more)
         if y.ndim != 2 or x.ndim != 2 or x.shape[1:] != y.shape[1:]:
             raise ValueError(
                 "ClearMot scores point reports (max_tracks, D) against truth (max_targets, D); got report "
