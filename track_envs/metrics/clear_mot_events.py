@@ -312,8 +312,10 @@ def _match_components(
     optimum is not so certainly unique.
     """
     m, n = len(row_taken), len(col_taken)
-    largest = 0.0
-    for i in rest_rows:
+    largest = 0.0  # over every free pair, as motmetrics' price of an impossible pair takes it
+    for i in range(m):
+        if row_taken[i]:
+            continue
         for e in range(ptr[i], ptr[i + 1]):
             if not col_taken[cols[e]]:
                 largest = max(largest, abs(dist[e]))
