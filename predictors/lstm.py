@@ -199,7 +199,8 @@ class LSTMPredictor:
         n = len(z)
         masks = self._draw_masks(n)
         x = self._features.inputs(z, None)
-        R = np.broadcast_to(self._R, (n, *self._R.shape)).copy()
+        R = np.empty((n, *self._R.shape))
+        R[...] = self._R
         if self._is_grouped:
             started = self._grouped.start(x, masks)
             return dataclasses.replace(started, z=z, z_cov=R, z_prev=z.copy())
@@ -217,7 +218,13 @@ class LSTMPredictor:
         """
         self._need_spec()
         prediction = self._prediction(state)
-        moved = dataclasses.replace(state, z=prediction.mean, z_cov=prediction.cov)
+        if type(state) is LSTMTrackState:  # (dataclasses.replace, without its field lookups)
+            s = state
+            moved = LSTMTrackState(
+                s.h1, s.c1, s.h2, s.c2, s.out, prediction.mean, prediction.cov, s.z_prev, s.masks
+            )
+        else:
+            moved = dataclasses.replace(state, z=prediction.mean, z_cov=prediction.cov)
         return moved, prediction
 
     def update(self, state: Any, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> Any:
