@@ -48,22 +48,63 @@ class BatchState:
     """
 
     def __len__(self) -> int:
-        first = fields(self)[0]
-        return int(np.shape(getattr(self, first.name))[0])
+        return int(np.shape(getattr(self, _field_names(type(self))[0]))[0])
 
     def take(self, rows: NDArray[np.integer] | NDArray[np.bool_]) -> Self:
         """The tracks at ``rows`` (integer indices or a boolean mask); each field keeps its type.
 
         numpy fields stay numpy arrays and torch fields stay torch tensors (on their device).
         """
-        return type(self)(**{f.name: _take(getattr(self, f.name), rows) for f in fields(self)})
+        names = _field_names(type(self))
+        values = [getattr(self, name) for name in names]
+        if all(type(v) is np.ndarray for v in values):
+            index = np.asarray(rows)
+            if index.dtype == np.bool_ and index.shape == (len(values[0]),):
+                index = np.flatnonzero(index)  # the mask's rows, found once for every field
+            return type(self)(**{name: v[index] for name, v in zip(names, values, strict=True)})
+        return type(self)(**{name: _take(v, rows) for name, v in zip(names, values, strict=True)})
+
+    def take_and_append(self, rows: NDArray[np.integer] | NDArray[np.bool_], born: Self) -> Self:
+        """``concat([self.take(rows), born])``, each numpy field written once into its result."""
+        names = _field_names(type(self))
+        index = np.asarray(rows)
+        mode = "raise"
+        if index.dtype == np.bool_ and index.shape == (len(self),):
+            index, mode = np.flatnonzero(index), "clip"  # rows of the mask: always in range
+        k = len(index)
+        out = {}
+        for name in names:
+            v, b = getattr(self, name), getattr(born, name)
+            same_kind = type(v) is np.ndarray and type(b) is np.ndarray and v.dtype == b.dtype
+            if same_kind and v.shape[1:] == b.shape[1:]:
+                o = np.empty((k + len(b), *v.shape[1:]), dtype=v.dtype)
+                if mode == "clip":
+                    v.take(index, axis=0, out=o[:k], mode="clip")
+                else:
+                    o[:k] = v[index]
+                o[k:] = b
+                out[name] = o
+            else:
+                out[name] = _concat([_take(v, rows), b])
+        return type(self)(**out)
 
     @classmethod
     def concat(cls, states: Sequence[Self]) -> Self:
         """The tracks of ``states`` one after another (all of this class); each field keeps its type."""
         if not states:
             raise ValueError(f"{cls.__name__}.concat needs at least one state")
-        return cls(**{f.name: _concat([getattr(s, f.name) for s in states]) for f in fields(cls)})
+        return cls(**{name: _concat([getattr(s, name) for s in states]) for name in _field_names(cls)})
+
+
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def _field_names(cls: type) -> tuple[str, ...]:
+    """The dataclass field names of a state class (looked up once per class)."""
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
 
 
 def _is_torch(value: Any) -> bool:
@@ -80,6 +121,8 @@ def _take(value: Any, rows: Any) -> Any:
 
 
 def _concat(values: list[Any]) -> Any:
+    if all(type(v) is np.ndarray for v in values):
+        return np.concatenate(values)
     if any(_is_torch(v) for v in values):
         if not all(_is_torch(v) for v in values):
             kinds = sorted({type(v).__name__ for v in values})

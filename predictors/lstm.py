@@ -204,7 +204,8 @@ class LSTMPredictor:
         n = len(z)
         masks = self._draw_masks(n)
         x = self._features.inputs(z, None)
-        R = np.broadcast_to(self._R, (n, *self._R.shape)).copy()
+        R = np.empty((n, *self._R.shape))
+        R[...] = self._R
         if self._is_grouped:
             started = self._grouped.start(x, masks)
             return dataclasses.replace(started, z=z, z_cov=R, z_prev=z.copy())
@@ -222,7 +223,13 @@ class LSTMPredictor:
         """
         self._need_spec()
         prediction = self._prediction(state)
-        moved = dataclasses.replace(state, z=prediction.mean, z_cov=prediction.cov)
+        if type(state) is LSTMTrackState:  # (dataclasses.replace, without its field lookups)
+            s = state
+            moved = LSTMTrackState(
+                s.h1, s.c1, s.h2, s.c2, s.out, prediction.mean, prediction.cov, s.z_prev, s.masks
+            )
+        else:
+            moved = dataclasses.replace(state, z=prediction.mean, z_cov=prediction.cov)
         return moved, prediction
 
     def update(self, state: Any, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> Any:
@@ -247,6 +254,28 @@ class LSTMPredictor:
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks)
+
+    def survivors_and_births(
+        self,
+        state: Any,
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        z: NDArray[np.floating],
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> Any:
+        """``concat([state.take(keep), start(z)])``, the survivors' fields written once
+        (:meth:`~predictors.base.BatchState.take_and_append`). A belt LSTM takes no velocity
+        prior: ``velocity`` and ``velocity_cov`` are ignored."""
+        del velocity, velocity_cov
+        if not len(z):
+            return state.take(keep)
+        born = self.start(z)
+        if n_keep == 0:
+            return born
+        if type(state) is LSTMTrackState:
+            return state.take_and_append(keep, born)
+        return type(born).concat([state.take(keep) if n_keep < len(keep) else state, born])
 
     def estimate(self, state: Any) -> Gaussian:
         """Each track's last measurement, or its prediction once predicted (and while it coasts)."""

@@ -127,3 +127,27 @@ def test_take_and_concat_keep_torch_and_numpy_fields() -> None:
     assert isinstance(both.a, torch.Tensor) and both.a[:, 0].tolist() == [4.0, 0.0, 0.0]
     with pytest.raises(TypeError, match="mixing"):
         Mixed.concat([t, Mixed(np.zeros((1, 2)), np.zeros(1))])  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Plain(BatchState):
+    a: np.ndarray
+    b: np.ndarray
+
+
+@pytest.mark.parametrize(
+    "rows", [np.array([True, False, True, True]), np.array([3, 0]), np.array([], dtype=np.int64)]
+)
+def test_take_and_append_equals_take_then_concat(rows) -> None:
+    s = Plain(np.arange(8.0, dtype=np.float32).reshape(4, 2), np.arange(4))
+    born = Plain(np.full((2, 2), -1.0, dtype=np.float32), np.array([7.5, 8.5]))  # b: another dtype
+    want, got = Plain.concat([s.take(rows), born]), s.take_and_append(rows, born)
+    for name in ("a", "b"):
+        assert getattr(got, name).dtype == getattr(want, name).dtype
+        assert getattr(got, name).tolist() == getattr(want, name).tolist()
+    mixed = Mixed(torch.arange(8.0).reshape(4, 2), np.arange(4)).take_and_append(
+        rows, Mixed(torch.zeros(2, 2), np.zeros(2, dtype=np.int64))
+    )
+    assert isinstance(mixed.a, torch.Tensor) and len(mixed) == len(want)
+    with pytest.raises(IndexError):
+        s.take_and_append(np.array([4]), born)  # a row out of range is refused, not clipped

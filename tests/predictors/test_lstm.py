@@ -181,3 +181,21 @@ def test_grouped_mc_equals_the_plain_t_sample_computation(trained: dict, belt_sp
             a = type(a).concat([a.take(keep), plain.start(z[:4, t])])
             b = type(b).concat([b.take(keep), grouped.start(z[:4, t])])
             rows = np.concatenate([rows[keep], np.arange(4)])
+
+
+@pytest.mark.parametrize("kind", ["nll-lstm", "mc-lstm"])
+def test_survivors_and_births_equal_take_start_concat(
+    kind: str, trained: dict, belt_split: TrackSplit
+) -> None:
+    p = _predictor(trained, kind, belt_split)
+    z = sequence_batch(belt_split.test, trained[kind][1]).positions[:9, 0]
+    state = p.predict(p.start(z[:6]))[0]
+    keep = np.array([True, False, True, True, False, True])
+    p.reset(p._spec, rng=np.random.default_rng(3))
+    fused = p.survivors_and_births(state, keep, 4, z[6:])
+    p.reset(p._spec, rng=np.random.default_rng(3))
+    plain = type(state).concat([state.take(keep), p.start(z[6:])])
+    for f in dataclasses.fields(plain):
+        assert np.array_equal(getattr(fused, f.name), getattr(plain, f.name)), f.name
+    assert len(p.survivors_and_births(state, keep, 4, z[:0])) == 4
+    assert len(p.survivors_and_births(state, ~np.ones(6, bool), 0, z[6:])) == 3

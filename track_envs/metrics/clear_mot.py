@@ -9,9 +9,9 @@ MOT Metrics", EURASIP JIVP 2008; with the event rules of py-motmetrics' ``MOTAcc
 2. the remaining truths and tracks are matched by a min-cost assignment (scipy
    ``linear_sum_assignment``, impossible pairs priced as motmetrics' ``add_expensive_edges``
    prices them, then dropped); a match whose track differs from the truth's last match is an
-   ID switch (when every remaining pair is a lone pair, :func:`track_envs.assignment.split_lone_pairs`,
-   the pairs are taken directly; :mod:`track_envs.metrics.clear_mot_events` runs these rules per
-   frame as one compiled kernel);
+   ID switch (lone pairs, :func:`track_envs.assignment.split_lone_pairs`, are taken directly and
+   the other components of the possible pairs solved one by one where their optimum is unique;
+   :mod:`track_envs.metrics.clear_mot_events` runs these rules per frame as one compiled kernel);
 3. unmatched truths are misses, unmatched tracks false positives.
 
 .. math::
@@ -211,8 +211,8 @@ class ClearMot:
         truth_ids, x, visible = truth_arrays(truth)
         hids, y, rows, mask = report_arrays(report)
         merged = as_merged(detection_ids) if np.ndim(detection_ids) != 1 else None
-        if merged is not None and (merged.shape[1] < 2 or not np.any(merged[:, 1] >= 0)):
-            merged = None
+        if merged is not None and merged.shape[1] < 2:
+            merged = None  # (a frame without merged updates costs the merged kernel nothing more)
         if y.ndim != 2 or x.ndim != 2 or x.shape[1:] != y.shape[1:]:
             raise ValueError(
                 "ClearMot scores point reports (max_tracks, D) against truth (max_targets, D); got report "

@@ -10,12 +10,15 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    then minimising their summed distance (motmetrics prices impossible pairs at
    ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
    m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
-   column belongs to every such optimum, so when all remaining possible pairs are lone pairs
-   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs) the optimum is unique and is
-   taken directly. Otherwise the matrix motmetrics builds is solved by
-   the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`), so ties are broken as
-   motmetrics breaks them. In row order, a match whose truth was last matched to another id is
-   an ID switch.
+   column belongs to every such optimum and is taken directly
+   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs). The other connected
+   components of the free pairs are independent: each is solved on its own by enumerating its
+   matchings, and where every component's optimum is unique (no other matching with as many
+   pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
+   Otherwise (a tie, or a component with more than 4,096 matchings) the matrix motmetrics
+   builds is solved by the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`),
+   so ties are broken as motmetrics breaks them. In row order, a match whose truth was last
+   matched to another id is an ID switch.
 3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
    missed since its previous match is a fragmentation.
 
@@ -64,6 +67,8 @@ COUNTERS = (
 TRUTH_VALUES = 4
 _LAST, _MATCHED, _GAP, _SEEN = 2, 3, 4, 5
 _TOGETHER = 2
+# a connected component of free pairs with more matchings than this is solved on the dense matrix
+_MAX_MATCHINGS = 4096
 
 
 @njit(cache=True)
@@ -208,6 +213,159 @@ def _assign_like_motmetrics(
 
 
 @njit(cache=True)
+def _unique_component_optimum(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    col_taken: NDArray[np.bool_],
+    comp_rows: NDArray[np.int64],
+    tol: float,
+    partner: NDArray[np.int64],
+) -> bool:
+    """Step 2 on one connected component of the free pairs, when its optimum is unique.
+
+    Enumerates the matchings of the component's rows ``comp_rows`` (depth first, each row taking
+    one of its free columns or none), keeping the best by (number of pairs, then summed
+    distance). When every other matching with that many pairs is longer by more than ``tol``,
+    the best one's columns go into ``partner`` and the result is True; on a (near) tie, or when
+    the component has more than :data:`_MAX_MATCHINGS` matchings, nothing is written and the
+    result is False.
+    """
+    k = len(comp_rows)
+    choice = np.full(k, -2, dtype=np.int64)  # per depth: the list position tried, −1 = no pair
+    best_choice = np.full(k, -1, dtype=np.int64)
+    used = col_taken.copy()
+    cost = np.zeros(k + 1)
+    card = np.zeros(k + 1, dtype=np.int64)
+    best_card, best_cost, second = -1, np.inf, np.inf
+    leaves = 0
+    depth = 0
+    while depth >= 0:
+        i = comp_rows[depth] if depth < k else -1
+        if depth == k or card[depth] + (k - depth) < best_card:  # a leaf, or it cannot catch up
+            if depth == k:
+                leaves += 1
+                if leaves > _MAX_MATCHINGS:
+                    return False
+                c, total = card[k], cost[k]
+                if c > best_card:
+                    best_card, best_cost, second = c, total, np.inf
+                    best_choice[:] = choice
+                elif c == best_card:
+                    if total < best_cost:
+                        second, best_cost = best_cost, total
+                        best_choice[:] = choice
+                    elif total < second:
+                        second = total
+            depth -= 1
+            if depth >= 0 and choice[depth] >= 0:
+                used[cols[choice[depth]]] = False
+            continue
+        # the next option of row i after choice[depth]: its free pairs in list order, then none
+        e = ptr[i] if choice[depth] == -2 else choice[depth] + 1
+        if choice[depth] == -1:
+            choice[depth] = -2  # both kinds of option tried: back up
+            depth -= 1
+            if depth >= 0 and choice[depth] >= 0:
+                used[cols[choice[depth]]] = False
+            continue
+        while e < ptr[i + 1] and used[cols[e]]:
+            e += 1
+        if e < ptr[i + 1]:
+            choice[depth] = e
+            used[cols[e]] = True
+            card[depth + 1] = card[depth] + 1
+            cost[depth + 1] = cost[depth] + dist[e]
+        else:
+            choice[depth] = -1
+            card[depth + 1] = card[depth]
+            cost[depth + 1] = cost[depth]
+        depth += 1
+        if depth < k:
+            choice[depth] = -2
+    if not second - best_cost > tol:
+        return False
+    for a in range(k):
+        if best_choice[a] >= 0:
+            partner[comp_rows[a]] = cols[best_choice[a]]
+    return True
+
+
+@njit(cache=True)
+def _match_components(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    row_taken: NDArray[np.bool_],
+    col_taken: NDArray[np.bool_],
+    rest_rows: NDArray[np.int64],
+    partner: NDArray[np.int64],
+) -> bool:
+    """Step 2 for the rows in ``rest_rows``, component by component, into ``partner`` (columns).
+
+    motmetrics' dense problem prices impossible pairs so high that its optimum has the most
+    possible pairs and, among those, the least summed distance; the components of the free pairs
+    are independent, so that optimum is the union of the components' optima. Where each is
+    unique by more than the rounding scipy's solver can make on the dense matrix (a margin of
+    ``2⁻³⁰`` of its largest entry, about 10⁷ of its rounding units), that union is what
+    motmetrics gets. Returns False (``partner`` then partly written) when some component's
+    optimum is not so certainly unique.
+    """
+    m, n = len(row_taken), len(col_taken)
+    largest = 0.0  # over every free pair, as motmetrics' price of an impossible pair takes it
+    for i in range(m):
+        if row_taken[i]:
+            continue
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                largest = max(largest, abs(dist[e]))
+    tol = (float(2 * min(m, n)) * (largest + 1.0) + 1.0) * 2.0**-30
+    # the rows of each column's free pairs (column-major), to walk the components
+    col_ptr = np.zeros(n + 1, dtype=np.int64)
+    for i in rest_rows:
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                col_ptr[cols[e] + 1] += 1
+    for j in range(n):
+        col_ptr[j + 1] += col_ptr[j]
+    fill = col_ptr[:-1].copy()
+    col_rows = np.empty(col_ptr[n], dtype=np.int64)
+    for i in rest_rows:
+        for e in range(ptr[i], ptr[i + 1]):
+            j = cols[e]
+            if not col_taken[j]:
+                col_rows[fill[j]] = i
+                fill[j] += 1
+    seen_row = np.zeros(m, dtype=np.bool_)
+    seen_col = np.zeros(n, dtype=np.bool_)
+    queue = np.empty(m, dtype=np.int64)
+    for start in rest_rows:
+        if seen_row[start]:
+            continue
+        seen_row[start] = True
+        queue[0] = start
+        size, head = 1, 0
+        while head < size:
+            i = queue[head]
+            head += 1
+            for e in range(ptr[i], ptr[i + 1]):
+                j = cols[e]
+                if col_taken[j] or seen_col[j]:
+                    continue
+                seen_col[j] = True
+                for t in range(col_ptr[j], col_ptr[j + 1]):
+                    r = col_rows[t]
+                    if not seen_row[r]:
+                        seen_row[r] = True
+                        queue[size] = r
+                        size += 1
+        comp = np.sort(queue[:size])
+        if not _unique_component_optimum(ptr, cols, dist, col_taken, comp, tol, partner):
+            return False
+    return True
+
+
+@njit(cache=True)
 def _match_the_rest(
     ptr: NDArray[np.int64],
     cols: NDArray[np.int64],
@@ -215,10 +373,15 @@ def _match_the_rest(
     row_taken: NDArray[np.bool_],
     col_taken: NDArray[np.bool_],
 ) -> NDArray[np.int64]:
-    """Step 2: the list position of each row's pair, −1 where the row is not matched here."""
+    """Step 2: the list position of each row's pair, −1 where the row is not matched here.
+
+    Lone pairs are taken directly; the other components of the free pairs are solved on their
+    own where their optimum is unique (:func:`_match_components`), else the whole matrix is
+    solved as motmetrics solves it (:func:`_assign_like_motmetrics`).
+    """
     row_count, only_col, col_count = _free_pair_counts(ptr, cols, row_taken, col_taken)
     partner, rest_rows, _ = split_lone_pairs(row_count, only_col, col_count)
-    if len(rest_rows):
+    if len(rest_rows) and not _match_components(ptr, cols, dist, row_taken, col_taken, rest_rows, partner):
         return _assign_like_motmetrics(ptr, cols, dist, row_taken, col_taken, len(col_taken))
     # every free pair is a lone pair: the unique optimum
     for i in range(len(partner)):

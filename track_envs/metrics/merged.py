@@ -119,9 +119,27 @@ def with_merged_pairs(
     m, n = x.shape[0], y.shape[0]
     n_dims = x.shape[1]
     n_det, k_cols = merged.shape
-    extra_i = np.empty(n * k_cols, np.int64)
-    extra_j = np.empty(n * k_cols, np.int64)
-    extra_d = np.empty(n * k_cols, np.float64)
+    n_merged = 0
+    for j in range(n):
+        r = rows[j]
+        n_merged += 0 <= r < n_det and k_cols >= 2 and merged[r, 1] >= 0
+    if n_merged == 0:
+        return ptr, cols, dist
+    # truth row of each id: an open-addressing index of the frame's truth ids (first row wins)
+    n_slots = 2
+    while n_slots < 2 * m:
+        n_slots *= 2
+    slot_mask = n_slots - 1
+    row_of = np.full(n_slots, -1, np.int64)
+    for i in range(m):
+        s = hash_slot(oids[i], 0, slot_mask)
+        while row_of[s] >= 0 and oids[row_of[s]] != oids[i]:
+            s = (s + 1) & slot_mask
+        if row_of[s] < 0:
+            row_of[s] = i
+    extra_i = np.empty(n_merged * k_cols, np.int64)
+    extra_j = np.empty(n_merged * k_cols, np.int64)
+    extra_d = np.empty(n_merged * k_cols, np.float64)
     member = np.empty(k_cols, np.int64)
     n_extra = 0
     for j in range(n):
@@ -133,11 +151,12 @@ def with_merged_pairs(
             o = merged[r, k]
             if o < 0:
                 continue
-            for i in range(m):
-                if oids[i] == o:
-                    member[count] = i
-                    count += 1
-                    break
+            s = hash_slot(o, 0, slot_mask)
+            while row_of[s] >= 0 and oids[row_of[s]] != o:
+                s = (s + 1) & slot_mask
+            if row_of[s] >= 0:
+                member[count] = row_of[s]
+                count += 1
         for a in range(count):
             i = member[a]
             spread = 0.0

@@ -302,3 +302,28 @@ def test_component_matching_equals_one_dense_assignment(seed):
     rows, cols = np.nonzero(dense)
     r, c = linear_sum_assignment(dense, maximize=True)
     assert max_weight_matching(rows, cols, dense[rows, cols]) == dense[r, c].sum()
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["continuous", "ties", "dense block"]))
+def test_component_matching_of_the_rest_equals_the_dense_motmetrics_problem(seed, kind):
+    """Step 2 solved component by component (unique optima) or, on a near tie or a component
+    with too many matchings, densely: the same pairs as the dense problem motmetrics solves."""
+    from track_envs.metrics.clear_mot_events import _assign_like_motmetrics, _match_the_rest
+
+    rng = np.random.default_rng(seed)
+    m, n = rng.integers(1, 14, size=2)
+    if kind == "dense block":  # one component with more matchings than are enumerated
+        m, n = 9, 9
+        possible = np.ones((m, n), bool)
+    else:
+        possible = rng.random((m, n)) < rng.uniform(0.1, 0.5)
+    dist = rng.random((m, n)) if kind != "ties" else rng.integers(0, 3, size=(m, n)) / 2.0
+    ptr = np.zeros(m + 1, np.int64)
+    ptr[1:] = np.cumsum(possible.sum(axis=1))
+    cols = np.nonzero(possible)[1].astype(np.int64)
+    d = dist[possible].astype(np.float64)
+    row_taken, col_taken = rng.random(m) < 0.2, rng.random(n) < 0.2
+    got = _match_the_rest(ptr, cols, d, row_taken, col_taken)
+    want = _assign_like_motmetrics(ptr, cols, d, row_taken, col_taken, n)
+    assert got.tolist() == want.tolist()
