@@ -160,6 +160,10 @@ class GnnAgent:
             prediction lies within this distance (sensor units) of a detection another track took,
             itself predicted within it, shares that detection; the blob's tracks are updated as a
             rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
+        predict_sorting: With a nozzle bar in the sensor spec, report each deleted track's
+            predicted crossing (the sorting channel; default True). ``False`` skips the
+            roll-outs (a learned predictor steps its network once per roll-out frame) and reports
+            no sorting channel, for throughput when no valve is driven.
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
             :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
@@ -179,8 +183,12 @@ class GnnAgent:
         recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
         blob_extent: float = 0.0,
+        predict_sorting: bool = True,
         **predictor_kwargs: Any,
     ):
+        if not isinstance(predict_sorting, bool | np.bool_):
+            raise ValueError(f"predict_sorting must be True or False, got {predict_sorting!r}")
+        self.predict_sorting = bool(predict_sorting)
         if assignment not in ASSOCIATORS:
             raise ValueError(f"assignment must be one of {sorted(ASSOCIATORS)}, got {assignment!r}")
         if not (isinstance(max_misses, int) and max_misses >= 0):
@@ -281,7 +289,8 @@ class GnnAgent:
         self.last_prediction_ids = np.zeros(0, dtype=np.int64)
         self.last_prediction_detection = np.zeros(0, dtype=np.int64)
         self._frame = 0
-        self._no_sorting = None if spec.sorting_line is None else empty_sorting(spec.max_tracks)
+        sorting = spec.sorting_line is not None and self.predict_sorting
+        self._no_sorting = empty_sorting(spec.max_tracks) if sorting else None
         self._sorting = self._no_sorting
 
     @property

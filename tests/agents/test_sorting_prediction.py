@@ -163,3 +163,28 @@ def test_kalman_crossing_covariance_matches_monte_carlo():
     np.testing.assert_allclose(np.diag(c[0]), np.diag(sample), rtol=0.02)
     scale = np.sqrt(np.outer(np.diag(sample), np.diag(sample)))
     np.testing.assert_allclose(c[0] / scale, sample / scale, atol=0.01)  # correlations
+
+
+def test_predict_sorting_false_skips_the_channel_and_keeps_the_tracks():
+    def run(**kwargs):
+        env = gym.make("BeltSorter-v0", max_episode_steps=40, merge_touching=False)
+        agent = make_agent("gnn", predictor="nll-lstm", **kwargs)
+        obs, _ = env.reset(seed=0)
+        agent.reset(env.unwrapped.sensor_spec, seed=0)
+        reports, sorted_rows = [], 0
+        for _ in range(40):
+            report = agent.act(obs)
+            reports.append(report)
+            sorted_rows += int(report.get("sorting_mask", np.zeros(1)).sum())
+            obs, *_ = env.step(report)
+        return reports, sorted_rows
+
+    on, rows_on = run()
+    off, rows_off = run(predict_sorting=False)
+    assert rows_on > 0 and rows_off == 0
+    assert all("sorting_mask" not in r for r in off)
+    for a, b in zip(on, off, strict=True):
+        for key in ("ids", "positions", "detection", "mask"):
+            np.testing.assert_array_equal(a[key], b[key])
+    with pytest.raises(ValueError, match="predict_sorting"):
+        make_agent("gnn", predict_sorting="no")
