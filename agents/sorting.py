@@ -6,7 +6,8 @@ the belt the particle will pass the nozzle bar ``x = L`` downstream of the camer
 predictor of the :class:`~predictors.base.Predictor` protocol this is a roll-out: frame after
 frame ``predict`` then ``update`` with ``seen=False`` (which, for a Kalman filter, is the
 filter's own time update, and for the learned predictors feeds their prediction back as the next
-input), until the predicted position ``p_j = (x_j, y_j)`` passes the line. Between the two frames
+input; a predictor with a ``coast(state) -> (state, prediction)`` method does both in one
+call), until the predicted position ``p_j = (x_j, y_j)`` passes the line. Between the two frames
 around the line, at ``x_{j−1} < L <= x_j``, the crossing is interpolated:
 
 .. math::
@@ -92,11 +93,15 @@ def predict_crossings(
     p_prev = np.asarray(estimate.mean, dtype=np.float64)[:, :2]
     P_prev = np.asarray(estimate.cov, dtype=np.float64)[:, :2, :2]
     rows = np.arange(k)  # the tracks still rolled, as rows of the original batch
+    coast = getattr(predictor, "coast", None)  # predict + update(seen=False) in one call
     for j in range(1, max_steps + 1):
-        state, prediction = predictor.predict(state)
-        state = predictor.update(
-            state, np.zeros((len(rows), prediction.mean.shape[1])), np.zeros(len(rows), bool)
-        )
+        if coast is not None:
+            state, prediction = coast(state)
+        else:
+            state, prediction = predictor.predict(state)
+            state = predictor.update(
+                state, np.zeros((len(rows), prediction.mean.shape[1])), np.zeros(len(rows), bool)
+            )
         if accumulate:
             p = np.asarray(prediction.mean, dtype=np.float64)[:, :2]
             P = P_prev + np.asarray(prediction.cov, dtype=np.float64)[:, :2, :2]

@@ -98,14 +98,31 @@ def frame(predictor: LSTMPredictor, spec: object, z: np.ndarray) -> Callable[[],
     return run
 
 
-def whole_loop(predictor: str, frames: int, merge: bool = True, repeat: int = 3) -> float:
+#: Nozzle-bar settings of the whole loop: ``(label, env kwargs, gnn kwargs)``.
+SORTING_SETTINGS = (
+    ("nozzle bar, sorting predicted (default)", {}, {}),
+    ("nozzle bar, predict_sorting=False", {}, {"predict_sorting": False}),
+    ("no nozzle bar (nozzle_offset=None)", {"nozzle_offset": None}, {}),
+)
+
+
+def whole_loop(
+    predictor: str,
+    frames: int,
+    merge: bool = True,
+    repeat: int = 3,
+    env_kwargs: dict | None = None,
+    agent_kwargs: dict | None = None,
+) -> float:
     """Frames per second of BeltSorter-v0 (≈150 in view) + gnn(predictor) + TrackingMetrics,
     the best of ``repeat`` runs of ``frames`` frames (each after 60 frames that fill the window)."""
     best = 0.0
     for _ in range(repeat):
         physics = BeltParams(feed_rate=470.0, feed_burstiness=0.0)
-        env = TrackingMetrics(gym.make("BeltSorter-v0", physics=physics, merge_touching=merge))
-        agent = make_agent("gnn", predictor=predictor)
+        env = TrackingMetrics(
+            gym.make("BeltSorter-v0", physics=physics, merge_touching=merge, **(env_kwargs or {}))
+        )
+        agent = make_agent("gnn", predictor=predictor, **(agent_kwargs or {}))
         obs, _ = env.reset(seed=0)
         agent.reset(env.get_wrapper_attr("sensor_spec"), seed=0)
         for _ in range(60):  # fill the window
@@ -162,13 +179,14 @@ def mc_part(n: int, spec: object, z: np.ndarray) -> None:
 def loop_part(frames: int) -> None:
     """Part 3: the whole loop, merged blobs on and off, against the same loop with kf-ca."""
     print(f"3. whole loop, BeltSorter-v0 (≈150 in view) + gnn + TrackingMetrics, {frames} frames")
-    for merge in (True, False):
-        print(f"   touching particles merged into blobs: {merge}")
-        ref_fps = whole_loop("kf-ca", frames, merge)
-        print(f"   kf-ca     {ref_fps:8.0f} frames/s")
-        for name in ("nll-lstm", "lstm"):
-            fps = whole_loop(name, frames, merge)
-            print(f"   {name:<9} {fps:8.0f} frames/s   {fps / ref_fps:.2f}x kf-ca")
+    for label, env_kwargs, agent_kwargs in SORTING_SETTINGS:
+        for merge in (True, False):
+            print(f"   {label}; touching particles merged into blobs: {merge}")
+            ref_fps = whole_loop("kf-ca", frames, merge, env_kwargs=env_kwargs, agent_kwargs=agent_kwargs)
+            print(f"   kf-ca     {ref_fps:8.0f} frames/s")
+            for name in ("nll-lstm", "lstm"):
+                fps = whole_loop(name, frames, merge, env_kwargs=env_kwargs, agent_kwargs=agent_kwargs)
+                print(f"   {name:<9} {fps:8.0f} frames/s   {fps / ref_fps:.2f}x kf-ca")
 
 
 if __name__ == "__main__":

@@ -255,6 +255,22 @@ class LSTMPredictor:
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks)
 
+    def coast(self, state: Any) -> tuple[Any, Gaussian]:
+        """:meth:`predict` then :meth:`update` with nothing seen, in one pass: every track is fed
+        its own prediction. Returns the new state and the prediction (the roll-out step of
+        :func:`agents.sorting.predict_crossings`; the same numbers as the two calls, without
+        their argument checks)."""
+        self._need_spec()
+        prediction = self._prediction(state)
+        z_in, z_cov = prediction.mean, prediction.cov
+        x = self._features.inputs(z_in, state.z_prev)
+        if self._is_grouped:
+            stepped = self._grouped.step(x, state)
+            return dataclasses.replace(stepped, z=z_in, z_cov=z_cov, z_prev=z_in.copy()), prediction
+        masks = state.masks if self.kind == "mc-lstm" else None
+        out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
+        return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks), prediction
+
     def survivors_and_births(
         self,
         state: Any,

@@ -199,3 +199,24 @@ def test_survivors_and_births_equal_take_start_concat(
         assert np.array_equal(getattr(fused, f.name), getattr(plain, f.name)), f.name
     assert len(p.survivors_and_births(state, keep, 4, z[:0])) == 4
     assert len(p.survivors_and_births(state, ~np.ones(6, bool), 0, z[6:])) == 3
+
+
+@pytest.mark.parametrize(
+    "kind, mc_inference",
+    [("lstm", "grouped"), ("nll-lstm", "grouped"), ("mc-lstm", "grouped"), ("mc-lstm", "plain")],
+)
+def test_coast_equals_predict_then_update_with_nothing_seen(
+    kind: str, mc_inference: str, trained: dict, belt_split: TrackSplit
+) -> None:
+    p = _predictor(trained, kind, belt_split, mc_inference=mc_inference)
+    z = sequence_batch(belt_split.test, trained[kind][1]).positions[:5, :2]
+    state = p.update(p.predict(p.start(z[:, 0]))[0], z[:, 1], np.ones(5, bool))
+    a = b = state
+    for _ in range(4):  # a roll-out of four frames
+        a, pred_a = p.coast(a)
+        moved, pred_b = p.predict(b)
+        b = p.update(moved, np.full((5, 2), np.nan), np.zeros(5, bool))
+        np.testing.assert_array_equal(pred_a.mean, pred_b.mean)
+        np.testing.assert_array_equal(pred_a.cov, pred_b.cov)
+        for f in dataclasses.fields(b):
+            np.testing.assert_array_equal(getattr(a, f.name), getattr(b, f.name), err_msg=f.name)
