@@ -88,6 +88,11 @@ def predict_crossings(
         return ok, mean, cov
     if isinstance(predictor, KalmanPredictor) and isinstance(state, KalmanState):
         return kalman_crossings(predictor, state, line, frame, dt, max_steps)
+    compiled = getattr(predictor, "rollout_crossings", None)  # the same roll-out, compiled
+    if compiled is not None:
+        result = compiled(state, line, frame, dt, max_steps)
+        if result is not None:
+            return result  # type: ignore[no-any-return]
     accumulate = getattr(predictor, "rollout_covariance", "state") == "accumulate"
     estimate = predictor.estimate(state)
     p_prev = np.asarray(estimate.mean, dtype=np.float64)[:, :2]

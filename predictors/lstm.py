@@ -154,6 +154,17 @@ class LSTMPredictor:
         if "normalisation" not in model.meta:
             raise ModelFileError(f"{model.path}: the sidecar lacks 'normalisation'")
         reference = LSTMWeights.from_tensors(model.tensors)
+        self._rollout_weights = tuple(
+            np.ascontiguousarray(a)
+            for a in (
+                np.vstack([reference.layer1.w_ih, reference.layer1.w_hh]),
+                reference.layer1.b,
+                np.vstack([reference.layer2.w_ih, reference.layer2.w_hh]),
+                reference.layer2.b,
+                reference.head_w,
+                reference.head_b,
+            )
+        )
         self.net: Any = reference if self.precision == "float64" else FastLSTMWeights.from_weights(reference)
         self.features = Features.from_dict(model.meta["normalisation"])
         calibration = model.meta.get("calibration", {})
@@ -270,6 +281,43 @@ class LSTMPredictor:
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks), prediction
+
+    def rollout_crossings(
+        self, state: Any, line: float, frame: int, dt: float, max_steps: int
+    ) -> tuple[NDArray[np.bool_], FloatArray, FloatArray] | None:
+        """The crossings of ``x = line`` that :func:`agents.sorting.predict_crossings` finds by
+        rolling ``state`` forward with :meth:`coast`, in one compiled pass over the tracks
+        (:func:`predictors._lstm_rollout.lstm_crossings_kernel`, float64); ``None`` where that
+        pass does not apply (mc-lstm, other than 2-D measurements)."""
+        if self.kind == "mc-lstm" or self.model.dim != 2 or type(state) is not LSTMTrackState:
+            return None
+        from predictors._lstm_rollout import lstm_crossings_kernel
+
+        self._need_spec()
+        f = self._features
+
+        def c64(a: Any) -> FloatArray:
+            return np.ascontiguousarray(a, dtype=np.float64)
+
+        return lstm_crossings_kernel(  # type: ignore[no-any-return]
+            c64(state.out),
+            c64(state.h1),
+            c64(state.c1),
+            c64(state.h2),
+            c64(state.c2),
+            c64(state.z[:, :2]),
+            c64(state.z_prev[:, :2]),
+            c64(state.z_cov[:, :2, :2]),
+            *self._rollout_weights,
+            *(c64(v) for v in (f.low, f.size, f.in_mean, f.in_std, f.out_mean, f.out_std)),
+            self.kind == "nll-lstm",
+            float(self.cov_scale),
+            float(self.calibration_scale),
+            float(line),
+            float(frame),
+            float(dt),
+            int(max_steps),
+        )
 
     def survivors_and_births(
         self,

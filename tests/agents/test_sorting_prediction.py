@@ -188,3 +188,46 @@ def test_predict_sorting_false_skips_the_channel_and_keeps_the_tracks():
             np.testing.assert_array_equal(a[key], b[key])
     with pytest.raises(ValueError, match="predict_sorting"):
         make_agent("gnn", predict_sorting="no")
+
+
+class _Generic:
+    """A belt LSTM without its compiled roll-out, so that the frame-by-frame roll-out runs."""
+
+    def __init__(self, inner):
+        self.inner = inner
+
+    def __getattr__(self, name):
+        if name == "rollout_crossings":
+            raise AttributeError(name)
+        return getattr(self.inner, name)
+
+
+@pytest.mark.parametrize("name", ["lstm", "nll-lstm"])
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_compiled_lstm_roll_out_equals_the_frame_by_frame_one(name, precision):
+    from predictors.lstm import LSTMPredictor
+
+    env = gym.make("BeltSorter-v0")
+    spec = env.unwrapped.sensor_spec
+    predictor = LSTMPredictor(name, make_predictor(name).model, precision=precision)
+    predictor.reset(spec, rng=np.random.default_rng(0))
+    rng = np.random.default_rng(1)
+    low, high = np.asarray(spec.region_low), np.asarray(spec.region_high)
+    start = np.stack(
+        [high[0] - 0.05 - 0.03 * rng.random(12), low[1] + (high[1] - low[1]) * rng.random(12)], 1
+    )
+    step = np.array([1.44 * spec.dt, 0.0]) + 1e-4 * rng.standard_normal((12, 2))
+    state = predictor.start(start)
+    for k in range(1, 9):  # measured frames, then two coasting ones (as gnn deletes a track)
+        state, _ = predictor.predict(state)
+        state = predictor.update(
+            state, start + k * step, np.arange(12) % 3 > 0 if k > 6 else np.ones(12, bool)
+        )
+    line = float(spec.sorting_line)
+    fast = predict_crossings(predictor, state, line, 40, spec.dt, 60)
+    slow = predict_crossings(_Generic(predictor), state, line, 40, spec.dt, 60)
+    np.testing.assert_array_equal(fast[0], slow[0])
+    assert fast[0].sum() >= 10
+    tol = 1e-12 if precision == "float64" else 1e-5
+    np.testing.assert_allclose(fast[1], slow[1], rtol=tol, atol=tol * 1e-3)
+    np.testing.assert_allclose(fast[2], slow[2], rtol=tol * 10, atol=tol * 1e-9)
