@@ -92,7 +92,7 @@ def predict_crossings(
     if compiled is not None:
         result = compiled(state, line, frame, dt, max_steps)
         if result is not None:
-            return result  # type: ignore[no-any-return]
+            return result
     accumulate = getattr(predictor, "rollout_covariance", "state") == "accumulate"
     estimate = predictor.estimate(state)
     p_prev = np.asarray(estimate.mean, dtype=np.float64)[:, :2]

@@ -40,9 +40,9 @@ def _layer(xh: np.ndarray, w: np.ndarray, b: np.ndarray, h: np.ndarray, c: np.nd
     for j in range(H):
         i = _sigmoid(a[j])
         f = _sigmoid(a[H + j])
-        g = math.tanh(a[2 * H + j])
+        cand = math.tanh(a[2 * H + j])
         o = _sigmoid(a[3 * H + j])
-        c[j] = f * c[j] + i * g
+        c[j] = f * c[j] + i * cand
         h[j] = o * math.tanh(c[j])
 
 

@@ -293,13 +293,14 @@ class LSTMPredictor:
             return None
         from predictors._lstm_rollout import lstm_crossings_kernel
 
+        kernel: Any = lstm_crossings_kernel
         self._need_spec()
         f = self._features
 
         def c64(a: Any) -> FloatArray:
             return np.ascontiguousarray(a, dtype=np.float64)
 
-        return lstm_crossings_kernel(  # type: ignore[no-any-return]
+        return kernel(
             c64(state.out),
             c64(state.h1),
             c64(state.c1),
