@@ -214,25 +214,13 @@ def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int
     from predictors.model_file import save_model
     from predictors.training.belt import to_model_file, train_belt_model
     from predictors.training.data import split_tracks
-    from predictors.training.loop import TrainConfig
     from predictors.training.model_stats import model_statistics
 
     start = time.perf_counter()
     data = load_data(args)
     split = split_tracks(data, seed=args.seed, min_length=args.min_length)
-    s = split.summary()
-    print(
-        f"{len(data)} tracks: {s['train_tracks']} train, {s['validation_tracks']} validation, "
-        f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {args.min_length} frames dropped"
-    )
-    config = TrainConfig(
-        epochs=args.epochs,
-        lr=args.lr,
-        decay_every=args.decay_every,
-        batch_size=args.batch_size,
-        seed=args.seed,
-        device=args.device,
-    )
+    s = _print_split(len(data), split, args.min_length)
+    config = _train_config(args)
     if args.dropout is not None and args.model != "mc-lstm":
         raise ValueError(f"--dropout is for mc-lstm and displacement-lstm, not {args.model}")
     dropout = (0.002 if args.dropout is None else args.dropout) if args.model == "mc-lstm" else 0.0
@@ -286,7 +274,6 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
         to_model_file,
         train_displacement_model,
     )
-    from predictors.training.loop import TrainConfig
 
     start = time.perf_counter()
     data = load_data(args)
@@ -299,19 +286,8 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
             split.dropped,
             split.min_length,
         )
-    s = split.summary()
-    print(
-        f"{len(data)} tracks: {s['train_tracks']} train, {s['validation_tracks']} validation, "
-        f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {args.min_length} frames dropped"
-    )
-    config = TrainConfig(
-        epochs=args.epochs,
-        lr=args.lr,
-        decay_every=args.decay_every,
-        batch_size=args.batch_size,
-        seed=args.seed,
-        device=args.device,
-    )
+    s = _print_split(len(data), split, args.min_length)
+    config = _train_config(args)
     dropout = 0.25 if args.dropout is None else args.dropout
     step = args.sine_step if args.sine else args.data_step
     net, features, history = train_displacement_model(
@@ -338,6 +314,30 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
         f"speed RMSE {metrics['test_speed_rmse']:.3g}"
     )
     return 0
+
+
+def _print_split(n_tracks: int, split: Any, min_length: int) -> dict[str, int]:
+    """Print how the tracks were split and how many were too short; returns the split's summary."""
+    s = split.summary()
+    print(
+        f"{n_tracks} tracks: {s['train_tracks']} train, {s['validation_tracks']} validation, "
+        f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {min_length} frames dropped"
+    )
+    return s
+
+
+def _train_config(args: argparse.Namespace) -> Any:
+    """The :class:`~predictors.training.loop.TrainConfig` of the command-line arguments."""
+    from predictors.training.loop import TrainConfig
+
+    return TrainConfig(
+        epochs=args.epochs,
+        lr=args.lr,
+        decay_every=args.decay_every,
+        batch_size=args.batch_size,
+        seed=args.seed,
+        device=args.device,
+    )
 
 
 def _grid_search(args: argparse.Namespace, split: Any, config: Any) -> tuple[float, list[dict[str, float]]]:
