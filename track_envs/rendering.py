@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -215,6 +215,16 @@ class Canvas:
         >>> canvas.to_array().shape
         (126, 200, 3)
     """
+
+    @classmethod
+    def for_region(cls, spec: Any, width: int = 900, background: ArrayLike = (150, 150, 150)) -> Canvas:
+        """A canvas of the sensor region of ``spec`` (a SensorSpec), ``width`` px wide, its height
+        following the region's aspect ratio (clipped to 100–900 px)."""
+        lo = np.asarray(spec.region_low, dtype=np.float64)
+        hi = np.asarray(spec.region_high, dtype=np.float64)
+        size = hi - lo
+        height = int(np.clip(round(width * size[1] / size[0]), 100, 900))
+        return cls(width, height, tuple(lo), tuple(hi), background)
 
     def __init__(
         self,

@@ -256,12 +256,7 @@ class BeltReplayEnv(TrackingEnv):
     def _canvas(self) -> Any:
         from track_envs.rendering import Canvas
 
-        lo = np.asarray(self.sensor_spec.region_low)
-        hi = np.asarray(self.sensor_spec.region_high)
-        size = hi - lo
-        width = 900
-        height = int(np.clip(round(width * size[1] / size[0]), 100, 900))
-        return Canvas(width, height, tuple(lo), tuple(hi), (150, 150, 150))
+        return Canvas.for_region(self.sensor_spec)
 
     def _draw(self, canvas: Any, snapshot: Any) -> None:
         from track_envs.rendering import identity_colors
