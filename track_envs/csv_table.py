@@ -25,12 +25,11 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from track_envs.track_csv import (
-    _FLOAT_PRECISION_KW,
-    NA_TOKENS,
     TrackFileError,
     _is_number_or_missing,
     _normalise,
     _read_bytes,
+    read_float_frame,
 )
 
 _NEWLINE = 10
@@ -176,21 +175,7 @@ def _field_count(body: bytes, delimiter: str, label: str, first_row: int) -> int
 
 def _parse(body: bytes, label: str, first_row: int, n_columns: int, delimiter: str) -> NDArray[np.float64]:
     try:
-        frame = pd.read_csv(  # type: ignore[call-overload]
-            io.BytesIO(body),
-            header=None,
-            names=list(range(n_columns)),
-            index_col=False,
-            sep=delimiter,
-            dtype=np.float64,
-            engine="c",
-            quoting=csv.QUOTE_NONE,
-            skip_blank_lines=False,
-            keep_default_na=False,
-            na_values=list(NA_TOKENS),
-            encoding="utf-8",
-            **_FLOAT_PRECISION_KW,
-        )
+        frame = read_float_frame(body, names=list(range(n_columns)), sep=delimiter)
     except (ValueError, UnicodeDecodeError) as exc:
         raise _locate_text(body, label, first_row, delimiter, exc) from None
     return np.ascontiguousarray(frame.to_numpy(dtype=np.float64))

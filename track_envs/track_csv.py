@@ -36,6 +36,7 @@ import os
 import re
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -271,23 +272,32 @@ def _check_field_counts(
     return int(commas[0]) + 1
 
 
+def read_float_frame(data: bytes, **options: Any) -> pd.DataFrame:
+    """``data`` (CSV text without header, already validated field by field) as a float64 frame:
+    pandas' C parser, no quoting, blank lines kept (so row numbers stay the file's), missing
+    values only the :data:`NA_TOKENS`, round-trip float precision; ``options`` go to
+    ``pandas.read_csv`` (e.g. ``names``, ``sep``, ``low_memory``). Raises what pandas raises
+    (``ValueError`` or ``UnicodeDecodeError``) for the caller to locate."""
+    return pd.read_csv(  # type: ignore[call-overload]
+        io.BytesIO(data),
+        header=None,
+        index_col=False,
+        dtype=np.float64,
+        engine="c",
+        quoting=csv.QUOTE_NONE,
+        skip_blank_lines=False,
+        keep_default_na=False,
+        na_values=list(NA_TOKENS),
+        encoding="utf-8",
+        **_FLOAT_PRECISION_KW,
+        **options,
+    )
+
+
 def _parse(data: bytes, label: str, *, first_row: int, n_rows: int, n_fields: int) -> NDArray[np.float64]:
     """Parse ``n_rows`` validated lines of ``n_fields`` fields into a float array (n_rows, n_fields)."""
     try:
-        frame = pd.read_csv(  # type: ignore[call-overload]
-            io.BytesIO(data),
-            header=None,
-            index_col=False,
-            dtype=np.float64,
-            engine="c",
-            quoting=csv.QUOTE_NONE,
-            skip_blank_lines=False,
-            keep_default_na=False,
-            na_values=list(NA_TOKENS),
-            encoding="utf-8",
-            low_memory=len(data) > _LOW_MEMORY_BYTES,  # one pass is ~2x faster, at about the same peak
-            **_FLOAT_PRECISION_KW,
-        )
+        frame = read_float_frame(data, low_memory=len(data) > _LOW_MEMORY_BYTES)  # one pass: ~2x faster
     except (ValueError, UnicodeDecodeError) as exc:  # pandas' ParserError is a ValueError
         raise _locate_text(data, label, first_row, exc) from None
     values: NDArray[np.float64] = frame.to_numpy(dtype=np.float64)
