@@ -51,6 +51,7 @@ def make_agent(name: str, **kwargs: Any) -> Any:
 def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
     from agents.gnn import GnnAgent
+    from agents.one_step import OneStepAgent
     from agents.particle import ParticleFilterAgent
     from agents.pose import PoseBaselineAgent
 
@@ -58,6 +59,7 @@ def _register_builtin() -> None:
     register_agent("gnn", GnnAgent)
     register_agent("pose-baseline", PoseBaselineAgent)
     register_agent("pf", ParticleFilterAgent)
+    register_agent("one-step", OneStepAgent)
 
 
 _register_builtin()

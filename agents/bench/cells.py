@@ -23,6 +23,7 @@ import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -384,12 +385,37 @@ def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
     return tuple(out)
 
 
-def load_suite(source: str) -> tuple[Group, ...]:
-    """A suite by name (``"quick"``, ``"full"``) or from a TOML file.
+#: The folder (in package ``agents.bench``) of the shipped suites: every ``NAME.toml`` is suite ``NAME``.
+SUITE_FOLDER = "suites"
+
+
+def packaged_suites() -> dict[str, Path]:
+    """Name → path of every TOML suite shipped in :data:`SUITE_FOLDER` (e.g. ``pollithy2020``)."""
+    from importlib import resources
+
+    folder = resources.files("agents.bench") / SUITE_FOLDER
+    if not folder.is_dir():
+        return {}
+    return {
+        entry.name.removesuffix(".toml"): Path(str(entry))
+        for entry in sorted(folder.iterdir(), key=lambda e: e.name)
+        if entry.name.endswith(".toml")
+    }
+
+
+def suite_names() -> list[str]:
+    """Every suite name :func:`load_suite` accepts: the built-in ones, then the shipped TOMLs."""
+    return [*SUITES, *(n for n in packaged_suites() if n not in SUITES)]
+
+
+def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
+    """A suite by name (``"quick"``, ``"full"``, ``"sorting"``, a shipped TOML such as
+    ``"pollithy2020"``) or from a TOML file.
 
     A TOML suite holds one or more ``[[group]]`` tables (or the group's keys at the top level)::
 
         [[group]]
+        name = "fig6"                 # optional label, for the reader
         envs = ["BeltSorter-v0"]      # default: every env
         agents = ["gnn"]              # default: every agent that applies
         predictors = ["kf-cv", "kf-ca"]
@@ -399,23 +425,58 @@ def load_suite(source: str) -> tuple[Group, ...]:
         env_kwargs = { particle_kind = "sphere" }
         sweep = { noise_std = [0.0, 2e-4, 4e-4] }
         agent_kwargs = { p_gate = 0.99 }  # make_agent kwargs (gnn: also its predictor's)
+        quick = { seeds = 1, steps = 100 }  # the group in the --quick variant (false: left out)
+
+    A top-level ``[quick]`` table gives every group's quick keys that do not set their own.
+
+    Args:
+        source: A suite name (:func:`suite_names`) or a path ending in ``.toml``.
+        quick: The suite's quick variant: each group's ``quick`` keys replace its own.
+
+    Raises:
+        ValueError: for an unknown name, a bad key or value, or ``quick`` with a built-in suite.
     """
     if source in SUITES:
+        if quick:
+            raise ValueError(
+                f"suite {source!r} has no quick variant; TOML suites {list(packaged_suites())} do"
+            )
         return SUITES[source]
-    if not source.endswith(".toml"):
-        raise ValueError(f"unknown suite {source!r}; valid names are {sorted(SUITES)} or a .toml file")
+    shipped = packaged_suites()
+    if source in shipped:
+        path: str | Path = shipped[source]
+    elif source.endswith(".toml"):
+        path = source
+    else:
+        raise ValueError(f"unknown suite {source!r}; valid names are {suite_names()} or a .toml file")
     import tomllib
 
-    with open(source, "rb") as fh:
+    with open(path, "rb") as fh:
         data = tomllib.load(fh)
-    tables = data.get("group", [data])
-    return tuple(group_from_mapping(t) for t in tables)
+    if "group" in data:
+        default_quick = data.get("quick", {})
+        check_names("suite top-level key", data, ["group", "quick", "description"])
+        tables = list(data["group"])
+    else:
+        default_quick, tables = {}, [data]
+    groups = []
+    for table in tables:
+        table = dict(table)
+        variant = table.pop("quick", default_quick)
+        if quick:
+            if variant is False:
+                continue
+            if not isinstance(variant, dict):
+                raise ValueError(f"quick must be a table of group keys or false, got {variant!r}")
+            table |= variant
+        groups.append(group_from_mapping(table))
+    return tuple(groups)
 
 
 def group_from_mapping(data: Mapping[str, Any]) -> Group:
     """A :class:`Group` from a TOML table (see :func:`load_suite`)."""
     allowed = {"envs", "agents", "predictors", "seeds", "episodes", "steps", "env_kwargs", "sweep"}
-    allowed.add("agent_kwargs")
+    allowed |= {"agent_kwargs", "name", "quick"}
     check_names("suite key", data, sorted(allowed))
     seeds = data.get("seeds", 2)
     for name, values in dict(data.get("sweep", {})).items():

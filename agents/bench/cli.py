@@ -18,7 +18,7 @@ import gymnasium as gym
 import track_envs
 from agents import AGENTS, available_agents
 from agents.bench import cells as cells_mod
-from agents.bench.cells import NO_PREDICTOR, SUITES, Group
+from agents.bench.cells import NO_PREDICTOR, Group
 from predictors import PREDICTORS, available_predictors
 
 EPILOG = """\
@@ -198,13 +198,13 @@ def cmd_list(_: argparse.Namespace) -> int:
         envs = sorted({e for a in users for e in track_envs.ENV_IDS if cells_mod.applicable(e, a, [name])})
         print(f"  {name:<20} {describe(PREDICTORS.factory(name))}")
         print(f"  {'':<20} used by: {', '.join(users)}; envs: {', '.join(envs)}")
-    print(f"\nsuites: {', '.join(SUITES)} (or a .toml file; see track-bench run --help)")
+    print(f"\nsuites: {', '.join(cells_mod.suite_names())} (or a .toml file; see track-bench run --help)")
     return 0
 
 
 def build_groups(args: argparse.Namespace) -> tuple[Group, ...]:
     """The suite named by ``--suite`` (default quick) with the other flags applied to every group."""
-    groups = cells_mod.load_suite(args.suite)
+    groups = cells_mod.load_suite(args.suite, quick=getattr(args, "quick", False))
     return cells_mod.override(
         groups,
         envs=args.envs,
@@ -324,7 +324,15 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=fmt,
     )
     p.add_argument(
-        "--suite", default="quick", help="quick, full, sorting, or a .toml suite file (default quick)"
+        "--suite",
+        default="quick",
+        help="quick, full, sorting, a shipped suite (pollithy2020, ...; see track-bench list) "
+        "or a .toml suite file (default quick)",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="the TOML suite's quick variant (each group's quick keys; minutes instead of an hour)",
     )
     p.add_argument("--envs", type=_checked("env", track_envs.ENV_IDS), help="comma list of env ids")
     p.add_argument("--agents", type=_checked("agent", available_agents()), help="comma list of agents")

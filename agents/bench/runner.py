@@ -173,15 +173,26 @@ def check_cells(cells: Iterable[Cell]) -> int:
 
 
 def run_episode(env: gym.Env, agent: Any, seed: int) -> tuple[dict[str, float], int]:
-    """One episode of the loop; its ``episode_metrics`` and its number of frames."""
+    """One episode of the loop; its ``episode_metrics`` and its number of frames.
+
+    An agent that declares ``needs_truth = True`` (an oracle that scores a predictor with true
+    associations, :class:`agents.one_step.OneStepAgent`) is handed each frame's ``info`` through
+    ``observe_truth(info)`` before ``act``, and its own ``episode_metrics()`` join the record's.
+    """
     obs, info = env.reset(seed=seed)
     agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
+    observe = agent.observe_truth if getattr(agent, "needs_truth", False) else None
     frames = 0
     while True:
+        if observe is not None:
+            observe(info)
         obs, _, terminated, truncated, info = env.step(agent.act(obs))
         frames += 1
         if terminated or truncated:
-            return dict(info["episode_metrics"]), frames
+            metrics = dict(info["episode_metrics"])
+            if observe is not None:
+                metrics.update(agent.episode_metrics())
+            return metrics, frames
 
 
 def run_cell(cell: Cell) -> dict[str, Any]:
