@@ -16,7 +16,8 @@ every ``act`` for agents that declare ``needs_truth = True``. Per frame:
 3. particles detected for the first time start tracks (Kalman filters from the mean first
    velocity of the tracks seen so far, as :class:`agents.gnn.GnnAgent`'s learnt flow prior).
 
-The report is the true association (e1 = e2 = 0). Its scores, from :meth:`episode_metrics`, are
+The report is the true association (e1 = e2 = 0; when more tracks live than the report has
+rows, the first ``max_tracks`` are reported and every track is still scored). Its scores, from :meth:`episode_metrics`, are
 the per-track error distribution (:class:`~track_envs.metrics.track_error.TrackErrorDistribution`),
 the reliability curve of the covariances as predicted (``reliability@p``) and divided by the
 predictor's calibration factor ``r`` (``reliability_raw@p``; predictors without one have ``r = 1``),
@@ -128,7 +129,8 @@ class OneStepAgent:
         positions = np.concatenate([estimate, z_now[born]])
         detection = np.concatenate([detection, rows[born]])
         self._detection_ids = None
-        return pack_report(self._ids, positions, detection, self._spec.max_tracks)
+        m = self._spec.max_tracks  # a burst beyond the report's rows: the scores keep every track
+        return pack_report(self._ids[:m], positions[:m], detection[:m], m)
 
     def _score(
         self,
