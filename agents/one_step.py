@@ -17,8 +17,9 @@ every ``act`` for agents that declare ``needs_truth = True``. Per frame:
    velocity of the tracks seen so far, as :class:`agents.gnn.GnnAgent`'s learnt flow prior).
 
 The report is the true association (e1 = e2 = 0; when more tracks live than the report has
-rows, the first ``max_tracks`` are reported and every track is still scored). Its scores, from :meth:`episode_metrics`, are
-the per-track error distribution (:class:`~track_envs.metrics.track_error.TrackErrorDistribution`),
+rows, the first ``max_tracks`` are reported and every track is still scored). Its scores, from
+:meth:`episode_metrics`, are the per-track error distribution
+(:class:`~track_envs.metrics.track_error.TrackErrorDistribution`),
 the reliability curve of the covariances as predicted (``reliability@p``) and divided by the
 predictor's calibration factor ``r`` (``reliability_raw@p``; predictors without one have ``r = 1``),
 and the bounding-box area of the uncalibrated covariance against the track's number of

@@ -32,6 +32,8 @@ examples:
   track-bench run --suite my_suite.toml --engine ray --out results/ray          # local Ray instance
   track-bench run --suite full --engine ray --address auto --out results/full   # an existing Ray cluster
   track-bench report results/noise                              # rebuild tables and plots
+  track-bench run --suite pollithy2020 --workers 2 --out results/p20   # a paper's evaluation
+  track-bench claims pollithy2020 results/p20 --out docs        # its figures and claims table
 
 A cell is (env, env kwargs, steps, episodes, agent, predictor, agent kwargs, seed); each finished
 cell is one JSON record in --out, written atomically. Every argument is checked (each distinct env
@@ -47,8 +49,10 @@ SUITE_HELP = """\
 suites: "quick" = every env x every agent/predictor that applies x 2 seeds, 100-step episodes;
 "full" = 10 seeds, full-length episodes, plus the BeltSorter-v0 noise_std sweep 0..5e-4 of
 Pollithy et al. (2020) Fig. 7. In both, BeltReplay-v0 runs with noise_std=1e-4 so that seeds differ.
-A TOML suite holds [[group]] tables with keys envs, agents, predictors, seeds (count or list),
-episodes, steps, env_kwargs (table), sweep (table of lists) and agent_kwargs (table).
+Shipped TOML suites (agents/bench/suites/NAME.toml, e.g. pollithy2020) run by name; --quick runs
+their quick variant. A TOML suite holds [[group]] tables with keys envs, agents, predictors, seeds
+(count or list), episodes, steps, env_kwargs (table), sweep (table of lists), agent_kwargs (table),
+name and quick (the group's keys in the --quick variant, or false to leave it out).
 Flags given with a suite override that key in every group, except --envs, which selects: a
 group that lists envs keeps those also given (and is dropped if none is).
 Values (--sweep, --agent-kwargs): numbers, true/false, none, names, or 'quoted strings'."""
@@ -293,6 +297,28 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_claims(args: argparse.Namespace) -> int:
+    from agents.bench.claims import claims_module
+    from agents.bench.runner import scan_records
+
+    try:
+        module = claims_module(args.suite)
+    except ValueError as exc:
+        print(f"track-bench claims: error: {exc}", file=sys.stderr)
+        return 2
+    if not os.path.isdir(args.dir):
+        print(f"track-bench claims: error: no directory {args.dir!r}", file=sys.stderr)
+        return 2
+    scan = scan_records(args.dir)
+    print_skipped("claims", scan.skipped)
+    if not scan.records:
+        print(f"track-bench claims: error: no records in {args.dir!r}", file=sys.stderr)
+        return 2
+    paths = module.write_claims(scan.records, args.out, wall_s=args.wall_s, label=args.label)
+    print(f"{len(scan.records)} records; wrote {', '.join(str(p) for p in paths)}")
+    return 0
+
+
 def _checked(kind: str, valid: Sequence[str]) -> Any:
     def parse(text: str) -> tuple[str, ...]:
         names = _names(text)
@@ -314,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=fmt,
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{list,run,report}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{list,run,report,claims}")
     p = sub.add_parser("list", help="envs, agents and predictors, what each is and where it applies")
     p.set_defaults(func=cmd_list)
     p = sub.add_parser(
@@ -366,6 +392,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="rebuild tables and plots from the records in DIR")
     p.add_argument("dir", metavar="DIR")
     p.set_defaults(func=cmd_report)
+    p = sub.add_parser(
+        "claims",
+        help="a paper's figures and claims table from the records of its suite in DIR",
+        epilog="example: track-bench claims pollithy2020 results/pollithy2020 --out docs",
+    )
+    p.add_argument("suite", metavar="SUITE", help="a suite with a claims table (pollithy2020, ...)")
+    p.add_argument("dir", metavar="DIR", help="the records of track-bench run --suite SUITE")
+    p.add_argument("--out", default="docs", help="writes OUT/SUITE.md and OUT/figures/SUITE/ (default docs)")
+    p.add_argument("--wall-s", type=float, help="wall time of the run in seconds, stated in the table")
+    p.add_argument("--label", default="", help="text appended to the title (e.g. ' (quick run)')")
+    p.set_defaults(func=cmd_claims)
     return parser
 
 

@@ -23,7 +23,11 @@ Files written into the out dir by :func:`write_report`:
     agent/predictor with a ±std band (the form of Pollithy et al. 2020, Fig. 7, and Jung et al. 2019, Fig. 7);
     ``plots/<env>_sorting_errors.png`` (envs with ``sorting_*`` metrics): the distribution of the
     temporal and lateral errors of the predicted nozzle-bar crossings, as their percentiles
-    (50, 90, 95, 99) per agent/predictor and setting, at the default noise when it was swept.
+    (50, 90, 95, 99) per agent/predictor and setting, at the default noise when it was swept;
+    for records of predictor scores (agent ``one-step``, :mod:`agents.bench.figures`):
+    ``plots/<env>_track_error_box*.png`` (box plots of the per-track prediction error),
+    ``plots/<env>_reliability.png`` (reliability diagrams before and after calibration) and
+    ``plots/<env>_aleatoric_age.png`` (covariance area over the track's age, with Pearson's r).
 """
 
 from __future__ import annotations
@@ -371,7 +375,9 @@ def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
     sorting = sorting_error_figure(env_rows)
     if sorting is not None:
         paths.append(_save(sorting, out / f"{env_id}_sorting_errors.png"))
-    return paths
+    from agents.bench.figures import predictor_figures
+
+    return paths + predictor_figures(env_rows, out)
 
 
 #: Percentile keys of the sorting errors (track_envs.metrics.sorting.PERCENTILES).
