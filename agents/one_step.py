@@ -40,6 +40,7 @@ from predictors.base import accepts_velocity_prior, reset_predictor
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.prediction import Reliability
 from track_envs.metrics.track_error import TrackErrorDistribution
+from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
 
@@ -102,10 +103,13 @@ class OneStepAgent:
 
     def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
         """Predict, score, update, end and start tracks by the true association; the report."""
-        if self._spec is None or self._detection_ids is None:
-            raise RuntimeError("OneStepAgent needs reset(spec) and observe_truth(info) before act(obs)")
+        if self._spec is None:
+            raise RuntimeError("OneStepAgent needs reset(spec) before act(obs)")
+        live, _ = check_observation(obs, self._spec)
+        if self._detection_ids is None:
+            raise RuntimeError("OneStepAgent needs observe_truth(info) of the frame before act(obs)")
         det = np.asarray(obs["detections"], dtype=np.float64)
-        rows = np.flatnonzero((np.asarray(obs["mask"]) == 1) & (self._detection_ids >= 0))
+        rows = live[self._detection_ids[live] >= 0]
         ids_now, first = np.unique(self._detection_ids[rows], return_index=True)
         rows = rows[first]
         z_now = det[rows]

@@ -137,7 +137,7 @@ class Group:
 
     Attributes:
         envs: Env ids; empty means every registered env.
-        agents: Agent names; empty means every registered agent.
+        agents: Agent names; empty means every registered tracker (:func:`trackers`).
         predictors: Predictor names for agents that take one; empty means every registered one.
         seeds: Seeds of the cells.
         episodes: Episodes per cell.
@@ -296,6 +296,13 @@ def check_kwarg_type(env_id: str, name: str, value: Any, default: Any) -> None:
         raise ValueError(f"{env_id} {name}={value!r}: {name} must be {want} (default {default!r})")
 
 
+def trackers() -> list[str]:
+    """The registered agents a group without ``agents`` runs: every agent but the oracles that
+    read the truth (``needs_truth = True``, :class:`agents.one_step.OneStepAgent`), which run
+    only where a suite names them."""
+    return [a for a in available_agents() if not getattr(AGENTS.factory(a), "needs_truth", False)]
+
+
 def agent_applies_to_env(env_id: str, agent: str) -> bool:
     """Whether ``agent`` tracks the targets of ``env_id`` (position shape and target count)."""
     return agent_applies_to(agent, *env_shape(env_id))
@@ -344,7 +351,7 @@ def expand(groups: Iterable[Group]) -> list[Cell]:
         sweep_names = [n for n, _ in group.sweep]
         sweep_values = list(itertools.product(*(v for _, v in group.sweep)))
         for env_id in group.envs or track_envs.ENV_IDS:
-            for agent in group.agents or available_agents():
+            for agent in group.agents or trackers():
                 for predictor in applicable(env_id, agent, group.predictors or available_predictors()):
                     for values in sweep_values:
                         kwargs = dict(group.env_kwargs) | dict(zip(sweep_names, values, strict=True))

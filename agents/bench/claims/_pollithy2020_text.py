@@ -28,7 +28,7 @@ INTRO = [
     '  to the paper\'s "up to 150 particles per frame". On the default belt touching particles are',
     "  seen as one blob (≈47 detections per frame on average, ≈120 at most), which is where",
     "  association errors happen; a second panel runs the same load with every particle sensed on",
-    "  its own (5 seeds).",
+    "  its own (2 seeds).",
     "- **Models**: the shipped weights (`predictors/weights/`), all trained on cylinders with a",
     "  per-track noise std drawn from 0–0.5 mm and calibrated at p = 0.999; on spheres and cuboids",
     "  they are used as they are (a transfer test, not a retraining). The `lstm` covariance s·I is",

@@ -50,7 +50,13 @@ def test_quick_variant_is_small_and_keeps_every_figure_kind():
     cells = expand(load_suite("pollithy2020", quick=True))
     assert len(cells) <= 25 and {c.steps for c in cells} == {200} and {c.seed for c in cells} == {0}
     assert {c.agent for c in cells} == {"one-step", "gnn"}
-    assert {c.predictor for c in cells if c.agent == "gnn"} == {"kf-cv", "kf-ca", "lstm", "nll-lstm", "mc-lstm"}
+    assert {c.predictor for c in cells if c.agent == "gnn"} == {
+        "kf-cv",
+        "kf-ca",
+        "lstm",
+        "nll-lstm",
+        "mc-lstm",
+    }
 
 
 @pytest.fixture(scope="module")
@@ -62,9 +68,9 @@ def tiny_records(tmp_path_factory: pytest.TempPathFactory) -> Path:
     def pick(agent: str, predictor: str, noise: float | None = None, samples: int | None = None) -> Cell:
         for c in cells:
             env, kw = dict(c.env_kwargs), dict(c.agent_kwargs)
-            if c.agent == agent and c.predictor == predictor and kw.get("samples") == samples:
-                if noise is None or env.get("noise_std") == noise:
-                    return c
+            same = c.agent == agent and c.predictor == predictor and kw.get("samples") == samples
+            if same and (noise is None or env.get("noise_std") == noise):
+                return c
         raise AssertionError(f"no cell {agent}/{predictor}")
 
     chosen = [
