@@ -1,5 +1,6 @@
 """Streaming, vectorised scorers of tracker reports against ground truth."""
 
+from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.base import Metric
 from track_envs.metrics.belt import AssociationErrors
 from track_envs.metrics.clear_mot import ClearMot
@@ -9,8 +10,10 @@ from track_envs.metrics.keypoints import KeypointMota, PoseOks, oks, pairwise_ok
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 from track_envs.metrics.single_target import SingleTargetError
 from track_envs.metrics.sorting import SortingPrediction
+from track_envs.metrics.track_error import TrackErrorDistribution
 
 __all__ = [
+    "AleatoricArea",
     "AssociationErrors",
     "ClearMot",
     "GospaMetric",
@@ -23,6 +26,7 @@ __all__ = [
     "Reliability",
     "SingleTargetError",
     "SortingPrediction",
+    "TrackErrorDistribution",
     "gospa",
     "mahalanobis_sq",
     "oks",
