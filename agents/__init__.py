@@ -53,10 +53,12 @@ def _register_builtin() -> None:
     from agents.gnn import GnnAgent
     from agents.particle import ParticleFilterAgent
     from agents.pose import PoseBaselineAgent
+    from agents.pose_smc import PoseSmcAgent
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
     register_agent("pose-baseline", PoseBaselineAgent)
+    register_agent("pose-smc", PoseSmcAgent)
     register_agent("pf", ParticleFilterAgent)
 
 

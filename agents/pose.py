@@ -61,9 +61,9 @@ class PoseMotion(Protocol):
         with detected keypoints ``found`` (m, 17) and areas ``area`` (m,)."""
         ...
 
-    def update(self, ti: NDArray, xy: NDArray, found: NDArray) -> None:
-        """Tracks ``ti`` (k,) take the detections ``xy`` (k, 17, 2), ``found`` (k, 17); the
-        others coast on their prediction."""
+    def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
+        """Tracks ``ti`` (k,) take the detections ``di`` (k,) of ``xy`` (m, 17, 2) with keypoints
+        ``found`` (m, 17) (the rows and columns of :meth:`score`); the others coast."""
 
     def birth(self, xy: NDArray, found: NDArray) -> None:
         """Append one track per detection ``xy`` (k, 17, 2) with keypoints ``found`` (k, 17)."""
@@ -165,7 +165,7 @@ class PoseTracker:
         self.motion.predict()
         sim = self.motion.score(xy, found, self._areas(xy, found))
         ti, di = self.assign(1.0 - sim, 1.0 - self.oks_threshold)
-        self.motion.update(ti, xy[di], found[di])
+        self.motion.update(ti, di, xy, found)
         matched = np.zeros(len(self.ids), dtype=bool)
         matched[ti] = True
         lifetime = np.where(matched, np.minimum(self.lifetime + 1, MAX_LIFETIME), self.lifetime - 1)
@@ -254,8 +254,9 @@ class ConstantVelocity:
         """OKS (n, m) of the predictions over keypoints detected now and seen before."""
         return pairwise_oks(self.predicted, xy, found, area, a_valid=self.known)
 
-    def update(self, ti: NDArray, xy: NDArray, found: NDArray) -> None:
+    def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
         """Matched tracks take the detected keypoints; all others coast on the prediction."""
+        xy, found = xy[di], found[di]
         predicted = self.predicted
         pose = predicted.copy()
         new_pose = np.where(found[..., None], xy, predicted[ti])
