@@ -23,6 +23,7 @@ import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -432,3 +433,7 @@ def group_from_mapping(data: Mapping[str, Any]) -> Group:
         sweep=tuple((k, freeze(list(v))) for k, v in dict(data.get("sweep", {})).items()),
         agent_kwargs=kwarg_items(data.get("agent_kwargs")),
     )
+
+
+#: Okada et al. (2020), Table II: the pose-smc ablation on a hard KeypointWalkers-v0 scene.
+SUITES["okada2020"] = load_suite(str(Path(__file__).resolve().parent / "suites" / "okada2020.toml"))
