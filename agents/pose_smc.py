@@ -103,6 +103,9 @@ class SmcPoseMotion:
         aleatoric: The predicted (heteroscedastic) σ; ``False`` fixes σ to ``fixed_sigma``.
         fixed_sigma: σ (network units) when ``aleatoric=False`` (default: the model file's).
         recurrence: ``"window"`` (re-run the LSTM over each queue) or ``"carried"`` (LSTM state).
+        share_windows: With ``"window"``, run the LSTM once per distinct queue of a filter (copies
+            made by resampling and by selecting the observation history share one); the result
+            is the same as re-running every particle's window, which ``False`` does.
     """
 
     def __init__(
@@ -117,6 +120,7 @@ class SmcPoseMotion:
         aleatoric: bool = True,
         fixed_sigma: float | None = None,
         recurrence: str = "window",
+        share_windows: bool = True,
     ) -> None:
         if not (isinstance(particles, int | np.integer) and particles >= 1):
             raise ValueError(f"particles (P) must be an integer >= 1, got {particles!r}")
@@ -137,6 +141,7 @@ class SmcPoseMotion:
         self.epistemic, self.aleatoric = bool(epistemic), bool(aleatoric)
         self.fixed_sigma = fixed_sigma
         self.recurrence = recurrence
+        self.share_windows = bool(share_windows)
 
     # -- episode state -------------------------------------------------------------------------
     def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
@@ -147,6 +152,7 @@ class SmcPoseMotion:
         self.queue = np.zeros((0, P, K, L, 3), np.float32)  # particle queues z_{t-L:t-1}
         self.obs = np.zeros((0, K, L, 3), np.float32)  # observation queues x_{t-L+1:t}
         self.q = np.ones((0, P))  # proposal probability of each particle's history (eq. 7)
+        self.rep = np.zeros((0, P), np.intp)  # first particle of the filter with the same queue
         self.estimate = np.zeros((0, K, 2))
         self.pred = np.zeros((0, P, K, 2))
         self.has = np.zeros((0, P, K), bool)
@@ -171,9 +177,18 @@ class SmcPoseMotion:
             return
         from predictors.pose_lstm import window_features
 
-        if self.recurrence == "window":
+        if self.recurrence == "window" and not self.share_windows:
             inputs, anchor, has = window_features(self.queue.reshape(-1, self.L, 3), self.scale)
             mu, sigma = self.predictor.distribution(inputs, self.rng, epistemic=self.epistemic)
+        elif self.recurrence == "window":
+            # the LSTM once per distinct queue; dropout and the Gaussian draw per particle
+            first = np.flatnonzero((self.rep == np.arange(P)).ravel())  # representatives (n·P,)
+            where = np.searchsorted(first, (np.arange(n)[:, None] * P + self.rep).ravel())
+            queues = self.queue.reshape(n * P, K, self.L, 3)[first]
+            inputs, anchor_u, has_u = window_features(queues, self.scale)
+            h = self.predictor.encode(inputs.reshape(-1, self.L, 3)).reshape(len(first), K, -1)
+            anchor, has = anchor_u[where].reshape(-1, 2), has_u[where].reshape(-1)
+            mu, sigma = self.predictor.head_of(h[where].reshape(n * P * K, -1), self.rng, self.epistemic)
         else:
             a = self.anchor.reshape(-1, 3)
             anchor, has = a[:, :2].astype(np.float64), a[:, 2] > 0
@@ -202,7 +217,7 @@ class SmcPoseMotion:
 
         Filters ``ti`` (k,) matched the detections ``di`` (k,) of ``xy`` (m, 17, 2), ``found`` (m, 17).
         """
-        n = len(self.queue)
+        n, P = len(self.queue), self.P
         xy, found = xy[di], found[di]
         entry = np.concatenate([self.pred, self.has[..., None]], axis=-1).astype(np.float32)  # (n, P, K, 3)
         obs_entry = np.zeros((n, K, 3), np.float32)
@@ -210,6 +225,7 @@ class SmcPoseMotion:
         obs_entry[ti, :, 2] = found
         self.queue = np.concatenate([self.queue[..., 1:, :], entry[..., None, :]], axis=-2)
         self.obs = np.concatenate([self.obs[..., 1:, :], obs_entry[..., None, :]], axis=-2)
+        self.rep = np.broadcast_to(np.arange(P), (n, P)).copy()  # each queue took its own z_t
         if self.recurrence == "carried":
             self._advance_states(entry, obs_entry)
         # estimates: particle means (coasting), the detection + elite means (matched)
@@ -236,6 +252,13 @@ class SmcPoseMotion:
         queue = np.where(own[..., None, None, None], queue, self.obs[ti][:, None])
         self.queue[ti] = queue
         self.q[ti] = np.where(own, self.alpha, 1.0 - self.alpha)
+        # copies share a queue: the same parent kept (own) or the observation history (key P)
+        key = np.where(own, idx, self.P)
+        first = np.full((len(ti), self.P + 1), self.P, dtype=np.intp)
+        np.minimum.at(
+            first, (np.broadcast_to(np.arange(len(ti))[:, None], key.shape), key), np.arange(self.P)
+        )
+        self.rep[ti] = np.take_along_axis(first, key, axis=1)
         if self.recurrence == "carried":
             for name, oname in (("h", "oh"), ("c", "oc"), ("anchor", "oanchor")):
                 arr, oarr = getattr(self, name), getattr(self, oname)
@@ -252,6 +275,7 @@ class SmcPoseMotion:
         self.obs = np.concatenate([self.obs, obs])
         self.queue = np.concatenate([self.queue, np.broadcast_to(obs[:, None], (k, P, K, L, 3))])
         self.q = np.concatenate([self.q, np.ones((k, P))])
+        self.rep = np.concatenate([self.rep, np.zeros((k, P), np.intp)])  # all queues equal
         self.estimate = np.concatenate([self.estimate, centroid_fill(xy, found)])
         if self.recurrence == "carried":
             h, c, anchor = self._start_states(first)
@@ -271,6 +295,7 @@ class SmcPoseMotion:
             self.q[alive],
             self.estimate[alive],
         )
+        self.rep = self.rep[alive]
         if self.recurrence == "carried":
             for name in ("h", "c", "anchor", "oh", "oc", "oanchor"):
                 setattr(self, name, getattr(self, name)[alive])
@@ -314,7 +339,8 @@ class PoseSmcAgent(PoseTracker):
 
     Args:
         model: A ``pose-lstm`` model file (default: the shipped ``pose-lstm-walkers``).
-        particles, window, alpha, elite, epistemic, aleatoric, fixed_sigma, recurrence: see
+        particles, window, alpha, elite, epistemic, aleatoric, fixed_sigma, recurrence,
+            share_windows: see
             :class:`SmcPoseMotion` (defaults P = 300, L = 10, α = 0.45, e = 0.15).
         max_filters: ``F_max``, the most active filters (100).
         oks_threshold, assignment, keypoint_threshold, min_pose_score, min_keypoints,
@@ -333,6 +359,7 @@ class PoseSmcAgent(PoseTracker):
         aleatoric: bool = True,
         fixed_sigma: float | None = None,
         recurrence: str = "window",
+        share_windows: bool = True,
         max_filters: int = 100,
         oks_threshold: float = 0.3,
         assignment: str = "hungarian",
@@ -357,6 +384,7 @@ class PoseSmcAgent(PoseTracker):
             aleatoric=aleatoric,
             fixed_sigma=fixed_sigma,
             recurrence=recurrence,
+            share_windows=share_windows,
         )
         super().__init__(
             motion,

@@ -1,14 +1,17 @@
-"""Benchmark: frames per second of the SMC pose tracker (pose-smc), carried LSTM state vs window re-run.
+"""Benchmark: frames per second of the SMC pose tracker (pose-smc) against re-running every window.
 
 The scene: KeypointWalkers-v0 with ``--people`` people in view from the first frame, no arrivals,
 no vanishing, the recorded observations of one episode (so both trackers see the same frames).
 Each tracker runs the frames ``--warmup`` … ``--warmup + --frames`` (after tracking the warm-up
 frames, so the filters are set up) on ``--threads`` torch threads. The reference, timed in the same
-run, is the straightforward implementation of the stateless predictor: ``recurrence="window"``
-re-runs the 64-unit LSTM over every particle's L-window every frame. The measured one is
-``recurrence="carried"``: one LSTM step per particle and keypoint per frame (its semantics differ,
-see :mod:`agents.pose_smc`). The table also gives the active filters per frame and the LSTM
-arithmetic: ``F · P · 17`` sequences of ``4 · 64 · (64 + 3 + 1)`` multiply-adds per step.
+run, is the straightforward implementation of the stateless predictor: ``recurrence="window",
+share_windows=False`` re-runs the 64-unit LSTM over every particle's L-window every frame. The
+measured ones: the default ``share_windows=True`` (the same result: the LSTM runs once per
+distinct queue of a filter, since resampled copies and particles that selected the observation
+history share their queue; dropout and the Gaussian draw stay per particle), and
+``recurrence="carried"`` (one LSTM step per particle and keypoint per frame; its semantics
+differ, see :mod:`agents.pose_smc`). The table gives the active filters and the LSTM sequences
+per frame and the LSTM arithmetic: ``4 · 64 · (64 + 3 + 1)`` multiply-adds per sequence and step.
 
 Usage::
 
@@ -52,16 +55,21 @@ def record(people: int, frames: int, seed: int) -> tuple[list[dict], object]:
     return out, spec
 
 
-def time_agent(agent: PoseSmcAgent, stream: list[dict], spec, warmup: int) -> tuple[float, float]:
+def time_agent(agent: PoseSmcAgent, stream: list[dict], spec, warmup: int) -> tuple[float, float, float]:
+    """Seconds per frame, mean active filters, mean distinct queues per frame."""
     agent.reset(spec, seed=0)
     for obs in stream[:warmup]:
         agent.act(obs)
-    filters = []
-    t0 = time.perf_counter()
+    filters, distinct = [], []
+    elapsed = 0.0
     for obs in stream[warmup:]:
+        m = agent.motion
+        distinct.append(int(np.sum(m.rep == np.arange(m.P))))
+        t0 = time.perf_counter()
         agent.act(obs)
+        elapsed += time.perf_counter() - t0
         filters.append(len(agent.ids))
-    return (time.perf_counter() - t0) / (len(stream) - warmup), float(np.mean(filters))
+    return elapsed / (len(stream) - warmup), float(np.mean(filters)), float(np.mean(distinct))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -76,21 +84,31 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
     stream, spec = record(args.people, args.warmup + args.frames, args.seed)
+    variants = {
+        "window, every particle (reference)": {"share_windows": False},
+        "window, distinct queues (default)": {},
+        "carried state": {"recurrence": "carried"},
+    }
     rows = []
-    for recurrence in ("window", "carried"):
-        agent = PoseSmcAgent(particles=args.particles, window=args.window, recurrence=recurrence)
-        rows.append((recurrence, *time_agent(agent, stream, spec, args.warmup)))
+    for label, kwargs in variants.items():
+        agent = PoseSmcAgent(particles=args.particles, window=args.window, **kwargs)
+        rows.append((label, *time_agent(agent, stream, spec, args.warmup)))
     macs = 4 * 64 * (64 + 3 + 1)
     print(f"people {args.people}, P = {args.particles}, L = {args.window}, torch threads {args.threads}")
-    print("| recurrence | filters | LSTM steps / frame | GMAC / frame | ms / frame | frames / s | speed-up |")
-    print("|---|---|---|---|---|---|---|")
+    head = (
+        "| variant | filters | LSTM sequences / frame | steps each | GMAC / frame | ms / frame | frames / s |"
+    )
+    print(head + " speed-up |")
+    print("|---|---|---|---|---|---|---|---|")
     ref = rows[0][1]
-    for recurrence, dt, filters in rows:
-        steps = args.window if recurrence == "window" else 1
-        seqs = filters * args.particles * 17 * (1 if recurrence == "window" else 1 + 1 / args.particles)
+    for label, dt, filters, distinct in rows:
+        steps = 1 if label.startswith("carried") else args.window
+        queues = filters * args.particles if "every" in label or steps == 1 else distinct
+        seqs = queues * 17 + (filters * 17 if steps == 1 else 0)  # carried: + the observation states
         gmac = seqs * steps * macs / 1e9
-        cells = f"{filters:.1f} | {steps} | {gmac:.2f} | {dt * 1e3:.0f} | {1 / dt:.1f} | {ref / dt:.1f}x"
-        print(f"| {recurrence} | {cells} |")
+        cells = f"{filters:.1f} | {seqs:.0f} | {steps} | {gmac:.2f} | {dt * 1e3:.0f} | {1 / dt:.1f}"
+        cells += f" | {ref / dt:.1f}x"
+        print(f"| {label} | {cells} |")
 
 
 if __name__ == "__main__":

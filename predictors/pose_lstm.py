@@ -120,6 +120,14 @@ class PosePredictor:
             _, (h, _) = self.net.lstm(x)
             return self._head(h[0], rng, epistemic)
 
+    def encode(self, inputs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """The LSTM's last output ``h`` (M, H) of the windows ``inputs`` (M, L, 3) (deterministic)."""
+        import torch
+
+        with torch.inference_mode():
+            _, (h, _) = self.net.lstm(torch.from_numpy(np.ascontiguousarray(inputs, dtype=np.float32)))
+            return h[0].numpy()
+
     def _head(
         self, h: Any, rng: np.random.Generator | None, epistemic: bool
     ) -> tuple[FloatArray, FloatArray]:

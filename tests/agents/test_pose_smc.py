@@ -164,3 +164,11 @@ def test_bad_arguments_are_named(model, kwargs, name):
 def test_pose_smc_is_registered_for_pose_envs_only():
     assert agent_applies_to("pose-smc", (17, 2)) and not agent_applies_to("pose-smc", (2,))
     assert isinstance(make_agent("pose-smc", particles=2), PoseSmcAgent)
+
+
+def test_sharing_the_lstm_among_identical_queues_gives_the_same_tracks_as_rerunning_every_window(model):
+    shared = rollout(PoseSmcAgent(model, particles=40), 2, steps=25)
+    rerun = rollout(PoseSmcAgent(model, particles=40, share_windows=False), 2, steps=25)
+    for a, b in zip(shared, rerun, strict=True):
+        np.testing.assert_array_equal(a["ids"], b["ids"])
+        np.testing.assert_allclose(a["positions"], b["positions"], atol=1e-3)
