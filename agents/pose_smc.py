@@ -28,8 +28,12 @@ Every frame, batched over filters × particles × keypoints (no Python loop over
 The reported pose of a matched filter is the detection, its undetected keypoints filled with the
 elite-weighted mean of the particles; a coasting filter reports the mean of its particles.
 
-``recurrence="window"`` (the paper's stateless predictor) re-runs the LSTM over every queue each
-frame (``L`` LSTM steps per sequence). ``recurrence="carried"`` keeps each particle's LSTM state
+``recurrence="window"`` (the paper's stateless predictor) runs the LSTM over the queues each
+frame (``L`` LSTM steps per sequence), once per *distinct* queue of a filter: resampled copies of
+one particle and the particles that selected the observation history hold the same queue, so
+they share the (deterministic) LSTM output, while the dropout mask and the Gaussian draw stay per
+particle — the same result as re-running every particle's window (``share_windows=False``).
+``recurrence="carried"`` keeps each particle's LSTM state
 ``(h, c)`` and its last visible coordinate instead, so each frame costs one LSTM step per sequence.
 It differs from the window in exactly two ways: the context is not cut at ``L`` poses (the state
 holds the whole history of the queue since the filter's birth, forgetting only as the LSTM
