@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from agents.bench.cells import SUITES, expand
+from agents.bench.cells import expand, load_suite
 
 HARD = {"num_people": 15, "initial_people": 12, "arrival_rate": 2.0, "camera_pan": 600.0, "num_occluders": 2,
         "vanish_rate": 0.1}  # fmt: skip
 
 
 def test_the_ablation_suite_holds_every_variant_of_table_2_and_the_baseline_on_ten_seeds():
-    cells = expand(SUITES["okada2020"])
+    cells = expand(load_suite("okada2020"))
     variants = {}
     for cell in cells:
         assert cell.env_id == "KeypointWalkers-v0" and dict(cell.env_kwargs) == HARD and cell.steps is None
