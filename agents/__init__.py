@@ -54,10 +54,12 @@ def _register_builtin() -> None:
     from agents.one_step import OneStepAgent
     from agents.particle import ParticleFilterAgent
     from agents.pose import PoseBaselineAgent
+    from agents.pose_smc import PoseSmcAgent
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
     register_agent("pose-baseline", PoseBaselineAgent)
+    register_agent("pose-smc", PoseSmcAgent)
     register_agent("pf", ParticleFilterAgent)
     register_agent("one-step", OneStepAgent)
 

@@ -1,7 +1,8 @@
 """The ``track-train`` command: train a learned motion model on env truth, a track file or the sine.
 
-Model kinds: the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-lstm``) and the displacement LSTM of the
-LSTM particle filter (``displacement-lstm``, :mod:`predictors.training.displacement`).
+Model kinds: the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-lstm``), the displacement LSTM of the
+LSTM particle filter (``displacement-lstm``, :mod:`predictors.training.displacement`) and the
+probabilistic pose predictor of the SMC pose tracker (``pose-lstm``, :mod:`predictors.training.pose`).
 
 Examples::
 
@@ -14,6 +15,8 @@ Examples::
     track-train displacement-lstm --sine --window 128 --stride 8 --epochs 1000 --decay-every 250 \
         --batch-size 16 --out models/displacement-lstm-sine
     track-train displacement-lstm --env PiecewiseTarget-v0 --episodes 8 --window 128 --out models/pw
+    track-train pose-lstm --env KeypointWalkers-v0 --episodes 16 --window 15 --epochs 40 --lr 1e-3 \
+        --batch-size 30 --out models/pose-lstm
 
 The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.model_file`); pass it to a
 tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
@@ -36,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 from predictors.belt_lstm_net import HEAD_OUTPUTS
 from predictors.displacement_inference import KIND as DISPLACEMENT_KIND
 from predictors.model_file import ModelFile
+from predictors.pose_lstm import KIND as POSE_KIND
 
 if TYPE_CHECKING:
     from predictors.training.data import TrackSet
@@ -74,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "model",
-        choices=[*sorted(HEAD_OUTPUTS), DISPLACEMENT_KIND],
+        choices=[*sorted(HEAD_OUTPUTS), DISPLACEMENT_KIND, POSE_KIND],
         help="model kind (or 'calibrate', see below)",
     )
     _add_data_args(p)
@@ -88,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="mc-lstm: variational dropout rate (default 0.002); displacement-lstm: input dropout rate "
-        "(default 0.25)",
+        "(default 0.25); pose-lstm: dropout of the FC block (default 0.3)",
     )
     p.add_argument("--hidden", type=int, default=25, help="displacement-lstm hidden units")
     p.add_argument(
@@ -97,6 +101,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="R1,R2,...",
         help="mc-lstm: train once per rate for --grid-epochs, keep the rate of the best validation "
         "predictive log-likelihood, then train it fully (overrides --dropout)",
+    )
+    p.add_argument(
+        "--min-window",
+        type=int,
+        default=3,
+        help="pose-lstm: shortest window length a training batch is cut to (the longest is --window)",
     )
     p.add_argument("--grid-epochs", type=int, default=100, help="epochs of each --dropout-grid run")
     p.add_argument("--seed", type=int, default=0, help="split, initialisation, shuffling, masks")
@@ -179,6 +189,8 @@ def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | Non
         args = build_parser().parse_args(argv)
         if args.model == DISPLACEMENT_KIND:
             return _train_displacement(args, argv)
+        if args.model == POSE_KIND:
+            return _train_pose(args, argv)
         return _train(args, argv, (tuners or {}).get(args.model))
     except ValueError as exc:
         print(f"track-train: error: {exc}", file=sys.stderr)
@@ -312,6 +324,55 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
         f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: one-step position "
         f"error {metrics['test_mean_error']:.3g}, rotation RMSE {metrics['test_rotation_rmse']:.3g} rad, "
         f"speed RMSE {metrics['test_speed_rmse']:.3g}"
+    )
+    return 0
+
+
+def _train_pose(args: argparse.Namespace, argv: list[str]) -> int:
+    import numpy as np
+
+    from predictors.model_file import save_model
+    from predictors.pose_lstm import SCALE_PER_HEIGHT
+    from predictors.training.pose import pose_metrics, pose_windows_from_env, to_model_file, train_pose_model
+
+    if not args.env:
+        raise ValueError(
+            "pose-lstm trains on a keypoint env's detections and truth; pass --env KeypointWalkers-v0"
+        )
+    start = time.perf_counter()
+    window = 15 if args.window is None else args.window
+    data = pose_windows_from_env(
+        args.env,
+        episodes=args.episodes,
+        seed=args.data_seed,
+        steps=args.steps,
+        window=window,
+        **parse_kwargs(args.env_kwargs),
+    )
+    train, validation, test = data.split(args.seed)
+    s = {"train_windows": len(train), "validation_windows": len(validation), "test_windows": len(test)}
+    print(f"{len(data)} pose windows of {len(np.unique(data.person))} people: {s}")
+    config = _train_config(args)
+    dropout = 0.3 if args.dropout is None else args.dropout
+    net, history = train_pose_model(
+        train, validation, config, dropout=dropout, min_window=args.min_window, progress=not args.no_progress
+    )
+    metrics = pose_metrics(net, validation, test, min(10, window))
+    training = {
+        "command": "track-train " + shlex.join(argv),
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        "min_window": args.min_window,
+        "history": history.to_dict(),
+        "wall_time_s": round(time.perf_counter() - start, 1),
+    }
+    model = to_model_file(
+        net, SCALE_PER_HEIGHT, training=training, data={**data.description, **s}, metrics=metrics
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean error "
+        f"{metrics['test_mean_error_px']:.3g} px (last visible coordinate: "
+        f"{metrics['test_last_visible_error_px']:.3g} px), NLL {metrics['test_nll']:.3g}"
     )
     return 0
 

@@ -25,8 +25,9 @@ def test_quick_suite_covers_every_applicable_combination_with_two_seeds():
     assert "DetectionReplay-v0" in NO_TRUTH_ENVS
     assert len(cells) == 2 * len(combos)
     assert {c.seed for c in cells} == {0, 1}
-    # keypoints: only the pose tracker, without a predictor
-    assert {(a, p) for e, a, p in combos if e == "KeypointWalkers-v0"} == {("pose-baseline", NO_PREDICTOR)}
+    # keypoints: only the pose trackers, without a predictor
+    pose_trackers = {("pose-baseline", NO_PREDICTOR), ("pose-smc", NO_PREDICTOR)}
+    assert {(a, p) for e, a, p in combos if e == "KeypointWalkers-v0"} == pose_trackers
     # gnn runs once per predictor meant for the env (the belt LSTMs on the belt envs only);
     # predictor-free agents once with "-"
     for env_id in set(track_envs.ENV_IDS) - {"KeypointWalkers-v0", *NO_TRUTH_ENVS}:
