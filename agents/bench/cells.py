@@ -500,7 +500,3 @@ def group_from_mapping(data: Mapping[str, Any]) -> Group:
         sweep=tuple((k, freeze(list(v))) for k, v in dict(data.get("sweep", {})).items()),
         agent_kwargs=kwarg_items(data.get("agent_kwargs")),
     )
-
-
-#: Okada et al. (2020), Table II: the pose-smc ablation on a hard KeypointWalkers-v0 scene.
-SUITES["okada2020"] = load_suite(str(Path(__file__).resolve().parent / "suites" / "okada2020.toml"))
