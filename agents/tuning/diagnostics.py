@@ -34,10 +34,13 @@ FEATURES = (
     "births",  # births per live track and frame
     "deletions",  # deletions per live track and frame
     "coasting",  # fraction of existing track-frames without a detection
-    "log_tracks",  # log(1 + mean live tracks) / log(1 + max_tracks)
+    "log_tracks",  # log(1 + mean live tracks) / log(1 + TRACK_SCALE)
     "log_detections_per_track",  # log((1 + mean detections) / (1 + mean live tracks))
 )
 N_FEATURES = len(FEATURES)
+#: Track count of the track-count feature's unit (a fixed scale, not the report's size, so that the
+#: feature means the same whatever ``max_tracks`` the base env reports).
+TRACK_SCALE = 256
 #: Every feature is clipped to this bound.
 FEATURE_BOUND = 5.0
 
@@ -47,14 +50,14 @@ class WindowDiagnostics:
 
     Args:
         dim: Measurement dimension ``D``.
-        max_tracks: The report's rows (for the track-count feature).
+        track_scale: The track count of the track-count feature's unit.
     """
 
-    def __init__(self, dim: int, max_tracks: int):
+    def __init__(self, dim: int, track_scale: int = TRACK_SCALE):
         self.dim = dim
         self._median = float(chi2.median(dim))
         self._tail = float(chi2.ppf(0.99, dim))
-        self._log_cap = math.log1p(max_tracks)
+        self._log_cap = math.log1p(track_scale)
         self.clear()
 
     def clear(self) -> None:

@@ -17,6 +17,9 @@ from agents.tuning.knobs import check_action, make_knobs
 from track_envs.arguments import check_int
 from track_envs.metrics.belt import AssociationErrors
 
+#: Report rows of the base env unless ``base_kwargs`` sets ``max_tracks``: with clutter and a tight
+#: gate the belt's tracks outnumber BeltSorter-v0's default 256 rows (and the tracker stops).
+BASE_MAX_TRACKS = 512
 #: Reward kinds: minus the window's new association errors, or minus its summed GOSPA.
 REWARDS = ("errors", "gospa")
 #: Episodes started without a seed draw their base env's seed below this; evaluation seeds lie
@@ -79,7 +82,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     env's ``sensor`` of the window's last frame (the true drifted values; truth side).
 
     ## Arguments
-    - ``base_env``: a point env id (default ``"BeltSorter-v0"``); ``base_kwargs``: its kwargs.
+    - ``base_env``: a point env id (default ``"BeltSorter-v0"``); ``base_kwargs``: its kwargs
+      (``max_tracks`` defaults to :data:`BASE_MAX_TRACKS` = 512).
     - ``drift``: the base env's drift (default ``"belt"``, the drift the shipped policy was
       trained for); None: no drift.
     - ``predictor``: the gnn's predictor (default ``"kf-ca"``; ``noise_scale`` needs a Kalman
@@ -119,6 +123,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.episode_steps = check_int("episode_steps", episode_steps, 1)
         self.knobs = make_knobs(ranges)
         kwargs = dict(base_kwargs or {})
+        kwargs.setdefault("max_tracks", BASE_MAX_TRACKS)
         if render_mode is not None:
             kwargs["render_mode"] = render_mode
         if drift is not None:
@@ -137,7 +142,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.initial_action = np.array(
             [k.action(getattr(self.agent, k.name)) for k in self.knobs], dtype=np.float32
         )
-        self._diagnostics = WindowDiagnostics(spec.dim, spec.max_tracks)
+        self._diagnostics = WindowDiagnostics(spec.dim)
         n = N_FEATURES + len(self.knobs)
         self.observation_space = spaces.Box(-FEATURE_BOUND, FEATURE_BOUND, shape=(n,), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(len(self.knobs),), dtype=np.float32)

@@ -20,13 +20,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.tuning.env import HELD_OUT_SEEDS
+from agents.tuning.env import BASE_MAX_TRACKS, HELD_OUT_SEEDS
 
 #: The grid of the fixed-setting baseline (values of each knob).
 GRID: dict[str, tuple[float, ...]] = {
-    "p_gate": (0.99, 0.999, 0.9999, 0.99999),
+    "p_gate": (0.9, 0.99, 0.999, 0.9999, 0.99999),
     "recovery_inflation": (1.0, 25.0, 400.0),
-    "noise_scale": (0.5, 1.0, 2.0, 4.0, 8.0),
+    "noise_scale": (0.5, 1.0, 2.0, 4.0, 8.0, 16.0),
 }
 
 
@@ -100,10 +100,14 @@ def grid_suite(
     grid: Mapping[str, Sequence[float]] | None = None,
 ) -> str:
     """The ``track-bench`` suite (TOML) of the grid: one group per setting, BeltSorter-v0 with
-    ``drift`` for ``steps`` frames on ``seeds`` (the episodes GateTuning-v0 plays with that
-    constant setting from the same seeds)."""
+    ``drift`` and GateTuning-v0's ``max_tracks`` for ``steps`` frames on ``seeds`` (the episodes
+    GateTuning-v0 plays with that constant setting from the same seeds)."""
     lines = ["# the fixed-setting grid of GateTuning-v0 (written by track-tune grid-suite)"]
-    env_kwargs = f'{{ drift = "{drift}" }}' if drift else "{}"
+    env_kwargs = (
+        f'{{ drift = "{drift}", max_tracks = {BASE_MAX_TRACKS} }}'
+        if drift
+        else f"{{ max_tracks = {BASE_MAX_TRACKS} }}"
+    )
     for setting in grid_settings(grid):
         knobs = ", ".join(f"{k} = {v!r}" for k, v in setting.items())
         lines += [

@@ -24,7 +24,7 @@ def test_the_grid_suite_is_a_track_bench_suite_of_every_setting(tmp_path):
     )
     cells = expand(groups)
     assert len(cells) == 3 * n_settings
-    assert dict(cells[0].env_kwargs) == {"drift": "belt"} and cells[0].steps == 50
+    assert dict(cells[0].env_kwargs) == {"drift": "belt", "max_tracks": 512} and cells[0].steps == 50
 
 
 def _record(seed, errors, **setting):
