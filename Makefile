@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml Makefile
 	# torch: the pinned CPU build where it is available locally, else the registry's CPU build.
 	$(PIP) install --quiet torch==2.13.0 || \
 	  $(PIP) install --quiet torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
-	$(PIP) install --quiet -e ".[dev,torch,ray]"
+	$(PIP) install --quiet -e ".[dev,torch,ray,rl]"
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -160,6 +160,9 @@ class GnnAgent:
             prediction lies within this distance (sensor units) of a detection another track took,
             itself predicted within it, shares that detection; the blob's tracks are updated as a
             rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
+        noise_scale: Factor ``k`` on the sensor's declared noise std that the predictor assumes
+            (``R = (k σ)² I``) and that the second-chance cap uses, > 0 (default 1). Needs a
+            predictor with ``set_noise_scale`` (the Kalman filters) unless it is 1.
         predict_sorting: With a nozzle bar in the sensor spec, report each deleted track's
             predicted crossing (the sorting channel; default True). ``False`` skips the
             roll-outs (a learned predictor steps its network once per roll-out frame) and reports
@@ -167,6 +170,10 @@ class GnnAgent:
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
             :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
+
+    Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
+    between frames of a running episode (each is checked, and the next frame uses it); this is
+    how GateTuning-v0 (:mod:`agents.tuning`) acts on the tracker.
     """
 
     def __init__(
@@ -183,6 +190,7 @@ class GnnAgent:
         recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
         blob_extent: float = 0.0,
+        noise_scale: float = 1.0,
         predict_sorting: bool = True,
         **predictor_kwargs: Any,
     ):
@@ -210,9 +218,8 @@ class GnnAgent:
         self.max_misses = max_misses
         self.region_margin = region_margin
         self.velocity_prior = velocity_prior
-        if not (np.isfinite(recovery_inflation) and recovery_inflation >= 1.0):
-            raise ValueError(f"recovery_inflation must be a finite number >= 1, got {recovery_inflation!r}")
-        self.recovery_inflation = float(recovery_inflation)
+        self.recovery_inflation = recovery_inflation
+        self.noise_scale = noise_scale
         for name, value in (
             ("recovery_cap_motion", recovery_cap_motion),
             ("recovery_cap_noise", recovery_cap_noise),
@@ -240,6 +247,40 @@ class GnnAgent:
         dim = self._spec.dim if self._spec is not None else 1  # re-derived for the sensor in reset()
         self._gate = chi2_gate(float(value), dim)
         self._p_gate = float(value)
+
+    @property
+    def recovery_inflation(self) -> float:
+        """Covariance scale of the second-chance association, >= 1; settable between frames."""
+        return self._recovery_inflation
+
+    @recovery_inflation.setter
+    def recovery_inflation(self, value: float) -> None:
+        if not (_is_number(value) and np.isfinite(value) and value >= 1.0):
+            raise ValueError(f"recovery_inflation must be a finite number >= 1, got {value!r}")
+        self._recovery_inflation = float(value)
+
+    @property
+    def noise_scale(self) -> float:
+        """Factor ``k`` on the declared noise std the tracker assumes, > 0; settable between frames
+        (the predictor's ``R`` and the second-chance cap follow at once)."""
+        return self._noise_scale
+
+    @noise_scale.setter
+    def noise_scale(self, value: float) -> None:
+        if not (_is_number(value) and np.isfinite(value) and value > 0):
+            raise ValueError(f"noise_scale must be a finite number > 0, got {value!r}")
+        scale = float(value)
+        setter = getattr(self.predictor, "set_noise_scale", None)
+        if setter is None and scale != 1.0:
+            raise ValueError(
+                f"noise_scale={value!r} needs a predictor with set_noise_scale (the Kalman filters); "
+                f"predictor {self.predictor_name!r} has none, so noise_scale must stay 1"
+            )
+        if setter is not None:
+            setter(scale)
+        self._noise_scale = scale
+        if self._spec is not None:
+            self._noise = max(float(self._spec.noise_std) * scale, 1e-6)
 
     # -- episode ------------------------------------------------------------------------------
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
@@ -281,7 +322,8 @@ class GnnAgent:
                     f"got {self.velocity_fallback.tolist()}"
                 )
             self._set_flow(self.velocity_fallback.copy(), None)
-        self._noise = max(float(spec.noise_std), 1e-6)  # the predictors' floor R >= (1 µm)²
+        # the cap's noise std, with the predictors' floor R >= (1 µm)²
+        self._noise = max(float(spec.noise_std) * self.noise_scale, 1e-6)
         lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
         hi = np.asarray(spec.region_high, dtype=np.float64) + self.region_margin
         self._region = (lo, hi)
@@ -352,6 +394,7 @@ class GnnAgent:
             recovery_cap_motion=self.recovery_cap_motion,
             recovery_cap_noise=self.recovery_cap_noise,
             blob_extent=self.blob_extent,
+            noise_scale=self.noise_scale,
             **self._predictor_kwargs,
         )
         dim = self._spec.dim if self._spec is not None else 2
@@ -592,6 +635,11 @@ class GnnAgent:
         self._birth_cov = (
             None if variance is None else np.diag(4.0 * variance + (0.1 * self._flow_speed) ** 2)
         )
+
+
+def _is_number(value: Any) -> bool:
+    real = isinstance(value, int | float | np.integer | np.floating)
+    return real and not isinstance(value, bool | np.bool_)
 
 
 def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:

@@ -285,8 +285,10 @@ class KalmanPredictor:
       ≈1–1.5 m/s speeds of a new track at about one sigma when its direction is not given.
     * ``initial_acceleration_std = 2`` m/s²: covers the ≈1.6 m/s² sliding acceleration.
 
-    The measurement covariance is ``R = max(noise_std², 1e-12) · I_D`` from the sensor spec: the
-    floor (:data:`R_FLOOR`, (1 µm)²) keeps ``S = H P Hᵀ + R`` invertible for a noise-free sensor.
+    The measurement covariance is ``R = max((k σ)², 1e-12) · I_D`` from the sensor spec's
+    ``σ = noise_std`` and the measurement-noise scale ``k`` (1 unless set with
+    :meth:`set_noise_scale`, e.g. by a tracker that adapts to a drifting sensor): the floor
+    (:data:`R_FLOOR`, (1 µm)²) keeps ``S = H P Hᵀ + R`` invertible for a noise-free sensor.
 
     Args:
         model: ``"cv"``, ``"ca"`` or ``"random-walk"``.
@@ -338,6 +340,28 @@ class KalmanPredictor:
                 )
             self._v0 = v0
         self._spec: SensorSpec | None = None
+        self.noise_scale = 1.0
+
+    def set_noise_scale(self, scale: float) -> None:
+        """Scale the measurement noise std the filter assumes by ``scale`` (> 0, finite):
+        ``R = max((scale · noise_std)², 1e-12) · I_D`` from the next predict/update on, and new
+        tracks start with that ``R``. Kept across :meth:`reset`.
+
+        Raises:
+            ValueError: if ``scale`` is not a finite number > 0.
+        """
+        if isinstance(scale, bool) or not (
+            isinstance(scale, int | float | np.floating) and 0 < scale < np.inf
+        ):
+            raise ValueError(f"noise scale must be a finite number > 0, got {scale!r}")
+        self.noise_scale = float(scale)
+        if self._spec is not None:
+            self._set_R(self._spec.noise_std)
+
+    def _set_R(self, noise_std: float) -> None:
+        """``R`` and the matching block of a new track's covariance."""
+        self.R: FloatArray = np.eye(self.dim) * max((self.noise_scale * noise_std) ** 2, R_FLOOR)
+        self._P0[: self.dim, : self.dim] = self.R
 
     def __repr__(self) -> str:
         return f"KalmanPredictor(model={self.model!r}, q={self.q!r})"
@@ -353,16 +377,15 @@ class KalmanPredictor:
         D = spec.dim
         F, Q, H = _kinematic_model(self.order, D, spec.dt, self.q)
         self.F, self.Q, self.H = _f64(F), _f64(Q), _f64(H)
-        self.R: FloatArray = np.eye(D) * max(spec.noise_std**2, R_FLOOR)
         self._no_noise = np.zeros((D, D))
         # covariance of a new track, blockdiag(R, σ_v² I_D, σ_a² I_D) (the blocks the model has)
         stds2 = [self.initial_velocity_std**2, self.initial_acceleration_std**2][: self.order - 1]
         self._P0 = np.diag(np.concatenate([np.zeros(D), *[np.full(D, s) for s in stds2]]))
-        self._P0[:D, :D] = self.R
+        self.dim = D
+        self._set_R(spec.noise_std)
         self._no_velocity = np.zeros((0, D))
         self._no_velocity_cov = np.zeros((0, D, D))
         self._no_prior, self._no_prior_cov = np.zeros(0), np.zeros((0, 0))
-        self.dim = D
         self.state_dim = self.order * D
         self._spec = spec
 

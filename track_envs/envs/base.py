@@ -34,6 +34,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.arguments import check_int
+from track_envs.drift import DriftProcess, SensorDrift, SensorValues, resolve_drift
 from track_envs.metrics.gospa import gospa
 from track_envs.report import Report, report_space, validate_report
 from track_envs.types import SensorSpec
@@ -89,6 +90,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     gospa_c: float
     #: Shuffle the detection rows every frame (a replay may keep its file's order).
     shuffle_rows: bool = True
+    #: The sensor's drift over an episode (:mod:`track_envs.drift`); None: it stays nominal.
+    drift: SensorDrift | None = None
+    _drift_process: DriftProcess | None = None
 
     # -- set-up -------------------------------------------------------------------------------
     def _setup_spaces(
@@ -155,6 +159,21 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         # (snapshot, detections, report, frame index) of the frame render() draws
         self._render_frame: tuple[Any, NDArray, Report | None, int] | None = None
 
+    def _set_drift(self, drift: SensorDrift | Any) -> None:
+        """Let the sensor drift (:func:`track_envs.drift.resolve_drift` checks ``drift``)."""
+        self.drift = resolve_drift(drift)
+
+    def _nominal_sensor(self) -> SensorValues:
+        """The sensor's nominal values: the noise added, the spec's p_detect and clutter rate."""
+        spec = self.sensor_spec
+        return SensorValues(self.added_noise_std, spec.p_detect, spec.clutter_rate)
+
+    def _sensor_now(self) -> SensorValues:
+        """The true sensor values of the current frame: nominal, or the drift's."""
+        if self._drift_process is None:
+            return self._nominal_sensor()
+        return self._drift_process.at(max(self._frame, 0))
+
     # -- hooks for subclasses -----------------------------------------------------------------
     def _reset_scene(self) -> None:
         raise NotImplementedError
@@ -169,7 +188,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         """Point sensor over the visible targets, clutter uniform over the observed region.
 
         The noise added is ``added_noise_std`` (see :meth:`_setup_spaces`), by default the sensor
-        spec's ``noise_std``.
+        spec's ``noise_std``; with a drift, the noise, detection probability and clutter rate of
+        the frame's drift (:meth:`_sensor_now`).
 
         Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
         """
@@ -182,14 +202,14 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         """The point sensor (noise, misses, clutter) over sources at ``positions`` with ``ids``."""
         from track_envs.sensors import sense_points
 
-        spec = self.sensor_spec
+        now = self._sensor_now()
         return sense_points(
             positions,
             ids,
             self.np_random,
-            noise_std=self.added_noise_std,
-            p_detect=spec.p_detect,
-            clutter_rate=spec.clutter_rate,
+            noise_std=now.noise_std,
+            p_detect=now.p_detect,
+            clutter_rate=now.clutter_rate,
             clutter_low=self._clutter_low,
             clutter_high=self._clutter_high,
         )
@@ -249,6 +269,10 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
     ) -> tuple[dict[str, NDArray], dict[str, Any]]:
         super().reset(seed=seed)
         self._frame = 0
+        self._drift_process = None
+        if self.drift is not None:  # one draw, and only with a drift: other streams are unchanged
+            seed_drift = int(self.np_random.integers(2**63 - 1))
+            self._drift_process = DriftProcess(self.drift, self._nominal_sensor(), seed_drift)
         self._last_report = None
         self._dropped_detections = 0
         self._dropped_targets = 0
@@ -321,6 +345,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
             "dropped_detections": self._dropped_detections,
             "dropped_targets": self._dropped_targets,
         }
+        if self._drift_process is not None:
+            info["sensor"] = self._sensor_now()._asdict()  # the true values of this frame
         return obs, info
 
     def _empty_truth(self) -> Truth:

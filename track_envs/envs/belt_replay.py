@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from importlib import resources
 from typing import Any
 
@@ -16,6 +17,7 @@ from track_envs.arguments import (
     check_probability,
     check_vector,
 )
+from track_envs.drift import SensorDrift
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.nozzle import (
     check_nozzle_offset,
@@ -79,6 +81,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``measurement_noise_std``: the measurement noise std the sensor spec declares
       (``sensor_spec.noise_std``, what a tracker is told), in the file's units; default
       ``noise_std``. Give the recording's own noise here when replaying real centroids.
+    - ``drift``: the sensor's drift over an episode, as in BeltSorter-v0 (:mod:`track_envs.drift`;
+      default None).
     - ``frames``: ``(start, stop)`` half-open frame range; default the whole file.
     - ``dt``: frame period in seconds (default 0.01, a 100 Hz camera).
     - ``region``: ``((x_low, y_low), (x_high, y_high))`` observed region; default the bounding box
@@ -92,7 +96,7 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Version History
     - v0: first release. ``measurement_noise_std`` added later without a version bump (the
-      default leaves every stream and spec as before).
+      default leaves every stream and spec as before); so was ``drift`` (default None).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -105,6 +109,7 @@ class BeltReplayEnv(TrackingEnv):
         measurement_noise_std: float | None = None,
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
+        drift: SensorDrift | Mapping[str, Any] | str | None = None,
         frames: tuple[int, int] | None = None,
         dt: float = 0.01,
         region: tuple[tuple[float, float], tuple[float, float]] | None = None,
@@ -127,7 +132,9 @@ class BeltReplayEnv(TrackingEnv):
         self._offsets = np.searchsorted(self._frame_of, np.arange(n_frames + 1))
         most = int(visible.sum(axis=1).max())
         clutter_rate = check_non_negative("clutter_rate", clutter_rate)
-        room = most + int(np.ceil(clutter_rate + 6 * np.sqrt(clutter_rate))) if clutter_rate else most
+        self._set_drift(drift)
+        most_clutter = self.drift.highest("clutter_rate", clutter_rate) if self.drift else clutter_rate
+        room = most + int(np.ceil(most_clutter + 6 * np.sqrt(most_clutter))) if most_clutter else most
         max_detections = max(room, 16) if max_detections is None else max_detections
         max_tracks = max(2 * most, 16) if max_tracks is None else max_tracks
         max_detections = check_int("max_detections", max_detections, 1)
@@ -165,7 +172,8 @@ class BeltReplayEnv(TrackingEnv):
             max_tracks=int(max_tracks),
             sorting_line=line,
         )
-        margin = 10 * added + 0.05 * float(np.max(high - low))
+        noisiest = self.drift.highest("noise_std", added) if self.drift else added
+        margin = 10 * noisiest + 0.05 * float(np.max(high - low))
         self._setup_spaces(
             spec,
             added_noise_std=added,

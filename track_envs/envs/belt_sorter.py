@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
+from track_envs.drift import SensorDrift
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
@@ -98,6 +99,11 @@ class BeltSorterEnv(TrackingEnv):
       that is told the wrong noise.
     - ``p_detect``: detection probability (default 1.0).
     - ``clutter_rate``: mean clutter detections per frame (default 0.0).
+    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.drift`): a
+      :class:`~track_envs.drift.SensorDrift`, a mapping or a preset name (``"belt"``); its noise
+      std replaces ``noise_std`` as the noise added, and ``sensor_spec`` keeps the nominal values.
+      ``info["sensor"]`` holds each frame's true ``noise_std``, ``p_detect``, ``clutter_rate``.
+      Default None (no drift).
     - ``max_detections``: detection rows (default 256); ``max_tracks``: report rows (default 256);
       ``max_targets``: truth rows in ``info`` (default 256).
     - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
@@ -149,6 +155,7 @@ class BeltSorterEnv(TrackingEnv):
       (``exit_margin`` = 0.02 m past the window), so the bodies pymunk holds change and a seed's
       stream departs from the earlier one after a few dozen frames (the statistics do not
       change). ``nozzle_offset=None`` gives the earlier streams bit for bit.
+    - v0, drift: the optional ``drift`` (default None: every stream as before).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -161,6 +168,7 @@ class BeltSorterEnv(TrackingEnv):
         measurement_noise_std: float | None = None,
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
+        drift: SensorDrift | Mapping[str, Any] | str | None = None,
         max_detections: int = 256,
         max_tracks: int = 256,
         max_targets: int = 256,
@@ -220,7 +228,8 @@ class BeltSorterEnv(TrackingEnv):
             units="m",
             sorting_line=None if self.nozzle_offset is None else p.window_length + self.nozzle_offset,
         )
-        margin = 10 * added + 0.01
+        self._set_drift(drift)
+        margin = 10 * (self.drift.highest("noise_std", added) if self.drift else added) + 0.01
         self._setup_spaces(
             spec,
             added_noise_std=added,

@@ -14,6 +14,7 @@ rotated scene is exactly the rotation of the unrotated one under the same seed.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,7 @@ from track_envs.arguments import (
     check_probability,
     check_vector,
 )
+from track_envs.drift import SensorDrift
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.sensors import CLUTTER_ID
 from track_envs.types import SensorSpec
@@ -140,6 +142,7 @@ class SingleTargetEnv(TrackingEnv):
         occlusion_length: int = 0,
         clutter_rate: float = 0.0,
         clutter_half_width: float = 2.0,
+        drift: SensorDrift | Mapping[str, Any] | str | None = None,
         max_detections: int | None = None,
         max_tracks: int = 4,
         gospa_c: float = LOST_THRESHOLD,
@@ -159,9 +162,11 @@ class SingleTargetEnv(TrackingEnv):
         start = check_int("occlusion_start", occlusion_start, 0)
         self.occlusion = (start, start + check_int("occlusion_length", occlusion_length, 0))
         clutter_rate = check_non_negative("clutter_rate", clutter_rate)
+        self._set_drift(drift)
+        most_clutter = self.drift.highest("clutter_rate", clutter_rate) if self.drift else clutter_rate
         self.clutter_half_width = check_positive("clutter_half_width", clutter_half_width)
         self.gospa_c = check_positive("gospa_c", gospa_c)
-        room = 1 + int(np.ceil(clutter_rate + 6 * np.sqrt(clutter_rate)))
+        room = 1 + int(np.ceil(most_clutter + 6 * np.sqrt(most_clutter)))
         max_detections = max(8, room) if max_detections is None else max_detections
         max_detections = check_int("max_detections", max_detections, 1)
         max_tracks = check_int("max_tracks", max_tracks, 1)
@@ -178,7 +183,7 @@ class SingleTargetEnv(TrackingEnv):
             max_tracks=int(max_tracks),
             units="trajectory units",
         )
-        margin = 10 * std + 1.0
+        margin = 10 * (self.drift.highest("noise_std", std) if self.drift else std) + 1.0
         self._setup_spaces(
             spec, max_targets=1, obs_low=low - margin, obs_high=high + margin, render_mode=render_mode
         )
@@ -234,15 +239,15 @@ class SingleTargetEnv(TrackingEnv):
         sensor reports nothing at all, clutter included (the draws are still made, so the random
         stream does not depend on the occlusion).
         """
-        spec = self.sensor_spec
+        now = self._sensor_now()  # the spec's values, or the drift's (track_envs.drift)
         rng = self.np_random
         here = self._local[self._index : self._index + 1]
         z, detected = draw_detections(
-            here, rng, noise_std=spec.noise_std, p_detect=spec.p_detect, occluded=self.occluded(self._index)
+            here, rng, noise_std=now.noise_std, p_detect=now.p_detect, occluded=self.occluded(self._index)
         )
         z = z[detected]
         source = np.zeros(len(z), dtype=np.int64)
-        k = int(rng.poisson(spec.clutter_rate)) if spec.clutter_rate > 0 else 0
+        k = int(rng.poisson(now.clutter_rate)) if now.clutter_rate > 0 else 0
         if k:
             w = self.clutter_half_width
             clutter = here + rng.uniform(-w, w, size=(k, 2))
@@ -333,12 +338,16 @@ class SineTargetEnv(SingleTargetEnv):
     - ``p_detect``: detection probability outside the occlusion (default 0.9).
     - ``occlusion_start``, ``occlusion_length``: the occlusion interval in frames (default 100, 0).
     - ``clutter_rate``: mean clutter points per frame (default 0); ``clutter_half_width`` (default 2).
-    - ``max_detections`` (default ``max(8, 1 + clutter room)``), ``max_tracks`` (default 4).
+    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.drift`): noise std, detection
+      probability and clutter rate on a schedule, ``sensor_spec`` nominal, the true values in
+      ``info["sensor"]``; default None.
+    - ``max_detections`` (default ``max(8, 1 + clutter room)``, room for the drift's highest
+      clutter rate), ``max_tracks`` (default 4).
     - ``gospa_c``: GOSPA cut-off of the reward (default 5, the paper's track-loss threshold).
     - ``render_mode``: ``"rgb_array"`` or ``"human"`` (a 16 × 10 window following the target).
 
     ## Version History
-    - v0: first release.
+    - v0: first release; ``drift`` added later (default None: streams unchanged).
     """
 
     def _local_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
