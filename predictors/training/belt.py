@@ -16,7 +16,6 @@ noisy copy, so their loss is comparable between epochs.
 
 from __future__ import annotations
 
-import platform
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,7 +26,7 @@ from numpy.typing import NDArray
 from predictors.belt_lstm_net import HEAD_OUTPUTS, BeltLSTMNet, Features
 from predictors.model_file import ModelFile
 from predictors.training.data import TrackSet, TrackSplit, pad_tracks
-from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init
+from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 
 
 @dataclass(frozen=True)
@@ -203,11 +202,4 @@ def train_belt_model(
 
 def to_model_file(net: BeltLSTMNet, features: Features, **meta: Any) -> ModelFile:
     """A :class:`~predictors.model_file.ModelFile` of a trained belt network."""
-    versions = {"python": platform.python_version(), "torch": torch.__version__, "numpy": np.__version__}
-    return ModelFile(
-        kind=net.kind,
-        dim=net.dim,
-        architecture=net.architecture(),
-        tensors=net.numpy_weights(),
-        meta={"normalisation": features.to_dict(), "versions": versions, **meta},
-    )
+    return trained_model_file(net, kind=net.kind, dim=net.dim, normalisation=features.to_dict(), **meta)

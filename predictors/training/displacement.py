@@ -18,7 +18,6 @@ its heading.
 
 from __future__ import annotations
 
-import platform
 from typing import Any
 
 import numpy as np
@@ -31,7 +30,7 @@ from predictors.displacement_net import DROPOUT, HIDDEN, DisplacementLSTMNet
 from predictors.model_file import ModelFile
 from predictors.training.belt import per_track_mean
 from predictors.training.data import TrackSet, TrackSplit, pad_tracks
-from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init
+from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 
 FloatArray = NDArray[np.float64]
 
@@ -142,14 +141,7 @@ def train_displacement_model(
 
 def to_model_file(net: DisplacementLSTMNet, features: DisplacementFeatures, **meta: Any) -> ModelFile:
     """A :class:`~predictors.model_file.ModelFile` of a trained displacement network."""
-    versions = {"python": platform.python_version(), "torch": torch.__version__, "numpy": np.__version__}
-    return ModelFile(
-        kind=KIND,
-        dim=2,
-        architecture=net.architecture(),
-        tensors=net.numpy_weights(),
-        meta={"normalisation": features.to_dict(), "versions": versions, **meta},
-    )
+    return trained_model_file(net, kind=KIND, dim=2, normalisation=features.to_dict(), **meta)
 
 
 def one_step_errors(model: DisplacementLSTM, tracks: list[FloatArray]) -> dict[str, FloatArray]:

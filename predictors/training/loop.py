@@ -14,6 +14,7 @@ single-threaded deterministic kernels on CPU, so one seed gives bit-identical we
 from __future__ import annotations
 
 import math
+import platform
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -21,6 +22,8 @@ from typing import Any
 
 import torch
 from torch import nn
+
+from predictors.model_file import ModelFile
 
 #: ``loss(model, batch, generator) -> scalar``: the data term of one (mini-)batch of tensors.
 LossFn = Callable[[nn.Module, Sequence[torch.Tensor], torch.Generator], torch.Tensor]
@@ -180,3 +183,21 @@ def fit(
     finally:
         torch.use_deterministic_algorithms(deterministic)
         torch.set_num_threads(threads)
+
+
+def trained_model_file(
+    net: Any, *, kind: str, dim: int, normalisation: dict[str, Any], **meta: Any
+) -> ModelFile:
+    """The :class:`~predictors.model_file.ModelFile` of a trained network ``net`` (any module with
+    ``architecture()`` and ``numpy_weights()``): its weights, its input normalisation, the
+    package versions it was trained with, and ``meta``."""
+    import numpy as np
+
+    versions = {"python": platform.python_version(), "torch": torch.__version__, "numpy": np.__version__}
+    return ModelFile(
+        kind=kind,
+        dim=dim,
+        architecture=net.architecture(),
+        tensors=net.numpy_weights(),
+        meta={"normalisation": normalisation, "versions": versions, **meta},
+    )

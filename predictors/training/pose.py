@@ -23,7 +23,6 @@ the same for the last visible coordinate alone, the NLL, and the homoscedastic `
 
 from __future__ import annotations
 
-import platform
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,7 +33,7 @@ from numpy.typing import NDArray
 from predictors.model_file import ModelFile
 from predictors.pose_lstm import KIND, SCALE_PER_HEIGHT, window_features
 from predictors.pose_net import PosePredictorNet
-from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init
+from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 
 
 @dataclass(frozen=True)
@@ -276,11 +275,5 @@ def pose_metrics(
 
 def to_model_file(net: PosePredictorNet, scale_per_height: float, **meta: Any) -> ModelFile:
     """A :class:`~predictors.model_file.ModelFile` of a trained pose predictor."""
-    versions = {"python": platform.python_version(), "torch": torch.__version__, "numpy": np.__version__}
-    return ModelFile(
-        kind=KIND,
-        dim=2,
-        architecture=net.architecture(),
-        tensors=net.numpy_weights(),
-        meta={"normalisation": {"scale_per_height": scale_per_height}, "versions": versions, **meta},
-    )
+    normalisation = {"scale_per_height": scale_per_height}
+    return trained_model_file(net, kind=KIND, dim=2, normalisation=normalisation, **meta)
