@@ -245,12 +245,7 @@ def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int
         args.model, split, config, dropout=dropout, noise_std=args.noise_std, progress=not args.no_progress
     )
     stats = model_statistics(net, features, split, noise_std=args.noise_std, seed=args.seed)
-    training = {
-        "command": "track-train " + shlex.join(argv),
-        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
-        "noise_std": args.noise_std,
-        "history": history.to_dict(),
-    }
+    training = _training_record(argv, config, history, noise_std=args.noise_std)
     if grid is not None:
         training["dropout_grid"] = grid
     model = to_model_file(
@@ -309,13 +304,8 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
     metrics = displacement_metrics(
         DisplacementLSTM.from_model_file(to_model_file(net, features)), test.tracks
     )
-    training = {
-        "command": "track-train " + shlex.join(argv),
-        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
-        "noise_std": args.noise_std,
-        "history": history.to_dict(),
-        "wall_time_s": round(time.perf_counter() - start, 1),
-    }
+    training = _training_record(argv, config, history, noise_std=args.noise_std)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
     model = to_model_file(
         net, features, training=training, data={**dict(data.description), **s}, metrics=metrics
     )
@@ -358,13 +348,8 @@ def _train_pose(args: argparse.Namespace, argv: list[str]) -> int:
         train, validation, config, dropout=dropout, min_window=args.min_window, progress=not args.no_progress
     )
     metrics = pose_metrics(net, validation, test, min(10, window))
-    training = {
-        "command": "track-train " + shlex.join(argv),
-        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
-        "min_window": args.min_window,
-        "history": history.to_dict(),
-        "wall_time_s": round(time.perf_counter() - start, 1),
-    }
+    training = _training_record(argv, config, history, min_window=args.min_window)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
     model = to_model_file(
         net, SCALE_PER_HEIGHT, training=training, data={**data.description, **s}, metrics=metrics
     )
@@ -385,6 +370,17 @@ def _print_split(n_tracks: int, split: Any, min_length: int) -> dict[str, int]:
         f"{s['test_tracks']} test; {s['dropped_short_tracks']} shorter than {min_length} frames dropped"
     )
     return s
+
+
+def _training_record(argv: Sequence[str], config: Any, history: Any, **extra: Any) -> dict[str, Any]:
+    """The sidecar's ``training`` entry: the exact command, the :class:`TrainConfig`, the
+    command's own settings ``extra`` and the loss history (the caller adds the wall time)."""
+    return {
+        "command": "track-train " + shlex.join(argv),
+        "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
+        **extra,
+        "history": history.to_dict(),
+    }
 
 
 def _train_config(args: argparse.Namespace) -> Any:
