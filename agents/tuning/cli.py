@@ -9,6 +9,7 @@ examples::
     track-tune best-fixed results/gate_grid
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --out results/gate_eval.json
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --no-drift
+    track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle
 """
 
 from __future__ import annotations
@@ -98,11 +99,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     }
     if fixed:
         policies["best-fixed"] = FixedPolicy(fixed)
+    if args.oracle:
+        from agents.tuning.oracle import LookaheadOracle
+
+        policies["oracle"] = LookaheadOracle(horizon=args.oracle_horizon)
     seeds = held_out_seeds(args.seeds)
     env_kwargs: dict[str, Any] = dict(args.env_kwargs or {})
     if args.no_drift:
         env_kwargs["drift"] = None
-    errors = evaluate(policies, seeds, env_kwargs)
+    errors = evaluate(policies, seeds, env_kwargs, workers=args.workers)
     result: dict[str, Any] = {
         "seeds": seeds,
         "env_kwargs": env_kwargs,
@@ -111,8 +116,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         "paired": {},
     }
     for name, e in errors.items():
-        print(f"{name:>13}: {np.mean(e):8.1f} ± {np.std(e, ddof=1):6.1f} association errors per episode")
-    pairs = [("ppo", "best-fixed"), ("ppo", "nis-rule"), ("nis-rule", "best-fixed"), ("ppo", "gnn-defaults")]
+        std = np.std(e, ddof=1) if len(e) > 1 else 0.0
+        print(f"{name:>13}: {np.mean(e):8.1f} ± {std:6.1f} association errors per episode")
+    pairs = [
+        ("ppo", "best-fixed"),
+        ("ppo", "nis-rule"),
+        ("nis-rule", "best-fixed"),
+        ("ppo", "gnn-defaults"),
+        ("oracle", "best-fixed"),
+        ("ppo", "oracle"),
+    ]
     for a, b in pairs:
         if a in errors and b in errors:
             r = paired(errors[a], errors[b])
@@ -168,6 +181,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gain", type=float, default=0.5, help="gain of the NIS rule")
     p.add_argument("--env-kwargs", type=_kv, default=None, help="GateTuning-v0 kwargs: episode_steps=50")
     p.add_argument("--no-drift", action="store_true")
+    p.add_argument(
+        "--oracle",
+        action="store_true",
+        help="also play the clairvoyant lookahead oracle (agents.tuning.oracle; slow: ≈5 min per episode)",
+    )
+    p.add_argument("--oracle-horizon", type=int, default=2, help="the oracle's lookahead in steps")
+    p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")
     p.add_argument("--out", default=None)
     p.set_defaults(func=cmd_evaluate)
     return parser

@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.tuning.env import BASE_MAX_TRACKS, HELD_OUT_SEEDS
+from track_envs.arguments import check_int
 
 #: The grid of the fixed-setting baseline (values of each knob).
 GRID: dict[str, tuple[float, ...]] = {
@@ -36,7 +37,13 @@ def held_out_seeds(n: int) -> list[int]:
 
 
 def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
-    """One episode of ``policy`` on ``env`` from ``seed``: its errors, return and knob trace."""
+    """One episode of ``policy`` on ``env`` from ``seed``: its errors, return and knob trace.
+
+    A policy with ``needs_env`` (:class:`~agents.tuning.oracle.LookaheadOracle`) is bound to
+    the env first.
+    """
+    if getattr(policy, "needs_env", False):
+        policy.bind(env)
     obs, info = env.reset(seed=seed)
     total, knobs = 0.0, []
     while True:
@@ -50,17 +57,47 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
 
 
 def evaluate(
-    policies: Mapping[str, Any], seeds: Sequence[int], env_kwargs: Mapping[str, Any] | None = None
+    policies: Mapping[str, Any],
+    seeds: Sequence[int],
+    env_kwargs: Mapping[str, Any] | None = None,
+    workers: int = 1,
 ) -> dict[str, list[int]]:
-    """Errors per seed of each policy (same episodes for all)."""
-    env = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
-    try:
-        return {
-            name: [episode_errors(env, policy, s)["errors"] for s in seeds]
-            for name, policy in policies.items()
-        }
-    finally:
-        env.close()
+    """Errors per seed of each policy (same episodes for all).
+
+    ``workers > 1`` plays the (policy, seed) episodes in that many processes (the policies must
+    pickle); the result is the same as with one.
+    """
+    workers = check_int("workers", workers, 1)
+    tasks = [(name, s) for name in policies for s in seeds]
+    if workers == 1:
+        env = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
+        try:
+            errors = [int(episode_errors(env, policies[n], s)["errors"]) for n, s in tasks]
+        finally:
+            env.close()
+    else:
+        import concurrent.futures as cf
+        import multiprocessing as mp
+
+        with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+            futures = [pool.submit(_episode_task, policies[n], s, env_kwargs) for n, s in tasks]
+            errors = [f.result() for f in futures]
+    out: dict[str, list[int]] = {name: [] for name in policies}
+    for (name, _), e in zip(tasks, errors, strict=True):
+        out[name].append(e)
+    return out
+
+
+#: The env of each kwargs in a worker process of :func:`evaluate` (built once per process).
+_WORKER_ENVS: dict[str, gym.Env] = {}
+
+
+def _episode_task(policy: Any, seed: int, env_kwargs: Mapping[str, Any] | None) -> int:
+    """The errors of one episode in a worker process, on the process's env of those kwargs."""
+    key = json.dumps(dict(env_kwargs or {}), sort_keys=True, default=str)
+    if key not in _WORKER_ENVS:
+        _WORKER_ENVS[key] = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
+    return int(episode_errors(_WORKER_ENVS[key], policy, seed)["errors"])
 
 
 def paired(a: Sequence[float], b: Sequence[float]) -> dict[str, float]:

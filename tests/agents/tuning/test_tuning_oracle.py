@@ -1,0 +1,88 @@
+"""The clairvoyant lookahead oracle: greedy choices on env copies, a fixed policy when alone."""
+
+from __future__ import annotations
+
+import copy
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import agents.tuning  # noqa: F401
+from agents.tuning import FixedPolicy
+from agents.tuning.evaluate import episode_errors, evaluate
+from agents.tuning.oracle import ORACLE_GRID, LookaheadOracle
+
+SHORT = {"frames_per_step": 3, "episode_steps": 4}
+SEED = 7
+
+
+def _env():
+    return gym.make("GateTuning-v0", **SHORT)
+
+
+def test_the_default_candidates_are_the_oracle_grid():
+    oracle = LookaheadOracle()
+    assert len(oracle.candidates) == int(np.prod([len(v) for v in ORACLE_GRID.values()]))
+
+
+def test_one_candidate_plays_as_that_fixed_setting():
+    setting = {"p_gate": 0.99, "recovery_inflation": 1.0, "noise_scale": 4.0}
+    env = _env()
+    alone = episode_errors(env, LookaheadOracle([setting], horizon=1), SEED)
+    fixed = episode_errors(env, FixedPolicy(setting), SEED)
+    assert alone["errors"] == fixed["errors"] and alone["knobs"] == fixed["knobs"]
+
+
+def test_each_choice_has_the_best_one_step_reward_among_the_candidates():
+    candidates = [
+        {"p_gate": 0.9, "noise_scale": 16.0},
+        {"p_gate": 0.999999, "noise_scale": 0.25},
+        {"p_gate": 0.999, "noise_scale": 1.0},
+    ]
+    env = gym.make("GateTuning-v0", frames_per_step=10, episode_steps=6)
+    oracle = LookaheadOracle(candidates, horizon=1).bind(env)
+    obs, _ = env.reset(seed=SEED)
+    done = False
+    while not done:
+        rewards = []
+        for a in oracle._actions:
+            twin = copy.deepcopy(env.unwrapped)
+            rewards.append(twin.step(a)[1])
+        action, _ = oracle.predict(obs)
+        obs, reward, terminated, truncated, _ = env.step(action)
+        assert reward == max(rewards)
+        done = terminated or truncated
+    assert len(oracle.choices) == 6
+
+
+def test_bad_oracle_arguments_are_named():
+    with pytest.raises(ValueError, match="horizon"):
+        LookaheadOracle(horizon=0)
+    with pytest.raises(ValueError, match="at least one"):
+        LookaheadOracle([])
+    with pytest.raises(ValueError, match="unknown knobs \\['gate'\\]"):
+        LookaheadOracle([{"gate": 0.9}]).bind(_env())
+    with pytest.raises(RuntimeError, match="bind"):
+        LookaheadOracle().predict(np.zeros(12, np.float32))
+
+
+def test_evaluate_in_worker_processes_equals_one_process():
+    policies = {
+        "fixed": FixedPolicy({"p_gate": 0.99}),
+        "oracle": LookaheadOracle([{"noise_scale": 1.0}, {"noise_scale": 16.0}], horizon=1),
+    }
+    seeds = [SEED, SEED + 1]
+    assert evaluate(policies, seeds, SHORT, workers=2) == evaluate(policies, seeds, SHORT)
+
+
+def test_evaluate_cli_plays_the_oracle(tmp_path, capsys):
+    from agents.tuning.cli import main
+
+    out = tmp_path / "eval.json"
+    argv = ["evaluate", "--seeds", "1", "--oracle", "--oracle-horizon", "1", "--fixed", "p_gate=0.99"]
+    assert main([*argv, "--env-kwargs", "frames_per_step=2,episode_steps=2", "--out", str(out)]) == 0
+    assert "oracle vs best-fixed" in capsys.readouterr().out
+    import json
+
+    assert "oracle" in json.loads(out.read_text())["errors"]
