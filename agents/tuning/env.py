@@ -20,6 +20,10 @@ from track_envs.metrics.belt import AssociationErrors
 #: Report rows of the base env unless ``base_kwargs`` sets ``max_tracks``: with clutter and a tight
 #: gate the belt's tracks outnumber BeltSorter-v0's default 256 rows (and the tracker stops).
 BASE_MAX_TRACKS = 512
+#: Truth rows of a base env that takes ``max_targets`` (BeltSorter-v0) unless ``base_kwargs`` sets
+#: it: a busy belt holds more than the default 256 particles at times, and particles beyond the
+#: truth rows would escape the association errors (the reward).
+BASE_MAX_TARGETS = 512
 #: Reward kinds: minus the window's new association errors, or minus its summed GOSPA.
 REWARDS = ("errors", "gospa")
 #: Episodes started without a seed draw their base env's seed below this; evaluation seeds lie
@@ -32,6 +36,25 @@ def association_error_count(metric: AssociationErrors) -> int:
     ≠ 1 track`` so far: the numerators of e1 and e2 (:mod:`track_envs.metrics.belt`)."""
     r = metric.compute()
     return round(r["e1"] * r["n_tracks"]) + round(r["e2"] * r["n_particles"])
+
+
+def _takes_argument(env_id: str, name: str) -> bool:
+    """Whether the registered env ``env_id``'s constructor has a parameter ``name``."""
+    import inspect
+
+    from gymnasium.envs.registration import load_env_creator
+
+    try:
+        entry_point = gym.spec(env_id).entry_point
+    except gym.error.Error:
+        return False  # gym.make names the unknown id
+    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+    if creator is None:
+        return False
+    try:
+        return name in inspect.signature(creator).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
@@ -48,8 +71,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     ## Action
     ``Box(-1, 1, (3,), float32)``: ``p_gate``, ``recovery_inflation`` and ``noise_scale`` (the
     factor on the declared noise std the predictor assumes), each mapped to a log-scaled range
-    (:mod:`agents.tuning.knobs`; defaults: ``1 − p_gate`` in 1e-6 … 0.1, inflation 1 … 1000,
-    noise scale 0.25 … 16). An action of another shape, or outside [-1, 1], raises ``ValueError``.
+    (:mod:`agents.tuning.knobs`; defaults: ``1 − p_gate`` in 1e-6 … 0.5, inflation 1 … 1000,
+    noise scale 0.25 … 64). An action of another shape, or outside [-1, 1], raises ``ValueError``.
 
     ## Observation
     ``Box(-5, 5, (12,), float32)``: the tracker diagnostics of the last K frames
@@ -83,7 +106,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Arguments
     - ``base_env``: a point env id (default ``"BeltSorter-v0"``); ``base_kwargs``: its kwargs
-      (``max_tracks`` defaults to :data:`BASE_MAX_TRACKS` = 512).
+      (``max_tracks`` defaults to :data:`BASE_MAX_TRACKS` = 512, and ``max_targets``, where the env
+      takes it, to :data:`BASE_MAX_TARGETS` = 512).
     - ``drift``: the base env's drift (default ``"belt"``, the drift the shipped policy was
       trained for); None: no drift.
     - ``predictor``: the gnn's predictor (default ``"kf-ca"``; ``noise_scale`` needs a Kalman
@@ -124,6 +148,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.knobs = make_knobs(ranges)
         kwargs = dict(base_kwargs or {})
         kwargs.setdefault("max_tracks", BASE_MAX_TRACKS)
+        if _takes_argument(base_env, "max_targets"):
+            kwargs.setdefault("max_targets", BASE_MAX_TARGETS)
         if render_mode is not None:
             kwargs["render_mode"] = render_mode
         if drift is not None:

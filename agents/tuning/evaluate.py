@@ -20,14 +20,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.tuning.env import BASE_MAX_TRACKS, HELD_OUT_SEEDS
+from agents.tuning.env import BASE_MAX_TARGETS, BASE_MAX_TRACKS, HELD_OUT_SEEDS
 from track_envs.arguments import check_int
 
 #: The grid of the fixed-setting baseline (values of each knob).
 GRID: dict[str, tuple[float, ...]] = {
-    "p_gate": (0.9, 0.99, 0.999, 0.9999, 0.99999),
+    "p_gate": (0.5, 0.7, 0.9, 0.99, 0.999, 0.9999, 0.99999),
     "recovery_inflation": (1.0, 25.0, 400.0),
-    "noise_scale": (0.5, 1.0, 2.0, 4.0, 8.0, 16.0),
+    "noise_scale": (0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0),
 }
 
 
@@ -42,6 +42,14 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
     A policy with ``needs_env`` (:class:`~agents.tuning.oracle.LookaheadOracle`) is bound to
     the env first.
     """
+    env_knobs = tuple(env.unwrapped.knobs)  # type: ignore[attr-defined]
+    policy_knobs = getattr(policy, "knobs", None)
+    if policy_knobs is not None and tuple(policy_knobs) != env_knobs:
+        raise ValueError(
+            f"the policy's knob ranges {_ranges(policy_knobs)} differ from the env's "
+            f"{_ranges(env_knobs)}: its actions would set other values; build the env with the "
+            "policy's ranges (ranges=...)"
+        )
     if getattr(policy, "needs_env", False):
         policy.bind(env)
     obs, info = env.reset(seed=seed)
@@ -137,13 +145,13 @@ def grid_suite(
     grid: Mapping[str, Sequence[float]] | None = None,
 ) -> str:
     """The ``track-bench`` suite (TOML) of the grid: one group per setting, BeltSorter-v0 with
-    ``drift`` and GateTuning-v0's ``max_tracks`` for ``steps`` frames on ``seeds`` (the episodes
-    GateTuning-v0 plays with that constant setting from the same seeds)."""
+    ``drift`` and GateTuning-v0's ``max_tracks`` and ``max_targets`` for ``steps`` frames on
+    ``seeds`` (the episodes GateTuning-v0 plays with that constant setting from the same seeds)."""
     lines = ["# the fixed-setting grid of GateTuning-v0 (written by track-tune grid-suite)"]
     env_kwargs = (
-        f'{{ drift = "{drift}", max_tracks = {BASE_MAX_TRACKS} }}'
+        f'{{ drift = "{drift}", max_tracks = {BASE_MAX_TRACKS}, max_targets = {BASE_MAX_TARGETS} }}'
         if drift
-        else f"{{ max_tracks = {BASE_MAX_TRACKS} }}"
+        else f"{{ max_tracks = {BASE_MAX_TRACKS}, max_targets = {BASE_MAX_TARGETS} }}"
     )
     for setting in grid_settings(grid):
         knobs = ", ".join(f"{k} = {v!r}" for k, v in setting.items())
@@ -214,3 +222,7 @@ def format_comparison(name_a: str, name_b: str, r: Mapping[str, float]) -> str:
 
 def _std(values: list[int]) -> float:
     return float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
+
+
+def _ranges(knobs: Iterable[Any]) -> dict[str, tuple[float, float]]:
+    return {k.name: (k.low, k.high) for k in knobs}

@@ -26,11 +26,12 @@ from numpy.typing import NDArray
 
 from track_envs.arguments import check_int
 
-#: The default candidate settings: 3 gate probabilities × second chance off / default × 3 scales.
+#: The default candidate settings: 3 gate probabilities × second chance off / default × 3 scales,
+#: around the best fixed settings of the belt with drift.
 ORACLE_GRID: dict[str, tuple[float, ...]] = {
-    "p_gate": (0.9, 0.99, 0.999),
+    "p_gate": (0.7, 0.9, 0.99),
     "recovery_inflation": (1.0, 25.0),
-    "noise_scale": (1.0, 4.0, 16.0),
+    "noise_scale": (8.0, 16.0, 32.0),
 }
 
 

@@ -83,7 +83,7 @@ def test_a_constant_setting_gives_the_errors_of_the_track_bench_cell():
         "gnn",
         "kf-ca",
         3,
-        (("drift", "belt"), ("max_tracks", 512)),
+        (("drift", "belt"), ("max_targets", 512), ("max_tracks", 512)),
         1,
         60,
         tuple(sorted({**setting, "predict_sorting": False}.items())),

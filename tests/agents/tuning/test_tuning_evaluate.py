@@ -24,7 +24,10 @@ def test_the_grid_suite_is_a_track_bench_suite_of_every_setting(tmp_path):
     )
     cells = expand(groups)
     assert len(cells) == 3 * n_settings
-    assert dict(cells[0].env_kwargs) == {"drift": "belt", "max_tracks": 512} and cells[0].steps == 50
+    assert (
+        dict(cells[0].env_kwargs) == {"drift": "belt", "max_tracks": 512, "max_targets": 512}
+        and cells[0].steps == 50
+    )
 
 
 def _record(seed, errors, **setting):
@@ -76,3 +79,15 @@ def test_evaluate_cli_prints_the_paired_comparisons(tmp_path, capsys):
     assert "ppo vs best-fixed" in text and "ppo vs nis-rule" in text
     result = json.loads(out.read_text())
     assert set(result["errors"]) == {"ppo", "nis-rule", "gnn-defaults", "best-fixed"}
+
+
+def test_a_policy_with_other_knob_ranges_is_refused():
+    import gymnasium as gym
+
+    from agents.tuning import FixedPolicy
+    from agents.tuning.evaluate import episode_errors
+
+    env = gym.make("GateTuning-v0", frames_per_step=2, episode_steps=2)
+    policy = FixedPolicy(ranges={"noise_scale": (0.5, 8.0)})
+    with pytest.raises(ValueError, match="differ from the env's"):
+        episode_errors(env, policy, 0)
