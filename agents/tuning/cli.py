@@ -184,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--oracle",
         action="store_true",
-        help="also play the clairvoyant lookahead oracle (agents.tuning.oracle; slow: ≈5 min per episode)",
+        help="also play the clairvoyant lookahead oracle (agents.tuning.oracle; slow: ≈6 min per episode)",
     )
     p.add_argument("--oracle-horizon", type=int, default=2, help="the oracle's lookahead in steps")
     p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")

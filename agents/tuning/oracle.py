@@ -10,7 +10,7 @@ bounds the attainable gain only approximately; but a learnt policy that sees onl
 diagnostics is not expected to do better than it.
 
 Cost: ``len(candidates) · horizon`` extra steps plus one deep copy per candidate and step (with
-the 18 default candidates and ``horizon = 2``, ≈5 minutes per 1,000-frame belt episode on one
+the 18 default candidates and ``horizon = 2``, ≈6 minutes per 1,000-frame belt episode on one
 core).
 """
 
