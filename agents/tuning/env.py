@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 import track_envs  # noqa: F401  (registers the base envs)
 from agents import make_agent
+from agents.bench.cells import env_kwarg_names
 from agents.tuning.diagnostics import FEATURE_BOUND, FEATURES, N_FEATURES, WindowDiagnostics
 from agents.tuning.knobs import check_action, make_knobs
 from track_envs.arguments import check_int
@@ -36,25 +37,6 @@ def association_error_count(metric: AssociationErrors) -> int:
     ≠ 1 track`` so far: the numerators of e1 and e2 (:mod:`track_envs.metrics.belt`)."""
     r = metric.compute()
     return round(r["e1"] * r["n_tracks"]) + round(r["e2"] * r["n_particles"])
-
-
-def _takes_argument(env_id: str, name: str) -> bool:
-    """Whether the registered env ``env_id``'s constructor has a parameter ``name``."""
-    import inspect
-
-    from gymnasium.envs.registration import load_env_creator
-
-    try:
-        entry_point = gym.spec(env_id).entry_point
-    except gym.error.Error:
-        return False  # gym.make names the unknown id
-    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
-    if creator is None:
-        return False
-    try:
-        return name in inspect.signature(creator).parameters
-    except (TypeError, ValueError):
-        return False
 
 
 class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
@@ -148,7 +130,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.knobs = make_knobs(ranges)
         kwargs = dict(base_kwargs or {})
         kwargs.setdefault("max_tracks", BASE_MAX_TRACKS)
-        if _takes_argument(base_env, "max_targets"):
+        if "max_targets" in (env_kwarg_names(base_env) or ()):
             kwargs.setdefault("max_targets", BASE_MAX_TARGETS)
         if render_mode is not None:
             kwargs["render_mode"] = render_mode

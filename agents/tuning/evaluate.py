@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.tuning.env import BASE_MAX_TARGETS, BASE_MAX_TRACKS, HELD_OUT_SEEDS
+from agents.tuning.knobs import knob_ranges
 from track_envs.arguments import check_int
 
 #: The grid of the fixed-setting baseline (values of each knob).
@@ -46,8 +47,8 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
     policy_knobs = getattr(policy, "knobs", None)
     if policy_knobs is not None and tuple(policy_knobs) != env_knobs:
         raise ValueError(
-            f"the policy's knob ranges {_ranges(policy_knobs)} differ from the env's "
-            f"{_ranges(env_knobs)}: its actions would set other values; build the env with the "
+            f"the policy's knob ranges {knob_ranges(policy_knobs)} differ from the env's "
+            f"{knob_ranges(env_knobs)}: its actions would set other values; build the env with the "
             "policy's ranges (ranges=...)"
         )
     if getattr(policy, "needs_env", False):
@@ -222,7 +223,3 @@ def format_comparison(name_a: str, name_b: str, r: Mapping[str, float]) -> str:
 
 def _std(values: list[int]) -> float:
     return float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
-
-
-def _ranges(knobs: Iterable[Any]) -> dict[str, tuple[float, float]]:
-    return {k.name: (k.low, k.high) for k in knobs}

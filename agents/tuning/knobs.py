@@ -104,6 +104,11 @@ def make_knobs(ranges: Mapping[str, Sequence[float]] | None = None) -> tuple[Kno
     return tuple(knobs)
 
 
+def knob_ranges(knobs: Sequence[Knob]) -> dict[str, tuple[float, float]]:
+    """``{name: (low, high)}`` of ``knobs``: the ``ranges=`` that builds them again."""
+    return {k.name: (k.low, k.high) for k in knobs}
+
+
 def check_action(action: Any, n_knobs: int) -> NDArray[np.float64]:
     """``action`` as a float64 vector of ``n_knobs`` entries in [-1, 1].
 

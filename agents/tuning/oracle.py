@@ -24,6 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.tuning.knobs import knob_ranges
+from agents.tuning.policy import FixedPolicy
 from track_envs.arguments import check_int
 
 #: The default candidate settings: 3 gate probabilities × second chance off / default × 3 scales,
@@ -65,17 +67,9 @@ class LookaheadOracle:
     def bind(self, env: Any) -> LookaheadOracle:
         """Play against ``env`` (a :class:`~agents.tuning.env.GateTuningEnv`); returns self."""
         env = getattr(env, "unwrapped", env)
-        names = [k.name for k in env.knobs]
-        actions = []
-        for c in self.candidates:
-            unknown = sorted(set(c) - set(names))
-            if unknown:
-                raise ValueError(f"oracle candidate {c} has unknown knobs {unknown}; the knobs are {names}")
-            a = env.initial_action.copy()
-            for i, k in enumerate(env.knobs):
-                if k.name in c:
-                    a[i] = k.action(c[k.name])
-            actions.append(a.astype(np.float32))
+        initial = {k.name: k.value(float(a)) for k, a in zip(env.knobs, env.initial_action, strict=True)}
+        ranges = knob_ranges(env.knobs)
+        actions = [FixedPolicy(c, defaults=initial, ranges=ranges).action for c in self.candidates]
         self._env, self._actions, self.choices = env, actions, []
         return self
 

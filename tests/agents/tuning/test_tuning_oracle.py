@@ -61,7 +61,7 @@ def test_bad_oracle_arguments_are_named():
         LookaheadOracle(horizon=0)
     with pytest.raises(ValueError, match="at least one"):
         LookaheadOracle([])
-    with pytest.raises(ValueError, match="unknown knobs \\['gate'\\]"):
+    with pytest.raises(ValueError, match="unknown knob \\['gate'\\]; the knobs are"):
         LookaheadOracle([{"gate": 0.9}]).bind(_env())
     with pytest.raises(RuntimeError, match="bind"):
         LookaheadOracle().predict(np.zeros(12, np.float32))
