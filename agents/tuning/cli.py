@@ -10,6 +10,8 @@ examples::
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --out results/gate_eval.json
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --no-drift
     track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle
+    track-tune sensor-grid --seeds 0:3 --steps 50 --workers 2 --out results/sensor_table.json
+    track-tune evaluate --seeds 20 --best-fixed results/gate_grid --informed results/sensor_table.json
 """
 
 from __future__ import annotations
@@ -76,6 +78,35 @@ def cmd_best_fixed(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sensor_grid(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from agents.tuning.informed import default_states, sensor_table
+
+    states = default_states(args.drift, n_noise=args.noise_states)
+    table = sensor_table(
+        args.seeds, args.steps, states=states, env_kwargs=args.env_kwargs, workers=args.workers
+    )
+    table.save(args.out)
+    errors = np.asarray(table.errors)
+    flat = errors.reshape(-1, errors.shape[-1])
+    overall = int(np.argmin(flat.mean(axis=0)))
+    print(f"best setting over all states: {table.settings[overall]}")
+    names = list(table.states)
+    for index in np.ndindex(errors.shape[:-1]):
+        state = {n: table.states[n][i] for n, i in zip(names, index, strict=True)}
+        row = errors[index]
+        best = int(np.argmin(row))
+        gain = (row[overall] - row[best]) / row[overall] if row[overall] else 0.0
+        print(
+            f"noise_std {state['noise_std']:.3g}  p_detect {state['p_detect']:.3g}  clutter "
+            f"{state['clutter_rate']:.3g}: best {table.settings[best]} {row[best]:.1f} vs "
+            f"{row[overall]:.1f} ({100 * gain:.1f}% fewer)"
+        )
+    print(f"wrote {args.out}: evaluate it with track-tune evaluate --informed {args.out}")
+    return 0
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -102,7 +133,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.oracle:
         from agents.tuning.oracle import LookaheadOracle
 
-        policies["oracle"] = LookaheadOracle(horizon=args.oracle_horizon)
+        policies["oracle"] = LookaheadOracle(
+            horizon=args.oracle_horizon, resample_future=args.oracle_resample
+        )
+    if args.informed:
+        if args.no_drift:
+            raise ValueError("--informed follows the drifting sensor: nothing to follow with --no-drift")
+        from agents.tuning.informed import SensorInformedPolicy
+
+        policies["informed"] = SensorInformedPolicy(args.informed)
     seeds = held_out_seeds(args.seeds)
     env_kwargs: dict[str, Any] = dict(args.env_kwargs or {})
     if args.no_drift:
@@ -125,6 +164,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         ("ppo", "gnn-defaults"),
         ("oracle", "best-fixed"),
         ("ppo", "oracle"),
+        ("informed", "best-fixed"),
+        ("ppo", "informed"),
     ]
     for a, b in pairs:
         if a in errors and b in errors:
@@ -171,6 +212,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("records")
     p.add_argument("--top", type=int, default=10)
     p.set_defaults(func=cmd_best_fixed)
+    p = sub.add_parser(
+        "sensor-grid",
+        help="errors of a knob grid at constant sensor states (the sensor-informed reference's table)",
+    )
+    p.add_argument("--seeds", type=parse_seeds, default=tuple(range(3)), help="training seeds")
+    p.add_argument("--steps", type=int, default=50, help="GateTuning-v0 steps per episode")
+    p.add_argument("--drift", default="belt", help="drift preset whose ranges the states span")
+    p.add_argument("--noise-states", type=int, default=5, help="log-spaced noise stds")
+    p.add_argument("--env-kwargs", type=_kv, default=None, help="further GateTuning-v0 kwargs")
+    p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=cmd_sensor_grid)
     p = sub.add_parser("evaluate", help="paired comparison on held-out seeds")
     p.add_argument("--seeds", type=int, default=20)
     p.add_argument("--policy", default=None, help="model file (default: the shipped policy)")
@@ -187,6 +240,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="also play the clairvoyant lookahead oracle (agents.tuning.oracle; slow: ≈6 min per episode)",
     )
     p.add_argument("--oracle-horizon", type=int, default=2, help="the oracle's lookahead in steps")
+    p.add_argument(
+        "--oracle-resample",
+        action="store_true",
+        help="the oracle looks ahead on a fresh random future (knows the present, not the noise to come)",
+    )
+    p.add_argument(
+        "--informed",
+        default=None,
+        metavar="TABLE",
+        help="also play the sensor-informed reference of this table (track-tune sensor-grid)",
+    )
     p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")
     p.add_argument("--out", default=None)
     p.set_defaults(func=cmd_evaluate)

@@ -214,6 +214,13 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         """The knobs' current values on the tracker."""
         return {k.name: float(getattr(self.agent, k.name)) for k in self.knobs}
 
+    def true_sensor(self) -> dict[str, float] | None:
+        """The base env's true sensor values of the last frame played (``info["sensor"]``: truth
+        side, for references such as :class:`~agents.tuning.informed.SensorInformedPolicy`), or
+        None when the base env reports none (no drift)."""
+        sensor = self._info.get("sensor")
+        return None if sensor is None else {k: float(v) for k, v in dict(sensor).items()}
+
     def _observation(self, a: NDArray[Any]) -> NDArray[np.float32]:
         return np.concatenate([self._diagnostics.vector(), np.asarray(a, dtype=np.float32)])
 

@@ -76,37 +76,57 @@ def evaluate(
     ``workers > 1`` plays the (policy, seed) episodes in that many processes (the policies must
     pickle); the result is the same as with one.
     """
-    workers = check_int("workers", workers, 1)
     tasks = [(name, s) for name in policies for s in seeds]
-    if workers == 1:
-        env = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
-        try:
-            errors = [int(episode_errors(env, policies[n], s)["errors"]) for n, s in tasks]
-        finally:
-            env.close()
-    else:
-        import concurrent.futures as cf
-        import multiprocessing as mp
-
-        with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-            futures = [pool.submit(_episode_task, policies[n], s, env_kwargs) for n, s in tasks]
-            errors = [f.result() for f in futures]
+    errors = play_episodes([(policies[n], s, env_kwargs) for n, s in tasks], workers=workers)
     out: dict[str, list[int]] = {name: [] for name in policies}
     for (name, _), e in zip(tasks, errors, strict=True):
         out[name].append(e)
     return out
 
 
+def play_episodes(tasks: Sequence[tuple[Any, int, Mapping[str, Any] | None]], workers: int = 1) -> list[int]:
+    """The errors of each ``(policy, seed, env_kwargs)`` episode, in order.
+
+    Each distinct ``env_kwargs`` builds one GateTuning-v0 per process; ``workers > 1`` plays the
+    episodes in that many processes (the policies must pickle), with the same result as one.
+    """
+    workers = check_int("workers", workers, 1)
+    if workers == 1:
+        envs: dict[str, gym.Env] = {}
+        try:
+            return [_episode_on(envs, policy, seed, kwargs) for policy, seed, kwargs in tasks]
+        finally:
+            for env in envs.values():
+                env.close()
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        futures = [pool.submit(_episode_task, policy, seed, kwargs) for policy, seed, kwargs in tasks]
+        return [f.result() for f in futures]
+
+
+#: Envs of distinct kwargs kept per process by :func:`play_episodes`.
+_MAX_CACHED_ENVS = 4
 #: The env of each kwargs in a worker process of :func:`evaluate` (built once per process).
 _WORKER_ENVS: dict[str, gym.Env] = {}
 
 
 def _episode_task(policy: Any, seed: int, env_kwargs: Mapping[str, Any] | None) -> int:
     """The errors of one episode in a worker process, on the process's env of those kwargs."""
+    return _episode_on(_WORKER_ENVS, policy, seed, env_kwargs)
+
+
+def _episode_on(
+    envs: dict[str, gym.Env], policy: Any, seed: int, env_kwargs: Mapping[str, Any] | None
+) -> int:
+    """The errors of one episode on the env of ``envs`` built with ``env_kwargs`` (built once)."""
     key = json.dumps(dict(env_kwargs or {}), sort_keys=True, default=str)
-    if key not in _WORKER_ENVS:
-        _WORKER_ENVS[key] = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
-    return int(episode_errors(_WORKER_ENVS[key], policy, seed)["errors"])
+    if key not in envs:
+        if len(envs) >= _MAX_CACHED_ENVS:  # the oldest goes (tasks come grouped by kwargs)
+            envs.pop(next(iter(envs))).close()
+        envs[key] = gym.make("GateTuning-v0", **dict(env_kwargs or {}))
+    return int(episode_errors(envs[key], policy, seed)["errors"])
 
 
 def paired(a: Sequence[float], b: Sequence[float]) -> dict[str, float]:

@@ -9,6 +9,15 @@ tracker has. It is a greedy (receding-horizon) search, not the optimal adaptive 
 bounds the attainable gain only approximately; but a learnt policy that sees only tracker
 diagnostics is not expected to do better than it.
 
+With ``resample_future=True`` the copies play *another* future: before its lookahead every copy's
+base-env generator is reseeded (the same fresh seed for all candidates of a step, so they are
+compared on one common random future). The choice then knows the whole present — particles,
+tracks, the true sensor — but not the detections to come; what this oracle gains over the best
+fixed setting is what knowing the present is worth, and the difference to the clairvoyant one is
+what foresight of the actual noise and clutter is worth. (The drift's schedule is drawn ahead in
+blocks, so a copy still sees the true sensor of the next frames: the drift is slow, a change
+falls in a 20-frame lookahead about once in ten.)
+
 Cost: ``len(candidates) · horizon`` extra steps plus one deep copy per candidate and step (with
 the 18 default candidates and ``horizon = 2``, ≈6 minutes per 1,000-frame belt episode on one
 core).
@@ -19,13 +28,12 @@ from __future__ import annotations
 import copy
 import itertools
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tuning.knobs import knob_ranges
-from agents.tuning.policy import FixedPolicy
+from agents.tuning.policy import SettingChooser
 from track_envs.arguments import check_int
 
 #: The default candidate settings: 3 gate probabilities × second chance off / default × 3 scales,
@@ -37,63 +45,58 @@ ORACLE_GRID: dict[str, tuple[float, ...]] = {
 }
 
 
-class LookaheadOracle:
+class LookaheadOracle(SettingChooser):
     """Greedy lookahead over candidate settings on copies of a bound GateTuning-v0 (module doc).
 
     Args:
         candidates: Knob settings to choose from (default: every combination of
             :data:`ORACLE_GRID`); knobs a setting omits keep their initial values.
         horizon: Steps each candidate is played ahead (≥ 1).
+        resample_future: Play the copies on a fresh random future (module docstring).
+        seed: Seed of the fresh futures (with ``resample_future``).
 
-    Call :meth:`bind` with the (unwrapped) environment being played before the first
-    :meth:`predict`; :func:`agents.tuning.evaluate.evaluate` does so.
+    Call :meth:`bind` with the environment being played before the first :meth:`predict`;
+    :func:`agents.tuning.evaluate.evaluate` does so.
     """
 
-    needs_env = True
-
-    def __init__(self, candidates: Sequence[Mapping[str, float]] | None = None, horizon: int = 2):
+    def __init__(
+        self,
+        candidates: Sequence[Mapping[str, float]] | None = None,
+        horizon: int = 2,
+        resample_future: bool = False,
+        seed: int = 0,
+    ):
         if candidates is None:
             candidates = [
                 dict(zip(ORACLE_GRID, v, strict=True)) for v in itertools.product(*ORACLE_GRID.values())
             ]
-        self.candidates = [dict(c) for c in candidates]
-        if not self.candidates:
-            raise ValueError("the oracle needs at least one candidate setting")
+        super().__init__(candidates)
         self.horizon = check_int("horizon", horizon, 1)
-        self._env: Any = None
-        self._actions: list[NDArray[np.float32]] = []
-        self.choices: list[int] = []
+        self.resample_future = bool(resample_future)
+        self.seed = check_int("seed", seed, 0)
+        self._futures = np.random.default_rng(self.seed)
 
-    def bind(self, env: Any) -> LookaheadOracle:
-        """Play against ``env`` (a :class:`~agents.tuning.env.GateTuningEnv`); returns self."""
-        env = getattr(env, "unwrapped", env)
-        initial = {k.name: k.value(float(a)) for k, a in zip(env.knobs, env.initial_action, strict=True)}
-        ranges = knob_ranges(env.knobs)
-        actions = [FixedPolicy(c, defaults=initial, ranges=ranges).action for c in self.candidates]
-        self._env, self._actions, self.choices = env, actions, []
-        return self
+    @property
+    def candidates(self) -> list[dict[str, float]]:
+        """The candidate settings."""
+        return self.settings
 
-    def predict(
-        self,
-        observation: NDArray[np.floating],
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[NDArray[np.float32], None]:
-        """The candidate whose ``horizon``-step lookahead from the bound env's state scores best.
+    def bind(self, env: Any) -> Self:
+        """Play against ``env``, with the fresh futures' generator restarted; returns self."""
+        self._futures = np.random.default_rng(self.seed)
+        return super().bind(env)
 
-        Raises:
-            RuntimeError: before :meth:`bind`.
-        """
-        if self._env is None:
-            raise RuntimeError("LookaheadOracle.predict before bind(env): bind it to the env it plays")
-        returns = [self._lookahead(a) for a in self._actions]
-        best = int(np.argmax(returns))  # ties: the first candidate
-        self.choices.append(best)
-        return self._actions[best].copy(), None
+    def choose(self, env: Any) -> int:
+        """The candidate whose ``horizon``-step lookahead from ``env``'s state scores best (ties:
+        the first)."""
+        future = int(self._futures.integers(2**63 - 1)) if self.resample_future else None
+        returns = [self._lookahead(a, future) for a in self._actions]
+        return int(np.argmax(returns))
 
-    def _lookahead(self, action: NDArray[np.float32]) -> float:
+    def _lookahead(self, action: NDArray[np.float32], future: int | None) -> float:
         twin = copy.deepcopy(self._env)
+        if future is not None:
+            reseed_in_place(twin.base.unwrapped.np_random, future)
         total = 0.0
         for _ in range(self.horizon):
             _, reward, terminated, truncated, _ = twin.step(action)
@@ -101,3 +104,10 @@ class LookaheadOracle:
             if terminated or truncated:
                 break
         return total
+
+
+def reseed_in_place(generator: np.random.Generator, seed: int) -> None:
+    """Give ``generator`` the state of a fresh bit generator of its kind seeded with ``seed``, in
+    place (so every holder of the object — the env, its world, its sensor — draws the new stream)."""
+    bit_generator = generator.bit_generator
+    bit_generator.state = type(bit_generator)(seed).state

@@ -11,15 +11,15 @@ rebuilds the same function in numpy, so acting needs neither torch nor stable-ba
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tuning.knobs import DEFAULT_RANGES, make_knobs
+from agents.tuning.knobs import DEFAULT_RANGES, knob_ranges, make_knobs
 from predictors.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
 
 #: Model-file kind of an exported gate-tuning policy.
@@ -143,6 +143,60 @@ class FixedPolicy:
         """The constant action (batched like ``observation``)."""
         obs = np.asarray(observation)
         return (np.broadcast_to(self.action, (*obs.shape[:-1], len(self.action))).copy(), None)
+
+
+class SettingChooser:
+    """A reference policy that, bound to the env it plays, picks one of several fixed settings at
+    every step (:meth:`choose`, given the bound env): the lookahead oracle and the
+    sensor-informed reference. ``choices`` records the picks of the episode.
+
+    Args:
+        settings: Knob settings to choose from; knobs a setting omits keep the env's initial values.
+
+    Call :meth:`bind` with the env being played before the first :meth:`predict`;
+    :func:`agents.tuning.evaluate.evaluate` does so.
+    """
+
+    needs_env = True
+
+    def __init__(self, settings: Sequence[Mapping[str, float]]):
+        self.settings = [dict(s) for s in settings]
+        if not self.settings:
+            raise ValueError(f"{type(self).__name__} needs at least one setting to choose from")
+        self._env: Any = None
+        self._actions: list[NDArray[np.float32]] = []
+        self.choices: list[int] = []
+
+    def bind(self, env: Any) -> Self:
+        """Play against ``env`` (a :class:`~agents.tuning.env.GateTuningEnv`); returns self."""
+        env = getattr(env, "unwrapped", env)
+        initial = {k.name: k.value(float(a)) for k, a in zip(env.knobs, env.initial_action, strict=True)}
+        ranges = knob_ranges(env.knobs)
+        actions = [FixedPolicy(c, defaults=initial, ranges=ranges).action for c in self.settings]
+        self._env, self._actions, self.choices = env, actions, []
+        return self
+
+    def choose(self, env: Any) -> int:
+        """Index of the setting to play next on the bound ``env``."""
+        raise NotImplementedError
+
+    def predict(
+        self,
+        observation: NDArray[np.floating],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.float32], None]:
+        """The action of the setting :meth:`choose` picks.
+
+        Raises:
+            RuntimeError: before :meth:`bind`.
+        """
+        if self._env is None:
+            raise RuntimeError(f"{type(self).__name__}.predict before bind(env): bind it to the env it plays")
+        best = self.choose(self._env)
+        self.choices.append(best)
+        return self._actions[best].copy(), None
 
 
 def export_policy(

@@ -11,7 +11,7 @@ import pytest
 import agents.tuning  # noqa: F401
 from agents.tuning import FixedPolicy
 from agents.tuning.evaluate import episode_errors, evaluate
-from agents.tuning.oracle import ORACLE_GRID, LookaheadOracle
+from agents.tuning.oracle import ORACLE_GRID, LookaheadOracle, reseed_in_place
 
 SHORT = {"frames_per_step": 3, "episode_steps": 4}
 SEED = 7
@@ -56,9 +56,43 @@ def test_each_choice_has_the_best_one_step_reward_among_the_candidates():
     assert len(oracle.choices) == 6
 
 
+def test_a_resampled_future_changes_the_copies_not_the_played_episode():
+    setting = {"p_gate": 0.99, "recovery_inflation": 1.0, "noise_scale": 4.0}
+    env = _env()
+    alone = episode_errors(env, LookaheadOracle([setting], horizon=1, resample_future=True), SEED)
+    fixed = episode_errors(env, FixedPolicy(setting), SEED)
+    assert alone["errors"] == fixed["errors"] and alone["knobs"] == fixed["knobs"]
+
+
+def test_reseeding_a_copy_draws_other_detections_and_keeps_the_present():
+    env = gym.make("GateTuning-v0", frames_per_step=10, episode_steps=6)
+    env.reset(seed=SEED)
+    env.step(np.zeros(3, np.float32))
+    same, other = copy.deepcopy(env.unwrapped), copy.deepcopy(env.unwrapped)
+    reseed_in_place(other.base.unwrapped.np_random, 123)
+    assert other.base.unwrapped.world.digest() == env.unwrapped.base.unwrapped.world.digest()  # same present
+    for twin in (env.unwrapped, same, other):
+        twin.step(np.zeros(3, np.float32))
+    dets = [t._obs["detections"][t._obs["mask"] == 1] for t in (env.unwrapped, same, other)]
+    np.testing.assert_array_equal(dets[0], dets[1])
+    assert dets[0].shape != dets[2].shape or not np.array_equal(dets[0], dets[2])
+
+
+def test_a_resampling_oracle_is_deterministic_per_seed():
+    candidates = [{"p_gate": 0.7, "noise_scale": 32.0}, {"p_gate": 0.999, "noise_scale": 1.0}]
+    env = gym.make("GateTuning-v0", frames_per_step=5, episode_steps=5)
+    runs = []
+    for _ in range(2):
+        oracle = LookaheadOracle(candidates, horizon=1, resample_future=True, seed=3)
+        runs.append((episode_errors(env, oracle, SEED)["errors"], list(oracle.choices)))
+    assert runs[0] == runs[1]
+
+
 def test_bad_oracle_arguments_are_named():
     with pytest.raises(ValueError, match="horizon"):
         LookaheadOracle(horizon=0)
+    with pytest.raises(ValueError, match="seed"):
+        LookaheadOracle(resample_future=True, seed=-1)
     with pytest.raises(ValueError, match="at least one"):
         LookaheadOracle([])
     with pytest.raises(ValueError, match="unknown knob \\['gate'\\]; the knobs are"):
