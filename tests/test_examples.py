@@ -69,3 +69,27 @@ def test_track_any_env_runs_every_family(tmp_path, capsys):
     belt = example.main(["--env", "BeltReplay-v0", "--predictor", "kf-cv", "--steps", "40"])
     assert belt["e2"] < 0.05
     assert "SineTarget-v0 + pf" in capsys.readouterr().out
+
+
+def test_gate_tuning_trace_plays_the_policies_on_one_episode(tmp_path, capsys):
+    import gymnasium as gym
+
+    from agents.tuning import FixedPolicy
+    from agents.tuning.evaluate import episode_errors
+    from agents.tuning.informed import SensorTable
+
+    states = {"noise_std": (1e-4, 1e-3), "p_detect": (0.9,), "clutter_rate": (0.0,)}
+    table = SensorTable(states, [{"p_gate": 0.9}], np.ones((2, 1, 1, 1)), (0,), 1).save(tmp_path / "t.json")
+    png = tmp_path / "trace.png"
+    out = load("gate_tuning_trace").main(["--steps", "4", "--table", str(table), "--png", str(png)])
+    assert set(out["errors"]) == {"PPO", "best fixed", "sensor-informed"}
+    assert png.stat().st_size > 1000
+    fixed = out["traces"]["best fixed"]
+    assert len(fixed["errors"]) == 4 and np.all(np.diff(fixed["errors"]) >= 0)
+    np.testing.assert_allclose(out["traces"]["sensor-informed"]["p_gate"], 0.9, rtol=1e-5)
+    env = gym.make("GateTuning-v0", episode_steps=4)
+    expected = episode_errors(
+        env, FixedPolicy({"p_gate": 0.7, "recovery_inflation": 1.0, "noise_scale": 32.0}), 10**9
+    )
+    assert out["errors"]["best fixed"] == expected["errors"]
+    assert "association errors" in capsys.readouterr().out
