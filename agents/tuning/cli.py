@@ -134,7 +134,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from agents.tuning.oracle import LookaheadOracle
 
         policies["oracle"] = LookaheadOracle(
-            horizon=args.oracle_horizon, resample_future=args.oracle_resample
+            horizon=args.oracle_horizon,
+            resample_future=args.oracle_resample > 0,
+            futures=max(args.oracle_resample, 1),
         )
     if args.informed:
         if args.no_drift:
@@ -242,8 +244,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--oracle-horizon", type=int, default=2, help="the oracle's lookahead in steps")
     p.add_argument(
         "--oracle-resample",
-        action="store_true",
-        help="the oracle looks ahead on a fresh random future (knows the present, not the noise to come)",
+        type=int,
+        nargs="?",
+        const=1,
+        default=0,
+        metavar="FUTURES",
+        help="the oracle looks ahead on FUTURES fresh random futures (default 1), averaged: it knows "
+        "the present, not the noise to come",
     )
     p.add_argument(
         "--informed",

@@ -54,6 +54,8 @@ class LookaheadOracle(SettingChooser):
         horizon: Steps each candidate is played ahead (≥ 1).
         resample_future: Play the copies on a fresh random future (module docstring).
         seed: Seed of the fresh futures (with ``resample_future``).
+        futures: Fresh futures each candidate is played on per step, its return averaged (with
+            ``resample_future``; ≥ 1): more sharpen the choice, at that many times the cost.
 
     Call :meth:`bind` with the environment being played before the first :meth:`predict`;
     :func:`agents.tuning.evaluate.evaluate` does so.
@@ -65,6 +67,7 @@ class LookaheadOracle(SettingChooser):
         horizon: int = 2,
         resample_future: bool = False,
         seed: int = 0,
+        futures: int = 1,
     ):
         if candidates is None:
             candidates = [
@@ -74,6 +77,7 @@ class LookaheadOracle(SettingChooser):
         self.horizon = check_int("horizon", horizon, 1)
         self.resample_future = bool(resample_future)
         self.seed = check_int("seed", seed, 0)
+        self.futures = check_int("futures", futures, 1)
         self._futures = np.random.default_rng(self.seed)
 
     @property
@@ -89,8 +93,10 @@ class LookaheadOracle(SettingChooser):
     def choose(self, env: Any) -> int:
         """The candidate whose ``horizon``-step lookahead from ``env``'s state scores best (ties:
         the first)."""
-        future = int(self._futures.integers(2**63 - 1)) if self.resample_future else None
-        returns = [self._lookahead(a, future) for a in self._actions]
+        if not self.resample_future:
+            return int(np.argmax([self._lookahead(a, None) for a in self._actions]))
+        seeds = [int(s) for s in self._futures.integers(2**63 - 1, size=self.futures)]
+        returns = [np.mean([self._lookahead(a, s) for s in seeds]) for a in self._actions]
         return int(np.argmax(returns))
 
     def _lookahead(self, action: NDArray[np.float32], future: int | None) -> float:

@@ -78,6 +78,27 @@ def test_reseeding_a_copy_draws_other_detections_and_keeps_the_present():
     assert dets[0].shape != dets[2].shape or not np.array_equal(dets[0], dets[2])
 
 
+def test_several_futures_average_the_candidates_returns():
+    candidates = [{"p_gate": 0.7, "noise_scale": 32.0}, {"p_gate": 0.999, "noise_scale": 1.0}]
+    env = gym.make("GateTuning-v0", frames_per_step=5, episode_steps=3)
+    oracle = LookaheadOracle(candidates, horizon=1, resample_future=True, seed=4, futures=3).bind(env)
+    obs, _ = env.reset(seed=SEED)
+    draws = np.random.default_rng(4)
+    for _ in range(3):
+        seeds = draws.integers(2**63 - 1, size=3)
+        means = []
+        for a in oracle._actions:
+            rewards = []
+            for s in seeds:
+                twin = copy.deepcopy(env.unwrapped)
+                reseed_in_place(twin.base.unwrapped.np_random, int(s))
+                rewards.append(twin.step(a)[1])
+            means.append(np.mean(rewards))
+        action, _ = oracle.predict(obs)
+        assert oracle.choices[-1] == int(np.argmax(means))
+        obs, *_ = env.step(action)
+
+
 def test_a_resampling_oracle_is_deterministic_per_seed():
     candidates = [{"p_gate": 0.7, "noise_scale": 32.0}, {"p_gate": 0.999, "noise_scale": 1.0}]
     env = gym.make("GateTuning-v0", frames_per_step=5, episode_steps=5)
@@ -93,6 +114,8 @@ def test_bad_oracle_arguments_are_named():
         LookaheadOracle(horizon=0)
     with pytest.raises(ValueError, match="seed"):
         LookaheadOracle(resample_future=True, seed=-1)
+    with pytest.raises(ValueError, match="futures"):
+        LookaheadOracle(resample_future=True, futures=0)
     with pytest.raises(ValueError, match="at least one"):
         LookaheadOracle([])
     with pytest.raises(ValueError, match="unknown knob \\['gate'\\]; the knobs are"):
