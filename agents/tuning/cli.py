@@ -10,6 +10,7 @@ examples::
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --out results/gate_eval.json
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --no-drift
     track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle
+    track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle --oracle-resample 2
     track-tune sensor-grid --seeds 0:3 --steps 50 --workers 2 --out results/sensor_table.json
     track-tune evaluate --seeds 20 --best-fixed results/gate_grid --informed results/sensor_table.json
 """

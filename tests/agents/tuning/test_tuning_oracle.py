@@ -143,3 +143,12 @@ def test_evaluate_cli_plays_the_oracle(tmp_path, capsys):
     import json
 
     assert "oracle" in json.loads(out.read_text())["errors"]
+
+
+def test_oracle_resample_flag_takes_an_optional_number_of_futures():
+    from agents.tuning.cli import build_parser
+
+    parse = build_parser().parse_args
+    assert parse(["evaluate", "--oracle"]).oracle_resample == 0
+    assert parse(["evaluate", "--oracle", "--oracle-resample"]).oracle_resample == 1
+    assert parse(["evaluate", "--oracle", "--oracle-resample", "3"]).oracle_resample == 3
