@@ -20,6 +20,7 @@ import numpy as np
 
 import agents.tuning
 from agents.tuning import FixedPolicy
+from agents.tuning.evaluate import episode_errors
 from agents.tuning.knobs import knob_ranges
 
 #: The best fixed setting of the 168-setting grid on training seeds 0-4 (docs/gate_tuning.md).
@@ -29,22 +30,11 @@ BEST_FIXED = {"p_gate": 0.7, "recovery_inflation": 1.0, "noise_scale": 32.0}
 def trace(env: gym.Env, policy: Any, seed: int) -> dict[str, np.ndarray]:
     """One episode of ``policy`` from ``seed``: per step the true sensor of the window's last
     frame, the knobs set and the errors so far."""
-    if getattr(policy, "needs_env", False):
-        policy.bind(env)
-    obs, info = env.reset(seed=seed)
-    rows: dict[str, list[float]] = {k: [] for k in ("noise_std", "p_detect", "clutter_rate")}
-    rows |= {"p_gate": [], "noise_scale": [], "errors": []}
-    done = False
-    while not done:
-        action, _ = policy.predict(obs, deterministic=True)
-        obs, _, terminated, truncated, info = env.step(action)
-        for k in ("noise_std", "p_detect", "clutter_rate"):
-            rows[k].append(float(info["sensor"][k]))
-        rows["p_gate"].append(info["knobs"]["p_gate"])
-        rows["noise_scale"].append(info["knobs"]["noise_scale"])
-        rows["errors"].append(info["association_errors"])
-        done = terminated or truncated
-    return {k: np.asarray(v) for k, v in rows.items()}
+    episode = episode_errors(env, policy, seed)
+    rows = {k: np.array([s[k] for s in episode["sensor"]]) for k in ("noise_std", "p_detect", "clutter_rate")}
+    rows |= {k: np.array([knobs[k] for knobs in episode["knobs"]]) for k in ("p_gate", "noise_scale")}
+    rows["errors"] = np.asarray(episode["errors_so_far"])
+    return rows
 
 
 def plot(traces: dict[str, dict[str, np.ndarray]], path: Path, seed: int) -> None:

@@ -38,10 +38,12 @@ def held_out_seeds(n: int) -> list[int]:
 
 
 def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
-    """One episode of ``policy`` on ``env`` from ``seed``: its errors, return and knob trace.
+    """One episode of ``policy`` on ``env`` from ``seed``: its errors and return, and per step
+    the knobs set (``knobs``), the errors so far (``errors_so_far``) and the true sensor of the
+    window's last frame (``sensor``; empty without drift).
 
-    A policy with ``needs_env`` (:class:`~agents.tuning.oracle.LookaheadOracle`) is bound to
-    the env first.
+    A policy with ``needs_env`` (:class:`~agents.tuning.policy.SettingChooser`) is bound to the
+    env first.
     """
     env_knobs = tuple(env.unwrapped.knobs)  # type: ignore[attr-defined]
     policy_knobs = getattr(policy, "knobs", None)
@@ -54,15 +56,24 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
     if getattr(policy, "needs_env", False):
         policy.bind(env)
     obs, info = env.reset(seed=seed)
-    total, knobs = 0.0, []
+    total, knobs, errors, sensor = 0.0, [], [], []
     while True:
         action, _ = policy.predict(obs, deterministic=True)
         obs, reward, terminated, truncated, info = env.step(action)
         total += float(reward)
         knobs.append(info["knobs"])
+        errors.append(int(info["association_errors"]))
+        if "sensor" in info:
+            sensor.append(info["sensor"])
         if terminated or truncated:
             break
-    return {"errors": int(info["association_errors"]), "return": total, "knobs": knobs}
+    return {
+        "errors": errors[-1],
+        "return": total,
+        "knobs": knobs,
+        "errors_so_far": errors,
+        "sensor": sensor,
+    }
 
 
 def evaluate(

@@ -37,7 +37,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tuning.knobs import knob_ranges, make_knobs
 from agents.tuning.policy import FixedPolicy, SettingChooser
 from track_envs.drift import DRIFT_PRESETS, SensorValues
 
@@ -212,8 +211,7 @@ def sensor_table(
         raise ValueError("env_kwargs must not set 'drift': the sensor grid holds the sensor at each state")
     axes = {k: tuple(float(v) for v in (states or default_states())[k]) for k in SENSOR_AXES}
     settings = grid_settings(grid or INFORMED_GRID)
-    ranges = knob_ranges(make_knobs(kwargs.get("ranges")))
-    policies = [FixedPolicy(s, ranges=ranges) for s in settings]
+    policies = [FixedPolicy(s, ranges=kwargs.get("ranges")) for s in settings]
     cells = list(itertools.product(*axes.values()))
     tasks = [
         (policy, int(seed), {**kwargs, "episode_steps": episode_steps, "drift": constant_drift(*x)})

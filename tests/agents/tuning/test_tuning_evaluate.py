@@ -91,3 +91,19 @@ def test_a_policy_with_other_knob_ranges_is_refused():
     policy = FixedPolicy(ranges={"noise_scale": (0.5, 8.0)})
     with pytest.raises(ValueError, match="differ from the env's"):
         episode_errors(env, policy, 0)
+
+
+def test_episode_errors_traces_the_errors_and_the_true_sensor():
+    import gymnasium as gym
+
+    from agents.tuning import FixedPolicy
+    from agents.tuning.evaluate import episode_errors
+
+    env = gym.make("GateTuning-v0", frames_per_step=3, episode_steps=4)
+    out = episode_errors(env, FixedPolicy({"p_gate": 0.9}), 3)
+    assert len(out["errors_so_far"]) == len(out["knobs"]) == len(out["sensor"]) == 4
+    assert out["errors_so_far"][-1] == out["errors"] and out["errors"] == -out["return"]
+    assert all(b >= a for a, b in zip(out["errors_so_far"], out["errors_so_far"][1:]))
+    assert set(out["sensor"][0]) == {"noise_std", "p_detect", "clutter_rate"}
+    quiet = gym.make("GateTuning-v0", frames_per_step=3, episode_steps=2, drift=None)
+    assert episode_errors(quiet, FixedPolicy(), 3)["sensor"] == []
