@@ -122,12 +122,14 @@ class SensorTable:
         missing = [k for k in SENSOR_AXES if k not in sensor]
         if missing:
             raise ValueError(f"the sensor values lack {missing}; got {sorted(sensor)}")
-        point = [math.log(max(float(sensor["noise_std"]), 1e-300)), float(sensor["p_detect"])]
-        point.append(float(sensor["clutter_rate"]))
-        out = np.asarray(self.errors, float)
-        for axis, x in zip(self._axes(), point, strict=True):  # contract one axis at a time
-            out = _interpolate_first_axis(out, axis, x)
-        return out
+        from scipy.interpolate import RegularGridInterpolator
+
+        axes = self._axes()
+        x = [math.log(max(float(sensor["noise_std"]), 1e-300)), float(sensor["p_detect"])]
+        x.append(float(sensor["clutter_rate"]))
+        clamped = [min(max(v, float(a[0])), float(a[-1])) for v, a in zip(x, axes, strict=True)]
+        table = RegularGridInterpolator(axes, np.asarray(self.errors, float), method="linear")
+        return np.asarray(table([clamped])[0], float)
 
     def best(self, sensor: Mapping[str, float]) -> int:
         """Index of the setting with the fewest expected errors at ``sensor`` (ties: the first)."""
@@ -172,16 +174,6 @@ class SensorTable:
             )
         except (KeyError, TypeError, AttributeError) as exc:
             raise ValueError(f"{path}: malformed sensor table ({exc!r})") from None
-
-
-def _interpolate_first_axis(values: NDArray[np.float64], axis: NDArray[np.float64], x: float) -> Any:
-    """Linear interpolation of ``values`` along its first axis (grid ``axis``) at ``x``, clamped."""
-    if len(axis) == 1:
-        return values[0]
-    x = min(max(x, float(axis[0])), float(axis[-1]))
-    i = int(np.clip(np.searchsorted(axis, x, side="right") - 1, 0, len(axis) - 2))
-    w = (x - axis[i]) / (axis[i + 1] - axis[i])
-    return (1.0 - w) * values[i] + w * values[i + 1]
 
 
 def sensor_table(
