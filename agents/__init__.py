@@ -50,11 +50,11 @@ def make_agent(name: str, **kwargs: Any) -> Any:
 
 def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
-    from agents.gnn import GnnAgent
+    from agents.gnn.agent import GnnAgent
     from agents.one_step import OneStepAgent
-    from agents.particle import ParticleFilterAgent
-    from agents.pose import PoseBaselineAgent
-    from agents.pose_smc import PoseSmcAgent
+    from agents.particle.agent import ParticleFilterAgent
+    from agents.pose.baseline import PoseBaselineAgent
+    from agents.pose.smc import PoseSmcAgent
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)

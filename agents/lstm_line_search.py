@@ -34,8 +34,8 @@ def tracker_e_mean(
     import gymnasium as gym
 
     import track_envs  # noqa: F401
-    from agents.gnn import GnnAgent
-    from predictors.lstm import LSTMPredictor
+    from agents.gnn.agent import GnnAgent
+    from predictors.belt_lstm.predictor import LSTMPredictor
     from track_envs.wrappers import TrackingMetrics
 
     values = []
@@ -65,7 +65,7 @@ def line_search(
     factors: Sequence[float] = FACTORS,
 ) -> dict[str, Any]:
     """Pick ``calibration.cov_scale`` of the ``lstm`` model file at ``model_path`` (rewritten)."""
-    from predictors.model_file import load_model, save_model
+    from predictors.training.model_file import load_model, save_model
 
     model = load_model(model_path, kind="lstm")
     calibration = dict(model.meta.get("calibration", {}))
@@ -100,7 +100,7 @@ def lstm_tuner(model_path: Path, args: argparse.Namespace) -> dict[str, Any]:
     largest of ``--noise-std`` (at least 0.1 mm: the line search needs association errors to
     separate the candidates).
     """
-    from predictors.training.belt import check_noise_std
+    from predictors.belt_lstm.training import check_noise_std
     from predictors.training.cli import parse_kwargs
 
     noise = max(check_noise_std(args.noise_std)[1], 1e-4)

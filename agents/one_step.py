@@ -14,7 +14,7 @@ every ``act`` for agents that declare ``needs_truth = True``. Per frame:
 2. tracks whose particle has a detection are scored against it and updated with it; tracks whose
    particle is visible but undetected coast (fed their prediction, not scored); the others end;
 3. particles detected for the first time start tracks (Kalman filters from the mean first
-   velocity of the tracks seen so far, as :class:`agents.gnn.GnnAgent`'s learnt flow prior).
+   velocity of the tracks seen so far, as :class:`agents.gnn.agent.GnnAgent`'s learnt flow prior).
 
 The report is the true association (e1 = e2 = 0; when more tracks live than the report has
 rows, the first ``max_tracks`` are reported and every track is still scored). Its scores, from
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.gnn import _build_predictor
+from agents.gnn.agent import _build_predictor
 from predictors.base import accepts_velocity_prior, reset_predictor
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.prediction import Reliability

@@ -6,7 +6,7 @@
    work), against the reference of the same network as plain torch eager ``nn.LSTMCell`` layers
    and a linear head on one thread, timed in this run.
 2. **mc-lstm, T = 250 samples**, predict + update for 150 tracks: the grouped inference (each
-   distinct dropout sample once, :mod:`predictors.mc_dropout`) against the plain computation of
+   distinct dropout sample once, :mod:`predictors.belt_lstm.mc_dropout`) against the plain computation of
    all ``T`` masked passes in numpy, and against fully batched torch (``150 × 250`` rows through
    the same cells), all timed in this run.
 3. **Whole loop**: BeltSorter-v0 with ≈150 particles in view, gnn with ``nll-lstm``, and
@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import track_envs  # noqa: F401
 from agents import make_agent
 from predictors import make_predictor
-from predictors.lstm import LSTMPredictor
+from predictors.belt_lstm.predictor import LSTMPredictor
 from track_envs.envs.belt_physics import BeltParams
 from track_envs.wrappers import TrackingMetrics
 

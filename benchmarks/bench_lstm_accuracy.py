@@ -25,11 +25,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from predictors import make_predictor
-from predictors.kalman import KalmanPredictor
-from predictors.training.belt import noisy_tracks
+from predictors.belt_lstm.model_stats import spec_of
+from predictors.belt_lstm.training import noisy_tracks
+from predictors.kalman.predictor import KalmanPredictor
 from predictors.training.data import TrackSet, tracks_from_env
 from predictors.training.evaluate import one_step_predictions
-from predictors.training.model_stats import spec_of
 
 NOISE_LEVELS = (0.0, 1e-4, 3e-4, 5e-4)
 Q_GRID = {"cv": np.logspace(-5, 2, 15), "ca": np.logspace(-3, 4, 15)}

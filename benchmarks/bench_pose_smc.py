@@ -10,7 +10,7 @@ measured ones: the default ``share_windows=True`` (the same result: the LSTM run
 distinct queue of a filter, since resampled copies and particles that selected the observation
 history share their queue; dropout and the Gaussian draw stay per particle), and
 ``recurrence="carried"`` (one LSTM step per particle and keypoint per frame; its semantics
-differ, see :mod:`agents.pose_smc`). The table gives the active filters and the LSTM sequences
+differ, see :mod:`agents.pose.smc`). The table gives the active filters and the LSTM sequences
 per frame and the LSTM arithmetic: ``4 · 64 · (64 + 3 + 1)`` multiply-adds per sequence and step.
 
 Usage::
@@ -32,7 +32,7 @@ import numpy as np
 import torch
 
 import track_envs  # noqa: F401
-from agents.pose_smc import PoseSmcAgent
+from agents.pose.smc import PoseSmcAgent
 from track_envs.report import empty_report
 
 

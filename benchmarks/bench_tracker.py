@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from predictors.kalman import cv_model
+from predictors.kalman.predictor import cv_model
 from track_envs.envs.belt_physics import BeltParams
 from track_envs.recording import record_belt_sorter
 from track_envs.report import empty_report, pack_report

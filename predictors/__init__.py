@@ -48,7 +48,7 @@ def kf_cv(
     *, q: float | None = None, initial_velocity_std: float | None = None, initial_velocity: Any = None
 ) -> Any:
     """Constant-velocity Kalman filter (white-noise acceleration of intensity q), batched over tracks."""
-    from predictors.kalman import KalmanPredictor
+    from predictors.kalman.predictor import KalmanPredictor
 
     return KalmanPredictor(
         "cv", q=q, initial_velocity_std=initial_velocity_std, initial_velocity=initial_velocity
@@ -63,7 +63,7 @@ def kf_ca(
     initial_velocity: Any = None,
 ) -> Any:
     """Constant-acceleration Kalman filter (white-noise jerk of intensity q), batched over tracks."""
-    from predictors.kalman import KalmanPredictor
+    from predictors.kalman.predictor import KalmanPredictor
 
     return KalmanPredictor(
         "ca",
@@ -76,7 +76,7 @@ def kf_ca(
 
 def random_walk(*, q: float | None = None) -> Any:
     """Position-only random-walk Kalman filter (white-noise velocity of intensity q), batched."""
-    from predictors.kalman import KalmanPredictor
+    from predictors.kalman.predictor import KalmanPredictor
 
     return KalmanPredictor("random-walk", q=q)
 
@@ -86,7 +86,7 @@ def lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
 
     ``weights``: a model file (default: the shipped weights for ``particle_kind``).
     """
-    from predictors.lstm import LSTMPredictor
+    from predictors.belt_lstm.predictor import LSTMPredictor
 
     return LSTMPredictor("lstm", weights, particle_kind=particle_kind)
 
@@ -97,7 +97,7 @@ def nll_lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
     ``weights``: a model file (default: the shipped weights for ``particle_kind``: cylinder,
     sphere or cuboid).
     """
-    from predictors.lstm import LSTMPredictor
+    from predictors.belt_lstm.predictor import LSTMPredictor
 
     return LSTMPredictor("nll-lstm", weights, particle_kind=particle_kind)
 
@@ -107,7 +107,7 @@ def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: in
 
     ``weights``: a model file (default: the shipped weights for ``particle_kind``).
     """
-    from predictors.lstm import LSTMPredictor
+    from predictors.belt_lstm.predictor import LSTMPredictor
 
     return LSTMPredictor("mc-lstm", weights, particle_kind=particle_kind, samples=samples)
 

@@ -46,7 +46,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     Each step runs ``frames_per_step`` (K) frames of a point env (``base_env``, default
     BeltSorter-v0 with the ``"belt"`` drift of :mod:`track_envs.drift`: noise std, detection
     probability and clutter rate drift over the episode while ``sensor_spec`` stays nominal)
-    tracked by a :class:`~agents.gnn.GnnAgent`; before the K frames the action sets the
+    tracked by a :class:`~agents.gnn.agent.GnnAgent`; before the K frames the action sets the
     tracker's knobs. A policy sees only what the tracker can compute itself and must keep the
     gates right as the sensor changes under it.
 

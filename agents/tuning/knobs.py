@@ -1,6 +1,6 @@
 """The tracker's association knobs as a normalised action: ranges, log scales and checks.
 
-An action ``a ∈ [-1, 1]^K`` sets ``K`` knobs of a running :class:`~agents.gnn.GnnAgent`. Knob
+An action ``a ∈ [-1, 1]^K`` sets ``K`` knobs of a running :class:`~agents.gnn.agent.GnnAgent`. Knob
 ``k`` with range ``[low, high]`` on the scale ``u`` takes
 
 .. math::
@@ -43,7 +43,7 @@ class Knob:
     """One tracker knob with its range (module docstring).
 
     Attributes:
-        name: The :class:`~agents.gnn.GnnAgent` attribute (``p_gate``, ``recovery_inflation``,
+        name: The :class:`~agents.gnn.agent.GnnAgent` attribute (``p_gate``, ``recovery_inflation``,
             ``noise_scale``).
         low, high: Its range, ``low < high``.
     """

@@ -4,7 +4,7 @@ numpy (shipped as a model file), and fixed settings.
 A PPO ``MlpPolicy`` acts deterministically with the mean of its Gaussian: the actor MLP
 ``h_{l+1} = tanh(W_l h_l + b_l)`` over the observation, then ``μ = W_a h_L + b_a``, clipped to
 the action box. :func:`export_policy` stores those weights (and ``log_std``) in the project's
-model-file format (:mod:`predictors.model_file`, kind :data:`KIND`); :class:`TunedPolicy`
+model-file format (:mod:`predictors.training.model_file`, kind :data:`KIND`); :class:`TunedPolicy`
 rebuilds the same function in numpy, so acting needs neither torch nor stable-baselines3.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tuning.knobs import DEFAULT_RANGES, knob_ranges, make_knobs
-from predictors.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
+from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
 
 #: Model-file kind of an exported gate-tuning policy.
 KIND = "gate-tuning-ppo"

@@ -3,8 +3,8 @@
 * :mod:`predictors.training.data` — tracks from an env's truth or a recorded track file, the
   train / validation / test split by track, padding;
 * :mod:`predictors.training.loop` — the seeded Adam loop every learned model trains with;
-* :mod:`predictors.training.belt` — losses and data of the belt LSTMs;
-* :mod:`predictors.training.displacement` — the sine data, loss and metrics of the displacement
+* :mod:`predictors.belt_lstm.training` — losses and data of the belt LSTMs;
+* :mod:`predictors.displacement_lstm.training` — the sine data, loss and metrics of the displacement
   LSTM of the LSTM particle filter.
 
 torch is imported by these modules; nothing else in :mod:`predictors` needs it to run a tracker.

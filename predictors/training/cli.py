@@ -1,8 +1,8 @@
 """The ``track-train`` command: train a learned motion model on env truth, a track file or the sine.
 
 Model kinds: the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-lstm``), the displacement LSTM of the
-LSTM particle filter (``displacement-lstm``, :mod:`predictors.training.displacement`) and the
-probabilistic pose predictor of the SMC pose tracker (``pose-lstm``, :mod:`predictors.training.pose`).
+LSTM particle filter (``displacement-lstm``, :mod:`predictors.displacement_lstm.training`) and the
+probabilistic pose predictor of the SMC pose tracker (``pose-lstm``, :mod:`predictors.pose_lstm.training`).
 
 Examples::
 
@@ -18,7 +18,7 @@ Examples::
     track-train pose-lstm --env KeypointWalkers-v0 --episodes 16 --window 15 --epochs 40 --lr 1e-3 \
         --batch-size 30 --out models/pose-lstm
 
-The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.model_file`); pass it to a
+The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.training.model_file`); pass it to a
 tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
 the particle filter as ``make_agent("pf", model="lstm", model_weights="OUT")``.
 """
@@ -36,10 +36,10 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from predictors.belt_lstm_net import HEAD_OUTPUTS
-from predictors.displacement_inference import KIND as DISPLACEMENT_KIND
-from predictors.model_file import ModelFile
-from predictors.pose_lstm import KIND as POSE_KIND
+from predictors.belt_lstm.network import HEAD_OUTPUTS
+from predictors.displacement_lstm.inference import KIND as DISPLACEMENT_KIND
+from predictors.pose_lstm.predictor import KIND as POSE_KIND
+from predictors.training.model_file import ModelFile
 
 if TYPE_CHECKING:
     from predictors.training.data import TrackSet
@@ -199,8 +199,8 @@ def main(argv: Sequence[str] | None = None, *, tuners: Mapping[str, Tuner] | Non
 
 def load_data(args: argparse.Namespace) -> TrackSet:
     """The tracks named by the data arguments (``--env ...`` or ``--tracks FILE --dt DT``)."""
+    from predictors.displacement_lstm.training import sine_tracks, window_tracks
     from predictors.training.data import tracks_from_env, tracks_from_file
-    from predictors.training.displacement import sine_tracks, window_tracks
 
     if args.env:
         data = tracks_from_env(
@@ -223,10 +223,10 @@ def load_data(args: argparse.Namespace) -> TrackSet:
 
 
 def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int:
-    from predictors.model_file import save_model
-    from predictors.training.belt import to_model_file, train_belt_model
+    from predictors.belt_lstm.model_stats import model_statistics
+    from predictors.belt_lstm.training import to_model_file, train_belt_model
     from predictors.training.data import split_tracks
-    from predictors.training.model_stats import model_statistics
+    from predictors.training.model_file import save_model
 
     start = time.perf_counter()
     data = load_data(args)
@@ -272,15 +272,15 @@ def _train(args: argparse.Namespace, argv: list[str], tune: Tuner | None) -> int
 
 
 def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
-    from predictors.displacement_inference import DisplacementLSTM
-    from predictors.model_file import save_model
-    from predictors.training.belt import noisy_tracks
-    from predictors.training.data import TrackSplit, split_tracks
-    from predictors.training.displacement import (
+    from predictors.belt_lstm.training import noisy_tracks
+    from predictors.displacement_lstm.inference import DisplacementLSTM
+    from predictors.displacement_lstm.training import (
         displacement_metrics,
         to_model_file,
         train_displacement_model,
     )
+    from predictors.training.data import TrackSplit, split_tracks
+    from predictors.training.model_file import save_model
 
     start = time.perf_counter()
     data = load_data(args)
@@ -321,9 +321,14 @@ def _train_displacement(args: argparse.Namespace, argv: list[str]) -> int:
 def _train_pose(args: argparse.Namespace, argv: list[str]) -> int:
     import numpy as np
 
-    from predictors.model_file import save_model
-    from predictors.pose_lstm import SCALE_PER_HEIGHT
-    from predictors.training.pose import pose_metrics, pose_windows_from_env, to_model_file, train_pose_model
+    from predictors.pose_lstm.predictor import SCALE_PER_HEIGHT
+    from predictors.pose_lstm.training import (
+        pose_metrics,
+        pose_windows_from_env,
+        to_model_file,
+        train_pose_model,
+    )
+    from predictors.training.model_file import save_model
 
     if not args.env:
         raise ValueError(
@@ -398,7 +403,7 @@ def _train_config(args: argparse.Namespace) -> Any:
 
 
 def _grid_search(args: argparse.Namespace, split: Any, config: Any) -> tuple[float, list[dict[str, float]]]:
-    from predictors.training.model_stats import dropout_grid
+    from predictors.belt_lstm.model_stats import dropout_grid
 
     try:
         rates = [float(r) for r in args.dropout_grid.split(",") if r.strip()]
@@ -418,10 +423,16 @@ def _grid_search(args: argparse.Namespace, split: Any, config: Any) -> tuple[flo
 
 
 def _calibrate(args: argparse.Namespace, argv: list[str]) -> int:
-    from predictors.calibration import P_DES, coverage, fit_recalibration, plot_reliability, reliability
-    from predictors.model_file import save_model
+    from predictors.belt_lstm.model_stats import predictions_of
+    from predictors.training.calibration import (
+        P_DES,
+        coverage,
+        fit_recalibration,
+        plot_reliability,
+        reliability,
+    )
     from predictors.training.data import split_tracks
-    from predictors.training.model_stats import predictions_of
+    from predictors.training.model_file import save_model
 
     model = _reload(args.model_file)
     data = load_data(args)
@@ -455,7 +466,7 @@ def _calibrate(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def _reload(path: str | os.PathLike[str]) -> ModelFile:
-    from predictors.model_file import load_model
+    from predictors.training.model_file import load_model
 
     return load_model(path)
 

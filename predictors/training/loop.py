@@ -23,7 +23,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from predictors.model_file import ModelFile
+from predictors.training.model_file import ModelFile
 
 #: ``loss(model, batch, generator) -> scalar``: the data term of one (mini-)batch of tensors.
 LossFn = Callable[[nn.Module, Sequence[torch.Tensor], torch.Generator], torch.Tensor]
@@ -188,7 +188,7 @@ def fit(
 def trained_model_file(
     net: Any, *, kind: str, dim: int, normalisation: dict[str, Any], **meta: Any
 ) -> ModelFile:
-    """The :class:`~predictors.model_file.ModelFile` of a trained network ``net`` (any module with
+    """The :class:`~predictors.training.model_file.ModelFile` of a trained network ``net`` (any module with
     ``architecture()`` and ``numpy_weights()``): its weights, its input normalisation, the
     package versions it was trained with, and ``meta``."""
     import numpy as np

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
 
-from agents import _association_kernels
-from agents.association import (
+from agents.tracking import _kernels as _association_kernels
+from agents.tracking.assign import (
     assign_greedy,
     assign_hungarian,
     associate_greedy,

@@ -11,10 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import track_envs  # noqa: F401
-from agents import _gnn_kernels, make_agent
-from agents.gnn import YOUNG_STREAK
+from agents import make_agent
+from agents.gnn import _kernels as _gnn_kernels
+from agents.gnn.agent import YOUNG_STREAK
 from predictors import available_predictors
-from predictors.kalman import KalmanPredictor
+from predictors.kalman.predictor import KalmanPredictor
 from track_envs.metrics.belt import AssociationErrors
 from track_envs.registry import UnknownArgumentError
 from track_envs.types import Gaussian, SensorSpec
@@ -299,7 +300,7 @@ def test_any_protocol_predictor_works_with_the_compiled_frame():
 
 
 def test_flow_statistics_equal_numpy_median_and_mad() -> None:
-    from agents._gnn_kernels import median_and_mad_variance
+    from agents.gnn._kernels import median_and_mad_variance
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 7, 40):
@@ -438,7 +439,7 @@ def points(pts):
     ("offset", "cap_motion", "recovered"), [(0.010, 3.0, True), (0.018, 3.0, False), (0.018, 4.0, True)]
 )
 def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_motion, recovered):
-    from agents.association import chi2_gate
+    from agents.tracking.assign import chi2_gate
 
     # a track at 1 m/s (5 mm per frame) coasts two frames, then its particle is seen `offset` ahead
     # of the prediction: outside the χ² gate, inside the 25x inflated one; the cap is
@@ -466,8 +467,8 @@ def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_mo
 
 
 def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
-    from agents import _association_kernels
-    from predictors import _kalman_kernels
+    from agents.tracking import _kernels as _association_kernels
+    from predictors.kalman import _kernels as _kalman_kernels
 
     agent = make_agent("gnn", predictor="kf-ca")
     agent.reset(SPEC)

@@ -10,7 +10,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from predictors.kalman import KalmanPredictor
+from predictors.kalman.predictor import KalmanPredictor
 
 
 class NoScalePredictor:

@@ -1,4 +1,4 @@
-"""The batched experiments of Jung et al. (2019) (agents/jung2019.py)."""
+"""The batched experiments of Jung et al. (2019) (agents/reproductions/jung2019.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
-from agents import jung2019 as exp
+from agents.reproductions import jung2019 as exp
 from track_envs.envs.single_target import to_world
 
 

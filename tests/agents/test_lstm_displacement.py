@@ -1,4 +1,4 @@
-"""The LSTM displacement model of the particle filter (agents/lstm_displacement.py) and ``pf`` with
+"""The LSTM displacement model of the particle filter (predictors/displacement_lstm/model.py) and ``pf`` with
 ``model="lstm"``: the common-displacement contract, state per target, restarts, rotation
 invariance, accuracy against the Brownian model, bad arguments."""
 
@@ -12,10 +12,10 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.lstm_displacement import LSTMDisplacement
-from agents.particle import BatchParticleFilter, Brownian, DisplacementModel
-from predictors.lstm import shipped_weights
-from predictors.model_file import ModelFileError
+from agents.particle.agent import BatchParticleFilter, Brownian, DisplacementModel
+from predictors.belt_lstm.predictor import shipped_weights
+from predictors.displacement_lstm.model import LSTMDisplacement
+from predictors.training.model_file import ModelFileError
 from track_envs.envs.single_target import draw_detections, n_frames_for, sine_trajectory, to_world
 from track_envs.testing import check_agent
 from track_envs.wrappers import TrackingMetrics

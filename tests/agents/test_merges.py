@@ -1,11 +1,11 @@
-"""Shared updates of tracks whose particles touch (agents.merges.share_blobs)."""
+"""Shared updates of tracks whose particles touch (agents.tracking.merges.share_blobs)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from agents.merges import share_blobs
+from agents.tracking.merges import share_blobs
 
 Y = np.array([[0.100, 0.050], [0.106, 0.050], [0.200, 0.050]])  # two touching, one apart
 
@@ -66,7 +66,7 @@ def _touching_pair_stream(rng: np.random.Generator) -> list[tuple[np.ndarray, fl
 
 def _track_pair(blob_extent: float) -> tuple[dict[int, float], dict[int, float], int]:
     """Ids → x of the reported tracks before the merge (frame 20) and after it (last frame)."""
-    from agents.gnn import GnnAgent
+    from agents.gnn.agent import GnnAgent
     from track_envs.types import SensorSpec
 
     spec = SensorSpec(

@@ -1,4 +1,5 @@
-"""Bootstrap particle filter (agents/particle.py): resampling oracle, accuracy, determinism, batching."""
+"""Bootstrap particle filter (agents/particle/agent.py): resampling oracle, accuracy, determinism,
+batching."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from filterpy.monte_carlo import resampling as filterpy_resampling
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.particle import (
+from agents.particle.agent import (
     BatchParticleFilter,
     Brownian,
     ConstantVelocity,
@@ -168,7 +169,7 @@ def test_batch_filter_bad_arguments_are_named():
 
 def test_agent_draws_are_independent_of_the_env_stream_for_the_same_seed():
     """Regression: default_rng(seed) is the env's own np_random stream for that seed."""
-    from agents.particle import agent_rng
+    from agents.particle.agent import agent_rng
 
     env_stream = np.random.default_rng(7).standard_normal(6)
     assert not np.allclose(agent_rng(7).standard_normal(6), env_stream)
@@ -177,7 +178,7 @@ def test_agent_draws_are_independent_of_the_env_stream_for_the_same_seed():
 
 def test_restart_forgets_the_lost_track_history():
     """Regression: after a restart the constant-velocity model read the jump as a velocity."""
-    from agents.particle import BatchParticleFilter, ConstantVelocity
+    from agents.particle.agent import BatchParticleFilter, ConstantVelocity
 
     pf = BatchParticleFilter(
         1, 200, ConstantVelocity(), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0)

@@ -1,4 +1,4 @@
-"""The compiled frame of the particle filter (agents/particle_kernels.py) against the numpy path."""
+"""The compiled frame of the particle filter (agents/particle/_kernels.py) against the numpy path."""
 
 from __future__ import annotations
 
@@ -6,10 +6,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import agents.particle as particle
+import agents.particle.agent as particle
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.particle import (
+from agents.particle._kernels import log_likelihood, resample_rows, systematic_indices, update_rows
+from agents.particle.agent import (
     BatchParticleFilter,
     Brownian,
     CommonDisplacementModel,
@@ -18,7 +19,6 @@ from agents.particle import (
     systematic_resample,
     systematic_resample_batch,
 )
-from agents.particle_kernels import log_likelihood, resample_rows, systematic_indices, update_rows
 
 
 class ProposeOnly:

@@ -8,11 +8,11 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import agent_applies_to, make_agent
-from agents.pose import PoseTracker, centroid_fill, detection_areas
-from agents.pose_smc import PoseSmcAgent, elite_mask, resample_indices
-from predictors.pose_lstm import PosePredictor, window_features
+from agents.pose.baseline import PoseTracker, centroid_fill, detection_areas
+from agents.pose.smc import PoseSmcAgent, elite_mask, resample_indices
+from predictors.pose_lstm.predictor import PosePredictor, window_features
+from predictors.pose_lstm.training import pose_windows_from_env, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig
-from predictors.training.pose import pose_windows_from_env, to_model_file, train_pose_model
 from track_envs.metrics.keypoints import pairwise_oks
 
 EASY = {"num_people": 3, "occlusion": False, "num_occluders": 0, "vanish_rate": 0.0, "clutter_rate": 0.0,

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 import track_envs  # noqa: F401
-from agents.gnn import GnnAgent
+from agents.gnn.agent import GnnAgent
 from predictors.base import BatchState, accepts_velocity_prior
 from track_envs.types import Gaussian, SensorSpec
 

@@ -9,7 +9,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.sorting import predict_crossings
+from agents.tracking.sorting import predict_crossings
 from predictors import available_predictors, make_predictor, predictor_applies_to
 from track_envs.metrics import SortingPrediction
 from track_envs.types import SensorSpec
@@ -151,7 +151,7 @@ def test_kalman_crossing_covariance_matches_monte_carlo():
     predictor.reset(SPEC)
     mean = np.array([[0.38, 0.09, 1.2, 0.05]])
     cov = np.diag([4e-8, 9e-8, 1e-4, 4e-5])[None]
-    from predictors.kalman import KalmanState
+    from predictors.kalman.predictor import KalmanState
 
     ok, m, c = predict_crossings(predictor, KalmanState(mean, cov), LINE, 0, SPEC.dt)
     assert ok.all()
@@ -205,7 +205,7 @@ class _Generic:
 @pytest.mark.parametrize("name", ["lstm", "nll-lstm"])
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_compiled_lstm_roll_out_equals_the_frame_by_frame_one(name, precision):
-    from predictors.lstm import LSTMPredictor
+    from predictors.belt_lstm.predictor import LSTMPredictor
 
     env = gym.make("BeltSorter-v0")
     spec = env.unwrapped.sensor_spec

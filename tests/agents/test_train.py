@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
-from agents.gnn import GnnAgent
+from agents.gnn.agent import GnnAgent
 from agents.train import main
-from predictors.lstm import LSTMPredictor
+from predictors.belt_lstm.predictor import LSTMPredictor
 from track_envs.recording import record_belt_sorter
 
 

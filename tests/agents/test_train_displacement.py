@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from agents.train import main
-from predictors.displacement_inference import DisplacementLSTM
+from predictors.displacement_lstm.inference import DisplacementLSTM
 from track_envs.envs.single_target import sine_trajectory, to_world
 from track_envs.track_csv import write_track_csv
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from predictors.calibration import P_DES, coverage, fit_recalibration, plot_reliability, reliability
+from predictors.training.calibration import P_DES, coverage, fit_recalibration, plot_reliability, reliability
 from track_envs.metrics.prediction import mahalanobis_sq
 
 

@@ -1,4 +1,4 @@
-"""Rotation / speed displacement data (predictors/displacement.py): eq. (3) of Jung et al. (2019),
+"""Rotation / speed displacement data (predictors/displacement/geometry.py): eq. (3) of Jung et al. (2019),
 the kept heading through stops, and the exact inverse."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from predictors.displacement import (
+from predictors.displacement.geometry import (
     apply_displacement,
     displacements_of,
     observe_step,

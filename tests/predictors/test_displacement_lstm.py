@@ -7,13 +7,11 @@ import numpy as np
 import pytest
 import torch
 
-from predictors.displacement import displacements_of
-from predictors.displacement_inference import DisplacementLSTM, shipped_displacement_weights
-from predictors.displacement_net import DisplacementLSTMNet
-from predictors.lstm import shipped_weights
-from predictors.model_file import ModelFileError, load_model, save_model
-from predictors.training.data import TrackSplit, split_tracks
-from predictors.training.displacement import (
+from predictors.belt_lstm.predictor import shipped_weights
+from predictors.displacement.geometry import displacements_of
+from predictors.displacement_lstm.inference import DisplacementLSTM, shipped_displacement_weights
+from predictors.displacement_lstm.network import DisplacementLSTMNet
+from predictors.displacement_lstm.training import (
     displacement_metrics,
     displacement_tensors,
     fit_features,
@@ -23,7 +21,9 @@ from predictors.training.displacement import (
     train_displacement_model,
     window_tracks,
 )
+from predictors.training.data import TrackSplit, split_tracks
 from predictors.training.loop import TrainConfig, seeded_init
+from predictors.training.model_file import ModelFileError, load_model, save_model
 
 TINY = TrainConfig(epochs=30, decay_every=10, batch_size=8)
 

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from predictors import available_predictors, make_predictor
 from predictors.base import Predictor
-from predictors.kalman import (
+from predictors.kalman.predictor import (
     R_FLOOR,
     KalmanPredictor,
     KalmanState,

@@ -13,8 +13,8 @@ from filterpy.kalman import KalmanFilter
 from numpy.typing import NDArray
 from test_kalman import assert_gaussian_close  # the filterpy comparison's tolerance check
 
-from predictors import _kalman_kernels as kernels
-from predictors.kalman import (
+from predictors.kalman import _kernels as kernels
+from predictors.kalman.predictor import (
     ca_model,
     cv_model,
     kf_predict,

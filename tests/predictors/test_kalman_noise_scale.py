@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from predictors.kalman import R_FLOOR, KalmanPredictor
+from predictors.kalman.predictor import R_FLOOR, KalmanPredictor
 from track_envs.types import SensorSpec
 
 SPEC = SensorSpec(

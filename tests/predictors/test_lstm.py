@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 import torch
 
-from predictors.belt_lstm_net import BeltLSTMNet, Features
-from predictors.lstm import LSTMPredictor
-from predictors.model_file import ModelFile, ModelFileError, save_model
-from predictors.training.belt import sequence_batch, to_model_file, train_belt_model
+from predictors.belt_lstm.model_stats import spec_of
+from predictors.belt_lstm.network import BeltLSTMNet, Features
+from predictors.belt_lstm.predictor import LSTMPredictor
+from predictors.belt_lstm.training import sequence_batch, to_model_file, train_belt_model
 from predictors.training.data import TrackSplit
 from predictors.training.loop import TrainConfig
-from predictors.training.model_stats import spec_of
+from predictors.training.model_file import ModelFile, ModelFileError, save_model
 from track_envs.testing import check_predictor
 
 TINY = TrainConfig(epochs=3, decay_every=2, batch_size=64)

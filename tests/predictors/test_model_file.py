@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from predictors.model_file import (
+from predictors.training.model_file import (
     ModelFile,
     ModelFileError,
     load_model,

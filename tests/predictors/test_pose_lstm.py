@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from agents.train import main as train_main
-from predictors.model_file import load_model
-from predictors.pose_lstm import PosePredictor, window_features
+from predictors.pose_lstm.predictor import PosePredictor, window_features
+from predictors.pose_lstm.training import PoseWindows, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig
-from predictors.training.pose import PoseWindows, to_model_file, train_pose_model
+from predictors.training.model_file import load_model
 
 
 def test_window_features_difference_visible_steps_and_attend_to_the_last_visible_one():

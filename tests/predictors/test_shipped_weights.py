@@ -10,13 +10,13 @@ import pytest
 import track_envs  # noqa: F401
 from agents import make_agent
 from predictors import make_predictor
-from predictors.calibration import P_DES, coverage
-from predictors.lstm import shipped_weights
-from predictors.model_file import load_model
-from predictors.training.belt import noisy_tracks
+from predictors.belt_lstm.model_stats import spec_of
+from predictors.belt_lstm.predictor import shipped_weights
+from predictors.belt_lstm.training import noisy_tracks
+from predictors.training.calibration import P_DES, coverage
 from predictors.training.data import TrackSet, tracks_from_env
 from predictors.training.evaluate import one_step_predictions
-from predictors.training.model_stats import spec_of
+from predictors.training.model_file import load_model
 from track_envs.wrappers import TrackingMetrics
 
 SHIPPED = [("lstm", "cylinder"), ("nll-lstm", "cylinder"), ("mc-lstm", "cylinder")]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from predictors.training.belt import noisy_tracks, train_belt_model
+from predictors.belt_lstm.training import noisy_tracks, train_belt_model
 from predictors.training.data import TrackSet, TrackSplit, pad_tracks, split_tracks, tracks_from_positions
 from predictors.training.loop import TrainConfig
 

@@ -14,7 +14,7 @@ import predictors
 from agents.tuning import FixedPolicy, NisRule, load_policy
 from agents.tuning.diagnostics import N_FEATURES
 from agents.tuning.policy import KIND, shipped_policy_path
-from predictors.model_file import ModelFileError, load_model
+from predictors.training.model_file import ModelFileError, load_model
 
 
 def test_a_256_step_ppo_run_exports_an_actor_equal_to_sb3(tmp_path):

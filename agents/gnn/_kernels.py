@@ -1,0 +1,321 @@
+"""Compiled (numba) per-frame bookkeeping of the GNN tracker: one pass over tracks and detections.
+
+After the association of a frame, track ``i`` holds the detection ``det_i`` it was assigned
+(−1: none). Then, per track,
+
+.. math::
+
+    \\text{seen}_i = [det_i \\ge 0], \\qquad
+    \\text{misses}_i \\leftarrow \\begin{cases} 0 & \\text{seen}_i \\\\
+        \\text{misses}_i + 1 & \\text{else} \\end{cases}, \\qquad
+    \\text{streak}_i \\leftarrow \\begin{cases} \\text{streak}_i + 1 & \\text{seen}_i \\\\
+        0 & \\text{else} \\end{cases},
+
+    \\text{keep}_i = [\\text{misses}_i \\le M] \\wedge
+        (\\text{seen}_i \\vee \\text{low} \\le ŷ_i \\le \\text{high}),
+
+    \\text{young}_i = \\text{seen}_i \\wedge [s_{lo} \\le \\text{streak}_i \\le s_{hi}],
+
+and the detections no track took start new tracks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from agents.tracking._kernels import mahalanobis_costs
+from track_envs.types import FloatArray
+
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+
+@njit(cache=True)
+def frame_upkeep(
+    det_of_track: IntArray,
+    misses: IntArray,
+    streak: IntArray,
+    predicted: FloatArray,
+    low: FloatArray,
+    high: FloatArray,
+    max_misses: int,
+    young_streak: tuple[int, int],
+    n_detections: int,
+) -> tuple[BoolArray, IntArray, IntArray, BoolArray, int, BoolArray, int, IntArray]:
+    """The per-track counters and masks of a frame (see the module docstring for the equations).
+
+    Args:
+        det_of_track: (n,) detection index of each track, −1 when it coasted.
+        misses: (n,) consecutive misses before this frame.
+        streak: (n,) consecutive updates before this frame.
+        predicted: (n, D) predicted measurement ``ŷ`` of each track.
+        low: (D,) lower corner of the region where coasting tracks are kept.
+        high: (D,) upper corner of that region.
+        max_misses: ``M``, the most consecutive misses a kept track may have.
+        young_streak: ``(s_lo, s_hi)``, the update streaks of the young tracks.
+        n_detections: ``m``, detections in the frame.
+
+    Returns:
+        ``(seen, misses, streak, keep, n_keep, young, n_young, unused)``: new arrays (the inputs
+        are not written), and ``unused``, the detections (ascending) that no track took.
+    """
+    n = det_of_track.shape[0]
+    D = predicted.shape[1]
+    seen = np.empty(n, dtype=np.bool_)
+    misses_out = np.empty(n, dtype=np.int64)
+    streak_out = np.empty(n, dtype=np.int64)
+    keep = np.empty(n, dtype=np.bool_)
+    young = np.empty(n, dtype=np.bool_)
+    used = np.zeros(n_detections, dtype=np.bool_)
+    n_keep = 0
+    n_young = 0
+    n_used = 0
+    for i in range(n):
+        det = det_of_track[i]
+        hit = det >= 0
+        seen[i] = hit
+        if hit:
+            if not used[det]:  # a merged blob's detection may update several tracks
+                used[det] = True
+                n_used += 1
+            misses_out[i] = 0
+            streak_out[i] = streak[i] + 1
+        else:
+            misses_out[i] = misses[i] + 1
+            streak_out[i] = 0
+        inside = True
+        for d in range(D):
+            if not (predicted[i, d] >= low[d] and predicted[i, d] <= high[d]):
+                inside = False
+        keep[i] = misses_out[i] <= max_misses and (inside or hit)
+        n_keep += keep[i]
+        young[i] = hit and young_streak[0] <= streak_out[i] <= young_streak[1]
+        n_young += young[i]
+    unused = np.empty(n_detections - n_used, dtype=np.int64)
+    k = 0
+    for j in range(n_detections):
+        if not used[j]:
+            unused[k] = j
+            k += 1
+    return seen, misses_out, streak_out, keep, n_keep, young, n_young, unused
+
+
+@njit(cache=True)
+def median_and_mad_variance(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Per column of ``v`` (n, D), n >= 1: the median ``m_j`` and the robust variance
+    ``(1.4826 · median_i |v_ij − m_j|)²`` (the MAD scaled to a normal's standard deviation)."""
+    n, dim = v.shape
+    median = np.empty(dim)
+    variance = np.empty(dim)
+    column = np.empty(n)
+    for j in range(dim):
+        for i in range(n):
+            column[i] = v[i, j]
+        median[j] = np.median(column)
+        for i in range(n):
+            column[i] = abs(v[i, j] - median[j])
+        variance[j] = (1.4826 * np.median(column)) ** 2
+    return median, variance
+
+
+@njit(cache=True)
+def learn_flow(
+    samples: FloatArray,
+    n_samples: int,
+    head: int,
+    fresh: int,
+    estimate: FloatArray,
+    last: FloatArray,
+    young: BoolArray,
+    dt: float,
+    min_samples: int,
+) -> tuple[int, int, int, FloatArray, FloatArray, bool]:
+    """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer;
+    re-estimate the prior (:func:`median_and_mad_variance` of the buffer) when enough is new.
+
+    The estimate is refreshed once ``n_samples >= min_samples`` and at least
+    ``max(1, n_samples // 8)`` samples arrived since the last one: with every sample while the
+    buffer is small, every 16 samples once a window of 128 is full (a median of 128 samples moves
+    little with 16 of them; this keeps the per-frame cost low on a dense stream).
+
+    Args:
+        samples: (W, D) ring buffer of the last ``W`` velocity samples, written in place.
+        n_samples: Samples held so far (at most ``W``).
+        head: Row the next sample goes to.
+        fresh: Samples pushed since the last estimate.
+        estimate: (n, D) current estimates; last: (n, D) the previous frame's.
+        young: (n,) the tracks that give a sample.
+        dt: Frame period.
+        min_samples: Fewest samples for an estimate.
+
+    Returns:
+        ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the buffer's state after
+        the push and, when ``updated``, the new estimate (else zeros).
+    """
+    window, dim = samples.shape
+    for i in range(young.shape[0]):
+        if young[i]:
+            for d in range(dim):
+                samples[head, d] = (estimate[i, d] - last[i, d]) / dt
+            head = (head + 1) % window
+            n_samples = min(n_samples + 1, window)
+            fresh += 1
+    if n_samples < min_samples or fresh < max(1, n_samples // 8):
+        return n_samples, head, fresh, np.zeros(dim), np.zeros(dim), False
+    median, variance = median_and_mad_variance(samples[:n_samples])
+    return n_samples, head, 0, median, variance, True
+
+
+@njit(cache=True)
+def median_displacement(predicted: FloatArray, last: FloatArray) -> float:
+    """Median over the tracks of ``‖ŷ_i − x̂_i‖``: how far the tracks are predicted to move in a frame."""
+    n, dim = predicted.shape
+    if n == 0:
+        return 0.0
+    step = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for d in range(dim):
+            diff = predicted[i, d] - last[i, d]
+            s += diff * diff
+        step[i] = np.sqrt(s)
+    return float(np.median(step))
+
+
+@njit(cache=True)
+def recovery_costs(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    det_of_track: IntArray,
+    inflation: float,
+    gate: float,
+    last: FloatArray,
+    flow_step: float,
+    cap_motion: float,
+    cap_noise: float,
+) -> tuple[IntArray, IntArray, FloatArray, int, int, float]:
+    """Costs of the second-chance association of the tracks and detections left over.
+
+    For the unassigned tracks ``i`` and the untaken detections ``j``, with the predicted
+    covariance scaled by ``f = inflation``,
+
+    .. math::
+
+        c_{ij} = (z_j - ŷ_i)^\\top (f S_i)^{-1} (z_j - ŷ_i)
+        \\quad\\text{if } \\lVert z_j - ŷ_i \\rVert \\le r, \\text{ else } +\\infty,
+        \\qquad r = k_u \\max(u_{flow}, \\operatorname{median}_t \\lVert ŷ_t - x̂_t \\rVert) + r_σ,
+
+    which bounds the jump in distance whatever the covariance (``u_flow = flow_step``, the
+    flow's motion per frame; the median runs over all live tracks ``t``, ``last`` holding their
+    previous estimates ``x̂_t``; ``k_u = cap_motion``, ``r_σ = cap_noise``). The cap is only
+    computed when some pair passes the inflated gate.
+
+    Returns:
+        ``(tracks, dets, cost (k, l), n_admissible, bad, r)``: the leftover tracks and detections
+        (ascending), their costs, the number of pairs with ``c <= gate``, ``bad`` (−1, or a
+        leftover track whose covariance is not positive definite) and the cap (inf when not
+        computed).
+    """
+    n, dim = mean.shape
+    m = z.shape[0]
+    used = np.zeros(m, dtype=np.bool_)
+    n_tracks = 0
+    for i in range(n):
+        if det_of_track[i] >= 0:
+            used[det_of_track[i]] = True
+        else:
+            n_tracks += 1
+    tracks = np.empty(n_tracks, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        if det_of_track[i] < 0:
+            tracks[k] = i
+            k += 1
+    dets = np.flatnonzero(~used).astype(np.int64)
+    loose_mean = np.empty((n_tracks, dim))
+    loose_cov = np.empty((n_tracks, dim, dim))
+    for a in range(n_tracks):
+        for d in range(dim):
+            loose_mean[a, d] = mean[tracks[a], d]
+            for e in range(dim):
+                loose_cov[a, d, e] = cov[tracks[a], d, e] * inflation
+    loose_z = np.empty((dets.shape[0], dim))
+    for b in range(dets.shape[0]):
+        for d in range(dim):
+            loose_z[b, d] = z[dets[b], d]
+    cost, bad = mahalanobis_costs(loose_mean, loose_cov, loose_z)
+    if bad >= 0:
+        return tracks, dets, cost, 0, int(tracks[bad]), np.inf
+    n_admissible = 0
+    for a in range(n_tracks):
+        for b in range(dets.shape[0]):
+            n_admissible += cost[a, b] <= gate
+    if n_admissible == 0:
+        return tracks, dets, cost, 0, -1, np.inf
+    cap = cap_motion * max(flow_step, median_displacement(mean, last)) + cap_noise
+    cap2 = cap * cap
+    n_admissible = 0
+    for a in range(n_tracks):
+        for b in range(dets.shape[0]):
+            dist2 = 0.0
+            for d in range(dim):
+                diff = loose_z[b, d] - loose_mean[a, d]
+                dist2 += diff * diff
+            if dist2 > cap2:
+                cost[a, b] = np.inf
+            elif cost[a, b] <= gate:
+                n_admissible += 1
+    return tracks, dets, cost, n_admissible, -1, cap
+
+
+@njit(cache=True)
+def survivors_and_births(
+    keep: BoolArray,
+    n_keep: int,
+    ids: IntArray,
+    misses: IntArray,
+    streak: IntArray,
+    estimate: FloatArray,
+    detection_rows: IntArray,
+    z_new: FloatArray,
+    rows_new: IntArray,
+    next_id: int,
+) -> tuple[IntArray, IntArray, IntArray, FloatArray, IntArray]:
+    """The per-track arrays of the kept tracks followed by the ``k`` new tracks born at ``z_new``.
+
+    New tracks get ids ``next_id, next_id + 1, ...``, no misses, a streak of 1, their detection
+    as estimate and ``rows_new`` as detection rows.
+
+    Returns:
+        ``(ids, misses, streak, estimate, detection_rows)`` of the ``n_keep + k`` tracks.
+    """
+    k = z_new.shape[0]
+    dim = estimate.shape[1]
+    total = n_keep + k
+    ids_out = np.empty(total, dtype=np.int64)
+    misses_out = np.empty(total, dtype=np.int64)
+    streak_out = np.empty(total, dtype=np.int64)
+    est_out = np.empty((total, dim))
+    rows_out = np.empty(total, dtype=np.int64)
+    t = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            ids_out[t] = ids[i]
+            misses_out[t] = misses[i]
+            streak_out[t] = streak[i]
+            for d in range(dim):
+                est_out[t, d] = estimate[i, d]
+            rows_out[t] = detection_rows[i]
+            t += 1
+    for b in range(k):
+        ids_out[t] = next_id + b
+        misses_out[t] = 0
+        streak_out[t] = 1
+        for d in range(dim):
+            est_out[t, d] = z_new[b, d]
+        rows_out[t] = rows_new[b]
+        t += 1
+    return ids_out, misses_out, streak_out, est_out, rows_out

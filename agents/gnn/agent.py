@@ -1,0 +1,684 @@
+"""Global nearest neighbour (GNN) multi-target tracker (the tracker of Pollithy et al. 2020).
+
+Every frame, for the ``n`` live tracks and the ``m`` detections of the observation:
+
+1. **predict**: ``predictor.predict`` gives each track's predicted measurement ``N(ŷ_i, S_i)``;
+2. **gate and associate**: squared Mahalanobis costs, χ² gate at ``p_gate``, Hungarian (or greedy)
+   assignment with a per-track miss cost (:mod:`agents.tracking.assign`);
+   Tracks and detections left over get a second chance with every predicted covariance scaled by
+   ``recovery_inflation``, so that a particle kicked out of its gate by a collision keeps its track.
+   The second chance is capped in distance: a leftover track may only take a detection within
+
+   .. math::
+
+       r = k_u \\, u + k_σ \\, σ, \\qquad u = \\max(\\lVert \\bar v \\rVert \\, dt,\\;
+           \\operatorname{median}_i \\lVert ŷ_i - x̂_i \\rVert)
+
+   of its prediction, where ``u`` is the stream's motion per frame (the speed of the velocity
+   prior ``v̄``, or the median predicted displacement of the live tracks when larger), ``σ`` the
+   sensor's noise std and ``k_u = recovery_cap_motion``, ``k_σ = recovery_cap_noise``: an inflated
+   gate of a coasting track grows with every miss, and without the cap it reaches far past the
+   particles next to it;
+3. **update / coast**: assigned tracks are corrected with their detection, the others coast;
+4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks that were not
+   updated and whose predicted measurement has left the observed region (grown by ``region_margin``);
+5. **initiate**: a new track from every detection left unassigned. Its velocity prior is learnt
+   online (``velocity_prior="auto"``): every frame, each young track (updated 3–6 times in a row)
+   gives one sample, its frame-to-frame velocity; the last ``FLOW_WINDOW`` samples, over as many
+   frames as it takes to collect them, give the prior's median ``v̄`` and robust variance
+   ``(1.4826 MAD)²`` (re-estimated with every new sample while there are few, every
+   ``FLOW_WINDOW / 8`` samples once the window is full). On a belt this is the flow where
+   particles enter, so a track's second measurement is predicted where the flow takes it. The
+   prior forms from ``MIN_FLOW_SAMPLES`` samples, i.e. from the first track that was updated a
+   few times, so a sparse stream (one particle at a time) has it as early as a dense one. Until
+   then new tracks start from ``velocity_fallback`` when given (e.g. the belt speed), else from
+   the predictor's default. :attr:`GnnAgent.velocity_prior_state` shows the prior.
+
+The report holds every live track at its current (posterior) estimate, and the detection row it
+was updated with (−1 when it coasted). When the sensor has a nozzle bar downstream
+(``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
+crossing of the bar in the report's sorting channel (:mod:`track_envs.sorting_channel`): its
+predictor rolled forward from the track's state without further measurements
+(:func:`agents.tracking.sorting.predict_crossings`; a track slower than a sixth of the flow is given
+up, see :meth:`GnnAgent._rollout_steps`). A deleted track has coasted since its last update,
+and coasting is that roll-out, so the prediction is the one from the last update.
+
+All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
+steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
+are each one compiled loop (numba: :mod:`predictors.kalman._kernels`,
+:mod:`agents.tracking._kernels`, :mod:`agents.gnn._kernels`), so a frame is a few dozen
+calls whatever the number of tracks. The kernels compile (or load from numba's cache) on first
+use; :meth:`GnnAgent.warm_up` runs every one of them once on a tiny synthetic input, so that a
+live stream does not pause on its first frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.gnn import _kernels
+from agents.tracking.assign import ASSIGNERS, ASSOCIATORS, chi2_gate
+from agents.tracking.merges import share_blobs
+from agents.tracking.sorting import MAX_STEPS, predict_crossings
+from predictors import PREDICTORS, available_predictors, make_predictor
+from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
+from track_envs.observation import check_observation
+from track_envs.registry import UnknownArgumentError, check_keywords, missing_methods, named_arguments
+from track_envs.report import pack_report
+from track_envs.sorting_channel import empty_sorting, pack_sorting
+from track_envs.types import Gaussian, SensorSpec
+
+#: Update streaks (consecutive updates) of the young tracks the velocity prior is learnt from.
+YOUNG_STREAK = (3, 6)
+#: Velocity samples (one per young track and frame) the learnt prior is taken over, newest first.
+FLOW_WINDOW = 128
+#: Fewest samples for the learnt prior to be used.
+MIN_FLOW_SAMPLES = 3
+
+
+@dataclass(frozen=True)
+class VelocityPriorState:
+    """The velocity prior new tracks start from (read-only copy).
+
+    Attributes:
+        mean: (D,) prior velocity ``v̄``, or None when new tracks start from the predictor's default.
+        variance: (D,) robust variance of the samples per axis (before the widening applied at a
+            track's start), or None.
+        n_samples: Velocity samples in the learnt estimate (0 when not learning).
+        source: ``"learnt"``, ``"fallback"`` (``velocity_fallback`` until enough samples),
+            ``"fixed"`` (a given ``velocity_prior``) or ``"none"``.
+    """
+
+    mean: NDArray[np.float64] | None
+    variance: NDArray[np.float64] | None
+    n_samples: int
+    source: str
+
+
+def _build_predictor(agent: type, predictor: Any, kwargs: dict[str, Any]) -> Any:
+    """The predictor named ``predictor`` built with ``kwargs``, or the object ``predictor`` itself.
+
+    Raises:
+        UnknownArgumentError: for a keyword neither ``agent`` nor the named predictor takes (or any
+            keyword with a predictor object), listing the arguments of both.
+        ValueError: for an unknown predictor name, or an object lacking methods of the
+            Predictor protocol (named).
+    """
+    own = named_arguments(agent)
+    if isinstance(predictor, str):
+        accepted = PREDICTORS.arguments(predictor)  # also refuses an unknown name
+        if accepted is not None:
+            note = (
+                f", and it passes further keywords to predictor {predictor!r}, whose arguments are {accepted}"
+            )
+            check_keywords(agent.__name__, [k for k in kwargs if k not in accepted], own, note)
+        return make_predictor(predictor, **kwargs)
+    if kwargs:
+        names = ", ".join(map(repr, kwargs))
+        raise UnknownArgumentError(
+            f"{agent.__name__} has no argument {names}; its arguments are {own} (further keywords go to "
+            "a predictor given by name; configure a predictor object before passing it)"
+        )
+    missing = missing_methods(predictor, Predictor)
+    if missing:
+        raise ValueError(
+            f"predictor must be a registered name {available_predictors()} or implement the Predictor "
+            f"protocol (predictors.base.Predictor); {type(predictor).__name__} lacks {missing}"
+        )
+    return predictor
+
+
+class GnnAgent:
+    """GNN multi-target tracker: χ² gate, Hungarian, pluggable predictor (Pollithy et al. 2020).
+
+    Args:
+        predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an
+            object implementing the Predictor protocol (its methods are checked here).
+        p_gate: Gate probability of the χ² gate (Pollithy et al. 2020: 0.999).
+        assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
+        max_misses: A track is deleted after more than this many consecutive misses.
+        region_margin: Tracks are deleted when their prediction leaves the observed region grown
+            by this much (sensor units) on every side.
+        velocity_prior: ``"auto"`` (learnt online, see the module docstring), ``None`` (the
+            predictor's own default) or a fixed velocity (D,).
+        recovery_inflation: Covariance scale of the second-chance association of leftover tracks
+            and detections (1 turns it off).
+        velocity_fallback: With ``velocity_prior="auto"``, the velocity (D,) new tracks start from
+            until the prior is learnt (e.g. the belt speed); None: the predictor's default.
+        recovery_cap_motion: ``k_u``, the second-chance jump cap in multiples of the stream's
+            motion per frame (see the module docstring), >= 0. The default 3 lets a track that
+            coasted a few frames behind or ahead of its particle (a new track whose first velocity
+            was off, a kick) take it back, and keeps it from jumping tens of millimetres onto
+            another particle (at 1 m/s and 200 Hz: 15 mm).
+        recovery_cap_noise: ``k_σ``, the cap's allowance in multiples of the sensor noise std, >= 0.
+        blob_extent: Merged blobs (:mod:`agents.tracking.merges`): a track left without a detection whose
+            prediction lies within this distance (sensor units) of a detection another track took,
+            itself predicted within it, shares that detection; the blob's tracks are updated as a
+            rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
+        noise_scale: Factor ``k`` on the sensor's declared noise std that the predictor assumes
+            (``R = (k σ)² I``) and that the second-chance cap uses, > 0 (default 1). Needs a
+            predictor with ``set_noise_scale`` (the Kalman filters) unless it is 1.
+        predict_sorting: With a nozzle bar in the sensor spec, report each deleted track's
+            predicted crossing (the sorting channel; default True). ``False`` skips the
+            roll-outs (a learned predictor steps its network once per roll-out frame) and reports
+            no sorting channel, for throughput when no valve is driven.
+        **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
+            that neither the agent nor that predictor takes raises
+            :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
+
+    Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
+    between frames of a running episode (each is checked, and the next frame uses it); this is
+    how GateTuning-v0 (:mod:`agents.tuning`) acts on the tracker.
+    """
+
+    def __init__(
+        self,
+        predictor: str | Any = "kf-ca",
+        *,
+        p_gate: float = 0.999,
+        assignment: str = "hungarian",
+        max_misses: int = 2,
+        region_margin: float = 0.0,
+        velocity_prior: str | NDArray | None = "auto",
+        recovery_inflation: float = 25.0,
+        velocity_fallback: NDArray | None = None,
+        recovery_cap_motion: float = 3.0,
+        recovery_cap_noise: float = 5.0,
+        blob_extent: float = 0.0,
+        noise_scale: float = 1.0,
+        predict_sorting: bool = True,
+        **predictor_kwargs: Any,
+    ):
+        if not isinstance(predict_sorting, bool | np.bool_):
+            raise ValueError(f"predict_sorting must be True or False, got {predict_sorting!r}")
+        self.predict_sorting = bool(predict_sorting)
+        if assignment not in ASSOCIATORS:
+            raise ValueError(f"assignment must be one of {sorted(ASSOCIATORS)}, got {assignment!r}")
+        if not (isinstance(max_misses, int) and max_misses >= 0):
+            raise ValueError(f"max_misses must be an integer >= 0, got {max_misses!r}")
+        if not (np.isfinite(region_margin) and region_margin >= 0):
+            raise ValueError(f"region_margin must be a finite number >= 0, got {region_margin!r}")
+        if isinstance(velocity_prior, str) and velocity_prior != "auto":
+            raise ValueError(
+                f"velocity_prior must be 'auto', None or a velocity vector, got {velocity_prior!r}"
+            )
+        self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
+        self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
+        self._predictor_arg, self._predictor_kwargs = predictor, predictor_kwargs
+        self._spec: SensorSpec | None = None
+        self.p_gate = p_gate
+        self.assignment = assignment
+        self._associate = ASSOCIATORS[assignment]
+        self._assign = ASSIGNERS[assignment]
+        self.max_misses = max_misses
+        self.region_margin = region_margin
+        self.velocity_prior = velocity_prior
+        self.recovery_inflation = recovery_inflation
+        self.noise_scale = noise_scale
+        for name, value in (
+            ("recovery_cap_motion", recovery_cap_motion),
+            ("recovery_cap_noise", recovery_cap_noise),
+        ):
+            if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        self.recovery_cap_motion = float(recovery_cap_motion)
+        self.recovery_cap_noise = float(recovery_cap_noise)
+        if not (isinstance(blob_extent, int | float) and np.isfinite(blob_extent) and blob_extent >= 0):
+            raise ValueError(f"blob_extent must be a finite distance >= 0, got {blob_extent!r}")
+        self.blob_extent = float(blob_extent)
+        self.velocity_fallback = (
+            None if velocity_fallback is None else np.asarray(velocity_fallback, np.float64)
+        )
+
+    @property
+    def p_gate(self) -> float:
+        """Gate probability of the χ² gate; settable between frames (the gate follows at once)."""
+        return self._p_gate
+
+    @p_gate.setter
+    def p_gate(self, value: float) -> None:
+        if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+            raise ValueError(f"p_gate must be a probability in (0, 1), got {value!r}")
+        dim = self._spec.dim if self._spec is not None else 1  # re-derived for the sensor in reset()
+        self._gate = chi2_gate(float(value), dim)
+        self._p_gate = float(value)
+
+    @property
+    def recovery_inflation(self) -> float:
+        """Covariance scale of the second-chance association, >= 1; settable between frames."""
+        return self._recovery_inflation
+
+    @recovery_inflation.setter
+    def recovery_inflation(self, value: float) -> None:
+        if not (_is_number(value) and np.isfinite(value) and value >= 1.0):
+            raise ValueError(f"recovery_inflation must be a finite number >= 1, got {value!r}")
+        self._recovery_inflation = float(value)
+
+    @property
+    def noise_scale(self) -> float:
+        """Factor ``k`` on the declared noise std the tracker assumes, > 0; settable between frames
+        (the predictor's ``R`` and the second-chance cap follow at once)."""
+        return self._noise_scale
+
+    @noise_scale.setter
+    def noise_scale(self, value: float) -> None:
+        if not (_is_number(value) and np.isfinite(value) and value > 0):
+            raise ValueError(f"noise_scale must be a finite number > 0, got {value!r}")
+        scale = float(value)
+        setter = getattr(self.predictor, "set_noise_scale", None)
+        if setter is None and scale != 1.0:
+            raise ValueError(
+                f"noise_scale={value!r} needs a predictor with set_noise_scale (the Kalman filters); "
+                f"predictor {self.predictor_name!r} has none, so noise_scale must stay 1"
+            )
+        if setter is not None:
+            setter(scale)
+        self._noise_scale = scale
+        if self._spec is not None:
+            self._noise = max(float(self._spec.noise_std) * scale, 1e-6)
+
+    # -- episode ------------------------------------------------------------------------------
+    def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
+        """Start an episode with sensor ``spec``.
+
+        The tracker itself is deterministic; ``seed`` seeds the random stream handed to predictors
+        that take one (``reset(spec, rng=...)``, e.g. mc-lstm's dropout masks), so the same seed
+        gives the same report.
+        """
+        self._spec = spec
+        reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
+        self._takes_velocity = accepts_velocity_prior(self.predictor)
+        self._gate = chi2_gate(self.p_gate, spec.dim)
+        self._state: Any = None
+        self._ids = np.zeros(0, dtype=np.int64)
+        self._misses = np.zeros(0, dtype=np.int64)
+        self._streak = np.zeros(0, dtype=np.int64)
+        self._last = np.zeros((0, spec.dim))
+        self._detection_rows = np.zeros(0, dtype=np.int64)
+        self._next_id = 0
+        self._flow_mean: NDArray | None = None
+        self._flow_var: NDArray | None = None
+        self._flow_speed = 0.0
+        self._birth_cov: NDArray | None = None
+        self._learning = isinstance(self.velocity_prior, str)
+        self._flow_samples = np.zeros((FLOW_WINDOW, spec.dim))
+        self._n_flow_samples = 0
+        self._flow_head = 0
+        self._flow_fresh = 0
+        if self.velocity_prior is not None and not isinstance(self.velocity_prior, str):
+            v = np.asarray(self.velocity_prior, dtype=np.float64)
+            if v.shape != (spec.dim,):
+                raise ValueError(f"velocity_prior must have shape ({spec.dim},), got {v.shape}")
+            self._set_flow(v, None)
+        elif self._learning and self.velocity_fallback is not None:
+            if self.velocity_fallback.shape != (spec.dim,) or not np.all(np.isfinite(self.velocity_fallback)):
+                raise ValueError(
+                    f"velocity_fallback must be a finite vector of shape ({spec.dim},), "
+                    f"got {self.velocity_fallback.tolist()}"
+                )
+            self._set_flow(self.velocity_fallback.copy(), None)
+        # the cap's noise std, with the predictors' floor R >= (1 µm)²
+        self._noise = max(float(spec.noise_std) * self.noise_scale, 1e-6)
+        lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
+        hi = np.asarray(spec.region_high, dtype=np.float64) + self.region_margin
+        self._region = (lo, hi)
+        self.last_prediction: Gaussian | None = None
+        self.last_prediction_ids = np.zeros(0, dtype=np.int64)
+        self.last_prediction_detection = np.zeros(0, dtype=np.int64)
+        self._frame = 0
+        sorting = spec.sorting_line is not None and self.predict_sorting
+        self._no_sorting = empty_sorting(spec.max_tracks) if sorting else None
+        self._sorting = self._no_sorting
+
+    @property
+    def n_tracks(self) -> int:
+        """Live tracks."""
+        return len(self._ids)
+
+    def track_covariances(self) -> NDArray[np.float64]:
+        """(n, D, D) covariance of every live track's current estimate, in the row order of the last
+        report (the predictor's ``estimate(state).cov``, no measurement noise added)."""
+        if self._spec is None:
+            raise RuntimeError("track_covariances() needs reset(spec) first")
+        if self._state is None or not len(self._ids):
+            return np.zeros((0, self._spec.dim, self._spec.dim))
+        return np.asarray(self.predictor.estimate(self._state).cov, dtype=np.float64)
+
+    @property
+    def velocity_prior_state(self) -> VelocityPriorState:
+        """The velocity prior new tracks start from now: mean, spread, samples and where it comes from."""
+        if self._spec is None:
+            raise RuntimeError("velocity_prior_state needs reset(spec) first")
+        if not self._learning:
+            source = "none" if self._flow_mean is None else "fixed"
+        elif self._n_flow_samples >= MIN_FLOW_SAMPLES:
+            source = "learnt"
+        else:
+            source = "none" if self._flow_mean is None else "fallback"
+        return VelocityPriorState(
+            mean=None if self._flow_mean is None else self._flow_mean.copy(),
+            variance=None if self._flow_var is None else self._flow_var.copy(),
+            n_samples=self._n_flow_samples,
+            source=source,
+        )
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel a frame can use, on a tiny synthetic stream.
+
+        The first frames of a new process that start, associate or recover tracks otherwise pause
+        for tens of milliseconds while the kernels load — frames a live sorter would drop. Call
+        this once before the stream starts; it runs a throwaway copy of this tracker (same
+        arguments, a copy of the predictor) and leaves this one untouched.
+        """
+        import copy
+
+        predictor = (
+            self._predictor_arg
+            if isinstance(self._predictor_arg, str)
+            else copy.deepcopy(self._predictor_arg)
+        )
+        twin = GnnAgent(
+            predictor,
+            p_gate=self.p_gate,
+            assignment=self.assignment,
+            max_misses=self.max_misses,
+            region_margin=self.region_margin,
+            velocity_prior=self.velocity_prior,
+            recovery_inflation=self.recovery_inflation,
+            velocity_fallback=self.velocity_fallback,
+            recovery_cap_motion=self.recovery_cap_motion,
+            recovery_cap_noise=self.recovery_cap_noise,
+            blob_extent=self.blob_extent,
+            noise_scale=self.noise_scale,
+            **self._predictor_kwargs,
+        )
+        dim = self._spec.dim if self._spec is not None else 2
+        spec, frames = _warm_up_stream(dim)
+        twin.reset(spec)
+        for obs in frames:
+            twin.act(obs)
+
+    # -- one frame ----------------------------------------------------------------------------
+    def act(self, obs: Mapping[str, NDArray]) -> dict[str, NDArray]:
+        """Consume one observation and report the live tracks."""
+        if self._spec is None:
+            raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
+        spec = self._spec
+        rows, z = check_observation(obs, spec)
+        m = len(z)
+        n = len(self._ids)
+        if n == 0:
+            self._initiate(z, rows, np.zeros(0, dtype=np.bool_), 0, np.zeros(0, dtype=np.int64), self._last)
+            self._sorting = self._no_sorting
+            return self._report()
+        self._state, prediction = self.predictor.predict(self._state)
+        self.last_prediction = prediction
+        det_of_track = self.associate(prediction, z)
+        predicted = np.ascontiguousarray(prediction.mean, dtype=np.float64)
+        shared = None
+        if self.blob_extent > 0 and m:
+            det_of_track, shared = share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
+        seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
+            det_of_track,
+            self._misses,
+            self._streak,
+            predicted,
+            self._region[0],
+            self._region[1],
+            self.max_misses,
+            YOUNG_STREAK,
+            m,
+        )
+        # rows of coasting tracks (detection −1) are never read by the update
+        z_tracks = shared if shared is not None else z[det_of_track] if m else np.zeros((n, spec.dim))
+        self._state = self.predictor.update(self._state, z_tracks, seen)
+        if self._no_sorting is not None:
+            self._sorting = self._predict_sorting(keep, n_keep)
+        # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
+        # and the observation row it was then updated with (-1: coasted)
+        self.last_prediction_ids = self._ids
+        self.last_prediction_detection = _observation_rows(det_of_track, rows)
+        estimate = self._estimate_mean(self._state)
+        if n_young and self._learning:
+            self._learn_flow(estimate, young)
+        self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
+        return self._report()
+
+    def _report(self) -> dict[str, NDArray]:
+        """The report of the live tracks, with the sorting channel when the sensor has a nozzle bar."""
+        assert self._spec is not None
+        report = pack_report(self._ids, self._last, self._detection_rows, self._spec.max_tracks)
+        self._frame += 1
+        if self._sorting is not None:
+            report.update(
+                {k: v.copy() for k, v in self._sorting.items()}
+                if self._sorting is self._no_sorting
+                else self._sorting
+            )
+        return report
+
+    def _rollout_steps(self) -> int:
+        """Frames a deleted track is rolled forward at most: six times what the flow (the velocity
+        prior's speed) takes from the region's end to the nozzle bar, plus 10, in ``[20, MAX_STEPS]``
+        (all ``MAX_STEPS`` while there is no prior). A track slower than that is no particle on
+        the belt (clutter, a stalled estimate) and gets no prediction; rolling it forward for
+        ``MAX_STEPS`` frames would cost a learned predictor as many network steps."""
+        assert self._spec is not None and self._spec.sorting_line is not None
+        if self._flow_mean is None or self._flow_speed <= 0:
+            return MAX_STEPS
+        reach = self._spec.sorting_line - self._spec.region_high[0]
+        steps = int(np.ceil(6.0 * reach / (self._flow_speed * self._spec.dt))) + 10
+        return int(np.clip(steps, 20, MAX_STEPS))
+
+    def _predict_sorting(self, keep: NDArray[np.bool_], n_keep: int) -> dict[str, NDArray] | None:
+        """The sorting channel of this frame: the predicted crossings of the tracks deleted now."""
+        assert self._spec is not None and self._spec.sorting_line is not None
+        if n_keep == len(keep):
+            return self._no_sorting
+        gone = ~keep
+        ok, mean, cov = predict_crossings(
+            self.predictor,
+            self._state.take(gone),
+            self._spec.sorting_line,
+            self._frame,
+            self._spec.dt,
+            self._rollout_steps(),
+        )
+        return pack_sorting(self._ids[gone][ok], mean[ok], cov[ok], self._spec.max_tracks)
+
+    def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
+        """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``
+        when it has one, which skips the covariance)."""
+        mean_only = getattr(self.predictor, "estimate_mean", None)
+        mean = mean_only(state) if mean_only is not None else self.predictor.estimate(state).mean
+        return np.ascontiguousarray(mean, dtype=np.float64)
+
+    def associate(self, prediction: Gaussian, z: NDArray[np.float64]) -> NDArray[np.int64]:
+        """The detection index of every track this frame (−1: none): gate and assign, then the
+        capped second chance of the leftovers (see the module docstring).
+
+        Args:
+            prediction: Predicted measurements of the ``n`` live tracks.
+            z: (m, D) detections.
+
+        Returns:
+            (n,) int64 detection index per track.
+        """
+        n, m = len(prediction.mean), len(z)
+        det_of_track = np.full(n, -1, dtype=np.int64)
+        track_rows, det_cols = self._associate(prediction, z, self._gate)
+        det_of_track[track_rows] = det_cols
+        if len(track_rows) < min(n, m) and self.recovery_inflation > 1.0:
+            self._recover(prediction, z, det_of_track)
+        return det_of_track
+
+    def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
+        """Second-chance association of the tracks and detections left over, with inflated gates.
+
+        A collision or a kick moves a particle outside its track's gate; before that detection
+        starts a new track, the leftovers are matched once more with every predicted covariance
+        scaled by ``recovery_inflation``, among the pairs within the distance cap ``r`` of each
+        other (module docstring; :func:`agents.gnn._kernels.recovery_costs`), in place on
+        ``det_of_track``. Called when there are leftovers on both sides.
+        """
+        assert self._spec is not None
+        tracks, dets, cost, n_admissible, bad, _ = _kernels.recovery_costs(
+            np.ascontiguousarray(prediction.mean, dtype=np.float64),
+            np.ascontiguousarray(prediction.cov, dtype=np.float64),
+            z,
+            det_of_track,
+            self.recovery_inflation,
+            self._gate,
+            self._last,
+            self._flow_speed * self._spec.dt if self._flow_mean is not None else 0.0,
+            self.recovery_cap_motion,
+            self.recovery_cap_noise * self._noise,
+        )
+        if bad >= 0:
+            raise np.linalg.LinAlgError(f"predicted covariance S of track {bad} is not positive definite")
+        if n_admissible == 0:
+            return
+        rows, cols = self._assign(cost, self._gate)
+        det_of_track[tracks[rows]] = dets[cols]
+
+    def _initiate(
+        self,
+        z_new: NDArray[np.float64],
+        rows_new: NDArray[np.intp],
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        detection_rows: NDArray[np.int64],
+        estimate: NDArray[np.float64],
+    ) -> None:
+        """The kept tracks (``keep``) and new tracks at detections ``z_new`` (k, D), with the
+        velocity prior when there is one: states, ids, counters, estimates, detection rows."""
+        k = len(z_new)
+        prior = self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None
+        velocity, velocity_cov = (self._flow_mean, self._birth_cov) if prior else (None, None)
+        fused = getattr(self.predictor, "survivors_and_births", None)
+        if self._state is not None and fused is not None:
+            if k or n_keep < len(keep):
+                self._state = fused(self._state, keep, n_keep, z_new, velocity, velocity_cov)
+        elif k:
+            if n_keep < len(keep):
+                self._state = self._state.take(keep)
+            if velocity is not None:
+                born = self.predictor.start(
+                    z_new,
+                    velocity=np.broadcast_to(velocity, z_new.shape),
+                    velocity_cov=None
+                    if velocity_cov is None
+                    else np.broadcast_to(velocity_cov, (k, *velocity_cov.shape)),
+                )
+            else:
+                born = self.predictor.start(z_new)
+            self._state = (
+                born if self._state is None or n_keep == 0 else type(born).concat([self._state, born])
+            )
+        elif n_keep < len(keep):
+            self._state = self._state.take(keep)
+        if k == 0 and n_keep == len(keep):  # nobody born, nobody deleted
+            self._last, self._detection_rows = estimate, detection_rows
+            return
+        self._ids, self._misses, self._streak, self._last, self._detection_rows = (
+            _kernels.survivors_and_births(
+                keep,
+                n_keep,
+                self._ids,
+                self._misses,
+                self._streak,
+                estimate,
+                detection_rows,
+                np.ascontiguousarray(z_new, dtype=np.float64),
+                np.asarray(rows_new, dtype=np.int64),
+                self._next_id,
+            )
+        )
+        self._next_id += k
+
+    def _learn_flow(self, estimate: NDArray[np.float64], young: NDArray[np.bool_]) -> None:
+        """Add the velocities of the ``young`` tracks (updated 3–6 frames in a row) to the prior's
+        samples, and re-estimate the prior once there are ``MIN_FLOW_SAMPLES``.
+
+        New tracks are born where young tracks were born a few frames ago, so the velocities of
+        young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
+        """
+        assert self._spec is not None
+        self._n_flow_samples, self._flow_head, self._flow_fresh, median, variance, updated = (
+            _kernels.learn_flow(
+                self._flow_samples,
+                self._n_flow_samples,
+                self._flow_head,
+                self._flow_fresh,
+                estimate,
+                self._last,
+                young,
+                self._spec.dt,
+                MIN_FLOW_SAMPLES,
+            )
+        )
+        if updated:
+            self._set_flow(median, variance)
+
+    def _set_flow(self, mean: NDArray[np.float64], variance: NDArray[np.float64] | None) -> None:
+        """Set the velocity prior and what new tracks start from: mean ``v̄`` and, with a spread,
+        the covariance ``diag(4 σ² + (0.1 ‖v̄‖)²)`` — the spread of young tracks doubled, with a
+        floor of 10% of the flow speed: the prior must admit the particle that deviates, not just
+        the typical one."""
+        self._flow_mean, self._flow_var = mean, variance
+        self._flow_speed = float(np.sqrt(mean @ mean))
+        self._birth_cov = (
+            None if variance is None else np.diag(4.0 * variance + (0.1 * self._flow_speed) ** 2)
+        )
+
+
+def _is_number(value: Any) -> bool:
+    real = isinstance(value, int | float | np.integer | np.floating)
+    return real and not isinstance(value, bool | np.bool_)
+
+
+def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
+    """A few frames that run every path of a frame: births, lone and competing pairs, the
+    second chance, coasting, deletions and an empty frame (for :meth:`GnnAgent.warm_up`)."""
+    dt = 0.01
+    spec = SensorSpec(
+        dt=dt,
+        dim=dim,
+        noise_std=1e-4,
+        p_detect=1.0,
+        clutter_rate=0.0,
+        region_low=(0.0,) * dim,
+        region_high=(1.0,) * dim,
+        max_detections=8,
+        max_tracks=16,
+    )
+    start = np.full((5, dim), 0.1)
+    start[:, -1] = [0.1, 0.5, 0.9, 0.3, 0.3003]  # the last two compete for each other's detections
+    velocity = np.zeros(dim)
+    velocity[0] = 1.0
+    frames: list[dict[str, NDArray]] = []
+    for t in range(9):
+        z = start + t * dt * velocity
+        if t == 6:
+            z[0, 0] += 0.003  # out of its gate, within the second chance
+        if t == 8:
+            z = z[:0]
+        det = np.zeros((spec.max_detections, dim), np.float32)
+        mask = np.zeros(spec.max_detections, np.int8)
+        det[: len(z)], mask[: len(z)] = z, 1
+        frames.append({"detections": det, "mask": mask})
+    frames += [frames[-1]] * (2 + 1)  # coast until deleted, then a frame without tracks
+    return spec, frames
+
+
+def _observation_rows(det_index: NDArray[np.int64], rows: NDArray[np.intp]) -> NDArray[np.int64]:
+    """Observation rows of detection indices (-1 stays -1), safe when there are no detections."""
+    row_of = np.empty(len(rows) + 1, dtype=np.int64)
+    row_of[:-1] = rows
+    row_of[-1] = -1  # what index -1 picks
+    return row_of[det_index]

@@ -1,0 +1,1 @@
+"""Paper reproductions that run the trackers (applications on top of them, like bench and tuning)."""

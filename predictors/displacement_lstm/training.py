@@ -1,0 +1,187 @@
+"""Training the displacement LSTM of the LSTM particle filter (Jung et al. 2019) on trajectories.
+
+Data: any :class:`~predictors.training.data.TrackSet` — the noiseless sine of eq. (5)
+(:func:`sine_tracks`), a point env's truth or a user's track file — optionally cut into
+overlapping windows (:func:`window_tracks`), so one long curve gives many training sequences that
+start at every phase (a filter may (re)start anywhere on it). Each track ``x_0 … x_n`` becomes
+``(r_t, s_t)`` (:func:`predictors.displacement.geometry.displacements_of`, ``r_0 = s_0 = 0``); the network
+reads ``(r_{t−1}, s_{t−1})`` and predicts ``(r_t, s_t)``, ``t = 1 … n``, from the zero state at the
+track's first frame, as a filter does from its first estimate.
+
+Loss: the squared error of the scaled outputs, ``(Δr / r̄)² + (Δs / s̄)²``, averaged over a track's
+steps and then over tracks; the inputs are dropped with probability ``dropout`` (0.25) during
+training, masks drawn from the training loop's seeded generator (Jung et al. 2019, Sec. IV-A).
+Metrics (test tracks, numpy inference): RMS rotation and speed errors and the mean one-step
+position error ``‖x̂_t − x_t‖`` with ``x̂_t`` the predicted step applied to the true ``x_{t−1}`` and
+its heading.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+from numpy.typing import NDArray
+
+from predictors.belt_lstm.training import per_track_mean
+from predictors.displacement.geometry import apply_displacement, displacements_of
+from predictors.displacement_lstm.inference import KIND, DisplacementFeatures, DisplacementLSTM
+from predictors.displacement_lstm.network import DROPOUT, HIDDEN, DisplacementLSTMNet
+from predictors.training.data import TrackSet, TrackSplit, pad_tracks
+from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
+from predictors.training.model_file import ModelFile
+
+FloatArray = NDArray[np.float64]
+
+
+def sine_tracks(periods: float = 25.0, step: float = 0.2) -> TrackSet:
+    """The noiseless sine ``x_t = (tΔ, sin tΔ)`` of Jung et al. (2019), eq. (5), as one track."""
+    from track_envs.envs.single_target import n_frames_for, sine_trajectory
+
+    if not (np.isfinite(periods) and periods > 0):
+        raise ValueError(f"periods must be a number > 0, got {periods!r}")
+    if not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be a number > 0, got {step!r}")
+    x = sine_trajectory(n_frames_for(periods, step), step)
+    low, high = x.min(axis=0), x.max(axis=0)
+    return TrackSet(
+        [x],
+        1.0,
+        tuple(map(float, low)),
+        tuple(map(float, high)),
+        {"source": "sine", "equation": "x_t = (t*step, sin(t*step))", "periods": periods, "step": step},
+    )
+
+
+def window_tracks(data: TrackSet, length: int, stride: int) -> TrackSet:
+    """Every window of ``length`` frames starting every ``stride`` frames of each track.
+
+    Tracks shorter than ``length`` are kept whole.
+    """
+    if not (isinstance(length, int) and length >= 2):
+        raise ValueError(f"window length must be an integer >= 2, got {length!r}")
+    if not (isinstance(stride, int) and stride >= 1):
+        raise ValueError(f"window stride must be an integer >= 1, got {stride!r}")
+    out: list[FloatArray] = []
+    for t in data.tracks:
+        if len(t) <= length:
+            out.append(t)
+            continue
+        out.extend(t[a : a + length] for a in range(0, len(t) - length + 1, stride))
+    return data.with_tracks(out, window=length, stride=stride)
+
+
+def fit_features(data: TrackSet, step: float | None = None) -> DisplacementFeatures:
+    """Scales ``r̄, s̄`` of the steps ``t >= 1`` of every track of ``data``."""
+    parts = [displacements_of(t) for t in data.tracks if len(t) >= 2]
+    if not parts:
+        raise ValueError("no track has two frames; nothing to learn")
+    r = np.concatenate([p.rotation[1:] for p in parts])
+    s = np.concatenate([p.speed[1:] for p in parts])
+    return DisplacementFeatures.fit(r, s, step)
+
+
+def displacement_tensors(tracks: list[FloatArray], features: DisplacementFeatures) -> list[torch.Tensor]:
+    """``[inputs (B, L−1, 2), targets (B, L−1, 2), mask (B, L−1)]``: scaled ``(r, s)`` of frames
+    ``0 … n−1`` as inputs and of frames ``1 … n`` as targets (zero-padded, masked)."""
+    scale = np.array([features.rotation_scale, features.speed_scale])
+    rs = [np.stack(displacements_of(t)[:2], axis=-1) / scale for t in tracks]
+    z, valid = pad_tracks(rs)
+    mask = valid[:, 1:] & valid[:, :-1]
+    inputs = z[:, :-1] * valid[:, :-1, None]
+    targets = z[:, 1:] * mask[..., None]
+    return [torch.as_tensor(a, dtype=torch.float32) for a in (inputs, targets, mask)]
+
+
+def displacement_loss() -> LossFn:
+    """Masked mean squared error of the scaled ``(r̂, ŝ)``, with input dropout in training."""
+
+    def loss(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
+        inputs, targets, mask = batch
+        masks = model.draw_masks(inputs.shape, generator) if model.training else None  # type: ignore[operator]
+        err = (model(inputs, masks) - targets).pow(2).sum(dim=-1)
+        return per_track_mean(err, mask)
+
+    return loss
+
+
+def train_displacement_model(
+    split: TrackSplit,
+    config: TrainConfig,
+    *,
+    hidden: int = HIDDEN,
+    dropout: float = DROPOUT,
+    step: float | None = None,
+    progress: bool = True,
+) -> tuple[DisplacementLSTMNet, DisplacementFeatures, History]:
+    """Train a displacement LSTM on ``split`` (train / validation tracks) with :func:`fit`.
+
+    Args:
+        step: The data's step ``Δ`` where it has one (recorded in the normalisation).
+
+    Returns:
+        The trained network (CPU, eval mode), its scales and the loss history.
+    """
+    features = fit_features(split.train, step)
+    net = seeded_init(lambda: DisplacementLSTMNet(hidden, dropout), config.seed)
+    assert isinstance(net, DisplacementLSTMNet)
+    validation = displacement_tensors(split.validation.tracks, features) if len(split.validation) else None
+    history = fit(
+        net,
+        displacement_loss(),
+        displacement_tensors(split.train.tracks, features),
+        validation,
+        config,
+        progress=progress,
+        description=KIND,
+    )
+    return net, features, history
+
+
+def to_model_file(net: DisplacementLSTMNet, features: DisplacementFeatures, **meta: Any) -> ModelFile:
+    """A :class:`~predictors.training.model_file.ModelFile` of a trained displacement network."""
+    return trained_model_file(net, kind=KIND, dim=2, normalisation=features.to_dict(), **meta)
+
+
+def one_step_errors(model: DisplacementLSTM, tracks: list[FloatArray]) -> dict[str, FloatArray]:
+    """One-step predictions of ``model`` along true tracks, batched over tracks.
+
+    Returns ``{"rotation", "speed", "position"}``, each (B, L−1): the errors ``r̂_t − r_t``,
+    ``ŝ_t − s_t`` and ``‖x̂_t − x_t‖`` of steps ``t = 1 … n`` (NaN past a track's end; the position
+    error also NaN until the track has a heading, i.e. before its second moving step).
+    """
+    from predictors.displacement.geometry import observe_step
+
+    x, valid = pad_tracks(tracks)
+    B, L, _ = x.shape
+    d = [displacements_of(t) for t in tracks]
+    r = np.zeros((B, L))
+    s = np.zeros((B, L))
+    for i, di in enumerate(d):
+        r[i, : len(di.rotation)], s[i, : len(di.speed)] = di.rotation, di.speed
+    out = {k: np.full((B, L - 1), np.nan) for k in ("rotation", "speed", "position")}
+    h, c = model.zero_state(B)
+    heading, has = np.zeros(B), np.zeros(B, dtype=bool)
+    for t in range(1, L):
+        r_hat, s_hat, h, c = model.step(r[:, t - 1], s[:, t - 1], h, c)
+        if t >= 2:
+            _, _, heading, has = observe_step(x[:, t - 1] - x[:, t - 2], heading, has)
+        _, x_hat = apply_displacement(heading, x[:, t - 1], r_hat, s_hat)
+        ok = valid[:, t]
+        out["rotation"][ok, t - 1] = (r_hat - r[:, t])[ok]
+        out["speed"][ok, t - 1] = (s_hat - s[:, t])[ok]
+        pos = np.linalg.norm(x_hat - x[:, t], axis=1)
+        out["position"][ok & has, t - 1] = pos[ok & has]
+    return out
+
+
+def displacement_metrics(model: DisplacementLSTM, tracks: list[FloatArray]) -> dict[str, float]:
+    """RMS rotation and speed errors and the mean one-step position error over ``tracks``."""
+    e = one_step_errors(model, tracks)
+    return {
+        "test_rotation_rmse": float(np.sqrt(np.nanmean(e["rotation"] ** 2))),
+        "test_speed_rmse": float(np.sqrt(np.nanmean(e["speed"] ** 2))),
+        "test_mean_error": float(np.nanmean(e["position"])),
+        "test_predictions": int(np.isfinite(e["position"]).sum()),
+    }
