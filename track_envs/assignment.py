@@ -36,9 +36,10 @@ compiled (numba), so compiled kernels call them directly; :func:`min_cost_with_m
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
+
+from track_envs.compiled import njit
 
 IntArray = NDArray[np.int64]
 Pairs = tuple[IntArray, IntArray]

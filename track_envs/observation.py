@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.compiled import njit
 from track_envs.types import SensorSpec
 
 OBSERVATION_KEYS = ("detections", "mask")

@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.compiled import njit
 from track_envs.sorting_channel import SORTING_KEY_SET, SORTING_KEYS, SortingPredictions, validate_sorting
 
 REPORT_KEYS = ("ids", "positions", "detection", "mask")

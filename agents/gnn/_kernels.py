@@ -22,10 +22,10 @@ and the detections no track took start new tracks.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from agents.tracking._kernels import mahalanobis_costs
+from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]

@@ -23,10 +23,10 @@ arrays.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.assignment import merge_solution, partner_pairs, rest_problem, split_dense
+from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]

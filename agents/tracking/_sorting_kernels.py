@@ -10,8 +10,9 @@ stops advancing (no crossing), and maps the interpolated position Gaussian to ``
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 
 @njit(cache=True)

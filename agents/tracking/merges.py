@@ -40,8 +40,9 @@ detection shared by several tracks once when it lists the unused detections).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 
 @njit(cache=True)

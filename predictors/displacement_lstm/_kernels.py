@@ -15,7 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from track_envs.compiled import njit
 
 _TWO_PI = 2.0 * math.pi
 

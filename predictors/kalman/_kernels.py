@@ -20,9 +20,9 @@ the kernels allocate their outputs and never write to their inputs.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
 #: Status codes of :func:`update_tracks`.

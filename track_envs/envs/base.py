@@ -30,10 +30,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.arguments import check_int
+from track_envs.compiled import njit
 from track_envs.drift import DriftProcess, SensorDrift, SensorValues, resolve_drift
 from track_envs.metrics.gospa import gospa
 from track_envs.report import Report, report_space, validate_report

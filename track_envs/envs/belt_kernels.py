@@ -17,8 +17,9 @@ deceleration ``a_k = μ_k g`` over a step ``h`` is
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 PARKED = -1
 NOT_PARTICLE = -2

@@ -41,8 +41,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 #: Truth ids listed per merged detection in ``info["detection_ids_merged"]``.
 MAX_MERGED = 8

@@ -36,9 +36,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.compiled import njit
 from track_envs.metrics.base import report_mask
 from track_envs.metrics.key_table import KeyTable, add_entry
 from track_envs.metrics.merged import as_merged, resolve_merged, set_key

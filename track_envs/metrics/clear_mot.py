@@ -50,12 +50,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from track_envs.compiled import njit
 from track_envs.metrics.base import report_arrays, truth_arrays
 from track_envs.metrics.clear_mot_events import COUNTERS, TRUTH_VALUES, frame_events
 from track_envs.metrics.close_pairs import close_pairs, finite_entries

@@ -31,10 +31,10 @@ id, track id) the number of frames the pair was possible (for IDF1). Counters ar
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.assignment import split_lone_pairs
+from track_envs.compiled import njit
 from track_envs.metrics.key_table import add_entry, free_entries, hash_slot
 from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
 

@@ -34,10 +34,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
 from track_envs.assignment import merge_solution, rest_problem, split_sparse
+from track_envs.compiled import njit
 from track_envs.metrics.close_pairs import close_pairs
 from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
 from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment

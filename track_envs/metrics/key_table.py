@@ -18,8 +18,9 @@ Kernels never grow the table: they check :func:`free_entries` first, and the Pyt
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 # 64-bit odd multipliers as int64: the golden ratio 0x9E3779B97F4A7C15 and splitmix64's
 # 0xBF58476D1CE4E5B9 and 0x94D049BB133111EB

@@ -26,9 +26,9 @@ env provides it, and ``info["detection_ids"]`` (one id per row) to every other m
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from track_envs.compiled import njit
 from track_envs.metrics.key_table import find_entry, hash_slot
 
 

@@ -14,8 +14,9 @@ what reproducing py-motmetrics' tie-breaking needs.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from track_envs.compiled import njit
 
 
 @njit(cache=True)
