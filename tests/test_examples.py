@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -93,3 +94,31 @@ def test_gate_tuning_trace_plays_the_policies_on_one_episode(tmp_path, capsys):
     )
     assert out["errors"]["best fixed"] == expected["errors"]
     assert "association errors" in capsys.readouterr().out
+
+
+def test_extend_env_registers_a_contract_conforming_env_that_gnn_tracks(capsys):
+    metrics = load("extend_env").main(["--steps", "40"])
+    assert 0.5 < metrics["mota"] <= 1 and metrics["idf1"] > 0.7
+    assert "CirclingTargets-v0: 40 frames" in capsys.readouterr().out
+
+
+def test_extend_env_rejects_a_bad_argument_by_name():
+    module = load("extend_env")
+    with pytest.raises(ValueError, match=r"num_targets must be in 1\.\.32, got 0"):
+        module.CirclingTargetsEnv(num_targets=0)
+
+
+def test_extend_metric_is_scored_beside_the_default_metrics():
+    metrics = load("extend_metric").main(["--steps", "60"])
+    assert 0.5 < metrics["coverage"] < 1 and metrics["rmse"] > 0  # SineTarget-v0's own metrics too
+
+
+def test_extend_metric_coverage_closed_form():
+    coverage = load("extend_metric").Coverage(radius=1.0)
+    truth = {"positions": np.array([[0.0, 0.0], [5.0, 0.0], [9.0, 9.0]]), "visible": np.array([1, 1, 0])}
+    near = {"positions": np.array([[0.5, 0.0], [5.0, 0.9], [0.0, 0.0]]), "mask": np.array([1, 1, 0])}
+    far = {"positions": np.array([[0.5, 0.0], [7.0, 0.0]]), "mask": np.array([1, 1])}
+    coverage.update(truth, np.array([-1]), near)  # both visible targets within 1
+    coverage.update(truth, np.array([-1]), far)  # the second is 2 away
+    coverage.update({"positions": np.zeros((1, 2)), "visible": np.array([0])}, np.array([-1]), far)
+    assert coverage.compute() == {"coverage": 2 / 3}
