@@ -146,9 +146,14 @@ def _check_report_contract(env: gym.Env, seed: int) -> None:
 
 
 def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
-    """Check an agent on an environment: valid reports, detection rows, determinism under a seed,
-    and that it rejects (``ValueError``) observations that break the contract: mask values other
-    than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation."""
+    """Check an agent on an environment: valid reports (unique track ids, in the action space,
+    accepted by :func:`~track_envs.report.validate_report`), detection rows, determinism under a
+    seed, and that it rejects (``ValueError``) observations that break the contract: mask values
+    other than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation.
+
+    Raises:
+        AssertionError: naming what broke the contract (a malformed report included).
+    """
     missing = [m for m in ("reset", "act") if not callable(getattr(agent, m, None))]
     assert not missing, (
         f"an agent must have the methods reset(spec, *, seed) and act(obs); it lacks {missing}"
@@ -161,13 +166,16 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
         reports = []
         for _ in range(steps):
             report = agent.act(obs)
+            _assert_unique_ids(report)
             assert env.action_space.contains(report), "the report must lie in the env's action space"
-            live = validate_report(report, spec.max_tracks, tuple(env.unwrapped.position_shape), obs["mask"])  # type: ignore[attr-defined]
+            try:
+                validate_report(report, spec.max_tracks, tuple(env.unwrapped.position_shape), obs["mask"])  # type: ignore[attr-defined]
+            except ValueError as exc:
+                raise AssertionError(f"the agent's report is malformed: {exc}") from exc
             used = report["detection"][report["mask"] == 1]
             assert np.all((used == -1) | (obs["mask"][np.maximum(used, 0)] == 1)), (
                 "a report's detection rows must point at masked-in detections or be -1"
             )
-            assert len(live.ids) == len(set(live.ids.tolist())), "track ids must be unique within a report"
             reports.append(report)
             obs, reward, terminated, truncated, _ = env.step(report)
             assert np.isfinite(float(reward)), f"reward must be finite, got {reward!r}"
@@ -180,6 +188,18 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
         "an agent reset with the same seed must report the same tracks"
     )
     _check_rejects_bad_observations(agent, env, seed)
+
+
+def _assert_unique_ids(report: Any) -> None:
+    """The live rows (mask 1) of ``report`` carry distinct ids; checked before the action space
+    and :func:`validate_report` (which would refuse the report without naming the ids)."""
+    try:
+        ids = np.asarray(report["ids"])[np.asarray(report["mask"]) == 1]
+    except (KeyError, IndexError, TypeError):
+        return  # a report of another layout: the action space and validate_report name it
+    values, counts = np.unique(ids, return_counts=True)
+    repeated = values[counts > 1]
+    assert len(repeated) == 0, f"track ids must be unique within a report; repeated: {repeated[:10].tolist()}"
 
 
 def _bad_observations(obs: dict[str, Any]) -> dict[str, Any]:
