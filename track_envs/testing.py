@@ -10,11 +10,16 @@ protocols). Use them in your own tests::
     check_agent(MyTracker(), gym.make("BeltSorter-v0"))
     check_predictor(MyPredictor(), env.unwrapped.sensor_spec)
 
+:func:`stream_digest` pins what an env id emits, so that a change of its streams is noticed
+(and given a new version id, as Gymnasium's ``-vN`` rule asks).
+
 Nothing here imports ``predictors`` or ``agents``: the objects under test are passed in.
 """
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -25,6 +30,9 @@ from track_envs.types import Gaussian, SensorSpec
 
 #: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
 PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
+#: The ``info`` entries :func:`stream_digest` hashes by default (those an env emits): the time,
+#: the truth, the truth id(s) behind every detection row and the true sensor values of a drift.
+STREAM_INFO_KEYS = ("t", "truth", "detection_ids", "detection_ids_merged", "sensor")
 
 
 def _equal(a: Any, b: Any) -> bool:
@@ -138,9 +146,14 @@ def _check_report_contract(env: gym.Env, seed: int) -> None:
 
 
 def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
-    """Check an agent on an environment: valid reports, detection rows, determinism under a seed,
-    and that it rejects (``ValueError``) observations that break the contract: mask values other
-    than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation."""
+    """Check an agent on an environment: valid reports (unique track ids, in the action space,
+    accepted by :func:`~track_envs.report.validate_report`), detection rows, determinism under a
+    seed, and that it rejects (``ValueError``) observations that break the contract: mask values
+    other than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation.
+
+    Raises:
+        AssertionError: naming what broke the contract (a malformed report included).
+    """
     missing = [m for m in ("reset", "act") if not callable(getattr(agent, m, None))]
     assert not missing, (
         f"an agent must have the methods reset(spec, *, seed) and act(obs); it lacks {missing}"
@@ -153,13 +166,16 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
         reports = []
         for _ in range(steps):
             report = agent.act(obs)
+            _assert_unique_ids(report)
             assert env.action_space.contains(report), "the report must lie in the env's action space"
-            live = validate_report(report, spec.max_tracks, tuple(env.unwrapped.position_shape), obs["mask"])  # type: ignore[attr-defined]
+            try:
+                validate_report(report, spec.max_tracks, tuple(env.unwrapped.position_shape), obs["mask"])  # type: ignore[attr-defined]
+            except ValueError as exc:
+                raise AssertionError(f"the agent's report is malformed: {exc}") from exc
             used = report["detection"][report["mask"] == 1]
             assert np.all((used == -1) | (obs["mask"][np.maximum(used, 0)] == 1)), (
                 "a report's detection rows must point at masked-in detections or be -1"
             )
-            assert len(live.ids) == len(set(live.ids.tolist())), "track ids must be unique within a report"
             reports.append(report)
             obs, reward, terminated, truncated, _ = env.step(report)
             assert np.isfinite(float(reward)), f"reward must be finite, got {reward!r}"
@@ -172,6 +188,18 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
         "an agent reset with the same seed must report the same tracks"
     )
     _check_rejects_bad_observations(agent, env, seed)
+
+
+def _assert_unique_ids(report: Any) -> None:
+    """The live rows (mask 1) of ``report`` carry distinct ids; checked before the action space
+    and :func:`validate_report` (which would refuse the report without naming the ids)."""
+    try:
+        ids = np.asarray(report["ids"])[np.asarray(report["mask"]) == 1]
+    except (KeyError, IndexError, TypeError):
+        return  # a report of another layout: the action space and validate_report name it
+    values, counts = np.unique(ids, return_counts=True)
+    repeated = values[counts > 1]
+    assert len(repeated) == 0, f"track ids must be unique within a report; repeated: {repeated[:10].tolist()}"
 
 
 def _bad_observations(obs: dict[str, Any]) -> dict[str, Any]:
@@ -233,3 +261,75 @@ def check_predictor(predictor: Any, spec: SensorSpec, n: int = 5, seed: int = 0)
     empty = updated.take(np.zeros(n, dtype=bool))
     _, empty_prediction = predictor.predict(empty)
     assert empty_prediction.mean.shape == (0, d), "an empty batch must predict an empty Gaussian"
+
+
+def _hash_tree(h: Any, value: Any) -> None:
+    """Feed ``value`` into the hash ``h`` canonically: dict keys sorted, every array (and number)
+    as its dtype, shape and C-order bytes, each item tagged by its kind and length."""
+    if isinstance(value, dict):
+        h.update(b"d%d;" % len(value))
+        for key in sorted(value, key=str):
+            _hash_tree(h, str(key))
+            _hash_tree(h, value[key])
+    elif isinstance(value, tuple | list):
+        h.update(b"l%d;" % len(value))
+        for item in value:
+            _hash_tree(h, item)
+    elif isinstance(value, str):
+        data = value.encode()
+        h.update(b"s%d;" % len(data) + data)
+    elif value is None:
+        h.update(b"n;")
+    else:
+        arr = np.ascontiguousarray(np.asarray(value))
+        if arr.dtype == object:
+            raise TypeError(f"stream_digest hashes arrays, numbers, strings and containers, got {value!r}")
+        h.update(b"a%s;%s;" % (arr.dtype.str.encode(), str(arr.shape).encode()))
+        h.update(arr.tobytes())
+
+
+def stream_digest(
+    env: gym.Env,
+    seed: int,
+    steps: int = 200,
+    action: Callable[[Any], Any] | None = None,
+    info_keys: Sequence[str] = STREAM_INFO_KEYS,
+) -> str:
+    """The sha256 digest of an episode's stream: what ``env`` emits for ``seed``.
+
+    The episode starts with ``env.reset(seed=seed)`` and runs ``steps`` steps, fewer when it
+    ends earlier. Hashed, in order: the reset's observation and ``info``, then for every step
+    its observation, reward, ``terminated``, ``truncated`` and ``info``; of each ``info`` only
+    the entries of ``info_keys`` it holds (by default :data:`STREAM_INFO_KEYS`: the truth side).
+    Arrays are hashed with their dtype and shape, dicts with their keys sorted, so the digest
+    changes exactly when a value, dtype or shape of the stream does.
+
+    Args:
+        env: The environment (wrapped or not).
+        seed: The reset seed.
+        steps: Steps after the reset.
+        action: The action of each step as a function of the last observation; by default the
+            empty report of a tracking env (``env.unwrapped`` has ``sensor_spec`` and
+            ``position_shape``), which makes the reward a function of the truth alone.
+        info_keys: The ``info`` entries hashed.
+
+    Returns:
+        The hex digest (64 characters).
+    """
+    if action is None:
+        base: Any = env.unwrapped
+        report = empty_report(base.sensor_spec.max_tracks, tuple(base.position_shape))
+        action = lambda obs: report  # noqa: E731
+    h = hashlib.sha256()
+
+    def feed(obs: Any, info: dict[str, Any], *rest: Any) -> None:
+        _hash_tree(h, [obs, *rest, {k: info[k] for k in info_keys if k in info}])
+
+    obs, info = env.reset(seed=seed)
+    feed(obs, info)
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(action(obs))
+        feed(obs, info, float(reward), bool(terminated), bool(truncated))
+        if terminated or truncated:
+            break
+    return h.hexdigest()

@@ -1,7 +1,7 @@
 """Plot kinds of ``track-bench report`` for predictor scores: box plots, reliability diagrams and
 the area-over-age scatter with Pearson's r.
 
-They read the aggregated :class:`~agents.bench.report.Row` s (means over seeds) of the keys that
+They read the aggregated :class:`~agents.bench.rows.Row` s (means over seeds) of the keys that
 :class:`agents.one_step.OneStepAgent` records:
 
 * **box plot** (:func:`box_figure`): the per-track mean absolute prediction error
@@ -24,15 +24,13 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from agents.bench.rows import Row, params_text, row_label, save_figure
 from track_envs.metrics.aleatoric import MAX_AGE, area_key, pooled_r
 from track_envs.metrics.track_error import BOX_QUANTILES, quantile_key
-
-if TYPE_CHECKING:
-    from agents.bench.report import Row
 
 _LEVEL = re.compile(r"^reliability@([0-9.]+)$")
 _LEVEL_RAW = re.compile(r"^reliability_raw@([0-9.]+)$")
@@ -183,15 +181,7 @@ def age_scatter_figure(series: Sequence[tuple[str, Row]], unit: str = "mm²", sc
     return fig
 
 
-def _label(row: Row) -> str:
-    from agents.bench.report import _label as label
-
-    return str(label(row))
-
-
 def _slug(setting: Sequence[tuple[str, Any]]) -> str:
-    from agents.bench.report import params_text
-
     text = params_text(setting)
     return re.sub(r"[^A-Za-z0-9.=-]+", "_", text).strip("_") or "default"
 
@@ -203,8 +193,6 @@ def predictor_figures(env_rows: Sequence[Row], out: Any) -> list[Any]:
     ``<env>_reliability.png`` (rows with a calibration factor other than 1, before and after, at
     the first setting that has them) and ``<env>_aleatoric_age.png`` (rows whose area varies).
     """
-    from agents.bench.report import _save, params_text
-
     if not env_rows:
         return []
     env_id = env_rows[0].env_id
@@ -213,10 +201,10 @@ def predictor_figures(env_rows: Sequence[Row], out: Any) -> list[Any]:
     with_box = [r for r in env_rows if box_stats(r) is not None]
     settings = list(dict.fromkeys(r.setting for r in with_box))
     for setting in settings:
-        entries = [(_label(r), r) for r in with_box if r.setting == setting]
+        entries = [(row_label(r), r) for r in with_box if r.setting == setting]
         name = f"{env_id}_track_error_box" + (f"_{_slug(setting)}" if len(settings) > 1 else "") + ".png"
         title = f"{env_id}: per-track prediction error, true associations\n{params_text(setting)}"
-        paths.append(_save(box_figure(entries, title, unit, scale), out / name))
+        paths.append(save_figure(box_figure(entries, title, unit, scale), out / name))
     calibrated = [
         r
         for r in env_rows
@@ -226,13 +214,16 @@ def predictor_figures(env_rows: Sequence[Row], out: Any) -> list[Any]:
         first = calibrated[0].setting
         panels = []
         for r in (r for r in calibrated if r.setting == first):
-            panels += [(f"{_label(r)}: before calibration", r, True), (f"{_label(r)}: calibrated", r, False)]
+            panels += [
+                (f"{row_label(r)}: before calibration", r, True),
+                (f"{row_label(r)}: calibrated", r, False),
+            ]
         fig = reliability_figure(panels, f"{env_id}: reliability ({params_text(first)})")
-        paths.append(_save(fig, out / f"{env_id}_reliability.png"))
+        paths.append(save_figure(fig, out / f"{env_id}_reliability.png"))
     varying = [r for r in env_rows if math.isfinite(r.mean.get("aleatoric_area_r", math.nan))]
     if varying:
         first = varying[0].setting
-        series = [(_label(r), r) for r in varying if r.setting == first]
+        series = [(row_label(r), r) for r in varying if r.setting == first]
         fig = age_scatter_figure(series, unit + "²", scale * scale)
-        paths.append(_save(fig, out / f"{env_id}_aleatoric_age.png"))
+        paths.append(save_figure(fig, out / f"{env_id}_aleatoric_age.png"))
     return paths

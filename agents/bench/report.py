@@ -1,10 +1,7 @@
 """Tables and plots from stored records: terminal, markdown, CSV and PNG (matplotlib Agg).
 
-Rows are (env, params, agent, predictor) with mean ± std over the seeds (sample std, 0 for a
-single seed; NaN values, e.g. an occlusion error without occlusion, are left out). The params are
-everything else that changes a cell's result (:meth:`agents.bench.cells.Cell.params`): the env
-kwargs, ``steps``, ``episodes`` (shown when not 1) and the agent kwargs (``agent.NAME``), so records
-made with other steps, episodes or kwargs in the same out dir are separate rows, never pooled.
+Rows (:mod:`agents.bench.rows`) are (env, params, agent, predictor) with mean ± std over the
+seeds; records made with other steps, episodes or kwargs in the same out dir are separate rows.
 The terminal and markdown tables show the headline metrics of each env family
 (:data:`HEADLINE`); the CSV files hold every metric. Within each env and setting (the params but
 the agent kwargs) the best value of each headline metric is marked ``*`` (and bold on a
@@ -38,7 +35,6 @@ import os
 import sys
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +42,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.bench.cells import Cell
+from agents.bench.figures import predictor_figures
+from agents.bench.rows import Row, aggregate, params_text, row_label, save_figure
+
+# Row, aggregate and params_text live in agents.bench.rows and are importable from here as before.
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
 HEADLINE = (
@@ -71,65 +71,6 @@ HIGHER_IS_BETTER = frozenset(
 NON_NEGATIVE = (LOWER_IS_BETTER | HIGHER_IS_BETTER | {"e1", "e2", "num_switches"}) - {"mota"}
 #: Ratio of the largest to the smallest positive value beyond which a y axis is logarithmic.
 LOG_SPAN = 100.0
-
-
-def params_text(params: Sequence[tuple[str, Any]]) -> str:
-    """``"noise_std=0.0001, steps=100"`` (``"-"`` for none)."""
-    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params) or "-"
-
-
-@dataclass(frozen=True)
-class Row:
-    """Aggregate of the records of one (env, params, agent, predictor).
-
-    ``params`` is :meth:`Cell.params <agents.bench.cells.Cell.params>`: env kwargs, steps,
-    episodes, and agent kwargs as ``agent.NAME``.
-    """
-
-    env_id: str
-    params: tuple[tuple[str, Any], ...]
-    agent: str
-    predictor: str
-    n: int
-    mean: dict[str, float]
-    std: dict[str, float]
-
-    @property
-    def params_label(self) -> str:
-        return params_text(self.params)
-
-    @property
-    def setting(self) -> tuple[tuple[str, Any], ...]:
-        """The params of the env and the episode budget (what the agents compete on)."""
-        return tuple((k, v) for k, v in self.params if not k.startswith("agent."))
-
-    @property
-    def agent_params(self) -> tuple[tuple[str, Any], ...]:
-        """The agent kwargs, as ``(agent.NAME, value)`` pairs."""
-        return tuple((k, v) for k, v in self.params if k.startswith("agent."))
-
-
-def _stats(values: Sequence[float]) -> tuple[float, float]:
-    finite = [v for v in values if not math.isnan(v)]
-    if not finite:
-        return math.nan, math.nan
-    return float(np.mean(finite)), float(np.std(finite, ddof=1)) if len(finite) > 1 else 0.0
-
-
-def aggregate(records: Sequence[dict[str, Any]]) -> list[Row]:
-    """Rows of mean ± std over seeds, sorted by env, params, agent, predictor."""
-    groups: dict[tuple[Any, ...], list[dict[str, float]]] = defaultdict(list)
-    for rec in records:
-        cell = Cell.from_dict(rec["cell"])
-        groups[(cell.env_id, cell.params(), cell.agent, cell.predictor)].append(rec["metrics"])
-    rows = []
-    for (env_id, params, agent, predictor), metrics in groups.items():
-        keys = list(dict.fromkeys(k for m in metrics for k in m))
-        stats = {k: _stats([float(m.get(k, math.nan)) for m in metrics]) for k in keys}
-        mean = {k: s[0] for k, s in stats.items()}
-        std = {k: s[1] for k, s in stats.items()}
-        rows.append(Row(env_id, params, agent, predictor, len(metrics), mean, std))
-    return sorted(rows, key=lambda r: (r.env_id, repr(r.params), r.agent, r.predictor))
 
 
 def headline(rows: Sequence[Row]) -> list[str]:
@@ -235,13 +176,6 @@ def write_csvs(records: Sequence[dict[str, Any]], rows: Sequence[Row], out: Path
             )
 
 
-def _label(r: Row) -> str:
-    """Legend and tick label of a row's contestant: agent, predictor and agent kwargs."""
-    name = r.agent if r.predictor == "-" else f"{r.agent}/{r.predictor}"
-    extra = params_text([(k.removeprefix("agent."), v) for k, v in r.agent_params])
-    return name if not r.agent_params else f"{name} ({extra})"
-
-
 def _swept(rows: Sequence[Row]) -> list[str]:
     """Setting params with numeric values that differ between the rows (the swept parameters)."""
     values: dict[str, set[Any]] = defaultdict(set)
@@ -299,14 +233,14 @@ def bar_figure(env_rows: Sequence[Row]) -> Any:
 
     metrics = headline(env_rows)
     settings = list(dict.fromkeys(r.setting for r in env_rows))
-    labels = list(dict.fromkeys(_label(r) for r in env_rows))
+    labels = list(dict.fromkeys(row_label(r) for r in env_rows))
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.6), squeeze=False)
     width = 0.8 / len(settings)
     for ax, metric in zip(axes[0], metrics, strict=True):
         scale = axis_scale(metric, [r.mean.get(metric, math.nan) for r in env_rows])
         ax.set_yscale(scale)
         for s, setting in enumerate(settings):
-            sub = {_label(r): r for r in env_rows if r.setting == setting}
+            sub = {row_label(r): r for r in env_rows if r.setting == setting}
             x = [i + s * width for i, lab in enumerate(labels) if lab in sub]
             y = np.array([sub[lab].mean.get(metric, math.nan) for lab in labels if lab in sub])
             e = np.array([sub[lab].std.get(metric, math.nan) for lab in labels if lab in sub])
@@ -335,7 +269,7 @@ def sweep_figure(env_rows: Sequence[Row], param: str) -> Any:
     for r in env_rows:
         if param in dict(r.setting):
             others = tuple((k, v) for k, v in r.setting if k != param)
-            curves[(_label(r), others)].append(r)
+            curves[(row_label(r), others)].append(r)
     several = len({others for _, others in curves}) > 1
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics) + 1, 3.4), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
@@ -369,14 +303,12 @@ def plot_env(env_rows: Sequence[Row], out: Path) -> list[Path]:
     env_id = env_rows[0].env_id
     if not headline(env_rows):
         return []
-    paths = [_save(bar_figure(env_rows), out / f"{env_id}_bars.png")]
+    paths = [save_figure(bar_figure(env_rows), out / f"{env_id}_bars.png")]
     for param in _swept(env_rows):
-        paths.append(_save(sweep_figure(env_rows, param), out / f"{env_id}_{param}_sweep.png"))
+        paths.append(save_figure(sweep_figure(env_rows, param), out / f"{env_id}_{param}_sweep.png"))
     sorting = sorting_error_figure(env_rows)
     if sorting is not None:
-        paths.append(_save(sorting, out / f"{env_id}_sorting_errors.png"))
-    from agents.bench.figures import predictor_figures
-
+        paths.append(save_figure(sorting, out / f"{env_id}_sorting_errors.png"))
     return paths + predictor_figures(env_rows, out)
 
 
@@ -403,7 +335,7 @@ def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
         for r in rows:
             values = [r.mean.get(f"sorting_{axis}_p{q}_{unit}", math.nan) for q in SORTING_PERCENTILES]
             others = params_text(r.setting)
-            ax.plot(SORTING_PERCENTILES, values, marker="o", ms=3, label=f"{_label(r)}, {others}")
+            ax.plot(SORTING_PERCENTILES, values, marker="o", ms=3, label=f"{row_label(r)}, {others}")
         tolerance = SORTING_TOLERANCES[axis]
         ax.axhline(tolerance, color="k", lw=0.8, ls="--")
         ax.text(50, tolerance, f" valve tolerance {tolerance:g} {unit}", fontsize=7, va="bottom")
@@ -414,16 +346,6 @@ def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
     axes[0][1].legend(fontsize=5)
     fig.suptitle(f"{env_rows[0].env_id}: sorting error distribution (mean over seeds)")
     return fig
-
-
-def _save(fig: Any, path: Path) -> Path:
-    """Lay out, write as PNG and close a figure; its path."""
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
 
 
 def write_report(records: Sequence[dict[str, Any]], out_dir: str | os.PathLike[str]) -> list[Path]:

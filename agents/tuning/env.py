@@ -100,7 +100,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     - ``render_mode``: ``"rgb_array"`` (the base env's frame with the tracks) or None.
 
     ## Version History
-    - v0: first release.
+    - v0: the initial streams (with the shipped GNN tracker), pinned by the stream digest test
+      (docs/architecture.md); a change of what this id emits needs GateTuning-v1.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012

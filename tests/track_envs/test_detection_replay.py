@@ -58,6 +58,45 @@ def test_tracking_metrics_skip_truth_metrics_with_a_note():
     assert "no ground truth" in info["episode_metrics_note"]
 
 
+class TrackCount:
+    """Reads only the reports, so it declares no need of truth (the default)."""
+
+    def reset(self):
+        self.tracks = 0
+
+    def update(self, truth, detection_ids, report):
+        self.tracks += int(np.sum(report["mask"] == 1))
+
+    def compute(self):
+        return {"reported_tracks": float(self.tracks)}
+
+
+def test_a_metric_that_declares_no_need_of_truth_runs_without_truth():
+    from track_envs.metrics import ClearMot
+
+    env = TrackingMetrics(gym.make("DetectionReplay-v0"), [ClearMot(threshold=1.0), TrackCount()])
+    info = episode(env)[-1][3]
+    assert info["episode_metrics"] == {"reported_tracks": 0.0}
+    assert "(ClearMot)" in info["episode_metrics_note"]
+
+
+def test_every_truth_metric_declares_its_need():
+    import inspect
+
+    import track_envs.metrics as metrics
+
+    streaming = [
+        c
+        for c in vars(metrics).values()
+        if inspect.isclass(c)
+        and c is not metrics.Metric
+        and hasattr(c, "update")
+        and list(inspect.signature(c.update).parameters)[1:] == ["truth", "detection_ids", "report"]
+    ]
+    assert len(streaming) == 7
+    assert all(c.needs_truth is True for c in streaming)
+
+
 def test_unshuffled_rows_keep_the_file_order(tmp_path: Path):
     stream = small_stream()
     write_wide_detections(tmp_path / "d.csv", stream)

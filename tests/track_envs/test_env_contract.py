@@ -257,3 +257,25 @@ def test_padding_fits_the_spaces_when_the_region_excludes_the_origin(tmp_path):
     obs, _ = env.reset(seed=0)
     assert obs["mask"].sum() == 2 and env.observation_space.contains(obs)
     assert env.action_space.contains(empty_for(env))
+
+
+HOOKS = ("_reset_scene", "_advance", "_truth", "_canvas", "_draw")
+
+
+@pytest.mark.parametrize("missing", HOOKS)
+def test_an_env_without_a_hook_cannot_be_made_and_the_error_names_the_hook(missing):
+    from track_envs.envs.base import TrackingEnv
+
+    hooks = {name: lambda self, *args: None for name in HOOKS if name != missing}
+    Partial = type("Partial", (TrackingEnv,), hooks)
+    with pytest.raises(TypeError, match=missing):
+        Partial()
+    Complete = type("Complete", (TrackingEnv,), {**hooks, missing: lambda self, *args: None})
+    Complete()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_every_env_implements_every_hook(env_id):
+    env = gym.make(env_id).unwrapped
+    assert not type(env).__abstractmethods__
+    assert type(pickle_round_trip(env)) is type(env)

@@ -43,6 +43,24 @@ def test_a_broken_agent_is_caught():
         check_agent(LeakyAgent(), env, steps=3)
 
 
+class TwinAgent:
+    """Reports two tracks under one id: must be caught with the contract's AssertionError."""
+
+    def reset(self, spec, *, seed=None):
+        self.spec = spec
+
+    def act(self, obs):
+        from track_envs.report import pack_report
+
+        return pack_report(np.array([5, 5]), np.zeros((2, 2)), np.array([-1, -1]), self.spec.max_tracks)
+
+
+def test_an_agent_that_repeats_a_track_id_is_caught():
+    # regression: the unique-id check came after validate_report, whose ValueError escaped first
+    with pytest.raises(AssertionError, match=r"track ids must be unique within a report; repeated: \[5\]"):
+        check_agent(TwinAgent(), gym.make("SineTarget-v0"), steps=3)
+
+
 class TrustingAgent:
     """Reads every row whose mask is non-zero as a detection and checks nothing: must be caught."""
 

@@ -1,14 +1,20 @@
 """The shared plumbing of every tracking environment: padding, shuffling, truth, report, reward.
 
-A concrete environment only simulates and senses. It implements
+A concrete environment only simulates and senses. It implements the abstract hooks (a subclass
+that lacks one cannot be instantiated: ``TypeError`` names it)
 
 * :meth:`TrackingEnv._reset_scene` — build the scene from ``self.np_random``;
 * :meth:`TrackingEnv._advance` — move the scene one frame on, return ``True`` when it has ended;
 * :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
-* :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each;
-* :meth:`TrackingEnv._snapshot` — what :meth:`TrackingEnv._draw` needs of the current frame;
 * :meth:`TrackingEnv._canvas` — the :class:`~track_envs.rendering.Canvas` a frame is drawn on;
 * :meth:`TrackingEnv._draw` — a snapshot onto that canvas;
+
+and may override
+
+* :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each
+  (default: the point sensor over the visible targets);
+* :meth:`TrackingEnv._snapshot` — what :meth:`TrackingEnv._draw` needs of the current frame
+  (default: the current :class:`Truth`);
 
 and this base class does the rest of the contract of docs/architecture.md: the ``Dict`` observation
 (padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
@@ -23,6 +29,7 @@ observation and empty truth.
 
 from __future__ import annotations
 
+import abc
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -74,7 +81,7 @@ class Truth:
         return self.ids[self.visible], self.positions[self.visible]
 
 
-class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
+class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     """Base class of the tracking environments (see the module docstring).
 
     Subclasses call :meth:`_setup_spaces` once in ``__init__`` after they know their sensor.
@@ -175,14 +182,21 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         return self._drift_process.at(max(self._frame, 0))
 
     # -- hooks for subclasses -----------------------------------------------------------------
+    @abc.abstractmethod
     def _reset_scene(self) -> None:
-        raise NotImplementedError
+        """Build the scene of a new episode, drawing every random number from ``self.np_random``."""
 
+    @abc.abstractmethod
     def _advance(self) -> bool:
-        raise NotImplementedError
+        """Move the scene one frame on.
 
+        Returns:
+            ``True`` when the scene has ended (``step`` then returns ``terminated=True``).
+        """
+
+    @abc.abstractmethod
     def _truth(self) -> Truth:
-        raise NotImplementedError
+        """The targets of the current frame (unpadded; the base class pads them into ``info``)."""
 
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Point sensor over the visible targets, clutter uniform over the observed region.
@@ -232,11 +246,13 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]]):
         """Whatever :meth:`_draw` needs of the current frame (copied: the scene moves on)."""
         return self._current_truth
 
+    @abc.abstractmethod
     def _draw(self, canvas: Any, snapshot: Any) -> None:
-        raise NotImplementedError
+        """Draw ``snapshot`` (of :meth:`_snapshot`) onto ``canvas`` (of :meth:`_canvas`)."""
 
+    @abc.abstractmethod
     def _canvas(self) -> Any:
-        raise NotImplementedError
+        """A fresh :class:`~track_envs.rendering.Canvas` of the scene's region to draw a frame on."""
 
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detections as black crosses, the report's tracks as rings in their id colours (see

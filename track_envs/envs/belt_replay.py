@@ -97,6 +97,8 @@ class BeltReplayEnv(TrackingEnv):
     ## Version History
     - v0: first release. ``measurement_noise_std`` added later without a version bump (the
       default leaves every stream and spec as before); so was ``drift`` (default None).
+    - v0, pinned: these streams, pinned by the stream digest test (docs/architecture.md); a change
+      of what this id emits needs BeltReplay-v1.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

@@ -156,6 +156,9 @@ class BeltSorterEnv(TrackingEnv):
       stream departs from the earlier one after a few dozen frames (the statistics do not
       change). ``nozzle_offset=None`` gives the earlier streams bit for bit.
     - v0, drift: the optional ``drift`` (default None: every stream as before).
+    - v0, pinned: the streams above (merging on, nozzle bar at 0.05 m) are the streams of v0, pinned
+      by the stream digest test (docs/architecture.md); a change of what this id emits needs
+      BeltSorter-v1, and v0 keeps these streams.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

@@ -75,7 +75,8 @@ class DetectionReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: first release.
+    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
+      what this id emits needs DetectionReplay-v1.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

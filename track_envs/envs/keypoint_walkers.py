@@ -116,7 +116,8 @@ class KeypointWalkersEnv(TrackingEnv):
     keypoint of a person 200 px tall, ``clutter_rate`` in poses per frame, units ``"px"``.
 
     ## Version History
-    - v0: first release.
+    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
+      what this id emits needs KeypointWalkers-v1.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}  # noqa: RUF012

@@ -347,7 +347,9 @@ class SineTargetEnv(SingleTargetEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"`` (a 16 × 10 window following the target).
 
     ## Version History
-    - v0: first release; ``drift`` added later (default None: streams unchanged).
+    - v0: the initial streams (``drift`` added later, default None: streams unchanged), pinned by
+      the stream digest test (docs/architecture.md); a change of what this id emits needs
+      SineTarget-v1.
     """
 
     def _local_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -387,7 +389,8 @@ class PiecewiseTargetEnv(SingleTargetEnv):
     - ``max_heading_deg``: largest heading from the x-axis (default 60, below 90).
 
     ## Version History
-    - v0: first release.
+    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
+      what this id emits needs PiecewiseTarget-v1.
     """
 
     def __init__(

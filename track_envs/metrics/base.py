@@ -18,6 +18,12 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
   frame and non-negative; a metric fed reports directly may assume it.
 
 Every metric also has ``reset()`` to start a new episode.
+
+A metric that scores against the truth declares it with the class attribute ``needs_truth =
+True`` (every metric here does); one that reads only the reports (a track count, say) leaves it
+out, since the default is ``False`` (as for agents). :class:`~track_envs.wrappers.TrackingMetrics`
+skips the metrics that need truth on an environment without it (``has_truth = False``,
+DetectionReplay-v0).
 """
 
 from __future__ import annotations
@@ -31,7 +37,11 @@ from numpy.typing import NDArray
 
 @runtime_checkable
 class Metric(Protocol):
-    """A streaming scorer of reports against ground truth (motmetrics-style)."""
+    """A streaming scorer of reports against ground truth (motmetrics-style).
+
+    Optional class attributes (declared, read by :class:`~track_envs.wrappers.TrackingMetrics`):
+    ``needs_truth`` (default ``False``) and ``accepts_merged_ids`` (default ``False``).
+    """
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]

@@ -119,6 +119,7 @@ class AssociationErrors:
     :meth:`compute`.
     """
 
+    needs_truth = True
     accepts_merged_ids = True
 
     def __init__(self) -> None:

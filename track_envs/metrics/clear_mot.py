@@ -182,6 +182,7 @@ class ClearMot:
         threshold: Largest distance, in sensor units, at which a track can match a truth.
     """
 
+    needs_truth = True
     accepts_merged_ids = True
 
     def __init__(self, threshold: float) -> None:

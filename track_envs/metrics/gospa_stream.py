@@ -39,6 +39,8 @@ class GospaMetric:
         p: Order, >= 1 and finite.
     """
 
+    needs_truth = True
+
     def __init__(self, c: float, p: float = 2.0) -> None:
         check_gospa_parameters(c, p)
         self.c = float(c)

@@ -215,6 +215,8 @@ class KeypointMota:
             (see the class docstring); ``False`` counts every reported keypoint as a hypothesis.
     """
 
+    needs_truth = True
+
     def __init__(self, pckh: float = 0.5, head_fraction: float = 0.1, ignore_hidden: bool = True) -> None:
         if not (np.isfinite(pckh) and pckh > 0):
             raise ValueError(f"pckh must be a positive finite fraction of the head size, got {pckh!r}")
@@ -296,6 +298,8 @@ class PoseOks:
     Returns from :meth:`compute`: ``oks_mean`` (mean OKS over matched pairs), ``oks_recall``
     (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.
     """
+
+    needs_truth = True
 
     def __init__(self, threshold: float = 0.5, area_factor: float = 0.2) -> None:
         if not 0.0 <= threshold <= 1.0:

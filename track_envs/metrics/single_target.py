@@ -45,6 +45,8 @@ class SingleTargetError:
         lost_threshold: Mean error above which the track is lost (default 5).
     """
 
+    needs_truth = True
+
     def __init__(self, occlusion: tuple[int, int] | None = None, lost_threshold: float = LOST_THRESHOLD):
         if occlusion is not None:
             start, stop = occlusion

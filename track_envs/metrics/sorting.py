@@ -59,6 +59,7 @@ class SortingPrediction:
         length_to_mm: Millimetres per sensor unit for the ``_mm`` keys (default 1000: metres).
     """
 
+    needs_truth = True
     accepts_merged_ids = False
 
     def __init__(

@@ -45,8 +45,10 @@ class TrackingMetrics(gym.Wrapper):
     :mod:`track_envs.metrics.merged`); every other metric receives ``info["detection_ids"]``.
 
     An environment without ground truth (``has_truth = False``, DetectionReplay-v0) gets no
-    metric that needs truth (a metric says it does not with ``needs_truth = False``); the last
-    step's ``info["episode_metrics_note"]`` says what was skipped.
+    metric that needs truth: a metric declares that it does with the class attribute
+    ``needs_truth = True`` (every metric of :mod:`track_envs.metrics` does; the default, as for
+    agents, is ``False``). The last step's ``info["episode_metrics_note"]`` says what was
+    skipped.
 
     Args:
         env: A tracking environment (wrapped or not).
@@ -63,8 +65,8 @@ class TrackingMetrics(gym.Wrapper):
         except AttributeError:
             has_truth = True
         if not has_truth:
-            skipped = [type(m).__name__ for m in self.metrics if getattr(m, "needs_truth", True)]
-            self.metrics = [m for m in self.metrics if not getattr(m, "needs_truth", True)]
+            skipped = [type(m).__name__ for m in self.metrics if getattr(m, "needs_truth", False)]
+            self.metrics = [m for m in self.metrics if not getattr(m, "needs_truth", False)]
             self.note = "the environment has no ground truth: metrics that need it are skipped" + (
                 f" ({', '.join(skipped)})" if skipped else " (every point metric: MOTA, IDF1, GOSPA, e1, e2)"
             )

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from agents.bench.figures import age_scatter_figure, age_series, box_figure, box_stats, reliability_figure
-from agents.bench.report import Row, _save, aggregate
+from agents.bench.rows import Row, aggregate, save_figure
 
 NAME = "pollithy2020"
 ENV = "BeltSorter-v0"
@@ -157,11 +157,13 @@ def write_figures(rows: Sequence[Row], figdir: Path) -> dict[str, Path]:
                 f"Fig. 6 analogue: BeltSorter-v0 {kind}s, 0.1 mm noise, true associations\n"
                 f"(learned models trained on cylinders; mean of {entries[0][1].n} seeds' quantiles)"
             )
-            out[f"fig6_{kind}"] = _save(box_figure(entries, title), figdir / f"fig6_track_error_{kind}.png")
+            out[f"fig6_{kind}"] = save_figure(
+                box_figure(entries, title), figdir / f"fig6_track_error_{kind}.png"
+            )
     for name, (_, text, _) in VARIANTS.items():
         if any(fig7_row(rows, p, kw, n, name) for _, p, kw in FIG7 for n in NOISE):
             title = f"Fig. 7 analogue: gnn tracker on BeltSorter-v0 ({text}); mean ± std over seeds"
-            out[name] = _save(noise_figure(rows, name, title), figdir / f"{name}_e_mean.png")
+            out[name] = save_figure(noise_figure(rows, name, title), figdir / f"{name}_e_mean.png")
     nll = fig6_row(rows, "nll-lstm", (), "cylinder")
     mc = fig6_row(rows, "mc-lstm", (("samples", 250),), "cylinder")
     panels = []
@@ -175,7 +177,7 @@ def write_figures(rows: Sequence[Row], figdir: Path) -> dict[str, Path]:
         fig = reliability_figure(
             panels, "Figs. 3–4 analogue: reliability on held-out cylinder episodes (0.1 mm noise)"
         )
-        out["fig3_4"] = _save(fig, figdir / "fig3_4_reliability.png")
+        out["fig3_4"] = save_figure(fig, figdir / "fig3_4_reliability.png")
     series = [
         (label, r)
         for label, r in (("nll-lstm, 0.1 mm noise", nll), ("nll-lstm, no added noise", table1_row(rows, 0.0)))
@@ -186,7 +188,7 @@ def write_figures(rows: Sequence[Row], figdir: Path) -> dict[str, Path]:
         fig.axes[0].set_title(
             "Fig. 8 analogue: nll-lstm aleatoric area over the track's age (cylinders)", fontsize=9
         )
-        out["fig8"] = _save(fig, figdir / "fig8_aleatoric_age.png")
+        out["fig8"] = save_figure(fig, figdir / "fig8_aleatoric_age.png")
     return out
 
 

@@ -129,3 +129,32 @@ def test_std_bands_of_non_negative_metrics_stay_above_zero():
     (bars,) = [c for c in gospa_ax.containers if isinstance(c, ErrorbarContainer)]
     segments = np.concatenate([seg for col in bars.lines[2] for seg in col.get_segments()])
     assert segments[:, 1].min() == 0.0
+
+
+def test_bench_modules_import_public_names_without_a_circle():
+    """Regression: figures and report imported each other, and a claims module the private _save."""
+    import ast
+    from pathlib import Path
+
+    import agents.bench
+
+    root = Path(agents.bench.__file__).parent
+    graph: dict[str, set[str]] = {}
+    for path in root.rglob("*.py"):
+        module = "agents." + ".".join(path.relative_to(root.parent).with_suffix("").parts)
+        module = module.removesuffix(".__init__")
+        graph[module] = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("agents.bench."):
+                graph[module].add(node.module)
+                private = [a.name for a in node.names if a.name.startswith("_")]
+                assert not private, f"{module} imports private {private} from {node.module}"
+
+    def reaches(start: str, target: str, seen: set[str]) -> bool:
+        for nxt in graph.get(start, ()):
+            if nxt == target or (nxt not in seen and reaches(nxt, target, seen | {nxt})):
+                return True
+        return False
+
+    circles = sorted(m for m in graph if reaches(m, m, {m}))
+    assert circles == []

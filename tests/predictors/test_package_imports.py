@@ -1,0 +1,39 @@
+"""What predictors imports from track_envs is what docs/architecture.md says it imports."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import predictors
+
+#: track_envs modules every predictor may use: the value types and the registry helper.
+RUNTIME = {"track_envs.types", "track_envs.registry"}
+#: and those the training recipes (``training`` modules) use besides: the envs (data from their
+#: truth), the empty report, track files and the reliability metric (calibration).
+TRAINING = {
+    "track_envs",
+    "track_envs.envs.single_target",
+    "track_envs.report",
+    "track_envs.track_csv",
+    "track_envs.metrics.prediction",
+}
+
+
+def track_envs_imports(path: Path) -> set[str]:
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "track_envs":
+            found.add(node.module)
+        elif isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name.split(".")[0] == "track_envs"}
+    return found
+
+
+def test_predictors_import_from_track_envs_only_what_the_architecture_page_lists():
+    root = Path(predictors.__file__).parent
+    for path in root.rglob("*.py"):
+        name = path.relative_to(root.parent)
+        training = "training" in name.with_suffix("").parts
+        extra = track_envs_imports(path) - RUNTIME - (TRAINING if training else set())
+        assert not extra, f"{name} imports {sorted(extra)}: update docs/architecture.md"
