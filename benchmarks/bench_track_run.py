@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from agents import make_agent
+from agents.cli.run import main as track_run
 from agents.run import packed_block, run_agent
-from agents.run_cli import main as track_run
 from track_envs.detection_files import (
     read_mot_detections,
     read_wide_detections,
