@@ -30,7 +30,7 @@ from __future__ import annotations
 import argparse
 import re
 import warnings
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Literal
 
 #: A bare word read as a string value (a name such as ``sphere`` or ``kf-ca``, a path).
@@ -390,10 +390,25 @@ def add_added_noise(parser: Any) -> None:
     add_deprecated_alias(parser, "--noise-std", "--added-noise-std", "added_noise_std", type=parse_noise)
 
 
-def example_lines(epilog: str | None, prog: str) -> Iterable[str]:
-    """The example commands of a help epilog: lines that start with ``prog`` (after indentation),
-    with ``\\``-continued lines joined."""
-    lines = (epilog or "").splitlines()
+def example_block(epilog: str | None) -> list[str]:
+    """The lines of the ``examples:`` (or ``example:``) blocks of a help epilog, each block from
+    its header to the next blank line."""
+    out: list[str] = []
+    inside = False
+    for line in (epilog or "").splitlines():
+        if line.strip() in ("examples:", "example:"):
+            inside = True
+        elif not line.strip():
+            inside = False
+        elif inside:
+            out.append(line)
+    return out
+
+
+def example_lines(epilog: str | None, prog: str) -> Iterator[str]:
+    """The example commands of a help epilog that start with ``prog``: lines of its examples
+    block (:func:`example_block`), with ``\\``-continued lines joined."""
+    lines = example_block(epilog)
     i = 0
     while i < len(lines):
         line = lines[i].strip()

@@ -350,12 +350,16 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     return int(args.func(args))
 
 
-def list_main(argv: Sequence[str] | None = None, prog: str = "track list") -> int:
-    """Entry point of ``track list`` (the same listing as ``track bench list``)."""
-    parser = argparse.ArgumentParser(
+def build_list_parser(prog: str = "track list") -> argparse.ArgumentParser:
+    """The parser of ``track list`` (no options but ``--help``)."""
+    return argparse.ArgumentParser(
         prog=prog,
         description="Every env, agent and predictor: what each is and where it applies (the rule "
         "'track bench run' uses: a combination listed here runs, any other is reported as not applying).",
     )
-    parser.parse_args(argv)
+
+
+def list_main(argv: Sequence[str] | None = None, prog: str = "track list") -> int:
+    """Entry point of ``track list`` (the same listing as ``track bench list``)."""
+    build_list_parser(prog).parse_args(argv)
     return cmd_list(argparse.Namespace(prog=PROG))
