@@ -1,5 +1,5 @@
 # Two commands on a fresh machine with nothing but Python:
-#   make demo   run the main job: the quick benchmark suite (track-bench) with its table
+#   make demo   run the main job: the quick benchmark suite (track bench) with its table
 #   make test   run the whole default test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml Makefile
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(PY) -m agents.bench run --suite quick --out results/quick
+	MPLBACKEND=Agg $(VENV)/bin/track bench run --suite quick --out results/quick
 
 test: $(STAMP) lint
 	MPLBACKEND=Agg SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest -q

@@ -12,7 +12,7 @@ An agent whose tracks have covariances says so with a method ``track_covariances
 the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
 its predictor's estimate); ``covariance=True`` collects them.
 
-The command-line front end is ``track-run`` (:mod:`agents.run_cli`).
+The command-line front end is ``track run`` (:mod:`agents.cli.run`).
 """
 
 from __future__ import annotations
@@ -136,4 +136,4 @@ def _progress(total: int, enabled: bool) -> Any:
         return None
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="frame", desc="track-run", dynamic_ncols=True)
+    return tqdm(total=total, unit="frame", desc="track run", dynamic_ncols=True)

@@ -1,4 +1,4 @@
-"""Overhead of the track-bench runner over a plain loop running the same episodes.
+"""Overhead of the track bench runner over a plain loop running the same episodes.
 
 Both sides build the env (with TrackingMetrics) and the agent per cell and run the same seeded
 episodes; the runner adds the cell hash, the record (metrics, timings, versions) and its atomic

@@ -1,13 +1,13 @@
-"""Speed of detection-file reading and of ``track-run``'s loop around an agent.
+"""Speed of detection-file reading and of ``track run``'s loop around an agent.
 
 1. Reading a 50,000-frame file of 150,000 detections (a belt-like flow of about 3 particles in
    view, 0 to 8 per frame), in both layouts: :func:`read_mot_detections` and
    :func:`read_wide_detections`, against a plain-Python reader (the :mod:`csv` module, one list
    per frame) timed on the same files. Target: <= 2 s.
-2. ``track-run``'s overhead over the agent's own frame time: the same gnn (kf-ca) tracker over
+2. ``track run``'s overhead over the agent's own frame time: the same gnn (kf-ca) tracker over
    the same stream, (a) ``agent.act`` on observations packed before the clock starts (the
    agent's own time), (b) :func:`agents.run.run_agent` (packing, the loop, gathering the reports
-   into tracks, a tqdm bar), (c) the whole ``track-run`` command (read, track, write the MOT
+   into tracks, a tqdm bar), (c) the whole ``track run`` command (read, track, write the MOT
    file), each timed in the same process on the process's CPU time (the machine is shared: wall
    time counts the waits for a core), seven interleaved repetitions; the ratio is the median of
    the per-repetition ratios. On the sparse stream above and
@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from agents import make_agent
+from agents.cli.run import main as track_run
 from agents.run import packed_block, run_agent
-from agents.run_cli import main as track_run
 from track_envs.detection_files import (
     read_mot_detections,
     read_wide_detections,
@@ -124,7 +124,8 @@ def overhead(tmp: Path, stream: Detections, label: str) -> None:
         run_agent(agent, stream, spec, seed=0, covariance=True)
 
     def command() -> None:
-        argv = [str(tmp / f"{label}.txt"), "--dt=0.005", "--noise-std=1e-4", f"--out={tmp / 'out.txt'}"]
+        argv = [str(tmp / f"{label}.txt"), "--dt=0.005", "--declared-noise-std=1e-4"]
+        argv.append(f"--out={tmp / 'out.txt'}")
         with redirect_stderr(io.StringIO()):
             assert track_run(argv) == 0
 
@@ -138,7 +139,7 @@ def overhead(tmp: Path, stream: Detections, label: str) -> None:
     ratio = {k: float(np.median(np.array(v) / np.array(results["own"]))) for k, v in results.items()}
     per = 1e6 / stream.n_frames
     print(
-        f"\n## track-run overhead, {label}: {stream.n_frames} frames, {len(stream)} detections, gnn + kf-ca"
+        f"\n## track run overhead, {label}: {stream.n_frames} frames, {len(stream)} detections, gnn + kf-ca"
     )
     print("| what | least CPU s | µs / frame | vs agent alone (median of paired ratios) |")
     print("|---|---|---|---|")
@@ -146,7 +147,7 @@ def overhead(tmp: Path, stream: Detections, label: str) -> None:
         ("agent.act on packed observations (the agent's own time)", "own"),
         ("run_agent (pack, loop, gather, tqdm bar)", "loop"),
         ("run_agent with covariances", "cov"),
-        ("track-run command (read MOT, track, write MOT)", "command"),
+        ("track run command (read MOT, track, write MOT)", "command"),
     ]
     for what, key in rows:
         print(f"| {what} | {t[key]:.3f} | {t[key] * per:.1f} | {ratio[key]:.3f} |")

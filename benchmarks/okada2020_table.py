@@ -1,6 +1,6 @@
-"""The okada2020 ablation (Okada et al. 2020, Table II) from track-bench records: a table and a bar chart.
+"""The okada2020 ablation (Okada et al. 2020, Table II) from track bench records: a table and a bar chart.
 
-Reads the records of ``track-bench run --suite okada2020 --out DIR`` and prints, per variant,
+Reads the records of ``track bench run --suite okada2020 --out DIR`` and prints, per variant,
 nose ``id_switches`` (Table II's num_switches) and total MOTA as mean ± std over the seeds, with
 the paper's figures beside them, and writes a bar chart of both.
 

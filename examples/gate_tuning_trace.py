@@ -1,7 +1,7 @@
 """One GateTuning-v0 episode, traced: the drifting sensor, the knobs each policy sets, its errors.
 
 Plays the shipped PPO policy, a fixed setting and (with ``--table``, a table of
-``track-tune sensor-grid``) the sensor-informed reference on the same held-out episode, and plots
+``track tune sensor-grid``) the sensor-informed reference on the same held-out episode, and plots
 the true sensor (noise std, detection probability, clutter rate), the gate probability and noise
 scale each policy set, and each policy's cumulative association errors::
 

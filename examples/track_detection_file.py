@@ -6,7 +6,7 @@
 2. Reads the detections (``read_detections``), builds the sensor spec the tracker is told
    (``detection_sensor_spec``: dt, the measurement noise, the region), runs a tracker over them
    (``run_agent``) and writes the tracks as MOTChallenge rows (``write_tracks``).
-3. Scores them against the ground-truth file (``score_tracks``) — what ``track-run ... --gt gt.txt
+3. Scores them against the ground-truth file (``score_tracks``) — what ``track run ... --gt gt.txt
    --metrics`` prints.
 
     python examples/track_detection_file.py --out run/ --steps 300

@@ -1,4 +1,4 @@
-"""The benchmark runner and the ``track-bench`` CLI (``python -m agents.bench``).
+"""The benchmark runner behind ``track bench`` (also ``python -m agents.bench``).
 
 Runs agents × predictors × envs × seeds as cells, one atomically written JSON record per cell,
 on a local process pool (default) or Ray, and builds tables and plots from the records::
@@ -11,21 +11,22 @@ on a local process pool (default) or Ray, and builds tables and plots from the r
 
 from __future__ import annotations
 
-from agents.bench.cells import NO_PREDICTOR, SUITES, Cell, Group, expand, load_suite
+from agents.bench.cells import NO_PREDICTOR, Cell, Group, expand, load_suite, plan, suite_names
 from agents.bench.report import aggregate, terminal_table, write_report
 from agents.bench.runner import load_records, run_cell, run_cells, write_record
 
 __all__ = [
     "NO_PREDICTOR",
-    "SUITES",
     "Cell",
     "Group",
     "aggregate",
     "expand",
     "load_records",
     "load_suite",
+    "plan",
     "run_cell",
     "run_cells",
+    "suite_names",
     "terminal_table",
     "write_record",
     "write_report",

@@ -1,7 +1,7 @@
-"""``python -m agents.bench`` = ``track-bench``."""
+"""``python -m agents.bench`` = ``track bench``."""
 
 import sys
 
-from agents.bench.cli import main
+from agents.cli.bench import main
 
 sys.exit(main())

@@ -5,13 +5,19 @@ the episode budget (episodes, steps per episode). Its :attr:`Cell.key` is a stab
 those fields, so the record file of a cell has the same name on every machine and every run; every
 field but the seed is also one of the cell's :meth:`Cell.params`, which the report groups seeds by.
 
-A **suite** is a list of :class:`Group` s; a group is a cartesian product (envs × agents ×
-predictors × sweep values × seeds) that :func:`expand` turns into the cells that *apply*:
+A **suite** is a list of :class:`Group` s, read from a TOML file (:func:`load_suite`; the shipped
+ones are ``agents/bench/suites/NAME.toml``); a group is a cartesian product (envs × agents ×
+predictors × sweep values × seeds) that :func:`expand` turns into the cells that *apply*, by the
+one rule :func:`why_not` (which ``track list`` shows too):
 
+- the env reports ground truth to score against (not ``DetectionReplay-v0``);
 - an agent applies to an env when its position rank matches the env's ``position_shape``
   (:func:`agents.agent_applies_to`: point trackers on point envs, pose trackers on keypoints);
 - a predictor applies to an agent that takes a ``predictor`` argument (``"gnn"``); an agent
   without one (``"detections"``, ``"pf"``, ``"pose-baseline"``) runs once with predictor ``"-"``.
+
+:func:`plan` also returns the combinations that do not apply, with the reason, so that the
+command reports them instead of dropping them.
 """
 
 from __future__ import annotations
@@ -145,6 +151,7 @@ class Group:
         env_kwargs: Fixed env kwargs for every cell.
         sweep: Env kwarg name → values; one cell per value (several names: every combination).
         agent_kwargs: Fixed ``make_agent`` kwargs for every cell.
+        exclude_envs: Env ids left out of an empty ``envs`` ("every env but these").
     """
 
     envs: tuple[str, ...] = ()
@@ -156,68 +163,16 @@ class Group:
     env_kwargs: tuple[tuple[str, Any], ...] = ()
     sweep: tuple[tuple[str, tuple[Any, ...]], ...] = field(default=())
     agent_kwargs: tuple[tuple[str, Any], ...] = ()
+    exclude_envs: tuple[str, ...] = ()
+
+    def env_ids(self) -> tuple[str, ...]:
+        """The envs the group runs: ``envs``, or every registered env but ``exclude_envs``."""
+        return self.envs or tuple(e for e in track_envs.ENV_IDS if e not in self.exclude_envs)
 
 
-#: Pollithy et al. (2020), Fig. 7, sweep the measurement noise on the belt from 0 to 0.5 mm.
-NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
-
-#: Measurement noise of the suites' BeltReplay-v0 cells. The replay has no noise by
-#: default, so without it every seed would give the same episode (and a std of 0).
-REPLAY_NOISE = 1e-4
-
-#: Envs without truth (a replay of a user's detections): nothing to score, so no suite runs them.
+#: Envs without truth (a replay of a user's detections): nothing to score, so no cell of them
+#: applies (:func:`why_not`; the env class declares ``has_truth = False``).
 NO_TRUTH_ENVS = ("DetectionReplay-v0",)
-
-SUITES: dict[str, tuple[Group, ...]] = {
-    # every env with truth × every agent/predictor that applies × 2 seeds, short episodes.
-    "quick": (
-        Group(
-            envs=tuple(e for e in track_envs.ENV_IDS if e not in ("BeltReplay-v0", *NO_TRUTH_ENVS)),
-            seeds=(0, 1),
-            steps=100,
-        ),
-        Group(
-            envs=("BeltReplay-v0",),
-            seeds=(0, 1),
-            steps=100,
-            env_kwargs=(("noise_std", REPLAY_NOISE),),
-        ),
-    ),
-    # paper scale: 10 Monte Carlo seeds, full-length episodes, and the noise sweep of Pollithy et al. (2020).
-    "full": (
-        Group(
-            envs=tuple(
-                e for e in track_envs.ENV_IDS if e not in ("BeltSorter-v0", "BeltReplay-v0", *NO_TRUTH_ENVS)
-            ),
-            seeds=tuple(range(10)),
-        ),
-        Group(
-            envs=("BeltReplay-v0",),
-            seeds=tuple(range(10)),
-            env_kwargs=(("noise_std", REPLAY_NOISE),),
-        ),
-        Group(envs=("BeltSorter-v0",), seeds=tuple(range(10)), sweep=(("noise_std", NOISE_SWEEP),)),
-    ),
-}
-
-
-#: The belt predictors the sorting suite compares: the Kalman filters and the learned ones.
-SORTING_PREDICTORS = ("kf-cv", "kf-ca", "lstm", "nll-lstm", "mc-lstm")
-#: Nozzle bars of the sorting suite: close to the camera window and farther downstream (m).
-NOZZLE_OFFSETS = (0.02, 0.10)
-
-# how well each predictor tells the sorter when and where a particle passes the nozzle bar,
-# over the noise sweep of Pollithy et al. (2020) and two nozzle distances (sorting_* metrics).
-SUITES["sorting"] = (
-    Group(
-        envs=("BeltSorter-v0",),
-        agents=("gnn",),
-        predictors=SORTING_PREDICTORS,
-        seeds=(0, 1, 2),
-        steps=500,
-        sweep=(("noise_std", NOISE_SWEEP), ("nozzle_offset", NOZZLE_OFFSETS)),
-    ),
-)
 
 
 def check_names(kind: str, names: Iterable[str], valid: Sequence[str]) -> None:
@@ -303,25 +258,89 @@ def trackers() -> list[str]:
     return [a for a in available_agents() if not getattr(AGENTS.factory(a), "needs_truth", False)]
 
 
+def env_has_truth(env_id: str) -> bool:
+    """Whether ``env_id`` reports ground truth (its env class does not declare ``has_truth = False``)."""
+    from gymnasium.envs.registration import load_env_creator
+
+    entry = gym.spec(env_id).entry_point
+    creator: Any = load_env_creator(entry) if isinstance(entry, str) else entry
+    return bool(getattr(creator, "has_truth", True))
+
+
+def why_not(env_id: str, agent: str, predictor: str | None = None) -> str | None:
+    """Why the cell (``env_id``, ``agent``[, ``predictor``]) cannot run, or ``None`` when it can.
+
+    The reason is a phrase about "the env", "the agent" or "the predictor", to print after the
+    combination (:func:`format_skipped`).
+
+    The one applicability rule of the benchmark (``track list`` and ``track bench run`` both ask
+    it): the env must report truth to score against; the agent must track the env's targets
+    (:func:`agents.agent_applies_to`: position rank, and how many targets it follows at once);
+    a ``predictor`` other than ``"-"`` needs an agent that takes one and must be meant for the env
+    (:func:`predictors.predictor_applies_to`: the belt LSTMs run on the belt envs only).
+    """
+    if not env_has_truth(env_id):
+        return "the env has no ground truth to score against (track its detections with 'track run')"
+    position_shape, max_targets = env_shape(env_id)
+    if not agent_applies_to(agent, position_shape):
+        return f"the agent tracks no targets with positions of shape {position_shape}"
+    if not agent_applies_to(agent, position_shape, max_targets):
+        return f"the agent tracks fewer targets at once than the env's up to {max_targets}"
+    if predictor is None or predictor == NO_PREDICTOR:
+        return None
+    if not agent_takes_predictor(agent):
+        return f"the agent takes no predictor (it runs with predictor {NO_PREDICTOR!r})"
+    if not predictor_applies_to(predictor, env_id):
+        return "the predictor is not meant for this env"
+    return None
+
+
 def agent_applies_to_env(env_id: str, agent: str) -> bool:
-    """Whether ``agent`` tracks the targets of ``env_id`` (position shape and target count)."""
-    return agent_applies_to(agent, *env_shape(env_id))
+    """Whether some cell of ``agent`` on ``env_id`` can run (:func:`why_not`)."""
+    return why_not(env_id, agent) is None
 
 
 def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
     """Predictor column values for ``agent`` on ``env_id``: ``[]`` if the agent does not apply,
     ``["-"]`` if it takes no predictor, else those of ``predictors`` meant for the env
-    (:func:`predictors.predictor_applies_to`: the belt LSTMs run on the belt envs only)."""
+    (all by :func:`why_not`)."""
     if not agent_applies_to_env(env_id, agent):
         return []
     if not agent_takes_predictor(agent):
         return [NO_PREDICTOR]
-    return [p for p in predictors if predictor_applies_to(p, env_id)]
+    return [p for p in predictors if why_not(env_id, agent, p) is None]
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A combination of a suite that does not run, and why (:func:`why_not`).
+
+    Attributes:
+        env_id: The env id.
+        agent: The agent name.
+        predictor: The predictor, or ``None`` when the agent does not apply with any.
+        reason: Why the cell cannot run.
+    """
+
+    env_id: str
+    agent: str
+    predictor: str | None
+    reason: str
+
+
+def format_skipped(skipped: Sequence[Skipped]) -> list[str]:
+    """One line per env and reason: ``"ENV × AGENT[/PREDICTOR], ...: REASON"``, in first-seen order."""
+    lines: dict[tuple[str, str], list[str]] = {}
+    for s in skipped:
+        what = s.agent if s.predictor is None else f"{s.agent}/{s.predictor}"
+        lines.setdefault((s.env_id, s.reason), []).append(what)
+    return [f"{env} × {', '.join(whats)}: {reason}" for (env, reason), whats in lines.items()]
 
 
 def validate_group(group: Group) -> None:
     """Raise ``ValueError`` for unknown env, agent, predictor or sweep names (listing valid ones)."""
     check_names("env", group.envs, track_envs.ENV_IDS)
+    check_names("env", group.exclude_envs, track_envs.ENV_IDS)
     check_names("agent", group.agents, available_agents())
     check_names("predictor", group.predictors, available_predictors())
     if group.episodes < 1:
@@ -334,7 +353,7 @@ def validate_group(group: Group) -> None:
     for name, vs in group.sweep:
         if not vs:
             raise ValueError(f"sweep of {name} has no values")
-    for env_id in group.envs or track_envs.ENV_IDS:
+    for env_id in group.env_ids():
         defaults = env_kwarg_defaults(env_id)
         if defaults is None:
             continue
@@ -344,15 +363,36 @@ def validate_group(group: Group) -> None:
 
 
 def expand(groups: Iterable[Group]) -> list[Cell]:
-    """Every applicable cell of ``groups``, in order, without duplicates."""
+    """Every applicable cell of ``groups``, in order, without duplicates (:func:`plan` also
+    says which combinations do not apply and why)."""
+    return plan(groups)[0]
+
+
+def plan(groups: Iterable[Group]) -> tuple[list[Cell], list[Skipped]]:
+    """The cells of ``groups`` that apply (in order, without duplicates) and every combination
+    of env, agent and predictor of theirs that does not, with the reason (:func:`why_not`)."""
     cells: dict[str, Cell] = {}
+    skipped: dict[tuple[str, str, str | None], Skipped] = {}
     for group in groups:
         validate_group(group)
         sweep_names = [n for n, _ in group.sweep]
         sweep_values = list(itertools.product(*(v for _, v in group.sweep)))
-        for env_id in group.envs or track_envs.ENV_IDS:
+        for env_id in group.env_ids():
             for agent in group.agents or trackers():
-                for predictor in applicable(env_id, agent, group.predictors or available_predictors()):
+                reason = why_not(env_id, agent)
+                if reason is not None:
+                    skipped.setdefault((env_id, agent, None), Skipped(env_id, agent, None, reason))
+                    continue
+                predictors = [NO_PREDICTOR]
+                if agent_takes_predictor(agent):
+                    predictors = []
+                    for p in group.predictors or available_predictors():
+                        reason = why_not(env_id, agent, p)
+                        if reason is None:
+                            predictors.append(p)
+                        else:
+                            skipped.setdefault((env_id, agent, p), Skipped(env_id, agent, p, reason))
+                for predictor in predictors:
                     for values in sweep_values:
                         kwargs = dict(group.env_kwargs) | dict(zip(sweep_names, values, strict=True))
                         for seed in group.seeds:
@@ -368,14 +408,14 @@ def expand(groups: Iterable[Group]) -> list[Cell]:
                                 tuple(sorted(group.agent_kwargs)),
                             )
                             cells.setdefault(cell.key, cell)
-    return list(cells.values())
+    return list(cells.values()), list(skipped.values())
 
 
 def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
     """``groups`` with the non-``None`` ``changes`` applied to every group (CLI flags over a suite).
 
-    ``envs`` selects rather than replaces: a group that lists envs keeps those of them that are
-    also in ``envs`` (and is dropped if none is), a group that lists none takes ``envs``. So
+    ``envs`` selects rather than replaces: a group keeps those of its envs
+    (:meth:`Group.env_ids`) that are also in ``envs`` and is dropped if none is. So
     ``--envs BeltReplay-v0`` on a suite with a group per env family runs just that env's group,
     with that group's env kwargs. Every other key replaces the group's value.
     """
@@ -384,10 +424,12 @@ def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
     out = []
     for group in groups:
         if envs is not None:
-            chosen = tuple(e for e in group.envs if e in envs) if group.envs else tuple(envs)
+            chosen = tuple(e for e in envs if e in group.env_ids())
+            if group.envs:  # keep the group's own order
+                chosen = tuple(e for e in group.envs if e in envs)
             if not chosen:
                 continue
-            group = replace(group, envs=chosen)
+            group = replace(group, envs=chosen, exclude_envs=())
         out.append(replace(group, **changes))
     return tuple(out)
 
@@ -397,7 +439,8 @@ SUITE_FOLDER = "suites"
 
 
 def packaged_suites() -> dict[str, Path]:
-    """Name → path of every TOML suite shipped in :data:`SUITE_FOLDER` (e.g. ``pollithy2020``)."""
+    """Name → path of every TOML suite shipped in :data:`SUITE_FOLDER` (``quick``, ``full``,
+    ``sorting``, ``pollithy2020``, ...)."""
     from importlib import resources
 
     folder = resources.files("agents.bench") / SUITE_FOLDER
@@ -410,20 +453,27 @@ def packaged_suites() -> dict[str, Path]:
     }
 
 
+#: The suites :func:`suite_names` lists first, in this order (the others follow by name).
+MAIN_SUITES = ("quick", "full", "sorting")
+
+
 def suite_names() -> list[str]:
-    """Every suite name :func:`load_suite` accepts: the built-in ones, then the shipped TOMLs."""
-    return [*SUITES, *(n for n in packaged_suites() if n not in SUITES)]
+    """Every suite name :func:`load_suite` accepts: ``quick``, ``full``, ``sorting``, then the
+    other shipped TOMLs by name."""
+    shipped = packaged_suites()
+    return [*(n for n in MAIN_SUITES if n in shipped), *(n for n in shipped if n not in MAIN_SUITES)]
 
 
 def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
-    """A suite by name (``"quick"``, ``"full"``, ``"sorting"``, a shipped TOML such as
-    ``"pollithy2020"``) or from a TOML file.
+    """A shipped suite by name (``"quick"``, ``"full"``, ``"sorting"``, ``"pollithy2020"``, ...:
+    ``agents/bench/suites/NAME.toml``) or a suite from a TOML file.
 
     A TOML suite holds one or more ``[[group]]`` tables (or the group's keys at the top level)::
 
         [[group]]
         name = "fig6"                 # optional label, for the reader
-        envs = ["BeltSorter-v0"]      # default: every env
+        envs = ["BeltSorter-v0"]      # default: every env (but exclude_envs)
+        exclude_envs = ["BeltReplay-v0"]  # with no envs: every env but these
         agents = ["gnn"]              # default: every agent that applies
         predictors = ["kf-cv", "kf-ca"]
         seeds = 5                     # a count (0..4) or a list of seeds
@@ -434,21 +484,16 @@ def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
         agent_kwargs = { p_gate = 0.99 }  # make_agent kwargs (gnn: also its predictor's)
         quick = { seeds = 1, steps = 100 }  # the group in the --quick variant (false: left out)
 
-    A top-level ``[quick]`` table gives every group's quick keys that do not set their own.
+    A top-level ``[quick]`` table gives every group's quick keys that do not set their own; a
+    group with neither runs unchanged in the quick variant.
 
     Args:
         source: A suite name (:func:`suite_names`) or a path ending in ``.toml``.
         quick: The suite's quick variant: each group's ``quick`` keys replace its own.
 
     Raises:
-        ValueError: for an unknown name, a bad key or value, or ``quick`` with a built-in suite.
+        ValueError: for an unknown name or a bad key or value.
     """
-    if source in SUITES:
-        if quick:
-            raise ValueError(
-                f"suite {source!r} has no quick variant; TOML suites {list(packaged_suites())} do"
-            )
-        return SUITES[source]
     shipped = packaged_suites()
     if source in shipped:
         path: str | Path = shipped[source]
@@ -483,7 +528,7 @@ def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
 def group_from_mapping(data: Mapping[str, Any]) -> Group:
     """A :class:`Group` from a TOML table (see :func:`load_suite`)."""
     allowed = {"envs", "agents", "predictors", "seeds", "episodes", "steps", "env_kwargs", "sweep"}
-    allowed |= {"agent_kwargs", "name", "quick"}
+    allowed |= {"agent_kwargs", "name", "quick", "exclude_envs"}
     check_names("suite key", data, sorted(allowed))
     seeds = data.get("seeds", 2)
     for name, values in dict(data.get("sweep", {})).items():
@@ -499,4 +544,5 @@ def group_from_mapping(data: Mapping[str, Any]) -> Group:
         env_kwargs=kwarg_items(data.get("env_kwargs")),
         sweep=tuple((k, freeze(list(v))) for k, v in dict(data.get("sweep", {})).items()),
         agent_kwargs=kwarg_items(data.get("agent_kwargs")),
+        exclude_envs=tuple(data.get("exclude_envs", ())),
     )

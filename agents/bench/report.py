@@ -144,7 +144,7 @@ def terminal_table(rows: Sequence[Row], color: bool | None = None) -> str:
 
 def markdown_table(rows: Sequence[Row]) -> str:
     """The headline tables as markdown; the best value per metric in bold."""
-    parts = ["# track-bench results", "", "Mean ± std over seeds; **bold**: best per env and setting."]
+    parts = ["# track bench results", "", "Mean ± std over seeds; **bold**: best per env and setting."]
     for env_id, header, body, best in _env_tables(rows):
         for j, winners in enumerate(best):
             for i in winners:

@@ -442,7 +442,7 @@ def run_cells(
     if check:
         check_cells(todo)
     out.mkdir(parents=True, exist_ok=True)
-    bar = tqdm(total=len(todo), unit="cell", desc=f"track-bench ({engine})", disable=not progress)
+    bar = tqdm(total=len(todo), unit="cell", desc=f"track bench ({engine})", disable=not progress)
 
     def on_record(record: dict[str, Any]) -> None:
         write_record(out, record)

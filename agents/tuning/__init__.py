@@ -10,7 +10,7 @@ Importing this package registers ``GateTuning-v0`` (idempotent)::
     action, _ = policy.predict(obs, deterministic=True)
 
 stable-baselines3 (the ``rl`` extra) is only needed to train (:mod:`agents.tuning.train`,
-the ``track-tune`` command); the shipped policy runs without it.
+the ``track tune`` command); the shipped policy runs without it.
 """
 
 from __future__ import annotations

@@ -74,7 +74,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Starting State
     The base env reset with the seed (``reset(seed=s)`` gives the base episode of seed ``s``, as
-    ``track-bench`` runs it), a new tracker with the initial knobs (``agent_kwargs`` or the
+    ``track bench`` runs it), a new tracker with the initial knobs (``agent_kwargs`` or the
     gnn defaults, clipped to the ranges). Resets without a seed draw the base seed from the
     env's generator, below :data:`HELD_OUT_SEEDS`.
 

@@ -1,5 +1,5 @@
 """Paired evaluation of gate-tuning policies on held-out seeds, and the best fixed setting of a
-``track-bench`` grid.
+``track bench`` grid.
 
 Every policy plays the same episodes (GateTuning-v0 reset with the same seeds, so the same
 particles, detections and drift); the measure is an episode's association errors ``E`` (minus
@@ -176,10 +176,10 @@ def grid_suite(
     predictor: str = "kf-ca",
     grid: Mapping[str, Sequence[float]] | None = None,
 ) -> str:
-    """The ``track-bench`` suite (TOML) of the grid: one group per setting, BeltSorter-v0 with
+    """The ``track bench`` suite (TOML) of the grid: one group per setting, BeltSorter-v0 with
     ``drift`` and GateTuning-v0's ``max_tracks`` and ``max_targets`` for ``steps`` frames on
     ``seeds`` (the episodes GateTuning-v0 plays with that constant setting from the same seeds)."""
-    lines = ["# the fixed-setting grid of GateTuning-v0 (written by track-tune grid-suite)"]
+    lines = ["# the fixed-setting grid of GateTuning-v0 (written by track tune grid-suite)"]
     env_kwargs = (
         f'{{ drift = "{drift}", max_tracks = {BASE_MAX_TRACKS}, max_targets = {BASE_MAX_TARGETS} }}'
         if drift
@@ -202,7 +202,7 @@ def grid_suite(
 
 
 def record_errors(record: Mapping[str, Any]) -> int:
-    """``E`` of a ``track-bench`` record (its e1, e2, n_tracks, n_particles)."""
+    """``E`` of a ``track bench`` record (its e1, e2, n_tracks, n_particles)."""
     m = record["metrics"]
     return round(float(m["e1"]) * float(m["n_tracks"])) + round(float(m["e2"]) * float(m["n_particles"]))
 
@@ -220,7 +220,7 @@ def best_fixed(records: Iterable[Mapping[str, Any]], knobs: Sequence[str] = tupl
         key = tuple((k, float(kwargs[k])) for k in knobs if k in kwargs)
         table.setdefault(key, {})[int(cell["seed"])] = record_errors(rec)
     if not table:
-        raise ValueError("no track-bench records of the grid")
+        raise ValueError("no track bench records of the grid")
     seed_sets = {tuple(sorted(v)) for v in table.values()}
     if len(seed_sets) != 1:
         raise ValueError(f"the grid's settings ran on different seeds: {sorted(seed_sets)}")
@@ -233,7 +233,7 @@ def best_fixed(records: Iterable[Mapping[str, Any]], knobs: Sequence[str] = tupl
 
 
 def read_records(out: str | Path) -> list[dict[str, Any]]:
-    """The JSON records of a ``track-bench`` out dir."""
+    """The JSON records of a ``track bench`` out dir."""
     records = []
     for path in sorted(Path(out).glob("*.json")):
         data = json.loads(path.read_text())

@@ -162,7 +162,7 @@ class SensorTable:
             raise ValueError(f"cannot read the sensor table {path}: {exc}") from None
         if not isinstance(data, dict) or data.get("version") != TABLE_VERSION:
             raise ValueError(
-                f"{path} is not a sensor table of version {TABLE_VERSION} (track-tune sensor-grid writes one)"
+                f"{path} is not a sensor table of version {TABLE_VERSION} (track tune sensor-grid writes one)"
             )
         try:
             return cls(

@@ -11,8 +11,8 @@ import pytest
 
 import track_envs  # noqa: F401  (registers the envs)
 from agents import make_agent
+from agents.cli.run import format_metrics, main
 from agents.run import run_agent
-from agents.run_cli import format_metrics, main
 from track_envs.detections import Detections
 from track_envs.observation import check_observation, pack_observation
 from track_envs.track_files import read_tracks
@@ -52,7 +52,7 @@ def recorded(tmp_path_factory) -> tuple[Path, dict, dict, SensorSpec]:
 def spec_flags(spec: SensorSpec) -> list[str]:
     lo, hi = spec.region_low, spec.region_high
     return [
-        f"--noise-std={spec.noise_std}",
+        f"--declared-noise-std={spec.noise_std}",
         f"--p-detect={spec.p_detect}",
         f"--clutter-rate={spec.clutter_rate}",
         f"--region={lo[0]},{lo[1]},{hi[0]},{hi[1]}",
@@ -143,8 +143,8 @@ def test_pack_observation_is_the_observation_an_agent_reads():
 def test_track_run_long_output_holds_covariances(tmp_path, capsys):
     det = tmp_path / "d.csv"
     det.write_text("frame,count,x0,y0,x1,y1\n0,2,0.1,0.1,0.5,0.5\n1,2,0.11,0.1,0.5,0.51\n2,1,0.12,0.1,,\n")
-    assert main([str(det), "--dt=0.01", "--noise-std=0.001", f"--out={tmp_path / 't.csv'}", "--format=long",
-                 "--covariance", "--no-progress"]) == 0  # fmt: skip
+    assert main([str(det), "--dt=0.01", "--declared-noise-std=0.001", f"--out={tmp_path / 't.csv'}",
+                 "--format=long", "--covariance", "--no-progress"]) == 0  # fmt: skip
     tracks = read_tracks(tmp_path / "t.csv")
     assert tracks.cov is not None and len(tracks) >= 5 and tracks.n_frames == 3
 
@@ -164,7 +164,7 @@ def test_track_run_errors_are_one_line_with_exit_code_2(tmp_path, capsys, monkey
     assert main(["d.csv", "--no-progress", *argv]) == 2
     err = capsys.readouterr().err
     assert (
-        err.startswith("track-run: error:") and re.search(message, err) and not (tmp_path / "t.txt").exists()
+        err.startswith("track run: error:") and re.search(message, err) and not (tmp_path / "t.txt").exists()
     )
 
 
@@ -192,6 +192,11 @@ def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys
     assert (tmp_path / "tracks.txt").stat().st_size > 1000
     # the README's second command: the wide detections, dt from the time column
     episode = tmp_path / "episode-000"
-    argv = [str(episode / "det.csv"), "--time-column=time", "--noise-std=1e-4", f"--out={tmp_path / 'w.csv'}"]
+    argv = [
+        str(episode / "det.csv"),
+        "--time-column=time",
+        "--declared-noise-std=1e-4",
+        f"--out={tmp_path / 'w.csv'}",
+    ]
     assert main([*argv, "--format=wide", "--no-progress"]) == 0
     assert read_tracks(tmp_path / "w.csv").n_frames == 60

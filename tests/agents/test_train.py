@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from agents.cli.train import main
 from agents.gnn.agent import GnnAgent
-from agents.train import main
 from predictors.belt_lstm.predictor import LSTMPredictor
 from track_envs.recording import record_belt_sorter
 
@@ -26,11 +26,11 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_train_from_a_track_file_then_track_with_it(recording: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "nll"
     argv = ["nll-lstm", "--tracks", str(recording), "--dt", "0.01", "--epochs", "4", "--batch-size", "64"]
-    assert main([*argv, "--out", str(out), "--no-progress", "--noise-std", "1e-4"]) == 0
+    assert main([*argv, "--out", str(out), "--no-progress", "--added-noise-std", "1e-4"]) == 0
     printed = capsys.readouterr().out
     assert "shorter than 5 frames dropped" in printed and "wrote" in printed
     sidecar = json.loads(out.with_suffix(".json").read_text())
-    assert sidecar["training"]["command"].startswith("track-train nll-lstm --tracks")
+    assert sidecar["training"]["command"].startswith("track train nll-lstm --tracks")
     assert sidecar["data"]["source"] == "file" and sidecar["data"]["train_tracks"] > 0
     assert sidecar["calibration"]["scale"] > 0 and np.isfinite(sidecar["metrics"]["test_mean_error"])
     assert set(sidecar["versions"]) >= {"torch", "numpy", "python"}
@@ -52,7 +52,7 @@ def test_train_from_a_track_file_then_track_with_it(recording: Path, tmp_path: P
 def test_lstm_line_search_writes_the_chosen_scale(recording: Path, tmp_path: Path) -> None:
     out = tmp_path / "lstm"
     argv = ["lstm", "--tracks", str(recording), "--dt", "0.01", "--epochs", "2", "--batch-size", "64"]
-    assert main([*argv, "--out", str(out), "--no-progress", "--noise-std", "3e-4"]) == 0
+    assert main([*argv, "--out", str(out), "--no-progress", "--added-noise-std", "3e-4"]) == 0
     sidecar = json.loads(out.with_suffix(".json").read_text())
     tuning = sidecar["training"]["tuning"]
     assert len(tuning["e_mean"]) == len(tuning["factors"]) == 7
@@ -67,7 +67,7 @@ def test_too_little_data_is_a_one_line_error(tmp_path: Path, capsys) -> None:
     tiny.write_text("0.1,0.1\n0.11,0.1\n")
     assert main(["nll-lstm", "--tracks", str(tiny), "--dt", "0.01", "--out", str(tmp_path / "m")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("track-train: error: too few tracks to train on")
+    assert err.startswith("track train: error: too few tracks to train on")
 
 
 def test_tracks_need_dt(recording: Path, tmp_path: Path, capsys) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.train import main
+from agents.cli.train import main
 from predictors.displacement_lstm.inference import DisplacementLSTM
 from track_envs.envs.single_target import sine_trajectory, to_world
 from track_envs.track_csv import write_track_csv
@@ -24,7 +24,7 @@ def test_sine_source_writes_a_model_file(tmp_path: Path, capsys) -> None:
     assert "wrote" in capsys.readouterr().out
     sidecar = json.loads(out.with_suffix(".json").read_text())
     assert sidecar["kind"] == "displacement-lstm"
-    assert sidecar["training"]["command"].startswith("track-train displacement-lstm --sine --periods 3")
+    assert sidecar["training"]["command"].startswith("track train displacement-lstm --sine --periods 3")
     assert sidecar["data"] == {**sidecar["data"], "source": "sine", "periods": 3.0, "window": 40, "stride": 8}
     assert sidecar["normalisation"]["step"] == 0.2 and sidecar["architecture"]["dropout"] == 0.25
     assert np.isfinite(sidecar["metrics"]["test_mean_error"]) and sidecar["training"]["wall_time_s"] >= 0

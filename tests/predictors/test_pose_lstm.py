@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from agents.train import main as train_main
+from agents.cli import train_alias as train_main
 from predictors.pose_lstm.predictor import PosePredictor, window_features
 from predictors.pose_lstm.training import PoseWindows, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig

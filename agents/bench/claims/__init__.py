@@ -1,4 +1,4 @@
-"""Claims tables of paper reproductions: ``track-bench claims SUITE DIR``.
+"""Claims tables of paper reproductions: ``track bench claims SUITE DIR``.
 
 A module ``agents.bench.claims.<suite>`` (the suite name with ``-`` as ``_``) that defines
 ``write_claims(records, out, *, wall_s=None) -> list[Path]`` turns the records of the shipped

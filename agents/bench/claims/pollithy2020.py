@@ -2,11 +2,11 @@
 
 Pollithy, Reith-Braun, Pfaff, Hanebeck, "Estimating Uncertainties of Recurrent Neural Networks in
 Application to Multitarget Tracking" (MFI 2020). :func:`write_claims` draws our analogues of
-their Figs. 3–4, 6, 7, 8 and Table I from the records of ``track-bench run --suite pollithy2020``
+their Figs. 3–4, 6, 7, 8 and Table I from the records of ``track bench run --suite pollithy2020``
 and writes ``pollithy2020.md``: one row per claim with the paper's figure and number, ours, and a
 verdict computed by the rule stated in the row (``holds`` / ``partly`` / ``does not hold``).
 
-    track-bench claims pollithy2020 results/pollithy2020 --out docs
+    track bench claims pollithy2020 results/pollithy2020 --out docs
 """
 
 from __future__ import annotations

@@ -7,8 +7,8 @@ from dataclasses import replace
 import pytest
 
 from agents.bench import Cell, expand, load_suite, run_cell, run_cells
-from agents.bench.cli import main
 from agents.bench.runner import CellError, check_cells
+from agents.cli.bench import main
 
 BELT = ["run", "--envs", "BeltSorter-v0", "--agents", "detections", "--seeds", "2", "--steps", "5"]
 
@@ -34,7 +34,7 @@ def test_a_bad_agent_kwarg_names_the_cell_and_the_agent(tmp_path, capsys):
     assert main([*args, "--agent-kwargs", "p_gate=0.9,gate=3", "--out", str(tmp_path / "o")]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(
-        "track-bench run: error: cell SineTarget-v0 [steps=100, agent.gate=3, agent.p_gate=0.9] gnn/kf-cv"
+        "track bench run: error: cell SineTarget-v0 [steps=100, agent.gate=3, agent.p_gate=0.9] gnn/kf-cv"
     )
     assert ": agent: " in line and "gate" in line and line.endswith("(no cell was run)")
     assert not (tmp_path / "o").exists()

@@ -12,9 +12,13 @@ import pytest
 import track_envs
 from agents import available_agents
 from agents.bench import NO_PREDICTOR, Cell, Group, expand, load_suite
-from agents.bench.cells import NO_TRUTH_ENVS, NOISE_SWEEP, applicable, override
-from agents.bench.cli import main, parse_sweep, parse_value
+from agents.bench.cells import NO_TRUTH_ENVS, applicable, override
+from agents.cli.arguments import parse_sweep, parse_value
+from agents.cli.bench import main
 from predictors import available_predictors, predictor_applies_to
+
+#: Pollithy et al. (2020), Fig. 7: the measurement noise on the belt from 0 to 0.5 mm.
+NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
 
 
 def test_quick_suite_covers_every_applicable_combination_with_two_seeds():
@@ -175,7 +179,7 @@ def test_help_is_complete(capsys):
         assert flag in out
     for flag in ("--sweep", "--agent-kwargs", "--workers", "--engine", "--address", "--out", "examples:"):
         assert flag in out
-    assert "track-bench report" in out and "agent_kwargs" in out
+    assert "track bench report" in out and "agent_kwargs" in out
 
 
 def test_list_names_everything(capsys):

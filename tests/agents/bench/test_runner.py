@@ -20,7 +20,7 @@ from agents import make_agent
 from agents.bench import Cell, expand, load_records, run_cell, run_cells, write_record
 from agents.bench import runner as runner_mod
 from agents.bench.cells import Group
-from agents.bench.cli import main
+from agents.cli.bench import main
 from track_envs.wrappers import TrackingMetrics
 
 ROOT = Path(__file__).resolve().parents[3]

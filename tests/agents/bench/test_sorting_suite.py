@@ -4,15 +4,21 @@ from __future__ import annotations
 
 import matplotlib
 
-from agents.bench import expand
-from agents.bench.cells import NOISE_SWEEP, NOZZLE_OFFSETS, SORTING_PREDICTORS, SUITES
+from agents.bench import expand, load_suite
 from agents.bench.report import Row, best_rows, headline, sorting_error_figure
 
 matplotlib.use("Agg")
 
+#: The belt predictors the sorting suite compares: the Kalman filters and the learned ones.
+SORTING_PREDICTORS = ("kf-cv", "kf-ca", "lstm", "nll-lstm", "mc-lstm")
+#: Pollithy et al. (2020), Fig. 7: the measurement noise on the belt from 0 to 0.5 mm.
+NOISE_SWEEP = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
+#: Nozzle bars of the sorting suite: close to the camera window and farther downstream (m).
+NOZZLE_OFFSETS = (0.02, 0.10)
+
 
 def test_the_sorting_suite_compares_every_belt_predictor_over_noise_and_two_nozzle_bars():
-    cells = expand(SUITES["sorting"])
+    cells = expand(load_suite("sorting"))
     assert {c.predictor for c in cells} == set(SORTING_PREDICTORS)
     assert {dict(c.env_kwargs)["noise_std"] for c in cells} == set(NOISE_SWEEP)
     assert {dict(c.env_kwargs)["nozzle_offset"] for c in cells} == set(NOZZLE_OFFSETS)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.bench.cells import expand, load_suite
-from agents.tuning.cli import main
+from agents.cli.tune import main
 from agents.tuning.env import HELD_OUT_SEEDS
 from agents.tuning.evaluate import GRID, best_fixed, grid_settings, held_out_seeds, paired
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import agents.tuning  # noqa: F401
+from agents.cli.tune import main
 from agents.tuning import FixedPolicy
-from agents.tuning.cli import main
 from agents.tuning.evaluate import episode_errors
 from agents.tuning.informed import (
     INFORMED_GRID,

@@ -134,7 +134,7 @@ def test_evaluate_in_worker_processes_equals_one_process():
 
 
 def test_evaluate_cli_plays_the_oracle(tmp_path, capsys):
-    from agents.tuning.cli import main
+    from agents.cli.tune import main
 
     out = tmp_path / "eval.json"
     argv = ["evaluate", "--seeds", "1", "--oracle", "--oracle-horizon", "1", "--fixed", "p_gate=0.99"]
@@ -146,7 +146,7 @@ def test_evaluate_cli_plays_the_oracle(tmp_path, capsys):
 
 
 def test_oracle_resample_flag_takes_an_optional_number_of_futures():
-    from agents.tuning.cli import build_parser
+    from agents.cli.tune import build_parser
 
     parse = build_parser().parse_args
     assert parse(["evaluate", "--oracle"]).oracle_resample == 0

@@ -1,4 +1,4 @@
-"""The ``track-run`` command: any agent over a detection file, tracks out, metrics with ground truth."""
+"""``track run`` (alias ``track-run``): any agent over a detection file, tracks out, metrics with truth."""
 
 from __future__ import annotations
 
@@ -10,16 +10,20 @@ from collections.abc import Sequence
 from typing import Any
 
 from agents import AGENTS, available_agents, make_agent
-from agents.bench.cli import parse_kwargs
+from agents.cli import arguments
 from agents.run import run_agent
 from predictors import available_predictors
 
+PROG = "track run"
+
 EPILOG = """\
 examples:
-  track-run det.txt --agent gnn --predictor kf-ca --dt 0.04 --out tracks.txt
-  track-run sorter.csv --swap-xy --scale 1e-4 --dt 0.005 --noise-std 1e-4 --out tracks.csv --format wide
-  track-run sorter.csv --time-column time --out tracks.csv --format long --covariance
-  track-run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
+  track run det.txt --agent gnn --predictor kf-ca --dt 0.04 --out tracks.txt
+  track run sorter.csv --swap-xy --scale 1e-4 --dt 0.005 --declared-noise-std 1e-4 --out tracks.csv \\
+      --format wide
+  track run sorter.csv --time-column time --out tracks.csv --format long --covariance
+  track run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
+  track run det.txt --agent gnn --agent-kwargs p_gate=0.99,max_misses=3 --seed 1 --out tracks.txt
 
 Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; boxes
 reduced to their centres) or a wide per-frame CSV (optional header; frame column, count column,
@@ -28,8 +32,9 @@ and anything else as wide. Column options take an index (from 0) or a header nam
 Outputs (--format): mot (MOTChallenge rows, frames from 1: py-motmetrics and TrackEval read it),
 wide (one row per frame, one x, y pair per track id: BeltReplay-v0 reads it back) or long
 (frame,id,x,y[,var_x,cov_xy,var_y],detection with a header).
-The sensor spec the tracker is told: --dt (or inferred from --time-column), --noise-std (the
-measurement noise std, in the detections' units after --scale: the tracker's R), --region (or
+The sensor spec the tracker is told: --dt (or inferred from --time-column), --declared-noise-std
+(the measurement noise std, in the detections' units after --scale: the tracker's R; nothing is
+added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
 distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
@@ -61,16 +66,21 @@ def _header(text: str) -> bool | str:
     return values[text.lower()]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argparse parser of ``track-run``."""
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The argparse parser of ``track run`` (``prog``: the name it answers to)."""
     p = argparse.ArgumentParser(
-        prog="track-run",
+        prog=prog,
         description="Track a file of per-frame detections (no identities) with any agent; write the tracks.",
-        epilog=EPILOG,
+        epilog=EPILOG.replace(PROG + " ", prog + " "),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide)")
-    p.add_argument("--input-format", choices=["auto", "mot", "wide"], default="auto")
+    p.add_argument(
+        "--input-format",
+        choices=["auto", "mot", "wide"],
+        default="auto",
+        help="auto (default): .txt is MOT, anything else wide",
+    )
     g = p.add_argument_group("reading the detections")
     g.add_argument("--header", type=_header, default="auto", help="wide: auto (default), yes or no")
     g.add_argument(
@@ -96,11 +106,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument(
         "--predictor", choices=available_predictors(), help="for agents that take one (default kf-ca)"
     )
-    g.add_argument(
-        "--agent-kwargs", type=parse_kwargs, default=(), metavar="NAME=V,...", help="make_agent arguments"
+    arguments.add_agent_kwargs(
+        g, default=(), help="make_agent keyword arguments, e.g. p_gate=0.99,max_misses=3"
     )
     g.add_argument("--dt", type=float, help="frame period in seconds (default: inferred from --time-column)")
-    g.add_argument("--noise-std", type=float, default=0.0, help="measurement noise std per axis (default 0)")
+    arguments.add_declared_noise(g)
     g.add_argument("--p-detect", type=float, default=1.0, help="declared detection probability (default 1)")
     g.add_argument(
         "--clutter-rate", type=float, default=0.0, help="declared clutter detections per frame (default 0)"
@@ -110,9 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument("--max-detections", type=int, help="observation rows (default: the fullest frame, >= 16)")
     g.add_argument("--max-tracks", type=int, help="report rows (default: twice the fullest frame, >= 16)")
-    g.add_argument("--seed", type=int, default=0, help="agent seed (default 0)")
+    arguments.add_seed(g, help="agent seed")
     g = p.add_argument_group("output and scoring")
-    g.add_argument("--out", required=True, help="track file to write")
+    arguments.add_out(g, kind="file", help="the track file to write (in --format)", required=True)
     g.add_argument("--format", choices=["mot", "wide", "long"], default="mot", help="default mot")
     g.add_argument(
         "--box-size", type=float, default=0.0, help="mot: box width/height about each point (default 0)"
@@ -123,12 +133,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="long: add each track's covariance (where the agent has one)",
     )
     g.add_argument("--gt", help="ground-truth tracks (.txt MOT gt, .csv / .zip wide track layout, or long)")
-    g.add_argument("--gt-format", choices=["auto", "mot", "wide", "long"], default="auto")
+    g.add_argument(
+        "--gt-format",
+        choices=["auto", "mot", "wide", "long"],
+        default="auto",
+        help="auto (default): .txt is MOT, .zip wide, .csv long if it starts with frame,id else wide",
+    )
     g.add_argument("--metrics", action="store_true", help="score the tracks against --gt and print the table")
     g.add_argument(
         "--threshold", type=float, default=0.005, help="match distance and GOSPA cut-off (default 0.005)"
     )
-    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    arguments.add_no_progress(g)
     return p
 
 
@@ -181,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
         detections,
         dt=args.dt,
         region=args.region,
-        measurement_noise_std=args.noise_std,
+        measurement_noise_std=args.declared_noise_std,
         p_detect=args.p_detect,
         clutter_rate=args.clutter_rate,
         max_detections=args.max_detections,
@@ -197,7 +212,8 @@ def run(args: argparse.Namespace) -> int:
     )
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
-        f"track-run: {detections.n_frames} frames, {len(detections)} detections (read in {read_s:.2f} s) -> "
+        f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
+        f"(read in {read_s:.2f} s) -> "
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
@@ -217,15 +233,12 @@ def _is_mot(args: argparse.Namespace) -> bool:
     return track_format(args.gt, args.gt_format) == "mot"
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``track-run`` console script."""
-    args = build_parser().parse_args(argv)
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    """Entry point of ``track run`` (``prog``: the name it answers to, e.g. ``track-run``)."""
+    args = build_parser(prog).parse_args(argv)
+    args.prog = prog
     try:
         return run(args)
     except (ValueError, OSError) as exc:
-        print(f"track-run: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

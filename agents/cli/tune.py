@@ -1,19 +1,4 @@
-"""The ``track-tune`` command: train PPO on GateTuning-v0, the grid baseline, the paired evaluation.
-
-examples::
-
-    track-tune train --timesteps 60000 --n-envs 2 --vec subproc --seed 0 --out runs/gate-tuning \\
-        --policy-out agents/tuning/weights/gate-tuning-ppo
-    track-tune grid-suite --seeds 0:6 --out results/gate_grid.toml
-    track-bench run --suite results/gate_grid.toml --out results/gate_grid
-    track-tune best-fixed results/gate_grid
-    track-tune evaluate --seeds 20 --best-fixed results/gate_grid --out results/gate_eval.json
-    track-tune evaluate --seeds 20 --best-fixed results/gate_grid --no-drift
-    track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle
-    track-tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle --oracle-resample 2
-    track-tune sensor-grid --seeds 0:3 --steps 50 --workers 2 --out results/sensor_table.json
-    track-tune evaluate --seeds 20 --best-fixed results/gate_grid --informed results/sensor_table.json
-"""
+"""``track tune`` (alias ``track-tune``): PPO on GateTuning-v0, the grid baseline, the paired evaluation."""
 
 from __future__ import annotations
 
@@ -21,20 +6,29 @@ import argparse
 import json
 import shlex
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.bench.cli import parse_seeds, parse_value
+from agents.cli import arguments
 
+PROG = "track tune"
 
-def _kv(text: str) -> dict[str, Any]:
-    out = {}
-    for item in text.split(","):
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise argparse.ArgumentTypeError(f"bad setting {item!r}: use name=value,name=value")
-        out[name.strip()] = parse_value(value)
-    return out
+EPILOG = """\
+examples:
+  track tune train --timesteps 60000 --n-envs 2 --vec subproc --seed 0 --out runs/gate-tuning \\
+      --policy-out agents/tuning/weights/gate-tuning-ppo
+  track tune grid-suite --seeds 0:6 --out results/gate_grid.toml
+  track bench run --suite results/gate_grid.toml --out results/gate_grid
+  track tune best-fixed results/gate_grid
+  track tune evaluate --seeds 20 --best-fixed results/gate_grid --out results/gate_eval.json
+  track tune evaluate --seeds 20 --best-fixed results/gate_grid --no-drift
+  track tune evaluate --seeds 20 --fixed p_gate=0.9999,noise_scale=4 --env-kwargs episode_steps=50
+  track tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle
+  track tune evaluate --seeds 10 --best-fixed results/gate_grid --oracle --oracle-resample 2
+  track tune sensor-grid --seeds 0:3 --steps 50 --workers 2 --out results/sensor_table.json
+  track tune evaluate --seeds 20 --best-fixed results/gate_grid --informed results/sensor_table.json
+"""
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -46,9 +40,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         vec=args.vec,
         seed=args.seed,
         checkpoint_every=args.checkpoint_every,
-        env_kwargs=args.env_kwargs or {},
+        env_kwargs=args.env_kwargs,
     )
-    command = "track-tune " + " ".join(shlex.quote(a) for a in args.argv)
+    command = f"{args.prog} " + " ".join(shlex.quote(a) for a in args.argv)
     _, summary = train(
         config, args.out, policy_out=args.policy_out, progress=not args.no_progress, command=command
     )
@@ -65,7 +59,7 @@ def cmd_grid_suite(args: argparse.Namespace) -> int:
     text = grid_suite(args.seeds, args.steps, drift=None if args.no_drift else args.drift)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(text)
-    print(f"wrote {args.out}: run it with track-bench run --suite {args.out} --out <dir>")
+    print(f"wrote {args.out}: run it with track bench run --suite {args.out} --out <dir>")
     return 0
 
 
@@ -104,7 +98,7 @@ def cmd_sensor_grid(args: argparse.Namespace) -> int:
             f"{state['clutter_rate']:.3g}: best {table.settings[best]} {row[best]:.1f} vs "
             f"{row[overall]:.1f} ({100 * gain:.1f}% fewer)"
         )
-    print(f"wrote {args.out}: evaluate it with track-tune evaluate --informed {args.out}")
+    print(f"wrote {args.out}: evaluate it with {args.prog} evaluate --informed {args.out}")
     return 0
 
 
@@ -181,62 +175,85 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The argparse parser of ``track tune`` (``prog``: the name it answers to)."""
     parser = argparse.ArgumentParser(
-        prog="track-tune",
+        prog=prog,
         description="PPO on GateTuning-v0: train, grid baseline, paired evaluation on held-out seeds.",
-        epilog=__doc__.split("examples::", 1)[1] if __doc__ else None,
+        epilog=EPILOG.replace(PROG + " ", prog + " "),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("train", help="train PPO (stable-baselines3) and export the actor")
-    p.add_argument("--timesteps", type=int, default=60_000)
-    p.add_argument("--n-envs", type=int, default=2)
-    p.add_argument("--vec", choices=("subproc", "dummy"), default="subproc")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--timesteps", type=int, default=60_000, help="env steps to train (default 60000)")
+    p.add_argument("--n-envs", type=int, default=2, help="parallel training envs (default 2)")
+    p.add_argument(
+        "--vec",
+        choices=("subproc", "dummy"),
+        default="subproc",
+        help="vector env: one process per env (subproc, default) or all in-process (dummy)",
+    )
+    arguments.add_seed(p, help="PPO and env seed")
     p.add_argument(
         "--checkpoint-every", type=int, default=10_000, help="env steps between checkpoints (0: none)"
     )
-    p.add_argument(
-        "--env-kwargs", type=_kv, default=None, help="GateTuning-v0 kwargs, e.g. frames_per_step=5"
+    arguments.add_env_kwargs(p, help="GateTuning-v0 kwargs, e.g. frames_per_step=5")
+    arguments.add_out(
+        p,
+        kind="directory",
+        help="the run: checkpoints, logs, the exported policy",
+        default="runs/gate-tuning",
     )
-    p.add_argument("--out", default="runs/gate-tuning")
-    p.add_argument("--policy-out", default=None, help="model-file name of the exported actor")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument(
+        "--policy-out",
+        default=None,
+        help="model-file path without suffix of the exported actor (default: OUT/policy)",
+    )
+    arguments.add_no_progress(p)
     p.set_defaults(func=cmd_train)
-    p = sub.add_parser("grid-suite", help="write the track-bench suite of the fixed-setting grid")
-    p.add_argument("--seeds", type=parse_seeds, default=tuple(range(6)))
-    p.add_argument("--steps", type=int, default=1000)
-    p.add_argument("--drift", default="belt")
-    p.add_argument("--no-drift", action="store_true")
-    p.add_argument("--out", required=True)
+    p = sub.add_parser("grid-suite", help="write the track bench suite of the fixed-setting grid")
+    arguments.add_seeds(p, default=tuple(range(6)), help="seeds of the grid cells (default 0:6)")
+    p.add_argument("--steps", type=int, default=1000, help="GateTuning-v0 frames per cell (default 1000)")
+    p.add_argument("--drift", default="belt", help="drift preset of the sensor (default belt)")
+    p.add_argument("--no-drift", action="store_true", help="a constant sensor (no drift)")
+    arguments.add_out(p, kind="file", help="the suite's TOML file", required=True)
     p.set_defaults(func=cmd_grid_suite)
-    p = sub.add_parser("best-fixed", help="the best fixed setting of a track-bench grid run")
-    p.add_argument("records")
-    p.add_argument("--top", type=int, default=10)
+    p = sub.add_parser("best-fixed", help="the best fixed setting of a track bench grid run")
+    p.add_argument("records", help="the --out directory of 'track bench run --suite GRID.toml'")
+    p.add_argument("--top", type=int, default=10, help="settings to print, best first (default 10)")
     p.set_defaults(func=cmd_best_fixed)
     p = sub.add_parser(
         "sensor-grid",
         help="errors of a knob grid at constant sensor states (the sensor-informed reference's table)",
     )
-    p.add_argument("--seeds", type=parse_seeds, default=tuple(range(3)), help="training seeds")
+    arguments.add_seeds(p, default=tuple(range(3)), help="training seeds (default 0:3)")
     p.add_argument("--steps", type=int, default=50, help="GateTuning-v0 steps per episode")
     p.add_argument("--drift", default="belt", help="drift preset whose ranges the states span")
     p.add_argument("--noise-states", type=int, default=5, help="log-spaced noise stds")
-    p.add_argument("--env-kwargs", type=_kv, default=None, help="further GateTuning-v0 kwargs")
-    p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")
-    p.add_argument("--out", required=True)
+    arguments.add_env_kwargs(p, help="further GateTuning-v0 kwargs")
+    arguments.add_workers(p, default=1, help="processes playing the episodes")
+    arguments.add_out(p, kind="file", help="the sensor table (JSON)", required=True)
     p.set_defaults(func=cmd_sensor_grid)
     p = sub.add_parser("evaluate", help="paired comparison on held-out seeds")
-    p.add_argument("--seeds", type=int, default=20)
-    p.add_argument("--policy", default=None, help="model file (default: the shipped policy)")
-    p.add_argument("--best-fixed", default=None, help="track-bench out dir of the grid")
     p.add_argument(
-        "--fixed", type=_kv, default=None, help="a fixed setting, e.g. p_gate=0.9999,noise_scale=4"
+        "--seeds",
+        type=int,
+        default=20,
+        metavar="N",
+        help="N held-out seeds, never drawn by training (default 20)",
+    )
+    p.add_argument("--policy", default=None, help="model file (default: the shipped policy)")
+    p.add_argument("--best-fixed", default=None, help="track bench out dir of the grid")
+    p.add_argument(
+        "--fixed",
+        type=arguments.kwargs_type("--fixed"),
+        default=None,
+        metavar="NAME=V,...",
+        help="a fixed setting, e.g. p_gate=0.9999,noise_scale=4",
     )
     p.add_argument("--gain", type=float, default=0.5, help="gain of the NIS rule")
-    p.add_argument("--env-kwargs", type=_kv, default=None, help="GateTuning-v0 kwargs: episode_steps=50")
-    p.add_argument("--no-drift", action="store_true")
+    arguments.add_env_kwargs(p, help="GateTuning-v0 kwargs, e.g. episode_steps=50")
+    p.add_argument("--no-drift", action="store_true", help="a constant sensor (no drift)")
     p.add_argument(
         "--oracle",
         action="store_true",
@@ -257,24 +274,21 @@ def build_parser() -> argparse.ArgumentParser:
         "--informed",
         default=None,
         metavar="TABLE",
-        help="also play the sensor-informed reference of this table (track-tune sensor-grid)",
+        help=f"also play the sensor-informed reference of this table ({prog} sensor-grid)",
     )
-    p.add_argument("--workers", type=int, default=1, help="processes playing the episodes")
-    p.add_argument("--out", default=None)
+    arguments.add_workers(p, default=1, help="processes playing the episodes")
+    arguments.add_out(p, kind="file", help="the comparison as JSON (default: none, printed only)")
     p.set_defaults(func=cmd_evaluate)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    """Entry point of ``track tune`` (``prog``: the name it answers to, e.g. ``track-tune``)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
-    args.argv = argv
+    args = build_parser(prog).parse_args(argv)
+    args.argv, args.prog = argv, prog
     try:
         return int(args.func(args))
     except (ValueError, ImportError) as exc:
-        print(f"track-tune {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
