@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import agents.pose.baseline as pose_module
+import predictors.pose.constant_velocity as pose_module
 import track_envs  # noqa: F401
 from agents.pose.baseline import PoseBaselineAgent
 from track_envs.metrics.keypoints import COCO_SIGMAS, pairwise_oks

@@ -6,7 +6,7 @@ the same run, on the sine scene of SineTarget-v0 (p_detect = 0.9, σ_m = 0.5, σ
    bootstrap filter on the same detections (target at 10,000: ≥ 2x; the agent on the numpy path,
    its model wrapped so that only ``propose`` is seen, for comparison), and where the agent's time
    goes (observation check, filter, report; lower decile of single calls);
-2. the compiled frame (:class:`agents.particle.agent.CommonDisplacementModel`) against the numpy path of
+2. the compiled frame (:class:`predictors.displacement.CommonDisplacementModel`) against the numpy path of
    the same filter (the model wrapped so that only ``propose`` is seen), at 1 × 10,000 and 150 × 100;
 3. 150 targets × 100 particles in one batched filter against a Python loop over 150 single-target
    filters (target: ≥ 3x);
@@ -32,7 +32,8 @@ from numpy.typing import NDArray
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.particle.agent import BatchParticleFilter, make_displacement_model
+from agents.particle.agent import BatchParticleFilter
+from predictors.displacement import make_displacement_model
 from track_envs.envs.single_target import STEP, draw_detections, sine_trajectory
 from track_envs.observation import check_observation
 from track_envs.report import empty_report

@@ -4,12 +4,13 @@ State of ``T`` independent single-target filters with ``N`` particles each: part
 (T, N, 2), weights ``w⁽ⁱ⁾`` (T, N), and the history of weighted-mean estimates (T, t, 2). One
 frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
 
-1. **predict**: a displacement model moves every particle, ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})``;
-   the Brownian model adds white noise ``σ_p`` (in multiples of ``Δ``), the constant-velocity model
-   adds the last estimated displacement plus that noise, and the LSTM model of Jung et al. (2019)
-   (:class:`predictors.displacement_lstm.model.LSTMDisplacement`, ``model="lstm"``) predicts one common
-   (rotation, speed) step from the estimate history plus that noise — all through the
-   :class:`DisplacementModel` protocol, so the filter never changes;
+1. **predict**: a displacement model (:mod:`predictors.displacement`) moves every particle,
+   ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})``; the Brownian model adds white noise ``σ_p`` (in multiples
+   of ``Δ``), the constant-velocity model adds the last estimated displacement plus that noise, and
+   the LSTM model of Jung et al. (2019) (:class:`predictors.displacement_lstm.model.LSTMDisplacement`,
+   ``model="lstm"``) predicts one common (rotation, speed) step from the estimate history plus that
+   noise — all through the :class:`~predictors.displacement.base.DisplacementModel` protocol, so the
+   filter never changes;
 2. **update** (only when a measurement ``z`` arrives, Eq. (4)):
    ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z||² / (2σ_m²))``; without a measurement the filter only predicts;
 3. **estimate**: the weighted mean ``x* = Σ_i w⁽ⁱ⁾ x⁽ⁱ⁾``, appended to the history;
@@ -20,10 +21,11 @@ A filter starts at its first measurement ``z₀``: ``x⁽ⁱ⁾ ~ N(z₀, Σ₀)
 All per-frame work is batched over (T, N); parameters may differ per target ((T,) arrays), which is
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
 A model that moves every particle of a target by one common displacement plus white noise
-(:class:`CommonDisplacementModel`: Brownian, constant velocity, the LSTM of Jung et al.) runs the
-frame in a few compiled single passes (:mod:`agents.particle._kernels`); any other
-:class:`DisplacementModel` runs the numpy path through its ``propose``. Both draw the same random
-numbers from the filter's generator in the same order, and agree to rounding.
+(:class:`~predictors.displacement.base.CommonDisplacementModel`: Brownian, constant velocity, the
+LSTM of Jung et al.) runs the frame in a few compiled single passes (:mod:`agents.particle._kernels`);
+any other :class:`~predictors.displacement.base.DisplacementModel` runs the numpy path through its
+``propose``. Both draw the same random numbers from the filter's generator in the same order, and
+agree to rounding.
 
 The agent ``"pf"`` (:class:`ParticleFilterAgent`) tracks one target with ``T = 1``.
 Clutter: when the sensor has clutter (``spec.clutter_rate > 0``) or a frame holds more than one
@@ -40,7 +42,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -54,127 +56,20 @@ from agents.particle._kernels import (
     resample_rows,
     update_rows,
 )
+from predictors.displacement import (
+    STEP,
+    CommonDisplacementModel,
+    DisplacementModel,
+    check_sigma,
+    make_displacement_model,
+)
 from track_envs.observation import check_observation
 from track_envs.report import empty_report
 from track_envs.types import SensorSpec
 
-#: Step length ``Δ`` of Jung et al. (2019); σ_p and σ_m are given in multiples of it.
-STEP = 0.2
-
-
 #: Particles (T·N) from which the compiled prediction draws its noise inside the kernel, below
 #: which numpy draws it (see ``BatchParticleFilter.predict``).
 RNG_IN_KERNEL_PARTICLES = 512
-
-
-def _check_sigma(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=np.float64)
-    if not (np.isfinite(arr).all() and np.all(arr >= 0)):
-        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
-    return arr
-
-
-@runtime_checkable
-class DisplacementModel(Protocol):
-    """The prediction step of the filter: moves every particle one frame on."""
-
-    def propose(
-        self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
-    ) -> NDArray[np.float64]:
-        """Predicted particles (T, N, 2) from ``particles`` (T, N, 2) and the history of weighted-mean
-        estimates ``history`` (T, t, 2) (oldest first; NaN for frames before a target's filter
-        started), drawing every random number from ``rng``."""
-        ...
-
-
-@runtime_checkable
-class CommonDisplacementModel(DisplacementModel, Protocol):
-    """A displacement model that moves every particle of a target by one common displacement plus
-    white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
-
-    The filter runs such models on its compiled path (:mod:`agents.particle._kernels`) and calls
-    :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
-    targets; after a (re)start a target's history is NaN except its newest estimate.
-    """
-
-    #: ``σ_p·Δ``, the white-noise std per axis: a scalar or one per target (T,).
-    std: NDArray[np.float64]
-
-    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Common displacement (T, 2) of every particle of each target this frame, finite (zeros
-        where unknown), from the weighted-mean estimates ``history`` (T, t, 2), oldest first, NaN
-        before a target's filter (re)started."""
-        ...
-
-
-class Brownian:
-    """Brownian motion: ``x⁽ⁱ⁾ + σ_p·Δ·ε``, ``ε ~ N(0, I_2)`` (the standard PF of Jung et al. 2019).
-
-    Args:
-        sigma_p: Process noise in multiples of ``step``, scalar or one per target (T,).
-        step: ``Δ`` in trajectory units (default 0.2).
-    """
-
-    def __init__(self, sigma_p: ArrayLike = 1.0, step: float = STEP):
-        self.sigma_p = _check_sigma("sigma_p", sigma_p)
-        if not (np.isfinite(step) and step > 0):
-            raise ValueError(f"step must be a finite number > 0, got {step!r}")
-        self.std = self.sigma_p * float(step)
-
-    def _noise(self, shape: tuple[int, ...], rng: np.random.Generator) -> NDArray[np.float64]:
-        noise = rng.standard_normal(shape)
-        std = self.std if self.std.ndim == 0 else self.std[:, None, None]
-        noise *= std
-        return noise
-
-    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Zeros (T, 2): Brownian motion has no drift."""
-        return np.zeros((history.shape[0], 2))
-
-    def propose(
-        self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
-    ) -> NDArray[np.float64]:
-        """``particles + σ_p·Δ·ε`` (the history is not used)."""
-        noise = self._noise(particles.shape, rng)
-        noise += particles
-        return noise
-
-
-class ConstantVelocity(Brownian):
-    """Constant velocity on the estimates: ``x⁽ⁱ⁾ + (x*_{t−1} − x*_{t−2}) + σ_p·Δ·ε``.
-
-    Like the LSTM model of Jung et al. (2019) it applies one common displacement to every particle; the
-    displacement is zero until a target has two estimates.
-    """
-
-    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``v = x*_{t−1} − x*_{t−2}`` (T, 2), zero where a target has fewer than two estimates."""
-        if history.shape[1] < 2:
-            return np.zeros((history.shape[0], 2))
-        v = history[:, -1] - history[:, -2]
-        v[~np.isfinite(v)] = 0.0
-        return v
-
-    def propose(
-        self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
-    ) -> NDArray[np.float64]:
-        """``particles + v + σ_p·Δ·ε`` with ``v`` the last estimated displacement (T, 2)."""
-        noise = self._noise(particles.shape, rng)
-        noise += particles
-        noise += self.displacement(history)[:, None, :]
-        return noise
-
-
-def _lstm(sigma_p: ArrayLike, step: float, weights: Any = None) -> Any:
-    """The learned displacement model of Jung et al. (2019) (:mod:`predictors.displacement_lstm.model`)."""
-    from predictors.displacement_lstm.model import LSTMDisplacement
-
-    return LSTMDisplacement(weights, sigma_p, step)
-
-
-DISPLACEMENT_MODELS: dict[str, Any] = {"brownian": Brownian, "cv": ConstantVelocity, "lstm": _lstm}
-#: The named models that take a model file (``model_weights``).
-LEARNED_MODELS = ("lstm",)
 
 
 def systematic_resample_batch(weights: NDArray[np.float64], u: ArrayLike) -> NDArray[np.intp]:
@@ -247,7 +142,7 @@ class BatchParticleFilter:
         for name, value in (("n_targets", n_targets), ("n_particles", n_particles)):
             if not (isinstance(value, int | np.integer) and value >= 1):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        sm = _check_sigma("sigma_m", sigma_m)
+        sm = check_sigma("sigma_m", sigma_m)
         if np.any(sm <= 0):
             raise ValueError(f"sigma_m must be > 0, got {sigma_m!r}")
         if not 0.0 <= resample_threshold <= 1.0:
@@ -257,7 +152,7 @@ class BatchParticleFilter:
         self.T, self.N = int(n_targets), int(n_particles)
         self.model = model
         self.rng = rng
-        self.sigma_0 = np.broadcast_to(_check_sigma("sigma_0", sigma_0), (self.T,))
+        self.sigma_0 = np.broadcast_to(check_sigma("sigma_0", sigma_0), (self.T,))
         self.sigma_m = np.broadcast_to(sm, (self.T,))
         self._inv_2var = (0.5 / self.sigma_m**2)[:, None]
         # contiguous copies and scratch of the compiled path
@@ -463,33 +358,6 @@ class BatchParticleFilter:
         self.resampled += len(rows)
 
 
-def make_displacement_model(
-    model: str | DisplacementModel, sigma_p: ArrayLike, step: float, weights: Any = None
-) -> Any:
-    """A model by name (``"brownian"``, ``"cv"``, ``"lstm"``) or the object itself.
-
-    ``weights``: the model file of a learned model (``"lstm"``; ``None``: its shipped weights).
-    """
-    if isinstance(model, str):
-        if model not in DISPLACEMENT_MODELS:
-            raise ValueError(f"unknown model {model!r}; valid names are {sorted(DISPLACEMENT_MODELS)}")
-        if model in LEARNED_MODELS:
-            return DISPLACEMENT_MODELS[model](sigma_p, step, weights)
-        if weights is not None:
-            raise ValueError(
-                f"model_weights={weights!r} is for a learned model {list(LEARNED_MODELS)}, "
-                f"not model={model!r}"
-            )
-        return DISPLACEMENT_MODELS[model](sigma_p, step)
-    if weights is not None:
-        raise ValueError(f"model_weights={weights!r} is for a learned model by name, not model={model!r}")
-    if not isinstance(model, DisplacementModel):
-        raise ValueError(
-            f"model must be a name in {sorted(DISPLACEMENT_MODELS)} or have propose(), got {model!r}"
-        )
-    return model
-
-
 # the update arguments of a single-target frame without / with a measurement (never written)
 _NO_Z = np.zeros((1, 2))
 _HAS = (np.zeros(1, dtype=bool), np.ones(1, dtype=bool))
@@ -515,9 +383,10 @@ class ParticleFilterAgent:
 
     Args:
         n_particles: ``N`` (default 100).
-        model: ``"brownian"`` (default), ``"cv"``, ``"lstm"`` (the learned displacement model of
-            Jung et al. 2019, :class:`predictors.displacement_lstm.model.LSTMDisplacement`) or a
-            :class:`DisplacementModel`.
+        model: A name of :data:`predictors.displacement.DISPLACEMENT_MODELS`: ``"brownian"``
+            (default), ``"cv"``, ``"lstm"`` (the learned displacement model of Jung et al. 2019,
+            :class:`predictors.displacement_lstm.model.LSTMDisplacement`); or a
+            :class:`~predictors.displacement.base.DisplacementModel`.
         model_weights: The ``displacement-lstm`` model file of ``model="lstm"`` (path with or
             without suffix); default the shipped weights trained on the noiseless sine.
         sigma_p: Process noise in multiples of ``step`` (default 1.0); used by the named models.
@@ -556,7 +425,7 @@ class ParticleFilterAgent:
             raise ValueError(f"step must be a finite number > 0, got {step!r}")
         for name, value in (("sigma_m", sigma_m), ("sigma_0", sigma_0)):
             if value is not None:
-                _check_sigma(name, value)
+                check_sigma(name, value)
         if not (isinstance(max_misses, int | np.integer) and max_misses >= 1):
             raise ValueError(f"max_misses must be an integer >= 1, got {max_misses!r}")
         if not (np.isfinite(init_radius) and init_radius > 0):

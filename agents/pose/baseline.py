@@ -3,9 +3,10 @@
 :class:`PoseTracker` is the loop every keypoint tracker here shares. Every frame, for the ``n``
 active tracks and the ``m`` detected poses:
 
-1. **predict**: the motion hypothesis (:class:`PoseMotion`) predicts every track's next pose —
-   one pose per track (:class:`ConstantVelocity`) or a cloud of particles per track
-   (:mod:`agents.pose.smc`);
+1. **predict**: the motion hypothesis (:class:`predictors.pose.base.PoseMotion`) predicts every
+   track's next pose — one pose per track
+   (:class:`predictors.pose.constant_velocity.ConstantVelocityPose`) or a cloud of particles per
+   track (:class:`predictors.pose_lstm.motion.SmcPoseMotion`);
 2. **similarity**: the motion scores every track against every detection, an (n, m) matrix of
    OKS values (for one pose: OKS; for particles: the elite-weighted mean OKS), with the detection's
    area ``area_factor · max(w, h)²`` from its keypoint bounding box;
@@ -20,7 +21,8 @@ active tracks and the ``m`` detected poses:
 The report holds the tracks updated or started this frame (as Algorithm 1 outputs the detected
 poses with their track ids), or every active track with ``report_coasting=True``.
 
-``PoseBaselineAgent`` ("pose-baseline") is the loop with :class:`ConstantVelocity`: the tracker
+``PoseBaselineAgent`` ("pose-baseline") is the loop with
+:class:`~predictors.pose.constant_velocity.ConstantVelocityPose`: the tracker
 Okada et al. (2020) improve on (the Simple-Baseline tracker of Xiao et al., ECCV 2018, with the
 lifetime bookkeeping of Algorithm 1).
 """
@@ -28,13 +30,13 @@ lifetime bookkeeping of Algorithm 1).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking.assign import assign_greedy, assign_hungarian
-from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
+from predictors.pose import ConstantVelocityPose, PoseMotion
+from track_envs.metrics.keypoints import NUM_KEYPOINTS
 from track_envs.observation import check_observation
 from track_envs.report import pack_report
 from track_envs.types import SensorSpec
@@ -42,45 +44,12 @@ from track_envs.types import SensorSpec
 MAX_LIFETIME = 30
 
 
-class PoseMotion(Protocol):
-    """The motion hypothesis of a :class:`PoseTracker`: per-track state, batched over tracks.
-
-    The loop calls, each frame, :meth:`predict`, :meth:`score`, :meth:`update` (matched rows),
-    :meth:`birth` (new rows appended) and :meth:`keep` (surviving rows), in that order; row ``i``
-    of the motion is track ``i`` of the loop.
-    """
-
-    def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
-        """Forget every track (a new episode); ``rng`` is the random stream of the episode."""
-
-    def predict(self) -> None:
-        """Predict every track's pose at the current frame."""
-
-    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
-        """(n, m) similarity in [0, 1] of the predictions to the detections ``xy`` (m, 17, 2)
-        with detected keypoints ``found`` (m, 17) and areas ``area`` (m,)."""
-        ...
-
-    def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
-        """Tracks ``ti`` (k,) take the detections ``di`` (k,) of ``xy`` (m, 17, 2) with keypoints
-        ``found`` (m, 17) (the rows and columns of :meth:`score`); the others coast."""
-
-    def birth(self, xy: NDArray, found: NDArray) -> None:
-        """Append one track per detection ``xy`` (k, 17, 2) with keypoints ``found`` (k, 17)."""
-
-    def keep(self, alive: NDArray[np.bool_]) -> None:
-        """Keep the tracks where ``alive`` (n,) is true."""
-
-    def poses(self) -> NDArray[np.float64]:
-        """(n, 17, 2) pose estimates after the update (what the report shows)."""
-        ...
-
-
 class PoseTracker:
     """The pose-tracking loop (Okada et al. 2020, Algorithm 1): OKS scores, matching, lifetimes, births.
 
     Args:
-        motion: The motion hypothesis (what the tracks predict).
+        motion: The motion hypothesis (what the tracks predict), a
+            :class:`~predictors.pose.base.PoseMotion`.
         oks_threshold: Smallest score at which a track and a detected pose may be matched.
         assignment: ``"hungarian"`` (optimal) or ``"greedy"`` (best pairs first).
         keypoint_threshold: Detected keypoints with a score at or below this are ignored.
@@ -211,105 +180,16 @@ def detection_areas(xy: NDArray, found: NDArray, area_factor: float) -> NDArray[
     return area_factor * np.maximum(np.max(span, axis=1), 1.0) ** 2
 
 
-def centroid_fill(xy: NDArray, found: NDArray) -> NDArray[np.float64]:
-    """Full poses (k, 17, 2): undetected keypoints at the centroid of the detected ones."""
-    centroid = np.sum(xy * found[..., None], axis=1) / np.maximum(found.sum(axis=1), 1)[:, None]
-    return np.where(found[..., None], xy, centroid[:, None, :])
-
-
-class ConstantVelocity:
-    """Constant keypoint velocity, one hypothesis per track (the baseline's motion).
-
-    ``ŷ_t = y_{t−1} + v_{t−1}`` per keypoint (a stand-in for optical-flow propagation). A matched
-    track takes the detected keypoints and keeps its prediction for the others; its velocity is an
-    exponential average (``smoothing``) of the displacements, where a keypoint not detected in
-    both of the last two updates moves with the mean displacement of those that were. The score
-    is the OKS of the prediction over the keypoints the detection holds that the track has seen
-    before. A new track's undetected keypoints start at the centroid of its detected ones.
-
-    Args:
-        smoothing: Weight of the newest displacement in the keypoint velocity (1: the last
-            displacement alone; below 1 an exponential average, which damps detector noise).
-    """
-
-    def __init__(self, smoothing: float = 0.5) -> None:
-        if not 0.0 < smoothing <= 1.0:
-            raise ValueError(f"smoothing must be in (0, 1], got {smoothing!r}")
-        self.smoothing = float(smoothing)
-
-    def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
-        """Forget every track (the motion is deterministic; ``rng`` is unused)."""
-        del spec, rng
-        self.pose = np.zeros((0, NUM_KEYPOINTS, 2))  # last pose estimate
-        self.velocity = np.zeros((0, NUM_KEYPOINTS, 2))  # per keypoint, px / frame
-        self.seen = np.zeros((0, NUM_KEYPOINTS), dtype=bool)  # keypoint detected in the last update
-        self.known = np.zeros((0, NUM_KEYPOINTS), dtype=bool)  # keypoint detected at least once
-        self.predicted = self.pose
-
-    def predict(self) -> None:
-        """``ŷ = y + v`` for every track."""
-        self.predicted = self.pose + self.velocity
-
-    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
-        """OKS (n, m) of the predictions over keypoints detected now and seen before."""
-        return pairwise_oks(self.predicted, xy, found, area, a_valid=self.known)
-
-    def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
-        """Matched tracks take the detected keypoints; all others coast on the prediction."""
-        xy, found = xy[di], found[di]
-        predicted = self.predicted
-        pose = predicted.copy()
-        new_pose = np.where(found[..., None], xy, predicted[ti])
-        velocity = self.velocity.copy()
-        step = self._velocity(new_pose - self.pose[ti], found & self.seen[ti], self.velocity[ti])
-        velocity[ti] = self.smoothing * step + (1 - self.smoothing) * self.velocity[ti]
-        seen = np.zeros_like(self.seen)
-        seen[ti] = found
-        known = self.known.copy()
-        known[ti] |= found
-        pose[ti] = new_pose
-        self.pose, self.velocity, self.seen, self.known = pose, velocity, seen, known
-
-    def birth(self, xy: NDArray, found: NDArray) -> None:
-        """New tracks at rest, undetected keypoints at the detected centroid."""
-        born = centroid_fill(xy, found)
-        self.pose = np.concatenate([self.pose, born])
-        self.velocity = np.concatenate([self.velocity, np.zeros_like(born)])
-        self.seen = np.concatenate([self.seen, found])
-        self.known = np.concatenate([self.known, found])
-
-    def keep(self, alive: NDArray[np.bool_]) -> None:
-        """Drop the deactivated tracks."""
-        self.pose, self.velocity = self.pose[alive], self.velocity[alive]
-        self.seen, self.known = self.seen[alive], self.known[alive]
-
-    def poses(self) -> NDArray[np.float64]:
-        """The pose estimates (n, 17, 2)."""
-        return self.pose
-
-    @staticmethod
-    def _velocity(step: NDArray, both: NDArray, old: NDArray) -> NDArray[np.float64]:
-        """Keypoint velocities (n, 17, 2) of updated tracks.
-
-        A keypoint detected now and at the last update moves by its own displacement ``step``;
-        the others move with the mean displacement of those (the person's translation), or keep
-        their ``old`` velocity when the track has no such keypoint.
-        """
-        count = both.sum(axis=1)
-        mean = np.sum(step * both[..., None], axis=1) / np.maximum(count, 1)[:, None]
-        fallback = np.where((count > 0)[:, None, None], mean[:, None, :], old)
-        return np.where(both[..., None], step, fallback)
-
-
 class PoseBaselineAgent(PoseTracker):
     """Single-hypothesis pose tracker (the baseline of Okada et al. 2020): constant velocity, OKS, Hungarian.
 
-    The :class:`PoseTracker` loop with the :class:`ConstantVelocity` motion.
+    The :class:`PoseTracker` loop with the
+    :class:`~predictors.pose.constant_velocity.ConstantVelocityPose` motion.
 
     Args:
         oks_threshold, assignment, keypoint_threshold, min_pose_score, min_keypoints,
             initial_lifetime, area_factor, report_coasting, max_active: see :class:`PoseTracker`.
-        smoothing: see :class:`ConstantVelocity`.
+        smoothing: see :class:`~predictors.pose.constant_velocity.ConstantVelocityPose`.
     """
 
     def __init__(
@@ -326,7 +206,7 @@ class PoseBaselineAgent(PoseTracker):
         max_active: int | None = None,
     ) -> None:
         super().__init__(
-            ConstantVelocity(smoothing),
+            ConstantVelocityPose(smoothing),
             oks_threshold=oks_threshold,
             assignment=assignment,
             keypoint_threshold=keypoint_threshold,

@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm import tqdm
 
-from agents.particle.agent import BatchParticleFilter, make_displacement_model
+from agents.particle.agent import BatchParticleFilter
+from predictors.displacement import make_displacement_model
 from track_envs.envs.single_target import (
     LOST_THRESHOLD,
     STEP,
@@ -125,7 +126,7 @@ def run_batch(
         p_detect: Detection probability, scalar or (T,).
         sigma_p: Process noise in multiples of ``Δ``, scalar or (T,).
         n_particles: ``N``, common to the batch.
-        models: Displacement model names (:func:`agents.particle.agent.make_displacement_model`).
+        models: Displacement model names (:func:`predictors.displacement.make_displacement_model`).
         sigma_m: Measurement noise in multiples of ``Δ`` (sensor, likelihood and initial cloud).
         occlusion: ``(start, stop)`` frames, scalars or (T,), of each run's occlusion; none if None.
         rotation_deg: Rotation of the scene about the origin (degrees).

@@ -23,25 +23,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from predictors.displacement.geometry import apply_displacement, observe_step
+from predictors.displacement.models import STEP, check_sigma
 from predictors.displacement_lstm.inference import DisplacementLSTM
 from predictors.training.model_file import ModelFile
 
 FloatArray = NDArray[np.float64]
-#: Step length ``Δ`` of Jung et al. (2019) (agents.particle.agent.STEP).
-STEP = 0.2
 #: Implementations of one frame (equal to float rounding).
 BACKENDS = ("numba", "numpy")
 
 
-def _check_sigma(name: str, value: ArrayLike) -> FloatArray:
-    arr = np.asarray(value, dtype=np.float64)
-    if not (np.isfinite(arr).all() and np.all(arr >= 0)):
-        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
-    return arr
-
-
 class LSTMDisplacement:
-    """The learned common-displacement model ``"lstm"`` of the particle filter (module docstring).
+    """The learned common-displacement model ``"lstm"`` of the particle filter (module docstring), a
+    :class:`~predictors.displacement.base.CommonDisplacementModel`.
 
     Args:
         weights: A ``displacement-lstm`` model file (path with or without suffix, or a loaded
@@ -74,7 +67,7 @@ class LSTMDisplacement:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
         self.backend = backend
-        self.sigma_p = _check_sigma("sigma_p", sigma_p)
+        self.sigma_p = check_sigma("sigma_p", sigma_p)
         if not (np.isfinite(step) and step > 0):
             raise ValueError(f"step must be a finite number > 0, got {step!r}")
         self.net = DisplacementLSTM.load(weights)

@@ -12,13 +12,11 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from agents.particle.agent import (
     BatchParticleFilter,
-    Brownian,
-    ConstantVelocity,
-    DisplacementModel,
     ParticleFilterAgent,
     systematic_resample,
     systematic_resample_batch,
 )
+from predictors.displacement import Brownian, ConstantVelocityDisplacement
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -135,14 +133,6 @@ def test_prediction_only_without_measurement_and_not_started_is_nan():
     np.testing.assert_allclose(est[0], [1.0, 2.0])
 
 
-def test_constant_velocity_extrapolates_the_estimates():
-    model = ConstantVelocity(0.0)
-    assert isinstance(model, DisplacementModel)
-    history = np.array([[[0.0, 0.0], [1.0, 0.5]]])
-    out = model.propose(np.zeros((1, 3, 2)), history, np.random.default_rng(0))
-    np.testing.assert_allclose(out, np.broadcast_to([1.0, 0.5], (1, 3, 2)))
-
-
 @pytest.mark.parametrize(
     "kwargs, name",
     [
@@ -178,10 +168,8 @@ def test_agent_draws_are_independent_of_the_env_stream_for_the_same_seed():
 
 def test_restart_forgets_the_lost_track_history():
     """Regression: after a restart the constant-velocity model read the jump as a velocity."""
-    from agents.particle.agent import BatchParticleFilter, ConstantVelocity
-
     pf = BatchParticleFilter(
-        1, 200, ConstantVelocity(), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0)
+        1, 200, ConstantVelocityDisplacement(), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0)
     )
     for _ in range(5):
         pf.step(np.zeros((1, 2)), np.array([True]))

@@ -10,14 +10,12 @@ import agents.particle.agent as particle
 import track_envs  # noqa: F401
 from agents import make_agent
 from agents.particle._kernels import log_likelihood, resample_rows, systematic_indices, update_rows
-from agents.particle.agent import (
-    BatchParticleFilter,
+from agents.particle.agent import BatchParticleFilter, systematic_resample, systematic_resample_batch
+from predictors.displacement import (
     Brownian,
     CommonDisplacementModel,
-    ConstantVelocity,
+    ConstantVelocityDisplacement,
     DisplacementModel,
-    systematic_resample,
-    systematic_resample_batch,
 )
 
 
@@ -50,7 +48,7 @@ def run(model, n_targets, n_particles, z, has, seed=1):
 
 
 def test_named_models_take_the_compiled_path_and_others_the_numpy_path():
-    for model in (Brownian(), ConstantVelocity()):
+    for model in (Brownian(), ConstantVelocityDisplacement()):
         assert isinstance(model, CommonDisplacementModel)
         assert BatchParticleFilter(1, 5, model, sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng()).fused
     wrapped = ProposeOnly(Brownian())
@@ -61,7 +59,7 @@ def test_named_models_take_the_compiled_path_and_others_the_numpy_path():
     assert pf.fused
 
 
-@pytest.mark.parametrize("model_cls", [Brownian, ConstantVelocity])
+@pytest.mark.parametrize("model_cls", [Brownian, ConstantVelocityDisplacement])
 @pytest.mark.parametrize("n_targets, n_particles", [(1, 10), (3, 50), (3, 1000)])
 def test_compiled_frame_equals_the_numpy_path(model_cls, n_targets, n_particles):
     """Same draws in the same order (the generators end in the same state), the same resampling,
@@ -86,7 +84,7 @@ def test_drawing_inside_or_outside_the_kernel_gives_the_same_filter(monkeypatch)
     results = []
     for threshold in (1, 10**9):  # every size draws inside the kernel / none does
         monkeypatch.setattr(particle, "RNG_IN_KERNEL_PARTICLES", threshold)
-        pf, est = run(ConstantVelocity(0.7), 4, 64, z, has)
+        pf, est = run(ConstantVelocityDisplacement(0.7), 4, 64, z, has)
         assert pf._rng_in_kernel == (threshold == 1)
         results.append((est, pf.particles, pf.weights, pf.rng.random()))
     for a, b in zip(*results, strict=True):
@@ -212,30 +210,11 @@ def test_underflowed_prior_keeps_the_likelihood():
     np.testing.assert_allclose(estimate[0], [lik[0, 1] / lik.sum(), 0.0], rtol=1e-14)
 
 
-@pytest.mark.parametrize("model_cls", [Brownian, ConstantVelocity])
-def test_propose_is_the_common_displacement_plus_white_noise(model_cls):
-    """The protocol: propose(x, h) = x + displacement(h)[:, None] + std·ε, with ε the same draws."""
-    model = model_cls(np.array([0.5, 1.5]))
-    history = np.array([[[0.0, 0.0], [0.3, 0.1]], [[np.nan, np.nan], [2.0, 2.0]]])
-    particles = np.random.default_rng(0).normal(size=(2, 7, 2))
-    out = model.propose(particles, history, np.random.default_rng(9))
-    eps = np.random.default_rng(9).standard_normal((2, 7, 2))
-    expected = particles + model.displacement(history)[:, None, :] + model.std[:, None, None] * eps
-    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-14)
-
-
-def test_displacements_of_the_named_models():
-    history = np.array([[[0.0, 0.0], [0.3, 0.1]], [[np.nan, np.nan], [2.0, 2.0]]])
-    np.testing.assert_array_equal(Brownian().displacement(history), np.zeros((2, 2)))
-    np.testing.assert_allclose(ConstantVelocity().displacement(history), [[0.3, 0.1], [0.0, 0.0]])
-    np.testing.assert_array_equal(ConstantVelocity().displacement(history[:, :1]), np.zeros((2, 2)))
-
-
 def test_compiled_filter_is_deterministic_per_seed():
     z, has = scene(3, 40)
-    a = run(ConstantVelocity(), 3, 300, z, has, seed=4)[1]
-    b = run(ConstantVelocity(), 3, 300, z, has, seed=4)[1]
-    c = run(ConstantVelocity(), 3, 300, z, has, seed=5)[1]
+    a = run(ConstantVelocityDisplacement(), 3, 300, z, has, seed=4)[1]
+    b = run(ConstantVelocityDisplacement(), 3, 300, z, has, seed=4)[1]
+    c = run(ConstantVelocityDisplacement(), 3, 300, z, has, seed=5)[1]
     np.testing.assert_array_equal(a, b)
     assert not np.allclose(a[5:], c[5:])
 
@@ -291,7 +270,7 @@ def test_bad_std_is_named():
         pf.step(np.zeros((2, 2)), np.ones(2, bool))
 
 
-class CountingConstantVelocity(ConstantVelocity):
+class CountingConstantVelocity(ConstantVelocityDisplacement):
     """Records the history every displacement() call sees."""
 
     def __init__(self):

@@ -8,8 +8,9 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import agent_applies_to, make_agent
-from agents.pose.baseline import PoseTracker, centroid_fill, detection_areas
-from agents.pose.smc import PoseSmcAgent, elite_mask, resample_indices
+from agents.pose.baseline import PoseTracker, detection_areas
+from agents.pose.smc import PoseSmcAgent
+from predictors.pose import centroid_fill
 from predictors.pose_lstm.predictor import PosePredictor, window_features
 from predictors.pose_lstm.training import pose_windows_from_env, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig
@@ -118,18 +119,6 @@ def test_an_easy_scene_keeps_its_identities(model, recurrence):
     reports = rollout(agent, 0, steps=60, **EASY)
     ids = {int(i) for r in reports for i in r["ids"][r["mask"] == 1]}
     assert len(ids) <= 5  # three people (and at most a couple arriving)
-
-
-def test_elites_are_the_top_fraction_and_resampling_follows_the_weights():
-    oks = np.array([[[0.1], [0.9], [0.5], [0.9], [0.2]]])  # (1 filter, 5 particles, 1 detection)
-    mask = elite_mask(oks, 2)
-    assert mask[0, :, 0].tolist() == [False, True, False, True, False]
-    assert elite_mask(oks, 5).all()
-    rng = np.random.default_rng(0)
-    idx = resample_indices(np.array([[0.0, 0.0, 1.0, 0.0], [0.5, 0.5, 0.0, 0.0]]), rng)
-    assert (idx[0] == 2).all() and set(idx[1].tolist()) <= {0, 1}
-    many = resample_indices(np.full((1, 4000), 1.0) * np.r_[np.ones(1000), 3 * np.ones(3000)], rng)
-    assert abs(np.mean(many >= 1000) - 0.9) < 0.03  # weight 9000 of 10000
 
 
 def test_the_matching_score_is_the_mean_oks_of_the_elites(model):

@@ -1,0 +1,57 @@
+"""The particle displacement model: how a particle filter moves its particles one frame on.
+
+A displacement model is the prediction step of a bootstrap particle filter that tracks ``T``
+targets with ``N`` particles each (:class:`agents.particle.agent.BatchParticleFilter`). It differs
+from a :class:`predictors.base.Predictor` in what it carries: no Gaussian per track, only a
+proposal ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})`` that moves every particle (T, N, 2) by a sampled
+displacement, given the history of the filter's weighted-mean estimates ``x*`` (T, t, 2). The
+filter owns the particles and their weights; the weights come from the measurement likelihood,
+never from the model.
+
+Two protocols:
+
+* :class:`DisplacementModel`: ``propose`` only; the filter runs its numpy path.
+* :class:`CommonDisplacementModel`: one common displacement per target plus white noise,
+  ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``; the filter runs its compiled
+  path and calls ``displacement`` once per frame.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@runtime_checkable
+class DisplacementModel(Protocol):
+    """The prediction step of the filter: moves every particle one frame on."""
+
+    def propose(
+        self, particles: NDArray[np.float64], history: NDArray[np.float64], rng: np.random.Generator
+    ) -> NDArray[np.float64]:
+        """Predicted particles (T, N, 2) from ``particles`` (T, N, 2) and the history of weighted-mean
+        estimates ``history`` (T, t, 2) (oldest first; NaN for frames before a target's filter
+        started), drawing every random number from ``rng``."""
+        ...
+
+
+@runtime_checkable
+class CommonDisplacementModel(DisplacementModel, Protocol):
+    """A displacement model that moves every particle of a target by one common displacement plus
+    white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
+
+    The filter runs such models on its compiled path (:mod:`agents.particle._kernels`) and calls
+    :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
+    targets; after a (re)start a target's history is NaN except its newest estimate.
+    """
+
+    #: ``σ_p·Δ``, the white-noise std per axis: a scalar or one per target (T,).
+    std: NDArray[np.float64]
+
+    def displacement(self, history: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Common displacement (T, 2) of every particle of each target this frame, finite (zeros
+        where unknown), from the weighted-mean estimates ``history`` (T, t, 2), oldest first, NaN
+        before a target's filter (re)started."""
+        ...

@@ -1,0 +1,14 @@
+"""Pose hypothesis motions: what the tracks of a multi-person pose tracker predict.
+
+* :mod:`~predictors.pose.base`: the :class:`PoseMotion` protocol (per-track state changed in place,
+  OKS scores instead of a Gaussian, whole 17-keypoint poses) and :func:`centroid_fill`;
+* :mod:`~predictors.pose.constant_velocity`: :class:`ConstantVelocityPose`;
+* :mod:`~predictors.pose.registry`: :data:`POSE_MOTIONS` (the SMC motion of the pose LSTM lives in
+  :mod:`predictors.pose_lstm.motion`).
+"""
+
+from predictors.pose.base import PoseMotion, centroid_fill
+from predictors.pose.constant_velocity import ConstantVelocityPose
+from predictors.pose.registry import POSE_MOTIONS, motion_models
+
+__all__ = ["POSE_MOTIONS", "ConstantVelocityPose", "PoseMotion", "centroid_fill", "motion_models"]

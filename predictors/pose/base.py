@@ -1,0 +1,74 @@
+"""The pose hypothesis motion: what the tracks of a multi-person pose tracker predict.
+
+A pose motion is the motion half of the pose-tracking loop of Okada et al. (2020), Algorithm 1
+(:class:`agents.pose.baseline.PoseTracker`); the loop keeps the ids, lifetimes and matching. It
+differs from a :class:`predictors.base.Predictor` in three ways:
+
+* **it owns its state and changes it in place.** The motion holds one row per active track
+  (a pose, or a cloud of particles per track) and the loop addresses the rows by index:
+  :meth:`PoseMotion.update` with the matched rows, :meth:`PoseMotion.birth` appends rows,
+  :meth:`PoseMotion.keep` drops rows. A Predictor instead returns a new immutable
+  ``BatchState`` that the tracker owns.
+* **it scores, not a Gaussian.** There is no predicted measurement mean and covariance to gate
+  with; :meth:`PoseMotion.score` gives an (n, m) similarity in [0, 1] of every track to every
+  detected pose (OKS, or for particles the elite-weighted mean OKS), which the loop matches on.
+* **it moves whole 17-keypoint hypotheses**, with detected and undetected keypoints (a detection
+  holds a subset of the 17), not points of dimension ``D``.
+
+The motions: :class:`~predictors.pose.constant_velocity.ConstantVelocityPose` (one pose per
+track, ``pose-baseline``) and :class:`predictors.pose_lstm.motion.SmcPoseMotion` (particles of
+pose queues moved by the pose LSTM, ``pose-smc``).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.types import SensorSpec
+
+
+class PoseMotion(Protocol):
+    """The motion hypothesis of a pose tracker: per-track state, batched over tracks, changed in place.
+
+    The loop calls, each frame, :meth:`predict`, :meth:`score`, :meth:`update` (matched rows),
+    :meth:`birth` (new rows appended) and :meth:`keep` (surviving rows), in that order; row ``i``
+    of the motion is track ``i`` of the loop.
+    """
+
+    def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
+        """Forget every track (a new episode); ``rng`` is the random stream of the episode."""
+
+    def predict(self) -> None:
+        """Predict every track's pose at the current frame."""
+
+    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
+        """(n, m) similarity in [0, 1] of the predictions to the detections ``xy`` (m, 17, 2)
+        with detected keypoints ``found`` (m, 17) and areas ``area`` (m,)."""
+        ...
+
+    def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
+        """Tracks ``ti`` (k,) take the detections ``di`` (k,) of ``xy`` (m, 17, 2) with keypoints
+        ``found`` (m, 17) (the rows and columns of :meth:`score`); the others coast."""
+
+    def birth(self, xy: NDArray, found: NDArray) -> None:
+        """Append one track per detection ``xy`` (k, 17, 2) with keypoints ``found`` (k, 17)."""
+
+    def keep(self, alive: NDArray[np.bool_]) -> None:
+        """Keep the tracks where ``alive`` (n,) is true."""
+
+    def poses(self) -> NDArray[np.float64]:
+        """(n, 17, 2) pose estimates after the update (what the report shows)."""
+        ...
+
+
+def centroid_fill(xy: NDArray, found: NDArray) -> NDArray[np.float64]:
+    """Full poses (k, 17, 2): undetected keypoints at the centroid of the detected ones.
+
+    The start of a new track in every pose motion: ``ŷ_j = x_j`` for a detected keypoint ``j``,
+    else ``(1/|F|) Σ_{i∈F} x_i`` over the detected keypoints ``F`` (the origin when ``F`` is empty).
+    """
+    centroid = np.sum(xy * found[..., None], axis=1) / np.maximum(found.sum(axis=1), 1)[:, None]
+    return np.where(found[..., None], xy, centroid[:, None, :])
