@@ -21,7 +21,8 @@ rows, the first ``max_tracks`` are reported and every track is still scored). It
 :meth:`episode_metrics`, are the per-track error distribution
 (:class:`~track_envs.metrics.track_error.TrackErrorDistribution`),
 the reliability curve of the covariances as predicted (``reliability@p``) and divided by the
-predictor's calibration factor ``r`` (``reliability_raw@p``; predictors without one have ``r = 1``),
+predictor's calibration factor ``r`` (``reliability_raw@p``; predictors that do not declare the
+``CALIBRATION`` capability have ``r = 1``),
 and the bounding-box area of the uncalibrated covariance against the track's number of
 observations (:class:`~track_envs.metrics.aleatoric.AleatoricArea`; for nll-lstm the network's
 aleatoric variance).
@@ -35,8 +36,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.gnn.agent import _build_predictor
-from predictors.base import accepts_velocity_prior, reset_predictor
+from predictors.base import Capability, Predictor, capability, reset_predictor
+from predictors.registry import resolve_predictor
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.prediction import Reliability
 from track_envs.metrics.track_error import TrackErrorDistribution
@@ -63,13 +64,15 @@ class OneStepAgent:
     needs_truth = True
 
     def __init__(
-        self, predictor: str | Any = "kf-ca", *, velocity_prior: bool = True, **predictor_kwargs: Any
+        self, predictor: str | Predictor = "kf-ca", *, velocity_prior: bool = True, **predictor_kwargs: Any
     ):
         if not isinstance(velocity_prior, bool | np.bool_):
             raise ValueError(f"velocity_prior must be True or False, got {velocity_prior!r}")
         self.velocity_prior = bool(velocity_prior)
-        self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
-        self.scale = float(getattr(self.predictor, "calibration_scale", 1.0))
+        self.predictor: Predictor = resolve_predictor(predictor, owner=type(self), **predictor_kwargs)
+        calibrated = capability(self.predictor, Capability.CALIBRATION)
+        self.scale = 1.0 if calibrated is None else float(calibrated.calibration_scale)
+        self._with_prior = capability(self.predictor, Capability.VELOCITY_PRIOR)
         self.errors = TrackErrorDistribution()
         self.reliability = Reliability(LEVELS)
         self.reliability_raw = Reliability(LEVELS)
@@ -82,7 +85,6 @@ class OneStepAgent:
         """Start an episode: no tracks, empty scores; ``seed`` seeds the predictor's stream."""
         self._spec = spec
         reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
-        self._takes_velocity = self.velocity_prior and accepts_velocity_prior(self.predictor)
         self._state: Any = None
         self._ids = np.zeros(0, dtype=np.int64)
         self._age = np.zeros(0, dtype=np.int64)
@@ -166,9 +168,9 @@ class OneStepAgent:
             self._ids, self._age, self._first = self._ids[keep], self._age[keep], self._first[keep]
         if not len(ids):
             return
-        if self._takes_velocity and self._v_n:
+        if self.velocity_prior and self._with_prior is not None and self._v_n:
             v = np.broadcast_to(self._v_sum / self._v_n, z.shape)
-            born = self.predictor.start(z, velocity=v)
+            born = self._with_prior.start(z, velocity=v)
         else:
             born = self.predictor.start(z)
         self._state = born if self._state is None else type(born).concat([self._state, born])

@@ -1,52 +1,43 @@
-"""Motion models with uncertainty, batched over tracks (the Predictor protocol).
+"""Motion models with uncertainty, batched over tracks (the Predictor protocol, :mod:`predictors.base`).
 
-Registry: :func:`make_predictor` builds a predictor by name; an unknown name raises a
-``ValueError`` that lists the valid ones.
+Registry (:mod:`predictors.registry`): :func:`make_predictor` builds a predictor by name (an
+unknown name raises a ``ValueError`` that lists the valid ones); :func:`resolve_predictor` takes a
+name or a Predictor object, as a tracker's ``predictor`` argument does.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
-from track_envs.registry import Registry
+from predictors.base import Capability, Predictor, capability, has_capability
+from predictors.registry import (
+    BELT_ENVS,
+    PREDICTORS,
+    available_predictors,
+    make_predictor,
+    predictor_applies_to,
+    register_predictor,
+    resolve_predictor,
+)
 
-PREDICTORS = Registry("predictor")
-
-
-def register_predictor(name: str, factory: Callable[..., Any]) -> None:
-    """Register ``factory`` under ``name`` (re-registering a name replaces it)."""
-    PREDICTORS.register(name, factory)
-
-
-def available_predictors() -> list[str]:
-    """Names accepted by :func:`make_predictor`."""
-    return PREDICTORS.names()
-
-
-def predictor_applies_to(name: str, env_id: str) -> bool:
-    """Whether predictor ``name`` is meant for ``env_id``.
-
-    A factory may declare ``envs``, the env ids its model was made for (the belt LSTMs: the belt
-    envs, whose geometry and motion their weights learnt); factories without it apply to every
-    point env.
-    """
-    envs = getattr(PREDICTORS.factory(name), "envs", None)
-    return envs is None or env_id in envs
-
-
-#: The env ids of the optical belt, where the belt LSTMs apply.
-BELT_ENVS = ("BeltSorter-v0", "BeltReplay-v0")
-
-
-def make_predictor(name: str, **kwargs: Any) -> Any:
-    """Build the predictor registered as ``name`` (an unknown name raises ``ValueError`` listing them)."""
-    return PREDICTORS.make(name, **kwargs)
+__all__ = [
+    "BELT_ENVS",
+    "PREDICTORS",
+    "Capability",
+    "Predictor",
+    "available_predictors",
+    "capability",
+    "has_capability",
+    "make_predictor",
+    "predictor_applies_to",
+    "register_predictor",
+    "resolve_predictor",
+]
 
 
 def kf_cv(
     *, q: float | None = None, initial_velocity_std: float | None = None, initial_velocity: Any = None
-) -> Any:
+) -> Predictor:
     """Constant-velocity Kalman filter (white-noise acceleration of intensity q), batched over tracks."""
     from predictors.kalman.predictor import KalmanPredictor
 
@@ -61,7 +52,7 @@ def kf_ca(
     initial_velocity_std: float | None = None,
     initial_acceleration_std: float | None = None,
     initial_velocity: Any = None,
-) -> Any:
+) -> Predictor:
     """Constant-acceleration Kalman filter (white-noise jerk of intensity q), batched over tracks."""
     from predictors.kalman.predictor import KalmanPredictor
 
@@ -74,14 +65,14 @@ def kf_ca(
     )
 
 
-def random_walk(*, q: float | None = None) -> Any:
+def random_walk(*, q: float | None = None) -> Predictor:
     """Position-only random-walk Kalman filter (white-noise velocity of intensity q), batched."""
     from predictors.kalman.predictor import KalmanPredictor
 
     return KalmanPredictor("random-walk", q=q)
 
 
-def lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
+def lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Predictor:
     """Belt LSTM trained with MSE; covariance ``s·I`` with ``s`` line-searched on the tracker's e_mean.
 
     ``weights``: a model file (default: the shipped weights for ``particle_kind``).
@@ -91,7 +82,7 @@ def lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
     return LSTMPredictor("lstm", weights, particle_kind=particle_kind)
 
 
-def nll_lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
+def nll_lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Predictor:
     """Belt LSTM with a heteroscedastic Gaussian output (mean, log-variance), calibrated covariances.
 
     ``weights``: a model file (default: the shipped weights for ``particle_kind``: cylinder,
@@ -102,7 +93,7 @@ def nll_lstm(*, weights: Any = None, particle_kind: str = "cylinder") -> Any:
     return LSTMPredictor("nll-lstm", weights, particle_kind=particle_kind)
 
 
-def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: int = 250) -> Any:
+def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: int = 250) -> Predictor:
     """Belt LSTM with variational MC dropout: ``samples`` masks per track, calibrated covariances.
 
     ``weights``: a model file (default: the shipped weights for ``particle_kind``).

@@ -1,4 +1,4 @@
-"""The Predictor protocol and the batched state value every predictor keeps per track.
+"""The Predictor protocol, its optional capabilities, and the batched state every predictor keeps.
 
 A predictor is a motion model with uncertainty, batched over ``n`` tracks. The tracker owns the
 state (an immutable value) and calls, each frame,
@@ -12,15 +12,55 @@ state (an immutable value) and calls, each frame,
    ``type(state).concat([a, b])`` to append births.
 
 ``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.types.SensorSpec`
-(frame period, measurement noise, dimension) before the first ``start``.
+(frame period, measurement noise, dimension) before the first ``start``. These five methods are
+the core (:class:`Predictor`): a predictor with only them works in every Gaussian tracker (gnn,
+one-step, the sorting roll-out).
 
-Two optional capabilities, which a tracker checks for instead of assuming them:
+Optional capabilities
+---------------------
+Anything beyond the core is a *capability*: a predictor class declares what it offers in its class
+attribute ``capabilities: frozenset[Capability]`` (none when absent), and a tracker asks for one in
+exactly one way, :func:`capability` (or :func:`has_capability`), which returns the predictor typed
+as the capability's protocol, or ``None``. Trackers never probe a method name, a signature or a
+concrete class. The declaration is read from the class, so a wrapper object declares its own.
 
-* :class:`VelocityPriorPredictor` — ``start(z, velocity=..., velocity_cov=...)`` accepts a prior
-  on the velocity of new tracks (the Kalman predictors); test with :func:`accepts_velocity_prior`.
-* :class:`StochasticPredictor` — ``reset(spec, rng=...)`` takes the random stream the predictor
-  draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the same seed gives
-  the same masks and the same report; :func:`reset_predictor` passes it where accepted.
+* ``NOISE_SCALE`` (:class:`NoiseScale`) — ``set_noise_scale(k: float) -> None``: assume the
+  measurement noise ``R = (k σ)² I`` from now on. Used by gnn's live ``noise_scale`` knob
+  (GateTuning-v0). Kalman filters.
+* ``VELOCITY_PRIOR`` (:class:`VelocityPrior`) — ``start(z, velocity=None, velocity_cov=None)``:
+  new tracks with a kinematic prior ``N(velocity (n, D), velocity_cov (n, D, D))``. Used by gnn
+  (its learnt flow) and one-step (the mean first velocity). Kalman filters.
+* ``MEAN_ONLY_ESTIMATE`` (:class:`MeanOnlyEstimate`) — ``estimate_mean(state) -> (n, D)``: the
+  mean of ``estimate`` without its covariance. Used by gnn every frame. Kalman filters.
+* ``FUSED_SURVIVORS_BIRTHS`` (:class:`FusedSurvivorsBirths`) — ``survivors_and_births(state,
+  keep, n_keep, z, velocity=None, velocity_cov=None) -> state``:
+  ``concat([state.take(keep), start(z, ...)])`` in one pass, one prior ``velocity`` (D,),
+  ``velocity_cov`` (D, D) for all births. Used by gnn's births and deletions. Kalman filters,
+  belt LSTMs.
+* ``LINE_ROLLOUT`` (:class:`LineRollout`) — ``rollout_crossings(state, line, frame, dt,
+  max_steps) -> (ok, mean, cov) | None``: the crossings of ``x = line`` that the frame-by-frame
+  roll-out finds, in one compiled pass (``None`` where that pass does not apply); and the class
+  attribute ``rollout_covariance``: ``"state"`` (``estimate`` after coasting carries the
+  multi-step covariance) or ``"accumulate"`` (it is only the one-step prediction, so the roll-out
+  sums the one-step covariances). Used by the sorting roll-out
+  (:func:`agents.tracking.sorting.predict_crossings`). Kalman filters (closed form,
+  :mod:`predictors.kalman.rollout`), belt LSTMs.
+* ``COAST`` (:class:`Coast`) — ``coast(state) -> (state, Gaussian)``: ``predict`` then
+  ``update`` with nothing seen, in one call, returning the prediction. Used by the sorting
+  roll-out. Belt LSTMs.
+* ``CALIBRATION`` (:class:`Calibrated`) — ``calibration_scale: float``: the factor ``r`` the
+  predicted covariances were calibrated by (1: uncalibrated). Used by one-step, whose raw
+  reliability curve divides it out. Belt LSTMs.
+* ``RANDOM_STREAM`` (:class:`RandomStream`) — ``reset(spec, *, rng=None)``: the random stream
+  the predictor draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the
+  same seed gives the same report. Used by every tracker's reset (:func:`reset_predictor`). Belt
+  LSTMs.
+
+A capability is a promise of the same numbers as the core calls would give where both apply
+(``coast`` equals ``predict`` + ``update``, ``survivors_and_births`` equals take/start/concat,
+``rollout_crossings`` equals the frame-by-frame roll-out), so a tracker may always fall back to
+the core. Declaring a capability without its members is a ``TypeError`` at the first
+:func:`capability` call, naming what is missing.
 
 The same five calls fit a Kalman filter (mean and covariance per track), an LSTM (hidden state
 per track, carried and never re-run over a window), an MC-dropout LSTM (dropout masks fixed per
@@ -32,7 +72,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from typing import Any, Protocol, Self, runtime_checkable
+from enum import StrEnum
+from typing import Any, Literal, Protocol, Self, overload, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -135,18 +176,14 @@ def _concat(values: list[Any]) -> Any:
 
 @runtime_checkable
 class Predictor(Protocol):
-    """Batched motion model with uncertainty (see the module docstring for the call order)."""
+    """Batched motion model with uncertainty: the core every tracker relies on (module docstring)."""
 
     def reset(self, spec: SensorSpec) -> None:
         """Bind to a sensor: frame period, dimension and measurement noise."""
         ...
 
     def start(self, z: NDArray[np.floating]) -> Any:
-        """States of new tracks from their first measurements ``z`` (n, D).
-
-        Kinematic predictors may also accept ``velocity=`` (n, D) and ``velocity_cov=`` (n, D, D)
-        keywords, a tracker's prior on the velocity of new tracks.
-        """
+        """States of new tracks from their first measurements ``z`` (n, D)."""
         ...
 
     def predict(self, state: Any) -> tuple[Any, Gaussian]:
@@ -162,14 +199,38 @@ class Predictor(Protocol):
         ...
 
 
-@runtime_checkable
-class VelocityPriorPredictor(Predictor, Protocol):
-    """A predictor whose ``start`` also takes a prior on the velocity of new tracks."""
+class Capability(StrEnum):
+    """The optional capabilities a predictor class may declare (module docstring)."""
+
+    NOISE_SCALE = "noise-scale"
+    VELOCITY_PRIOR = "velocity-prior"
+    MEAN_ONLY_ESTIMATE = "mean-only-estimate"
+    FUSED_SURVIVORS_BIRTHS = "fused-survivors-births"
+    LINE_ROLLOUT = "line-rollout"
+    COAST = "coast"
+    CALIBRATION = "calibration"
+    RANDOM_STREAM = "random-stream"
+
+
+#: What a line roll-out returns for ``k`` tracks: ``ok`` (k,) whether a crossing was found,
+#: ``mean`` (k, 2) its ``(t̂, ŷ)`` and ``cov`` (k, 2, 2) (NaN where not ``ok``).
+Crossings = tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]
+
+
+class NoiseScale(Predictor, Protocol):
+    """``NOISE_SCALE``: the measurement noise the predictor assumes can be scaled."""
+
+    def set_noise_scale(self, scale: float) -> None:
+        """Assume ``R = (scale · noise_std)² I`` from the next call on (``scale`` > 0, finite)."""
+        ...
+
+
+class VelocityPrior(Predictor, Protocol):
+    """``VELOCITY_PRIOR``: ``start`` also takes a prior on the velocity of new tracks."""
 
     def start(
         self,
         z: NDArray[np.floating],
-        *,
         velocity: NDArray[np.floating] | None = None,
         velocity_cov: NDArray[np.floating] | None = None,
     ) -> Any:
@@ -177,26 +238,167 @@ class VelocityPriorPredictor(Predictor, Protocol):
         ...
 
 
-def accepts_velocity_prior(predictor: Any) -> bool:
-    """Whether ``predictor.start`` takes ``velocity=`` and ``velocity_cov=`` keywords."""
-    return _accepts(predictor.start, "velocity", "velocity_cov")
+class MeanOnlyEstimate(Predictor, Protocol):
+    """``MEAN_ONLY_ESTIMATE``: the estimate's mean without computing its covariance."""
+
+    def estimate_mean(self, state: Any) -> NDArray[np.floating]:
+        """``estimate(state).mean`` (n, D)."""
+        ...
 
 
-def reset_predictor(predictor: Any, spec: SensorSpec, rng: np.random.Generator) -> None:
-    """``predictor.reset(spec, rng=rng)`` where it takes a random stream, else ``reset(spec)``."""
-    if _accepts(predictor.reset, "rng"):
-        predictor.reset(spec, rng=rng)
+class FusedSurvivorsBirths(Predictor, Protocol):
+    """``FUSED_SURVIVORS_BIRTHS``: deletions and births in one pass."""
+
+    def survivors_and_births(
+        self,
+        state: Any,
+        keep: NDArray[np.bool_],
+        n_keep: int,
+        z: NDArray[np.floating],
+        velocity: NDArray[np.floating] | None = None,
+        velocity_cov: NDArray[np.floating] | None = None,
+    ) -> Any:
+        """``concat([state.take(keep), start(z)])`` (``n_keep`` = ``keep.sum()``), the new tracks
+        started with the velocity prior ``velocity`` (D,), ``velocity_cov`` (D, D) where the
+        predictor has one (ignored otherwise)."""
+        ...
+
+
+class LineRollout(Predictor, Protocol):
+    """``LINE_ROLLOUT``: the roll-out to a line in one compiled pass, and its covariance mode."""
+
+    #: ``"state"``: ``estimate`` after coasting carries the multi-step covariance;
+    #: ``"accumulate"``: it is the one-step prediction, and a roll-out sums those.
+    rollout_covariance: Literal["state", "accumulate"]
+
+    def rollout_crossings(
+        self, state: Any, line: float, frame: int, dt: float, max_steps: int
+    ) -> Crossings | None:
+        """The crossings of ``x = line`` of every track of ``state`` (at frame ``frame``) that the
+        frame-by-frame roll-out of at most ``max_steps`` frames finds, or ``None`` where this
+        pass does not apply (the tracker then rolls frame by frame)."""
+        ...
+
+
+class Coast(Predictor, Protocol):
+    """``COAST``: predict and coast in one call."""
+
+    def coast(self, state: Any) -> tuple[Any, Gaussian]:
+        """``predict`` then ``update`` with nothing seen; the new state and the prediction."""
+        ...
+
+
+class Calibrated(Predictor, Protocol):
+    """``CALIBRATION``: the factor the predicted covariances were calibrated by."""
+
+    #: ``r`` (1: uncalibrated): the predicted covariance is ``r`` times the model's own.
+    calibration_scale: float
+
+
+class RandomStream(Predictor, Protocol):
+    """``RANDOM_STREAM``: ``reset`` takes the random stream the predictor draws from."""
+
+    def reset(self, spec: SensorSpec, *, rng: np.random.Generator | None = None) -> None:
+        """Bind to ``spec`` and draw every random number from ``rng`` until the next reset."""
+        ...
+
+
+#: The protocol of every capability.
+PROTOCOLS: dict[Capability, type] = {
+    Capability.NOISE_SCALE: NoiseScale,
+    Capability.VELOCITY_PRIOR: VelocityPrior,
+    Capability.MEAN_ONLY_ESTIMATE: MeanOnlyEstimate,
+    Capability.FUSED_SURVIVORS_BIRTHS: FusedSurvivorsBirths,
+    Capability.LINE_ROLLOUT: LineRollout,
+    Capability.COAST: Coast,
+    Capability.CALIBRATION: Calibrated,
+    Capability.RANDOM_STREAM: RandomStream,
+}
+
+
+def declared_capabilities(predictor: object) -> frozenset[Capability]:
+    """The capabilities ``predictor``'s class declares (empty when it declares none).
+
+    Raises:
+        TypeError: if the class's ``capabilities`` is not a set of :class:`Capability` members.
+    """
+    declared: object = getattr(type(predictor), "capabilities", frozenset())
+    if not isinstance(declared, frozenset | set) or not all(isinstance(c, Capability) for c in declared):
+        raise TypeError(
+            f"{type(predictor).__name__}.capabilities must be a frozenset of predictors.base.Capability "
+            f"members {[c.name for c in Capability]}, got {declared!r}"
+        )
+    return frozenset(declared)
+
+
+_CHECKED: set[tuple[type, Capability]] = set()
+
+
+@overload
+def capability(predictor: object, which: Literal[Capability.NOISE_SCALE]) -> NoiseScale | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.VELOCITY_PRIOR]) -> VelocityPrior | None: ...
+@overload
+def capability(
+    predictor: object, which: Literal[Capability.MEAN_ONLY_ESTIMATE]
+) -> MeanOnlyEstimate | None: ...
+@overload
+def capability(
+    predictor: object, which: Literal[Capability.FUSED_SURVIVORS_BIRTHS]
+) -> FusedSurvivorsBirths | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.LINE_ROLLOUT]) -> LineRollout | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.COAST]) -> Coast | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.CALIBRATION]) -> Calibrated | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.RANDOM_STREAM]) -> RandomStream | None: ...
+def capability(predictor: object, which: Capability) -> Any:
+    """``predictor``, typed as the protocol of capability ``which``, when its class declares it;
+    else ``None``. The one way a tracker asks for an optional capability (module docstring).
+
+    Raises:
+        TypeError: if the class declares ``which`` but lacks a member of its protocol (named), or
+            ``which`` is not a :class:`Capability`.
+    """
+    if not isinstance(which, Capability):
+        raise TypeError(f"capability must be one of {[c.name for c in Capability]}, got {which!r}")
+    if which not in declared_capabilities(predictor):
+        return None
+    key = (type(predictor), which)
+    if key not in _CHECKED:
+        missing = _missing_members(predictor, PROTOCOLS[which])
+        if missing:
+            raise TypeError(
+                f"{type(predictor).__name__} declares capability {which.name} but lacks {missing} "
+                f"(see predictors.base.{PROTOCOLS[which].__name__})"
+            )
+        _CHECKED.add(key)
+    return predictor
+
+
+def has_capability(predictor: object, which: Capability) -> bool:
+    """Whether ``predictor``'s class declares capability ``which`` (checked as :func:`capability` does)."""
+    return capability(predictor, which) is not None  # type: ignore[call-overload]
+
+
+def _missing_members(predictor: object, protocol: type) -> list[str]:
+    """The members a capability's protocol adds to the core that ``predictor`` lacks (methods
+    must be callable). ``reset`` and ``start`` with extra keywords are core methods: their
+    presence is the core's check, their keywords the declaration's promise."""
+    own = vars(protocol)
+    methods = [
+        n for n, v in own.items() if callable(v) and not n.startswith("_") and n not in vars(Predictor)
+    ]
+    missing = [n for n in methods if not callable(getattr(predictor, n, None))]
+    return missing + [n for n in own.get("__annotations__", {}) if not hasattr(predictor, n)]
+
+
+def reset_predictor(predictor: Predictor, spec: SensorSpec, rng: np.random.Generator) -> None:
+    """``predictor.reset(spec, rng=rng)`` where it declares ``RANDOM_STREAM``, else ``reset(spec)``."""
+    streamed = capability(predictor, Capability.RANDOM_STREAM)
+    if streamed is not None:
+        streamed.reset(spec, rng=rng)
     else:
         predictor.reset(spec)
-
-
-def _accepts(method: Any, *names: str) -> bool:
-    import inspect
-
-    try:
-        params = inspect.signature(method).parameters
-    except (TypeError, ValueError):
-        return False
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
-        return True
-    return all(n in params for n in names)

@@ -62,13 +62,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.gnn import _kernels
+from agents.gnn.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.assign import ASSIGNERS, ASSOCIATORS, chi2_gate
 from agents.tracking.merges import share_blobs
 from agents.tracking.sorting import MAX_STEPS, predict_crossings
-from predictors import PREDICTORS, available_predictors, make_predictor
-from predictors.base import Predictor, accepts_velocity_prior, reset_predictor
+from predictors.base import Capability, Predictor, capability, reset_predictor
+from predictors.registry import resolve_predictor
 from track_envs.observation import check_observation
-from track_envs.registry import UnknownArgumentError, check_keywords, missing_methods, named_arguments
 from track_envs.report import pack_report
 from track_envs.sorting_channel import empty_sorting, pack_sorting
 from track_envs.types import Gaussian, SensorSpec
@@ -100,39 +100,6 @@ class VelocityPriorState:
     source: str
 
 
-def _build_predictor(agent: type, predictor: Any, kwargs: dict[str, Any]) -> Any:
-    """The predictor named ``predictor`` built with ``kwargs``, or the object ``predictor`` itself.
-
-    Raises:
-        UnknownArgumentError: for a keyword neither ``agent`` nor the named predictor takes (or any
-            keyword with a predictor object), listing the arguments of both.
-        ValueError: for an unknown predictor name, or an object lacking methods of the
-            Predictor protocol (named).
-    """
-    own = named_arguments(agent)
-    if isinstance(predictor, str):
-        accepted = PREDICTORS.arguments(predictor)  # also refuses an unknown name
-        if accepted is not None:
-            note = (
-                f", and it passes further keywords to predictor {predictor!r}, whose arguments are {accepted}"
-            )
-            check_keywords(agent.__name__, [k for k in kwargs if k not in accepted], own, note)
-        return make_predictor(predictor, **kwargs)
-    if kwargs:
-        names = ", ".join(map(repr, kwargs))
-        raise UnknownArgumentError(
-            f"{agent.__name__} has no argument {names}; its arguments are {own} (further keywords go to "
-            "a predictor given by name; configure a predictor object before passing it)"
-        )
-    missing = missing_methods(predictor, Predictor)
-    if missing:
-        raise ValueError(
-            f"predictor must be a registered name {available_predictors()} or implement the Predictor "
-            f"protocol (predictors.base.Predictor); {type(predictor).__name__} lacks {missing}"
-        )
-    return predictor
-
-
 class GnnAgent:
     """GNN multi-target tracker: χ² gate, Hungarian, pluggable predictor (Pollithy et al. 2020).
 
@@ -162,7 +129,8 @@ class GnnAgent:
             rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
         noise_scale: Factor ``k`` on the sensor's declared noise std that the predictor assumes
             (``R = (k σ)² I``) and that the second-chance cap uses, > 0 (default 1). Needs a
-            predictor with ``set_noise_scale`` (the Kalman filters) unless it is 1.
+            predictor that declares the ``NOISE_SCALE`` capability (``set_noise_scale``: the Kalman
+            filters) unless it is 1.
         predict_sorting: With a nozzle bar in the sensor spec, report each deleted track's
             predicted crossing (the sorting channel; default True). ``False`` skips the
             roll-outs (a learned predictor steps its network once per roll-out frame) and reports
@@ -178,22 +146,39 @@ class GnnAgent:
 
     def __init__(
         self,
-        predictor: str | Any = "kf-ca",
+        predictor: str | Predictor = "kf-ca",
         *,
-        p_gate: float = 0.999,
+        p_gate: float = P_GATE.default,
         assignment: str = "hungarian",
         max_misses: int = 2,
         region_margin: float = 0.0,
         velocity_prior: str | NDArray | None = "auto",
-        recovery_inflation: float = 25.0,
+        recovery_inflation: float = RECOVERY_INFLATION.default,
         velocity_fallback: NDArray | None = None,
         recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
         blob_extent: float = 0.0,
-        noise_scale: float = 1.0,
+        noise_scale: float = NOISE_SCALE.default,
         predict_sorting: bool = True,
         **predictor_kwargs: Any,
     ):
+        # the arguments as given, for the throwaway copy of warm_up()
+        self._init_kwargs: dict[str, Any] = {
+            "predictor": predictor,
+            "p_gate": p_gate,
+            "assignment": assignment,
+            "max_misses": max_misses,
+            "region_margin": region_margin,
+            "velocity_prior": velocity_prior,
+            "recovery_inflation": recovery_inflation,
+            "velocity_fallback": velocity_fallback,
+            "recovery_cap_motion": recovery_cap_motion,
+            "recovery_cap_noise": recovery_cap_noise,
+            "blob_extent": blob_extent,
+            "noise_scale": noise_scale,
+            "predict_sorting": predict_sorting,
+            **predictor_kwargs,
+        }
         if not isinstance(predict_sorting, bool | np.bool_):
             raise ValueError(f"predict_sorting must be True or False, got {predict_sorting!r}")
         self.predict_sorting = bool(predict_sorting)
@@ -207,9 +192,13 @@ class GnnAgent:
             raise ValueError(
                 f"velocity_prior must be 'auto', None or a velocity vector, got {velocity_prior!r}"
             )
-        self.predictor = _build_predictor(type(self), predictor, predictor_kwargs)
+        self.predictor: Predictor = resolve_predictor(predictor, owner=type(self), **predictor_kwargs)
+        # the optional capabilities of the predictor this tracker uses (predictors.base), or None
+        self._scalable = capability(self.predictor, Capability.NOISE_SCALE)
+        self._with_prior = capability(self.predictor, Capability.VELOCITY_PRIOR)
+        self._mean_only = capability(self.predictor, Capability.MEAN_ONLY_ESTIMATE)
+        self._fused = capability(self.predictor, Capability.FUSED_SURVIVORS_BIRTHS)
         self.predictor_name = predictor if isinstance(predictor, str) else type(predictor).__name__
-        self._predictor_arg, self._predictor_kwargs = predictor, predictor_kwargs
         self._spec: SensorSpec | None = None
         self.p_gate = p_gate
         self.assignment = assignment
@@ -255,9 +244,7 @@ class GnnAgent:
 
     @recovery_inflation.setter
     def recovery_inflation(self, value: float) -> None:
-        if not (_is_number(value) and np.isfinite(value) and value >= 1.0):
-            raise ValueError(f"recovery_inflation must be a finite number >= 1, got {value!r}")
-        self._recovery_inflation = float(value)
+        self._recovery_inflation = RECOVERY_INFLATION.check(value)
 
     @property
     def noise_scale(self) -> float:
@@ -267,17 +254,15 @@ class GnnAgent:
 
     @noise_scale.setter
     def noise_scale(self, value: float) -> None:
-        if not (_is_number(value) and np.isfinite(value) and value > 0):
-            raise ValueError(f"noise_scale must be a finite number > 0, got {value!r}")
-        scale = float(value)
-        setter = getattr(self.predictor, "set_noise_scale", None)
-        if setter is None and scale != 1.0:
+        scale = NOISE_SCALE.check(value)
+        if self._scalable is None and scale != 1.0:
             raise ValueError(
-                f"noise_scale={value!r} needs a predictor with set_noise_scale (the Kalman filters); "
-                f"predictor {self.predictor_name!r} has none, so noise_scale must stay 1"
+                f"noise_scale={value!r} needs a predictor with set_noise_scale (the NOISE_SCALE "
+                f"capability: the Kalman filters); predictor {self.predictor_name!r} does not declare "
+                "it, so noise_scale must stay 1"
             )
-        if setter is not None:
-            setter(scale)
+        if self._scalable is not None:
+            self._scalable.set_noise_scale(scale)
         self._noise_scale = scale
         if self._spec is not None:
             self._noise = max(float(self._spec.noise_std) * scale, 1e-6)
@@ -292,7 +277,6 @@ class GnnAgent:
         """
         self._spec = spec
         reset_predictor(self.predictor, spec, np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0]))
-        self._takes_velocity = accepts_velocity_prior(self.predictor)
         self._gate = chi2_gate(self.p_gate, spec.dim)
         self._state: Any = None
         self._ids = np.zeros(0, dtype=np.int64)
@@ -377,28 +361,12 @@ class GnnAgent:
         """
         import copy
 
-        predictor = (
-            self._predictor_arg
-            if isinstance(self._predictor_arg, str)
-            else copy.deepcopy(self._predictor_arg)
-        )
-        twin = GnnAgent(
-            predictor,
-            p_gate=self.p_gate,
-            assignment=self.assignment,
-            max_misses=self.max_misses,
-            region_margin=self.region_margin,
-            velocity_prior=self.velocity_prior,
-            recovery_inflation=self.recovery_inflation,
-            velocity_fallback=self.velocity_fallback,
-            recovery_cap_motion=self.recovery_cap_motion,
-            recovery_cap_noise=self.recovery_cap_noise,
-            blob_extent=self.blob_extent,
-            noise_scale=self.noise_scale,
-            **self._predictor_kwargs,
-        )
+        kwargs = dict(self._init_kwargs)
+        if not isinstance(kwargs["predictor"], str):
+            kwargs["predictor"] = copy.deepcopy(kwargs["predictor"])
+        twin = GnnAgent(**kwargs)
         dim = self._spec.dim if self._spec is not None else 2
-        spec, frames = _warm_up_stream(dim)
+        spec, frames = _warm_up_stream(dim, sorting=self.predict_sorting)
         twin.reset(spec)
         for obs in frames:
             twin.act(obs)
@@ -493,9 +461,11 @@ class GnnAgent:
 
     def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
         """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``
-        when it has one, which skips the covariance)."""
-        mean_only = getattr(self.predictor, "estimate_mean", None)
-        mean = mean_only(state) if mean_only is not None else self.predictor.estimate(state).mean
+        when it declares ``MEAN_ONLY_ESTIMATE``, which skips the covariance)."""
+        if self._mean_only is not None:
+            mean = self._mean_only.estimate_mean(state)
+        else:
+            mean = self.predictor.estimate(state).mean
         return np.ascontiguousarray(mean, dtype=np.float64)
 
     def associate(self, prediction: Gaussian, z: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -558,17 +528,20 @@ class GnnAgent:
         """The kept tracks (``keep``) and new tracks at detections ``z_new`` (k, D), with the
         velocity prior when there is one: states, ids, counters, estimates, detection rows."""
         k = len(z_new)
-        prior = self._takes_velocity and self.velocity_prior is not None and self._flow_mean is not None
-        velocity, velocity_cov = (self._flow_mean, self._birth_cov) if prior else (None, None)
-        fused = getattr(self.predictor, "survivors_and_births", None)
-        if self._state is not None and fused is not None:
+        prior = self._with_prior is not None and self.velocity_prior is not None
+        velocity, velocity_cov = (
+            (self._flow_mean, self._birth_cov) if prior and self._flow_mean is not None else (None, None)
+        )
+        if self._state is not None and self._fused is not None:
             if k or n_keep < len(keep):
-                self._state = fused(self._state, keep, n_keep, z_new, velocity, velocity_cov)
+                self._state = self._fused.survivors_and_births(
+                    self._state, keep, n_keep, z_new, velocity, velocity_cov
+                )
         elif k:
             if n_keep < len(keep):
                 self._state = self._state.take(keep)
-            if velocity is not None:
-                born = self.predictor.start(
+            if velocity is not None and self._with_prior is not None:
+                born = self._with_prior.start(
                     z_new,
                     velocity=np.broadcast_to(velocity, z_new.shape),
                     velocity_cov=None
@@ -637,14 +610,11 @@ class GnnAgent:
         )
 
 
-def _is_number(value: Any) -> bool:
-    real = isinstance(value, int | float | np.integer | np.floating)
-    return real and not isinstance(value, bool | np.bool_)
-
-
-def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
+def _warm_up_stream(dim: int, sorting: bool = True) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
     """A few frames that run every path of a frame: births, lone and competing pairs, the
-    second chance, coasting, deletions and an empty frame (for :meth:`GnnAgent.warm_up`)."""
+    second chance, coasting, deletions and an empty frame (for :meth:`GnnAgent.warm_up`); with
+    ``sorting`` (and ``dim >= 2``) the sensor has a nozzle bar, so that the deletions run the
+    sorting roll-out too."""
     dt = 0.01
     spec = SensorSpec(
         dt=dt,
@@ -656,6 +626,7 @@ def _warm_up_stream(dim: int) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
         region_high=(1.0,) * dim,
         max_detections=8,
         max_tracks=16,
+        sorting_line=1.05 if sorting and dim >= 2 else None,
     )
     start = np.full((5, dim), 0.1)
     start[:, -1] = [0.1, 0.5, 0.9, 0.3, 0.3003]  # the last two compete for each other's detections

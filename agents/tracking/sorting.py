@@ -6,9 +6,9 @@ the belt the particle will pass the nozzle bar ``x = L`` downstream of the camer
 predictor of the :class:`~predictors.base.Predictor` protocol this is a roll-out: frame after
 frame ``predict`` then ``update`` with ``seen=False`` (which, for a Kalman filter, is the
 filter's own time update, and for the learned predictors feeds their prediction back as the next
-input; a predictor with a ``coast(state) -> (state, prediction)`` method does both in one
-call), until the predicted position ``p_j = (x_j, y_j)`` passes the line. Between the two frames
-around the line, at ``x_{j−1} < L <= x_j``, the crossing is interpolated:
+input; a predictor that declares the ``COAST`` capability, ``coast(state) -> (state,
+prediction)``, does both in one call), until the predicted position ``p_j = (x_j, y_j)`` passes
+the line. Between the two frames around the line, at ``x_{j−1} < L <= x_j``, the crossing is interpolated:
 
 .. math::
 
@@ -30,42 +30,41 @@ belt to ``δy − (v_y / v_x)\\,δx``, so
   propagated state covariance (``F P Fᵀ + Q`` per frame), so ``P`` carries the velocity and
   acceleration uncertainty forward;
 * predictors whose ``estimate()`` after coasting is only the one-step prediction (the belt LSTMs:
-  the network takes its fed-back prediction for a measurement; they set the class attribute
-  ``rollout_covariance = "accumulate"``): ``P_j = P_{j−1} + S_j``, the one-step predicted
-  covariances ``S_j`` of the roll-out summed, as for independent errors per step.
+  the network takes its fed-back prediction for a measurement; they declare the ``LINE_ROLLOUT``
+  capability with ``rollout_covariance = "accumulate"``): ``P_j = P_{j−1} + S_j``, the one-step
+  predicted covariances ``S_j`` of the roll-out summed, as for independent errors per step.
 
 A track whose predicted ``x`` stops advancing, or that has not reached the line after
 ``max_steps`` frames, gets no prediction.
 
-For the Kalman predictors (:class:`~predictors.kalman.predictor.KalmanPredictor`) the roll-out is done in
-closed form for all tracks at once, ``x_j = F^j x`` and ``P_j = F^j P F^{j⊤} + \\sum_{i<j} F^i Q
-F^{i⊤}`` with the powers precomputed per model (:func:`kalman_crossings`): the same numbers as
-the frame-by-frame roll-out, without a predictor call per frame.
+A predictor that declares ``LINE_ROLLOUT`` (:class:`~predictors.base.LineRollout`) is first asked
+for the same crossings in one compiled pass (``rollout_crossings``): the Kalman filters in closed
+form (:mod:`predictors.kalman.rollout`), the belt LSTMs in one compiled loop over the tracks; where
+it answers ``None`` the roll-out runs frame by frame as above. A predictor with only the core
+methods is rolled frame by frame.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tracking._sorting_kernels import kalman_crossings_kernel
-from predictors.kalman.predictor import KalmanPredictor, KalmanState
+from predictors.base import Capability, Crossings, Predictor, capability
 
 #: Most frames a track is rolled forward (2 s at 100 Hz).
 MAX_STEPS = 200
 
 
 def predict_crossings(
-    predictor: Any,
+    predictor: Predictor,
     state: Any,
     line: float,
     frame: int,
     dt: float,
     max_steps: int = MAX_STEPS,
-) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
+) -> Crossings:
     """Predicted crossings of the line ``x = line`` of every track of ``state`` (see the module docstring).
 
     Args:
@@ -86,22 +85,20 @@ def predict_crossings(
     cov = np.full((k, 2, 2), np.nan)
     if k == 0:
         return ok, mean, cov
-    if isinstance(predictor, KalmanPredictor) and isinstance(state, KalmanState):
-        return kalman_crossings(predictor, state, line, frame, dt, max_steps)
-    compiled = getattr(predictor, "rollout_crossings", None)  # the same roll-out, compiled
+    compiled = capability(predictor, Capability.LINE_ROLLOUT)  # the same roll-out, compiled
     if compiled is not None:
-        result = compiled(state, line, frame, dt, max_steps)
+        result = compiled.rollout_crossings(state, line, frame, dt, max_steps)
         if result is not None:
             return result
-    accumulate = getattr(predictor, "rollout_covariance", "state") == "accumulate"
+    accumulate = compiled is not None and compiled.rollout_covariance == "accumulate"
     estimate = predictor.estimate(state)
     p_prev = np.asarray(estimate.mean, dtype=np.float64)[:, :2]
     P_prev = np.asarray(estimate.cov, dtype=np.float64)[:, :2, :2]
     rows = np.arange(k)  # the tracks still rolled, as rows of the original batch
-    coast = getattr(predictor, "coast", None)  # predict + update(seen=False) in one call
+    coasting = capability(predictor, Capability.COAST)  # predict + update(seen=False) in one call
     for j in range(1, max_steps + 1):
-        if coast is not None:
-            state, prediction = coast(state)
+        if coasting is not None:
+            state, prediction = coasting.coast(state)
         else:
             state, prediction = predictor.predict(state)
             state = predictor.update(
@@ -157,46 +154,3 @@ def _crossing(
     mean = np.stack([(frame + phi) * dt, p_prev[:, 1] + phi * step[:, 1]], axis=1)
     sigma = J @ P_c @ np.swapaxes(J, 1, 2)
     return mean, 0.5 * (sigma + np.swapaxes(sigma, 1, 2))
-
-
-@lru_cache(maxsize=16)
-def _powers(
-    F_bytes: bytes, Q_bytes: bytes, H_bytes: bytes, s: int, steps: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The position rows ``H₂ F^j`` (J + 1, 2, S) and ``H₂ B_j H₂ᵀ`` (J + 1, 2, 2), with
-    ``B_j = Σ_{i<j} F^i Q F^{i⊤}``, for ``j = 0 … steps`` (``H₂`` the first two rows of ``H``)."""
-    F = np.frombuffer(F_bytes).reshape(s, s)
-    Q = np.frombuffer(Q_bytes).reshape(s, s)
-    H = np.frombuffer(H_bytes).reshape(-1, s)[:2]
-    A = np.empty((steps + 1, s, s))
-    B = np.empty((steps + 1, s, s))
-    A[0], B[0] = np.eye(s), 0.0
-    for j in range(1, steps + 1):
-        A[j] = F @ A[j - 1]
-        B[j] = F @ B[j - 1] @ F.T + Q  # Σ_{i<j} F^i Q F^iᵀ = F (Σ_{i<j-1} …) Fᵀ + Q
-    return H @ A, H @ B @ H.T
-
-
-def kalman_crossings(
-    predictor: KalmanPredictor,
-    state: KalmanState,
-    line: float,
-    frame: int,
-    dt: float,
-    max_steps: int = MAX_STEPS,
-) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`predict_crossings` of a Kalman filter in closed form (see the module docstring):
-    ``H F^j x`` and ``H (F^j P F^{j⊤} + B_j) Hᵀ`` from factors precomputed per model, one
-    compiled pass over the tracks (:func:`agents.tracking._sorting_kernels.kalman_crossings_kernel`)."""
-    mean, cov = np.asarray(state.mean, dtype=np.float64), np.asarray(state.cov, dtype=np.float64)
-    HA, HBH = _powers(
-        *(
-            np.ascontiguousarray(m, dtype=np.float64).tobytes()
-            for m in (predictor.F, predictor.Q, predictor.H)
-        ),
-        mean.shape[1],
-        max_steps,
-    )
-    return kalman_crossings_kernel(
-        HA, HBH, np.ascontiguousarray(mean), np.ascontiguousarray(cov), float(line), float(frame), float(dt)
-    )

@@ -11,8 +11,8 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 import track_envs  # noqa: F401  (registers the base envs)
-from agents import make_agent
 from agents.bench.cells import env_kwarg_names
+from agents.gnn.agent import GnnAgent
 from agents.tuning.diagnostics import FEATURE_BOUND, FEATURES, N_FEATURES, WindowDiagnostics
 from agents.tuning.knobs import check_action, make_knobs
 from track_envs.arguments import check_int
@@ -147,7 +147,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             raise ValueError(f"base_env must be a point env, {base_env!r} has poses")
         agent_kwargs = dict(agent_kwargs or {})
         agent_kwargs.setdefault("predict_sorting", False)  # no valve here: skip the roll-outs
-        self.agent = make_agent("gnn", predictor=predictor, **agent_kwargs)
+        self.agent = GnnAgent(predictor=predictor, **agent_kwargs)
         self.initial_action = np.array(
             [k.action(getattr(self.agent, k.name)) for k in self.knobs], dtype=np.float32
         )
@@ -189,7 +189,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             ids_before = agent._ids
             had_tracks = len(ids_before) > 0
             report = agent.act(obs)
-            prediction = (agent.last_prediction.mean, agent.last_prediction.cov) if had_tracks else None
+            last = agent.last_prediction
+            prediction = (last.mean, last.cov) if had_tracks and last is not None else None
             rows = agent.last_prediction_detection if had_tracks else None
             diag.add_frame(obs, ids_before, report, prediction, rows)
             ids = info.get("detection_ids_merged", info["detection_ids"])

@@ -14,7 +14,6 @@ with ``u = log v`` (``"log"``: recovery inflation, noise scale) or ``u = log(1 �
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -22,13 +21,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-#: The scale of each knob and its valid values (open or closed bounds as in the tracker).
+from agents.gnn.knobs import LIVE_KNOBS
+
+#: The scale of each knob (its valid values are the tracker's, :data:`agents.gnn.knobs.LIVE_KNOBS`).
 SCALES = {"p_gate": "log-miss", "recovery_inflation": "log", "noise_scale": "log"}
-_VALID = {
-    "p_gate": ("a probability in (0, 1)", lambda v: 0.0 < v < 1.0),
-    "recovery_inflation": ("a finite number >= 1", lambda v: 1.0 <= v < math.inf),
-    "noise_scale": ("a finite number > 0", lambda v: 0.0 < v < math.inf),
-}
 #: Default ranges: gate misses 0.5 … 1e-6, second-chance scale 1 (off) … 1000, noise ×0.25 … ×64.
 #: (The best fixed setting of the belt with drift, p_gate 0.7 and noise ×32, lies inside.)
 DEFAULT_RANGES: dict[str, tuple[float, float]] = {
@@ -93,7 +89,7 @@ def make_knobs(ranges: Mapping[str, Sequence[float]] | None = None) -> tuple[Kno
         if not (isinstance(pair, Sequence) and len(pair) == 2) or isinstance(pair, str):
             raise ValueError(f"range of {name} must be (low, high), got {pair!r}")
         lo, hi = pair
-        valid, ok = _VALID[name]
+        valid, ok = LIVE_KNOBS[name].valid, LIVE_KNOBS[name].accepts
         for end in (lo, hi):
             real = isinstance(end, int | float | np.integer | np.floating) and not isinstance(end, bool)
             if not (real and ok(float(end))):

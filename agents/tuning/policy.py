@@ -19,6 +19,7 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.gnn.knobs import LIVE_KNOBS
 from agents.tuning.knobs import DEFAULT_RANGES, knob_ranges, make_knobs
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
 
@@ -116,7 +117,7 @@ class FixedPolicy:
         ranges: The env's knob ranges (default :data:`~agents.tuning.knobs.DEFAULT_RANGES`).
     """
 
-    GNN_DEFAULTS: Mapping[str, float] = {"p_gate": 0.999, "recovery_inflation": 25.0, "noise_scale": 1.0}
+    GNN_DEFAULTS: Mapping[str, float] = {name: knob.default for name, knob in LIVE_KNOBS.items()}
 
     def __init__(
         self,

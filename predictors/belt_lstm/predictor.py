@@ -31,12 +31,12 @@ import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors.base import BatchState
+from predictors.base import BatchState, Capability, Crossings
 from predictors.belt_lstm.inference import FastLSTMWeights, LSTMWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
 from track_envs.types import Gaussian, SensorSpec
@@ -92,10 +92,20 @@ class LSTMPredictor:
             ``"float64"`` (the reference path the tests compare with).
     """
 
+    #: The optional capabilities (:mod:`predictors.base`) every belt LSTM offers.
+    capabilities: ClassVar[frozenset[Capability]] = frozenset(
+        {
+            Capability.RANDOM_STREAM,
+            Capability.CALIBRATION,
+            Capability.COAST,
+            Capability.LINE_ROLLOUT,
+            Capability.FUSED_SURVIVORS_BIRTHS,
+        }
+    )
     #: A coasting track's estimate is the one-step prediction from its fed-back input, not a
     #: multi-step covariance: a tracker rolling it forward without measurements sums the
     #: one-step covariances instead.
-    rollout_covariance = "accumulate"
+    rollout_covariance: ClassVar[Literal["state", "accumulate"]] = "accumulate"
 
     def __init__(
         self,
@@ -284,7 +294,7 @@ class LSTMPredictor:
 
     def rollout_crossings(
         self, state: Any, line: float, frame: int, dt: float, max_steps: int
-    ) -> tuple[NDArray[np.bool_], FloatArray, FloatArray] | None:
+    ) -> Crossings | None:
         """The crossings of ``x = line`` that :func:`agents.tracking.sorting.predict_crossings` finds by
         rolling ``state`` forward with :meth:`coast`, in one compiled pass over the tracks
         (:func:`predictors.belt_lstm._kernels.lstm_crossings_kernel`, float64); ``None`` where that

@@ -12,7 +12,10 @@ no Python per track); :class:`KalmanPredictor` wraps the same kernels in the
 predicted measurement into one call. New tracks' states are compiled too
 (:func:`~predictors.kalman._kernels.start_tracks`), and
 :meth:`KalmanPredictor.survivors_and_births` gives ``concat([state.take(keep), start(z)])`` in
-one pass, which a tracker may call instead of the three (the GNN does when a predictor has it).
+one pass, which a tracker may call instead of the three. The optional capabilities the filters
+declare (:class:`~predictors.base.Capability`): a scalable measurement noise, a velocity prior at
+start, a mean-only estimate, the fused survivors and births, and the roll-out to a line in closed
+form (:mod:`predictors.kalman.rollout`).
 """
 
 from __future__ import annotations
@@ -20,13 +23,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors.base import BatchState
+from predictors.base import BatchState, Capability, Crossings
 from predictors.kalman import _kernels
+from predictors.kalman.rollout import kalman_crossings
 from track_envs.types import FloatArray, Gaussian, SensorSpec
 
 ModelName = Literal["cv", "ca", "random-walk"]
@@ -305,6 +309,19 @@ class KalmanPredictor:
         ValueError: for an unknown model (listing the valid ones) or an out-of-range argument.
     """
 
+    #: The optional capabilities (:mod:`predictors.base`) every Kalman model offers.
+    capabilities: ClassVar[frozenset[Capability]] = frozenset(
+        {
+            Capability.NOISE_SCALE,
+            Capability.VELOCITY_PRIOR,
+            Capability.MEAN_ONLY_ESTIMATE,
+            Capability.FUSED_SURVIVORS_BIRTHS,
+            Capability.LINE_ROLLOUT,
+        }
+    )
+    #: ``estimate`` after coasting is the propagated state: its covariance is the multi-step one.
+    rollout_covariance: ClassVar[Literal["state", "accumulate"]] = "state"
+
     def __init__(
         self,
         model: ModelName = "cv",
@@ -540,3 +557,13 @@ class KalmanPredictor:
         if mask.shape != (n,) or mask.dtype != np.bool_:
             raise ValueError(f"seen must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
         return KalmanState(*_checked_update(mean, cov, zz, mask, self.H, self.R))
+
+    def rollout_crossings(
+        self, state: KalmanState, line: float, frame: int, dt: float, max_steps: int
+    ) -> Crossings | None:
+        """The crossings of ``x = line`` that rolling ``state`` forward frame by frame finds, in
+        closed form (:func:`predictors.kalman.rollout.kalman_crossings`); ``None`` for a state that
+        is not a :class:`KalmanState`."""
+        if not isinstance(state, KalmanState):
+            return None
+        return kalman_crossings(self, state, line, frame, dt, max_steps)

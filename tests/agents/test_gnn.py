@@ -15,6 +15,7 @@ from agents import make_agent
 from agents.gnn import _kernels as _gnn_kernels
 from agents.gnn.agent import YOUNG_STREAK
 from predictors import available_predictors
+from predictors.base import Capability
 from predictors.kalman.predictor import KalmanPredictor
 from track_envs.metrics.belt import AssociationErrors
 from track_envs.registry import UnknownArgumentError
@@ -497,7 +498,7 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
 class Unfused(KalmanPredictor):
     """The Kalman predictor without its one-pass survivors-and-births (the generic take/start/concat)."""
 
-    survivors_and_births = None
+    capabilities = KalmanPredictor.capabilities - {Capability.FUSED_SURVIVORS_BIRTHS}
 
 
 @pytest.mark.parametrize("model", ["cv", "ca"])

@@ -11,7 +11,7 @@ import torch
 
 import track_envs  # noqa: F401
 from agents.gnn.agent import GnnAgent
-from predictors.base import BatchState, accepts_velocity_prior
+from predictors.base import BatchState, Capability, has_capability
 from track_envs.types import Gaussian, SensorSpec
 
 
@@ -22,7 +22,10 @@ class LastState(BatchState):
 
 
 class LastVelocity:
-    """A minimal non-Kalman predictor: constant velocity from the last two measurements, plain start(z)."""
+    """A minimal non-Kalman predictor: constant velocity from the last two measurements, plain start(z),
+    and a random stream from reset."""
+
+    capabilities = frozenset({Capability.RANDOM_STREAM})
 
     def __init__(self) -> None:
         self.draws: list[float] = []
@@ -63,7 +66,7 @@ def _run(agent: GnnAgent, steps: int = 60, seed: int = 0) -> list[dict[str, np.n
 
 def test_a_predictor_with_plain_start_tracks_in_gnn() -> None:
     predictor = LastVelocity()
-    assert not accepts_velocity_prior(predictor)
+    assert not has_capability(predictor, Capability.VELOCITY_PRIOR)
     agent = GnnAgent(predictor=predictor)
     reports = _run(agent)
     assert agent.n_tracks > 20

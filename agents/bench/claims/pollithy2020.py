@@ -220,7 +220,7 @@ def _dropout_note() -> str:
     """The dropout rate of the shipped mc-lstm and the share of its samples that drop nothing."""
     from predictors import make_predictor
 
-    p = float(make_predictor("mc-lstm", samples=1).dropout)
+    p = float(make_predictor("mc-lstm", samples=1).dropout)  # type: ignore[attr-defined]
     if p <= 0:
         return ""
     width = 2 * 2 + 64 + 64 + 32 + 32  # inputs and both layers' input and recurrent units

@@ -1,0 +1,104 @@
+"""The predictor registry: build a predictor by name, or resolve a name-or-object argument.
+
+:func:`make_predictor` builds the predictor registered under a name (an unknown name raises a
+``ValueError`` that lists the valid ones); :func:`resolve_predictor` is what a tracker calls with
+its ``predictor`` argument, a registered name or an object of the
+:class:`~predictors.base.Predictor` protocol.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from predictors.base import Predictor
+from track_envs.registry import (
+    Registry,
+    UnknownArgumentError,
+    check_keywords,
+    missing_methods,
+    named_arguments,
+)
+
+PREDICTORS = Registry("predictor")
+
+#: The env ids of the optical belt, where the belt LSTMs apply.
+BELT_ENVS = ("BeltSorter-v0", "BeltReplay-v0")
+
+
+def register_predictor(name: str, factory: Callable[..., Predictor]) -> None:
+    """Register ``factory`` under ``name`` (re-registering a name replaces it)."""
+    PREDICTORS.register(name, factory)
+
+
+def available_predictors() -> list[str]:
+    """Names accepted by :func:`make_predictor`."""
+    return PREDICTORS.names()
+
+
+def predictor_applies_to(name: str, env_id: str) -> bool:
+    """Whether predictor ``name`` is meant for ``env_id``.
+
+    A factory may declare ``envs``, the env ids its model was made for (the belt LSTMs: the belt
+    envs, whose geometry and motion their weights learnt); factories without it apply to every
+    point env.
+    """
+    envs = getattr(PREDICTORS.factory(name), "envs", None)
+    return envs is None or env_id in envs
+
+
+def make_predictor(name: str, **kwargs: Any) -> Predictor:
+    """Build the predictor registered as ``name``.
+
+    Raises:
+        ValueError: for an unknown name, listing the valid ones.
+        UnknownArgumentError: for a keyword the predictor does not take, listing those it takes.
+    """
+    predictor: Predictor = PREDICTORS.make(name, **kwargs)
+    return predictor
+
+
+def resolve_predictor(
+    predictor: str | Predictor, /, *, owner: Callable[..., Any] | None = None, **kwargs: Any
+) -> Predictor:
+    """The predictor registered as ``predictor`` built with ``kwargs``, or the object ``predictor``
+    itself after checking that it has the core methods.
+
+    Args:
+        predictor: A registered name (:func:`available_predictors`) or a Predictor object.
+        owner: The class (or factory) that takes ``predictor`` and passes ``kwargs`` on (a
+            tracker); errors then name its own arguments too.
+        **kwargs: Keyword arguments of the named predictor's factory; none with an object
+            (configure an object before passing it).
+
+    Raises:
+        ValueError: for an unknown name (listing the registered ones) or an object lacking
+            methods of the Predictor protocol (named).
+        UnknownArgumentError: (a ``TypeError`` and a ``ValueError``) for a keyword the named
+            predictor does not take (listing those it takes, and ``owner``'s), or any keyword with
+            an object.
+    """
+    what = "predictor" if owner is None else owner.__name__
+    own = [] if owner is None else named_arguments(owner)
+    if isinstance(predictor, str):
+        accepted = PREDICTORS.arguments(predictor)  # also refuses an unknown name
+        if accepted is not None and owner is not None:
+            note = (
+                f", and it passes further keywords to predictor {predictor!r}, whose arguments are {accepted}"
+            )
+            check_keywords(what, [k for k in kwargs if k not in accepted], own, note)
+        return make_predictor(predictor, **kwargs)
+    if kwargs:
+        names = ", ".join(map(repr, kwargs))
+        its = f"; its arguments are {own}" if owner is not None else ""
+        raise UnknownArgumentError(
+            f"{what} has no argument {names}{its} (further keywords go to a predictor given by name; "
+            "configure a predictor object before passing it)"
+        )
+    missing = missing_methods(predictor, Predictor)
+    if missing:
+        raise ValueError(
+            f"predictor must be a registered name {available_predictors()} or implement the Predictor "
+            f"protocol (predictors.base.Predictor); {type(predictor).__name__} lacks {missing}"
+        )
+    return predictor
