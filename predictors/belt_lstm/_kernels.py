@@ -10,7 +10,7 @@ standardised head output ``o`` and the last input ``z_prev`` the prediction is
 
 the position covariance accumulates ``P ← P + S``, and the prediction is fed back as the next
 input ``((u, u − u_prev) − μ_in) / σ_in`` with ``u = (p − low) / size`` through both LSTM layers
-(torch's gate order ``i, f, g, o``) and the head. The crossing between the frames around the
+(:func:`predictors.lstm_cell.cell_step`) and the head. The crossing between the frames around the
 line is interpolated exactly as :func:`agents.tracking.sorting._crossing` does. Float64 throughout; it
 equals the generic float64 roll-out to rounding (tested).
 """
@@ -21,30 +21,8 @@ import math
 
 import numpy as np
 
+from predictors.lstm_cell import cell_step
 from track_envs.compiled import njit
-
-
-@njit(cache=True, inline="always")
-def _sigmoid(a: float) -> float:
-    return 0.5 * (math.tanh(0.5 * a) + 1.0)
-
-
-@njit(cache=True)
-def _layer(xh: np.ndarray, w: np.ndarray, b: np.ndarray, h: np.ndarray, c: np.ndarray, a: np.ndarray) -> None:
-    """One LSTM layer on one row: ``xh = [x, h]`` (In + H,), fused ``w`` (In + H, 4H); updates h, c."""
-    H = h.shape[0]
-    a[:] = b
-    for k in range(xh.shape[0]):
-        v = xh[k]
-        for g in range(4 * H):
-            a[g] += v * w[k, g]
-    for j in range(H):
-        i = _sigmoid(a[j])
-        f = _sigmoid(a[H + j])
-        cand = math.tanh(a[2 * H + j])
-        o = _sigmoid(a[3 * H + j])
-        c[j] = f * c[j] + i * cand
-        h[j] = o * math.tanh(c[j])
 
 
 @njit(cache=True)
@@ -136,10 +114,10 @@ def lstm_crossings_kernel(
             xh1[2] = (u0 - (zp0 - low[0]) / size[0] - in_mean[2]) / in_std[2]
             xh1[3] = (u1 - (zp1 - low[1]) / size[1] - in_mean[3]) / in_std[3]
             xh1[4:] = h1
-            _layer(xh1, w1, b1, h1, c1, a1)
+            cell_step(xh1, w1, b1, h1, c1, a1)
             xh2[:H1] = h1
             xh2[H1:] = h2
-            _layer(xh2, w2, b2, h2, c2, a2)
+            cell_step(xh2, w2, b2, h2, c2, a2)
             out[:] = head_b
             for q in range(H2):
                 v = h2[q]

@@ -1,14 +1,10 @@
 """Inference of the belt LSTM network in numpy, from the weights of a model file (no torch).
 
-One step of an LSTM layer with input ``x``, state ``(h, c)`` and torch's gate order ``i, f, g, o``:
-
-    a = x W_ihᵀ + b_ih + h W_hhᵀ + b_hh          (4H,)
-    c' = σ(a_f) ⊙ c + σ(a_i) ⊙ tanh(a_g)
-    h' = σ(a_o) ⊙ tanh(c')
-
-Two such layers and the linear head ``y = h₂ Wᵀ + b`` make one step of
-:class:`~predictors.belt_lstm.network.BeltLSTMNet`; :class:`LSTMWeights` runs it for a batch of rows
-(tracks, or tracks × Monte Carlo samples) in float64, with optional variational dropout masks on
+Two LSTM layers (the one cell of :mod:`predictors.lstm_cell`) and the linear head
+``y = h₂ Wᵀ + b`` make one step of :class:`~predictors.belt_lstm.network.BeltLSTMNet`;
+:class:`LSTMWeights` runs it for a batch of rows (tracks, or tracks × Monte Carlo samples) in
+float64 (:class:`~predictors.lstm_cell.LSTMCellWeights` layers), :class:`FastLSTMWeights` in
+float32 (:class:`~predictors.lstm_cell.FusedLSTMCell` layers), with optional variational dropout masks on
 the same five places as the torch network. It equals the torch network to ~1e-6 (tested).
 """
 
@@ -21,40 +17,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from predictors.lstm_cell import FusedLSTMCell, LSTMCellWeights
+
 FloatArray = NDArray[np.float64]
 #: The per-row recurrent state ``(h1, c1, h2, c2)``.
 LSTMState = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
-
-
-def _sigmoid(a: FloatArray) -> FloatArray:
-    return 0.5 * (np.tanh(0.5 * a) + 1.0)  # = 1 / (1 + exp(-a)), without overflow warnings
-
-
-@dataclass(frozen=True)
-class LSTMLayer:
-    """One LSTM layer's weights: ``w_ih`` (In, 4H), ``w_hh`` (H, 4H) (transposed), ``b`` (4H,)."""
-
-    w_ih: FloatArray
-    w_hh: FloatArray
-    b: FloatArray
-
-    @property
-    def hidden(self) -> int:
-        """Hidden units ``H``."""
-        return self.w_hh.shape[0]
-
-    def step(self, x: FloatArray, h: FloatArray, c: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """New ``(h, c)`` of rows ``x`` (n, In) with state ``h, c`` (n, H)."""
-        a = x @ self.w_ih + h @ self.w_hh + self.b
-        H = self.hidden
-        i, f, g, o = (
-            _sigmoid(a[:, :H]),
-            _sigmoid(a[:, H : 2 * H]),
-            np.tanh(a[:, 2 * H : 3 * H]),
-            _sigmoid(a[:, 3 * H :]),
-        )
-        c_new = f * c + i * g
-        return o * np.tanh(c_new), c_new
 
 
 def two_layer_step(net: Any, x: Any, state: Any, masks: Any = None) -> tuple[Any, Any]:
@@ -78,8 +45,8 @@ def two_layer_step(net: Any, x: Any, state: Any, masks: Any = None) -> tuple[Any
 class LSTMWeights:
     """The two layers and the head of a belt network, ready for numpy inference."""
 
-    layer1: LSTMLayer
-    layer2: LSTMLayer
+    layer1: LSTMCellWeights
+    layer2: LSTMCellWeights
     head_w: FloatArray  # (H2, outputs)
     head_b: FloatArray  # (outputs,)
 
@@ -87,17 +54,9 @@ class LSTMWeights:
     def from_tensors(cls, t: Mapping[str, NDArray[np.floating]]) -> LSTMWeights:
         """From the state-dict arrays of :class:`~predictors.belt_lstm.network.BeltLSTMNet`."""
 
-        def layer(name: str) -> LSTMLayer:
-            return LSTMLayer(
-                np.asarray(t[f"{name}.weight_ih"], dtype=np.float64).T.copy(),
-                np.asarray(t[f"{name}.weight_hh"], dtype=np.float64).T.copy(),
-                np.asarray(t[f"{name}.bias_ih"], dtype=np.float64)
-                + np.asarray(t[f"{name}.bias_hh"], dtype=np.float64),
-            )
-
         return cls(
-            layer("cell1"),
-            layer("cell2"),
+            LSTMCellWeights.from_tensors(t, "cell1."),
+            LSTMCellWeights.from_tensors(t, "cell2."),
             np.asarray(t["head.weight"], dtype=np.float64).T.copy(),
             np.asarray(t["head.bias"], dtype=np.float64),
         )
@@ -119,63 +78,15 @@ class LSTMWeights:
 
 
 @dataclass(frozen=True)
-class FastLSTMLayer:
-    """An LSTM layer prepared for few numpy calls per step (float32).
-
-    The fused weight ``W = [W_ih; W_hh; b]`` (In + H + 1, 4H) multiplies ``[x, h, 1]``, so the
-    bias comes with the product. Its gate columns are reordered to ``i, f, o, g`` and the sigmoid
-    gates' columns pre-multiplied by ½, so one ``tanh`` over the whole pre-activation gives
-    ``tanh(a/2)`` for the three sigmoid gates (``σ(a) = ½ tanh(a/2) + ½``) and ``tanh(a_g)`` for the
-    cell input.
-    """
-
-    w: NDArray[np.float32]
-    n_in: int
-
-    @classmethod
-    def from_layer(cls, layer: LSTMLayer) -> FastLSTMLayer:
-        """From a float64 :class:`LSTMLayer`."""
-        H = layer.hidden
-        order = np.concatenate(
-            [np.arange(0, H), np.arange(H, 2 * H), np.arange(3 * H, 4 * H), np.arange(2 * H, 3 * H)]
-        )
-        scale = np.concatenate([np.full(3 * H, 0.5), np.ones(H)])
-        w = np.vstack([layer.w_ih, layer.w_hh, layer.b[None, :]])[:, order] * scale
-        return cls(w.astype(np.float32), layer.w_ih.shape[0])
-
-    @property
-    def hidden(self) -> int:
-        """Hidden units ``H``."""
-        return self.w.shape[1] // 4
-
-    def step(
-        self, x: NDArray[np.floating], h: NDArray[np.floating], c: NDArray[np.floating]
-    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-        """New ``(h, c)`` (float32) of rows ``x`` (n, In) with state ``h, c`` (n, H)."""
-        H, k = self.hidden, self.n_in
-        xh = np.empty((len(x), k + H + 1), dtype=np.float32)
-        xh[:, :k] = x
-        xh[:, k : k + H] = h
-        xh[:, k + H] = 1.0
-        t = np.tanh(xh @ self.w)
-        gates = t[:, : 3 * H]
-        gates *= 0.5
-        gates += 0.5
-        c_new = gates[:, H : 2 * H] * c
-        c_new += gates[:, :H] * t[:, 3 * H :]
-        return gates[:, 2 * H :] * np.tanh(c_new), c_new
-
-
-@dataclass(frozen=True)
 class FastLSTMWeights:
-    """:class:`LSTMWeights` in float32 with :class:`FastLSTMLayer` layers (the tracking path).
+    """:class:`LSTMWeights` in float32 with :class:`~predictors.lstm_cell.FusedLSTMCell` layers (tracking).
 
     Equals the float64 reference to float32 rounding (≈1e-7 on standardised outputs, tested) and
     torch's float32 network to 1e-6.
     """
 
-    layer1: FastLSTMLayer
-    layer2: FastLSTMLayer
+    layer1: FusedLSTMCell
+    layer2: FusedLSTMCell
     head_w: NDArray[np.float32]
     head_b: NDArray[np.float32]
 
@@ -183,8 +94,8 @@ class FastLSTMWeights:
     def from_weights(cls, w: LSTMWeights) -> FastLSTMWeights:
         """From the float64 reference weights."""
         return cls(
-            FastLSTMLayer.from_layer(w.layer1),
-            FastLSTMLayer.from_layer(w.layer2),
+            w.layer1.fused(),
+            w.layer2.fused(),
             w.head_w.astype(np.float32),
             w.head_b.astype(np.float32),
         )

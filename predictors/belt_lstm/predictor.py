@@ -167,9 +167,9 @@ class LSTMPredictor:
         self._rollout_weights = tuple(
             np.ascontiguousarray(a)
             for a in (
-                np.vstack([reference.layer1.w_ih, reference.layer1.w_hh]),
+                reference.layer1.stacked(),
                 reference.layer1.b,
-                np.vstack([reference.layer2.w_ih, reference.layer2.w_hh]),
+                reference.layer2.stacked(),
                 reference.layer2.b,
                 reference.head_w,
                 reference.head_b,

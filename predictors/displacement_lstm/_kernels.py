@@ -3,7 +3,7 @@
 For each target ``k`` with its newest two estimates ``x*_{t−1}, x*_{t−2}`` (NaN before its filter
 (re)started), in one loop: the ``(r, s)`` of the last estimated step
 (:func:`predictors.displacement.geometry.observe_step`, the heading kept through zero-length steps), one
-LSTM step (torch's gate order i, f, g, o; :mod:`predictors.displacement_lstm.inference`), the head, and
+LSTM step (:func:`predictors.lstm_cell.cell_step_rows`), the head, and
 the common displacement ``ŝ (cos(c + r̂), sin(c + r̂))``
 (:func:`predictors.displacement.geometry.apply_displacement`).
 A (re)started target's state is zeroed first. It equals the numpy composition of those functions
@@ -16,22 +16,10 @@ import math
 
 import numpy as np
 
+from predictors.lstm_cell import cell_step_rows
 from track_envs.compiled import njit
 
 _TWO_PI = 2.0 * math.pi
-
-
-@njit(cache=True, inline="always")
-def _sigmoid(a: float) -> float:
-    if a >= 0:
-        return 1.0 / (1.0 + math.exp(-a))
-    e = math.exp(a)
-    return e / (1.0 + e)
-
-
-@njit(cache=True, inline="always")
-def _tanh(a: float) -> float:
-    return 2.0 * _sigmoid(2.0 * a) - 1.0
 
 
 @njit(cache=True, inline="always")
@@ -90,21 +78,13 @@ def displacement_frame(
             has_heading[k] = True
         x[k, 0] = r / rotation_scale
         x[k, 1] = s / speed_scale
-    a = np.dot(h, w_hh) + np.dot(x, w_ih)  # (n, 4H), BLAS
-    for k in range(n):  # gates, state, head, displacement
+    cell_step_rows(x, h, c, w_ih, w_hh, b)  # one LSTM step of every target
+    for k in range(n):  # head, displacement
         o0 = head_b[0]
         o1 = head_b[1]
         for j in range(hidden):
-            gi = _sigmoid(a[k, j] + b[j])
-            gf = _sigmoid(a[k, hidden + j] + b[hidden + j])
-            gg = _tanh(a[k, 2 * hidden + j] + b[2 * hidden + j])
-            go = _sigmoid(a[k, 3 * hidden + j] + b[3 * hidden + j])
-            cell = gf * c[k, j] + gi * gg
-            hj = go * _tanh(cell)
-            c[k, j] = cell
-            h[k, j] = hj
-            o0 += hj * head_w[j, 0]
-            o1 += hj * head_w[j, 1]
+            o0 += h[k, j] * head_w[j, 0]
+            o1 += h[k, j] * head_w[j, 1]
         if live[k] and has_heading[k]:
             turn = _wrap(heading[k] + o0 * rotation_scale)
             step = o1 * speed_scale

@@ -1,7 +1,7 @@
 """The displacement LSTM in numpy (no torch): one step batched over targets, from a model file.
 
 One step of the LSTM layer (torch's gate order ``i, f, g, o``;
-:class:`~predictors.belt_lstm.inference.LSTMLayer`) and the head, for ``T`` targets at once with
+:class:`~predictors.lstm_cell.LSTMCellWeights`) and the head, for ``T`` targets at once with
 state ``h, c`` (T, H):
 
     a = x W_ihᵀ + h W_hhᵀ + b,   c' = σ(a_f) c + σ(a_i) tanh(a_g),   h' = σ(a_o) tanh(c'),
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from predictors.belt_lstm.inference import LSTMLayer
+from predictors.lstm_cell import LSTMCellWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
 
 FloatArray = NDArray[np.float64]
@@ -104,7 +104,7 @@ class DisplacementLSTM:
         path: The sidecar it was loaded from, if any.
     """
 
-    layer: LSTMLayer
+    layer: LSTMCellWeights
     head_w: FloatArray
     head_b: FloatArray
     features: DisplacementFeatures
@@ -126,11 +126,7 @@ class DisplacementLSTM:
             raise ModelFileError(f"{where}: architecture.hidden must be an integer >= 1, got {hidden!r}")
         require_shapes(model, tensor_shapes(hidden))
         t = {k: np.asarray(v, dtype=np.float64) for k, v in model.tensors.items()}
-        layer = LSTMLayer(
-            t["lstm.weight_ih_l0"].T.copy(),
-            t["lstm.weight_hh_l0"].T.copy(),
-            t["lstm.bias_ih_l0"] + t["lstm.bias_hh_l0"],
-        )
+        layer = LSTMCellWeights.from_tensors(t, "lstm.", "_l0")
         features = DisplacementFeatures.from_dict(model.meta.get("normalisation"), where)
         return cls(layer, t["head.weight"].T.copy(), t["head.bias"].copy(), features, model.path)
 

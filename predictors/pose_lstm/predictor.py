@@ -74,6 +74,12 @@ class PoseStats:
 class PosePredictor:
     """The probabilistic pose predictor: pointwise windows → sampled next coordinates.
 
+    The LSTM runs as torch's ``nn.LSTM`` of :class:`~predictors.pose_lstm.network.PosePredictorNet`
+    (its CPU kernel, batched over every window of every particle). The numpy cell of
+    :mod:`predictors.lstm_cell` equals it to 1e-6 on these weights (tested) but rounds differently
+    in the last float32 bit, which moves the pose trackers' OKS in the ninth digit, and is no faster
+    here; so the predictor keeps torch's kernel and its results.
+
     Args:
         model: A ``pose-lstm`` model file (path or loaded).
     """
