@@ -22,6 +22,9 @@ An agent (a tracker) turns each observation of an env into a report of its track
   - ``position_rank: int = 1`` — 1 for point targets (positions (D,)), 2 for poses (17, 2).
   - ``max_targets: int | None = None`` — the most targets it tracks at once (1: a single-target
     tracker; ``None``: any number).
+  - ``takes_predictor: bool = False`` — built with a ``predictor=`` argument (a registered
+    Gaussian predictor's name or object, :func:`predictors.resolve_predictor`): the bench runs it
+    once per predictor, ``track run --predictor`` passes one.
 
 Registry: :func:`make_agent` builds an agent by name (an unknown name raises a ``ValueError`` that
 lists the valid ones), :func:`register_agent` adds one, :func:`agent_applies_to` says whether an
@@ -79,11 +82,13 @@ class AgentTraits:
         needs_truth: Reads each frame's truth through ``observe_truth(info)``.
         position_rank: 1 for point targets (D,), 2 for poses (17, 2).
         max_targets: The most targets tracked at once, ``None`` for any number.
+        takes_predictor: Built with a ``predictor=`` argument.
     """
 
     needs_truth: bool = False
     position_rank: int = 1
     max_targets: int | None = None
+    takes_predictor: bool = False
 
 
 #: The default of each declared trait.
@@ -126,6 +131,11 @@ def agent_applies_to(name: str, position_shape: tuple[int, ...], max_targets: in
         return False
     limit = traits.max_targets
     return limit is None or max_targets is None or max_targets <= limit
+
+
+def agent_takes_predictor(name: str) -> bool:
+    """Whether agent ``name`` declares ``takes_predictor`` (is built with ``predictor=``)."""
+    return agent_traits(AGENTS.factory(name)).takes_predictor
 
 
 def make_agent(name: str, **kwargs: Any) -> Agent:

@@ -62,6 +62,8 @@ class OneStepAgent:
 
     #: The bench runner hands this agent each frame's ``info`` (see :meth:`observe_truth`).
     needs_truth = True
+    #: Built with ``predictor=`` (a Gaussian predictor's name or object).
+    takes_predictor = True
 
     def __init__(
         self, predictor: str | Predictor = "kf-ca", *, velocity_prior: bool = True, **predictor_kwargs: Any

@@ -36,6 +36,7 @@ import gymnasium as gym
 
 import track_envs
 from agents import AGENTS, agent_applies_to, available_agents
+from agents.base import agent_takes_predictor, agent_traits
 from predictors import available_predictors, predictor_applies_to
 
 #: The predictor column of a cell whose agent takes no predictor.
@@ -182,15 +183,6 @@ def check_names(kind: str, names: Iterable[str], valid: Sequence[str]) -> None:
         raise ValueError(f"unknown {kind} {', '.join(map(repr, unknown))}; valid names are {list(valid)}")
 
 
-def agent_takes_predictor(agent: str) -> bool:
-    """Whether the agent's factory has a ``predictor`` parameter."""
-    try:
-        params = inspect.signature(AGENTS.factory(agent)).parameters
-    except (TypeError, ValueError):
-        return False
-    return "predictor" in params
-
-
 @cache
 def env_position_shape(env_id: str) -> tuple[int, ...]:
     """``position_shape`` of an env (built once per process with default kwargs)."""
@@ -255,7 +247,7 @@ def trackers() -> list[str]:
     """The registered agents a group without ``agents`` runs: every agent but the oracles that
     read the truth (``needs_truth = True``, :class:`agents.one_step.OneStepAgent`), which run
     only where a suite names them."""
-    return [a for a in available_agents() if not getattr(AGENTS.factory(a), "needs_truth", False)]
+    return [a for a in available_agents() if not agent_traits(AGENTS.factory(a)).needs_truth]
 
 
 def env_has_truth(env_id: str) -> bool:

@@ -54,6 +54,7 @@ import agents
 import predictors
 import track_envs  # registers the environments
 from agents import make_agent
+from agents.base import agent_traits
 from agents.bench.cells import NO_PREDICTOR, Cell
 from track_envs.wrappers import TrackingMetrics
 
@@ -181,7 +182,7 @@ def run_episode(env: gym.Env, agent: Any, seed: int) -> tuple[dict[str, float], 
     """
     obs, info = env.reset(seed=seed)
     agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
-    observe = agent.observe_truth if getattr(agent, "needs_truth", False) else None
+    observe = agent.observe_truth if agent_traits(agent).needs_truth else None
     frames = 0
     while True:
         if observe is not None:

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import inspect
 import sys
 import time
 from collections.abc import Sequence
 from typing import Any
 
-from agents import AGENTS, available_agents, make_agent
+from agents import available_agents, make_agent
+from agents.base import agent_takes_predictor, warm_up
 from agents.cli import arguments
 from agents.run import run_agent
 from predictors import available_predictors
@@ -162,7 +162,7 @@ def _read_options(args: argparse.Namespace, fmt: str) -> dict[str, Any]:
 
 def build_agent(name: str, predictor: str | None, kwargs: dict[str, Any]) -> Any:
     """``make_agent(name, predictor=..., **kwargs)`` (``--predictor`` for an agent without one: an error)."""
-    takes = "predictor" in inspect.signature(AGENTS.factory(name)).parameters
+    takes = agent_takes_predictor(name)
     if predictor is not None and not takes:
         raise ValueError(f"agent {name!r} takes no predictor; drop --predictor")
     if takes:
@@ -203,9 +203,7 @@ def run(args: argparse.Namespace) -> int:
         max_tracks=args.max_tracks,
     )
     agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
-    warm_up = getattr(agent, "warm_up", None)
-    if callable(warm_up):  # compile / load the kernels before the first frame
-        warm_up()
+    warm_up(agent)  # compile / load the kernels before the first frame
     read_s = time.perf_counter() - start
     tracks = run_agent(
         agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress

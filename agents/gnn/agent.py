@@ -144,6 +144,9 @@ class GnnAgent:
     how GateTuning-v0 (:mod:`agents.tuning`) acts on the tracker.
     """
 
+    #: Built with ``predictor=`` (a Gaussian predictor's name or object).
+    takes_predictor = True
+
     def __init__(
         self,
         predictor: str | Predictor = "kf-ca",

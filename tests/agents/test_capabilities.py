@@ -267,13 +267,10 @@ def test_resolve_predictor_builds_names_and_checks_objects():
         resolve_predictor(object())  # type: ignore[arg-type]
 
 
-#: The tracker modules (the commands and the applications on top of the trackers excluded).
+#: The tracker modules and the commands (the applications on top of the trackers excluded).
 TRACKERS = Path(__file__).resolve().parents[2] / "agents"
 TRACKER_MODULES = sorted(
-    p
-    for p in TRACKERS.rglob("*.py")
-    if p.relative_to(TRACKERS).parts[0] not in ("bench", "tuning")
-    and p.name not in ("run_cli.py", "train.py")
+    p for p in TRACKERS.rglob("*.py") if p.relative_to(TRACKERS).parts[0] not in ("bench", "tuning")
 )
 PROBES = [r"getattr\(\s*(self\.)?predictor", r"inspect\.signature", r"isinstance\([^)]*KalmanPredictor"]
 
@@ -297,6 +294,8 @@ def test_agents_are_typed_and_declare_their_traits():
     assert not agent_traits(AGENTS.factory("gnn")).needs_truth
     assert agent_traits(AGENTS.factory("pf")).max_targets == 1
     assert agent_traits(AGENTS.factory("pose-smc")).position_rank == 2
+    takers = [a for a in available_agents() if agent_traits(AGENTS.factory(a)).takes_predictor]
+    assert takers == ["gnn", "one-step"]
     assert agent_applies_to("gnn", (2,)) and not agent_applies_to("gnn", (17, 2))
     assert "gnn" in available_agents() and callable(register_agent)
 
