@@ -1,4 +1,4 @@
-"""Compiled (numba) kernels of the association: Mahalanobis costs, gate, lone pairs, the rest.
+"""Compiled (numba) kernels of the association: Mahalanobis costs, gate, lone pairs, the rest, blobs.
 
 For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (D dimensions),
 
