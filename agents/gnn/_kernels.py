@@ -17,9 +17,24 @@ After the association of a frame, track ``i`` holds the detection ``det_i`` it w
     \\text{young}_i = \\text{seen}_i \\wedge [s_{lo} \\le \\text{streak}_i \\le s_{hi}],
 
 and the detections no track took start new tracks.
+
+Kernels and their results (inputs are float64 / int64 C-contiguous arrays; no input is written
+except the flow's ring buffer):
+
+* :func:`frame_upkeep` → :class:`FrameUpkeep` ``(seen, misses, streak, keep, n_keep, young,
+  n_young, unused)``: the per-track counters and masks above.
+* :func:`learn_flow` → :class:`FlowUpdate` ``(n_samples, head, fresh, median, variance,
+  updated)``: the velocity prior's ring buffer after a push, and the re-estimated prior.
+* :func:`recovery_costs` → :class:`RecoveryCosts` ``(tracks, dets, cost, n_admissible, bad,
+  cap)``: the second-chance problem of the leftover tracks and detections.
+* :func:`survivors_and_births` → :class:`TrackArrays` ``(ids, misses, streak, estimate,
+  detection_rows)``: the per-track arrays of the kept and the new tracks.
+* :func:`median_and_mad_variance` → ``(median, variance)``; :func:`median_displacement` → a float.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +45,90 @@ from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
+
+
+class FrameUpkeep(NamedTuple):
+    """Result of :func:`frame_upkeep`: new arrays, one row per track (the inputs are not written).
+
+    Attributes:
+        seen: (n,) ``det_i >= 0``, the tracks updated this frame.
+        misses: (n,) consecutive misses after this frame.
+        streak: (n,) consecutive updates after this frame.
+        keep: (n,) the tracks that survive the frame.
+        n_keep: Number of True in ``keep``.
+        young: (n,) seen tracks whose streak lies in ``[s_lo, s_hi]``.
+        n_young: Number of True in ``young``.
+        unused: The detections (ascending) that no track took.
+    """
+
+    seen: BoolArray
+    misses: IntArray
+    streak: IntArray
+    keep: BoolArray
+    n_keep: int
+    young: BoolArray
+    n_young: int
+    unused: IntArray
+
+
+class FlowUpdate(NamedTuple):
+    """Result of :func:`learn_flow`: the ring buffer's counters after the push and the estimate.
+
+    Attributes:
+        n_samples: Samples held (at most the buffer's length ``W``).
+        head: Row the next sample goes to.
+        fresh: Samples pushed since the last estimate (0 when ``updated``).
+        median: (D,) per-axis median of the buffer's velocities (zeros unless ``updated``).
+        variance: (D,) ``(1.4826 · MAD)²`` per axis (zeros unless ``updated``).
+        updated: Whether ``median`` and ``variance`` are a new estimate.
+    """
+
+    n_samples: int
+    head: int
+    fresh: int
+    median: FloatArray
+    variance: FloatArray
+    updated: bool
+
+
+class RecoveryCosts(NamedTuple):
+    """Result of :func:`recovery_costs`: the second-chance problem of the leftovers.
+
+    Attributes:
+        tracks: (k,) the tracks without a detection, ascending.
+        dets: (l,) the detections no track took, ascending.
+        cost: (k, l) inflated squared Mahalanobis costs, ``+inf`` beyond the distance cap.
+        n_admissible: Number of pairs with ``cost <= gate``.
+        bad: −1, or a leftover track whose inflated covariance is not positive definite (the
+            other fields are then not meaningful).
+        cap: The distance cap ``r`` (``inf`` when it was not computed).
+    """
+
+    tracks: IntArray
+    dets: IntArray
+    cost: FloatArray
+    n_admissible: int
+    bad: int
+    cap: float
+
+
+class TrackArrays(NamedTuple):
+    """Result of :func:`survivors_and_births`: the per-track arrays of the kept tracks, in order,
+    followed by the new ones.
+
+    Attributes:
+        ids: Track ids.
+        misses: Consecutive misses (0 for a new track).
+        streak: Consecutive updates (1 for a new track).
+        estimate: (n, D) last estimates (a new track's detection).
+        detection_rows: Observation row of each track's last detection.
+    """
+
+    ids: IntArray
+    misses: IntArray
+    streak: IntArray
+    estimate: FloatArray
+    detection_rows: IntArray
 
 
 @njit(cache=True)
@@ -43,7 +142,7 @@ def frame_upkeep(
     max_misses: int,
     young_streak: tuple[int, int],
     n_detections: int,
-) -> tuple[BoolArray, IntArray, IntArray, BoolArray, int, BoolArray, int, IntArray]:
+) -> FrameUpkeep:
     """The per-track counters and masks of a frame (see the module docstring for the equations).
 
     Args:
@@ -58,8 +157,9 @@ def frame_upkeep(
         n_detections: ``m``, detections in the frame.
 
     Returns:
-        ``(seen, misses, streak, keep, n_keep, young, n_young, unused)``: new arrays (the inputs
-        are not written), and ``unused``, the detections (ascending) that no track took.
+        :class:`FrameUpkeep` ``(seen, misses, streak, keep, n_keep, young, n_young, unused)``: new
+        arrays (the inputs are not written), and ``unused``, the detections (ascending) that no
+        track took.
     """
     n = det_of_track.shape[0]
     D = predicted.shape[1]
@@ -99,7 +199,7 @@ def frame_upkeep(
         if not used[j]:
             unused[k] = j
             k += 1
-    return seen, misses_out, streak_out, keep, n_keep, young, n_young, unused
+    return FrameUpkeep(seen, misses_out, streak_out, keep, n_keep, young, n_young, unused)
 
 
 @njit(cache=True)
@@ -131,7 +231,7 @@ def learn_flow(
     young: BoolArray,
     dt: float,
     min_samples: int,
-) -> tuple[int, int, int, FloatArray, FloatArray, bool]:
+) -> FlowUpdate:
     """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer;
     re-estimate the prior (:func:`median_and_mad_variance` of the buffer) when enough is new.
 
@@ -151,8 +251,8 @@ def learn_flow(
         min_samples: Fewest samples for an estimate.
 
     Returns:
-        ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the buffer's state after
-        the push and, when ``updated``, the new estimate (else zeros).
+        :class:`FlowUpdate` ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the
+        buffer's state after the push and, when ``updated``, the new estimate (else zeros).
     """
     window, dim = samples.shape
     for i in range(young.shape[0]):
@@ -163,9 +263,9 @@ def learn_flow(
             n_samples = min(n_samples + 1, window)
             fresh += 1
     if n_samples < min_samples or fresh < max(1, n_samples // 8):
-        return n_samples, head, fresh, np.zeros(dim), np.zeros(dim), False
+        return FlowUpdate(n_samples, head, fresh, np.zeros(dim), np.zeros(dim), False)
     median, variance = median_and_mad_variance(samples[:n_samples])
-    return n_samples, head, 0, median, variance, True
+    return FlowUpdate(n_samples, head, 0, median, variance, True)
 
 
 @njit(cache=True)
@@ -196,7 +296,7 @@ def recovery_costs(
     flow_step: float,
     cap_motion: float,
     cap_noise: float,
-) -> tuple[IntArray, IntArray, FloatArray, int, int, float]:
+) -> RecoveryCosts:
     """Costs of the second-chance association of the tracks and detections left over.
 
     For the unassigned tracks ``i`` and the untaken detections ``j``, with the predicted
@@ -214,10 +314,10 @@ def recovery_costs(
     computed when some pair passes the inflated gate.
 
     Returns:
-        ``(tracks, dets, cost (k, l), n_admissible, bad, r)``: the leftover tracks and detections
-        (ascending), their costs, the number of pairs with ``c <= gate``, ``bad`` (−1, or a
-        leftover track whose covariance is not positive definite) and the cap (inf when not
-        computed).
+        :class:`RecoveryCosts` ``(tracks, dets, cost (k, l), n_admissible, bad, cap)``: the
+        leftover tracks and detections (ascending), their costs, the number of pairs with
+        ``c <= gate``, ``bad`` (−1, or a leftover track whose covariance is not positive
+        definite) and the cap ``r`` (inf when not computed).
     """
     n, dim = mean.shape
     m = z.shape[0]
@@ -248,13 +348,13 @@ def recovery_costs(
             loose_z[b, d] = z[dets[b], d]
     cost, bad = mahalanobis_costs(loose_mean, loose_cov, loose_z)
     if bad >= 0:
-        return tracks, dets, cost, 0, int(tracks[bad]), np.inf
+        return RecoveryCosts(tracks, dets, cost, 0, int(tracks[bad]), np.inf)
     n_admissible = 0
     for a in range(n_tracks):
         for b in range(dets.shape[0]):
             n_admissible += cost[a, b] <= gate
     if n_admissible == 0:
-        return tracks, dets, cost, 0, -1, np.inf
+        return RecoveryCosts(tracks, dets, cost, 0, -1, np.inf)
     cap = cap_motion * max(flow_step, median_displacement(mean, last)) + cap_noise
     cap2 = cap * cap
     n_admissible = 0
@@ -268,7 +368,7 @@ def recovery_costs(
                 cost[a, b] = np.inf
             elif cost[a, b] <= gate:
                 n_admissible += 1
-    return tracks, dets, cost, n_admissible, -1, cap
+    return RecoveryCosts(tracks, dets, cost, n_admissible, -1, cap)
 
 
 @njit(cache=True)
@@ -283,14 +383,15 @@ def survivors_and_births(
     z_new: FloatArray,
     rows_new: IntArray,
     next_id: int,
-) -> tuple[IntArray, IntArray, IntArray, FloatArray, IntArray]:
+) -> TrackArrays:
     """The per-track arrays of the kept tracks followed by the ``k`` new tracks born at ``z_new``.
 
     New tracks get ids ``next_id, next_id + 1, ...``, no misses, a streak of 1, their detection
     as estimate and ``rows_new`` as detection rows.
 
     Returns:
-        ``(ids, misses, streak, estimate, detection_rows)`` of the ``n_keep + k`` tracks.
+        :class:`TrackArrays` ``(ids, misses, streak, estimate, detection_rows)`` of the
+        ``n_keep + k`` tracks.
     """
     k = z_new.shape[0]
     dim = estimate.shape[1]
@@ -318,4 +419,4 @@ def survivors_and_births(
             est_out[t, d] = z_new[b, d]
         rows_out[t] = rows_new[b]
         t += 1
-    return ids_out, misses_out, streak_out, est_out, rows_out
+    return TrackArrays(ids_out, misses_out, streak_out, est_out, rows_out)

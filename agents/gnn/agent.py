@@ -394,7 +394,7 @@ class GnnAgent:
         shared = None
         if self.blob_extent > 0 and m:
             det_of_track, shared = share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
-        seen, self._misses, self._streak, keep, n_keep, young, n_young, new = _kernels.frame_upkeep(
+        upkeep = _kernels.frame_upkeep(
             det_of_track,
             self._misses,
             self._streak,
@@ -405,19 +405,23 @@ class GnnAgent:
             YOUNG_STREAK,
             m,
         )
+        self._misses, self._streak = upkeep.misses, upkeep.streak
         # rows of coasting tracks (detection −1) are never read by the update
         z_tracks = shared if shared is not None else z[det_of_track] if m else np.zeros((n, spec.dim))
-        self._state = self.predictor.update(self._state, z_tracks, seen)
+        self._state = self.predictor.update(self._state, z_tracks, upkeep.seen)
         if self._no_sorting is not None:
-            self._sorting = self._predict_sorting(keep, n_keep)
+            self._sorting = self._predict_sorting(upkeep.keep, upkeep.n_keep)
         # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
         # and the observation row it was then updated with (-1: coasted)
         self.last_prediction_ids = self._ids
         self.last_prediction_detection = _observation_rows(det_of_track, rows)
         estimate = self._estimate_mean(self._state)
-        if n_young and self._learning:
-            self._learn_flow(estimate, young)
-        self._initiate(z[new], rows[new], keep, n_keep, self.last_prediction_detection, estimate)
+        if upkeep.n_young and self._learning:
+            self._learn_flow(estimate, upkeep.young)
+        born = upkeep.unused
+        self._initiate(
+            z[born], rows[born], upkeep.keep, upkeep.n_keep, self.last_prediction_detection, estimate
+        )
         return self._report()
 
     def _report(self) -> dict[str, NDArray]:
@@ -500,7 +504,7 @@ class GnnAgent:
         ``det_of_track``. Called when there are leftovers on both sides.
         """
         assert self._spec is not None
-        tracks, dets, cost, n_admissible, bad, _ = _kernels.recovery_costs(
+        leftovers = _kernels.recovery_costs(
             np.ascontiguousarray(prediction.mean, dtype=np.float64),
             np.ascontiguousarray(prediction.cov, dtype=np.float64),
             z,
@@ -512,12 +516,14 @@ class GnnAgent:
             self.recovery_cap_motion,
             self.recovery_cap_noise * self._noise,
         )
-        if bad >= 0:
-            raise np.linalg.LinAlgError(f"predicted covariance S of track {bad} is not positive definite")
-        if n_admissible == 0:
+        if leftovers.bad >= 0:
+            raise np.linalg.LinAlgError(
+                f"predicted covariance S of track {leftovers.bad} is not positive definite"
+            )
+        if leftovers.n_admissible == 0:
             return
-        rows, cols = self._assign(cost, self._gate)
-        det_of_track[tracks[rows]] = dets[cols]
+        rows, cols = self._assign(leftovers.cost, self._gate)
+        det_of_track[leftovers.tracks[rows]] = leftovers.dets[cols]
 
     def _initiate(
         self,
@@ -561,20 +567,20 @@ class GnnAgent:
         if k == 0 and n_keep == len(keep):  # nobody born, nobody deleted
             self._last, self._detection_rows = estimate, detection_rows
             return
-        self._ids, self._misses, self._streak, self._last, self._detection_rows = (
-            _kernels.survivors_and_births(
-                keep,
-                n_keep,
-                self._ids,
-                self._misses,
-                self._streak,
-                estimate,
-                detection_rows,
-                np.ascontiguousarray(z_new, dtype=np.float64),
-                np.asarray(rows_new, dtype=np.int64),
-                self._next_id,
-            )
+        tracks = _kernels.survivors_and_births(
+            keep,
+            n_keep,
+            self._ids,
+            self._misses,
+            self._streak,
+            estimate,
+            detection_rows,
+            np.ascontiguousarray(z_new, dtype=np.float64),
+            np.asarray(rows_new, dtype=np.int64),
+            self._next_id,
         )
+        self._ids, self._misses, self._streak = tracks.ids, tracks.misses, tracks.streak
+        self._last, self._detection_rows = tracks.estimate, tracks.detection_rows
         self._next_id += k
 
     def _learn_flow(self, estimate: NDArray[np.float64], young: NDArray[np.bool_]) -> None:
@@ -585,21 +591,20 @@ class GnnAgent:
         young tracks are the right prior for them (on a belt: the entry speed, not the mean flow).
         """
         assert self._spec is not None
-        self._n_flow_samples, self._flow_head, self._flow_fresh, median, variance, updated = (
-            _kernels.learn_flow(
-                self._flow_samples,
-                self._n_flow_samples,
-                self._flow_head,
-                self._flow_fresh,
-                estimate,
-                self._last,
-                young,
-                self._spec.dt,
-                MIN_FLOW_SAMPLES,
-            )
+        flow = _kernels.learn_flow(
+            self._flow_samples,
+            self._n_flow_samples,
+            self._flow_head,
+            self._flow_fresh,
+            estimate,
+            self._last,
+            young,
+            self._spec.dt,
+            MIN_FLOW_SAMPLES,
         )
-        if updated:
-            self._set_flow(median, variance)
+        self._n_flow_samples, self._flow_head, self._flow_fresh = flow.n_samples, flow.head, flow.fresh
+        if flow.updated:
+            self._set_flow(flow.median, flow.variance)
 
     def _set_flow(self, mean: NDArray[np.float64], variance: NDArray[np.float64] | None) -> None:
         """Set the velocity prior and what new tracks start from: mean ``v̄`` and, with a spread,

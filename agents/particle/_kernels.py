@@ -16,6 +16,17 @@ numpy does), in the numpy path's order: the prediction noise of all rows (C orde
 then the clouds of the starting rows, then one uniform per resampled row. Given the same
 generator state the two paths therefore draw the same numbers; their weights and estimates agree
 to rounding (sequential sums against numpy's pairwise ones).
+
+Kernels and their results (the filter's arrays are written in place; none returns more than one
+value):
+
+* :func:`predict_common`, :func:`add_common` → None: step 1, drawing the noise or given it.
+* :func:`count_new` → int: the rows that start this frame.
+* :func:`log_likelihood` → None: the shifted log-likelihoods of step 2 into ``out``.
+* :func:`update_rows` → int: steps 2–3 in place, the number of rows to resample.
+* :func:`resample_rows` → None: step 4 in place; :func:`systematic_indices` → None: the
+  resampling indices of one row into ``out``.
+* :func:`all_finite` → bool: whether a 2-D array holds only finite numbers.
 """
 
 from __future__ import annotations

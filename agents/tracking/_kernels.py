@@ -1,4 +1,4 @@
-"""Compiled (numba) kernels of the association: Mahalanobis costs, gate, lone pairs, the rest.
+"""Compiled (numba) kernels of the association: Mahalanobis costs, gate, lone pairs, the rest, blobs.
 
 For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (D dimensions),
 
@@ -16,11 +16,23 @@ the solver and :func:`track_envs.assignment.merge_solution` joins its answer to 
 (both also importable from here, for compiled callers).
 
 The planar case ``D = 2`` has its own closed-form row (its loop over detections vectorises);
-other dimensions run a generic Cholesky and triangular inverse. Inputs are float64 C-contiguous
-arrays.
+other dimensions run a generic Cholesky and triangular inverse.
+
+:func:`blob_measurements` is the compiled pass of :func:`agents.tracking.merges.share_blobs`:
+the tracks that join a merged detection's blob and the rigid-group measurement of each.
+
+Kernels and their results (inputs are float64 / int64 C-contiguous arrays):
+
+* :func:`mahalanobis_costs` → ``(cost, bad)``: the (n, m) squared distances.
+* :func:`gated_costs` → :class:`GatedCosts` ``(cost, lone_rows, lone_cols, rest_rows, rest_cols,
+  bad)``: the costs and the split of the admissible pairs.
+* :func:`blob_measurements` → ``(det_of_track, z_tracks)``: blob members added, the measurement
+  of each track.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,7 +43,35 @@ from track_envs.types import FloatArray
 
 IntArray = NDArray[np.int64]
 
-__all__ = ["gated_costs", "mahalanobis_costs", "merge_solution", "rest_problem"]
+__all__ = [
+    "GatedCosts",
+    "blob_measurements",
+    "gated_costs",
+    "mahalanobis_costs",
+    "merge_solution",
+    "rest_problem",
+]
+
+
+class GatedCosts(NamedTuple):
+    """Result of :func:`gated_costs`: the costs of a frame and the split of its admissible pairs.
+
+    Attributes:
+        cost: (n, m) squared Mahalanobis distances ``d²_ij``.
+        lone_rows: Tracks of the lone pairs (admissible and alone in their row and column), ascending.
+        lone_cols: The detection of each lone row.
+        rest_rows: Tracks with admissible pairs that are not lone, ascending.
+        rest_cols: Detections with admissible pairs that are not lone, ascending.
+        bad: −1, or the first track whose covariance is not positive definite (the other fields
+            are then not meaningful).
+    """
+
+    cost: FloatArray
+    lone_rows: IntArray
+    lone_cols: IntArray
+    rest_rows: IntArray
+    rest_cols: IntArray
+    bad: int
 
 
 @njit(cache=True)
@@ -142,9 +182,7 @@ def mahalanobis_costs(mean: FloatArray, cov: FloatArray, z: FloatArray) -> tuple
 
 
 @njit(cache=True)
-def gated_costs(
-    mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float
-) -> tuple[FloatArray, IntArray, IntArray, IntArray, IntArray, int]:
+def gated_costs(mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float) -> GatedCosts:
     """:func:`mahalanobis_costs` and the lone-pair split of the admissible pairs (cost <= gate).
 
     A *lone pair* is an admissible pair alone in both its row and its column; it belongs to an
@@ -152,14 +190,93 @@ def gated_costs(
     lone pair (:func:`track_envs.assignment.split_dense`).
 
     Returns:
-        ``(cost (n, m), lone_rows, lone_cols, rest_rows, rest_cols, bad)``, indices ascending
-        (``lone_rows`` ascending, ``lone_cols`` their partners); ``bad`` as in
+        :class:`GatedCosts` ``(cost (n, m), lone_rows, lone_cols, rest_rows, rest_cols, bad)``,
+        indices ascending (``lone_rows`` ascending, ``lone_cols`` their partners); ``bad`` as in
         :func:`mahalanobis_costs`.
     """
     cost, bad = mahalanobis_costs(mean, cov, z)
     if bad >= 0:
         empty = np.zeros(0, dtype=np.int64)
-        return cost, empty, empty, empty, empty, bad
+        return GatedCosts(cost, empty, empty, empty, empty, bad)
     partner, rest_rows, rest_cols = split_dense(cost, gate)
     lone_rows, lone_cols = partner_pairs(partner)
-    return cost, lone_rows, lone_cols, rest_rows, rest_cols, -1
+    return GatedCosts(cost, lone_rows, lone_cols, rest_rows, rest_cols, -1)
+
+
+@njit(cache=True)
+def blob_measurements(
+    predicted: FloatArray,
+    z: FloatArray,
+    det_of_track: IntArray,
+    extent: float,
+    low: FloatArray,
+    high: FloatArray,
+) -> tuple[IntArray, FloatArray]:
+    """The blob members of every track and the measurement each is updated with (the compiled pass
+    of :func:`agents.tracking.merges.share_blobs`, whose docstring has the equations).
+
+    A track ``j`` without a detection and predicted inside ``[low, high]`` joins the detection
+    ``d`` taken by another track ``i`` for which ``‖ŷ_j − z_d‖ ≤ extent`` (the nearest such ``d``)
+    and ``‖ŷ_i − z_d‖ ≤ extent``. A blob of ``|G| ≥ 2`` tracks gives member ``j`` the measurement
+    ``z_d + ŷ_j − mean_{k∈G} ŷ_k``; a lone track gets ``z_d``.
+
+    Args:
+        predicted: (n, D) predicted measurements ``ŷ``.
+        z: (m, D) detections.
+        det_of_track: (n,) detection of each track after association, −1 for none.
+        extent: Largest distance of a member's prediction from the blob's centroid.
+        low, high: (D,) corners of the observed region.
+
+    Returns:
+        ``(det_of_track (n,), z_tracks (n, D))``: a new detection array with the blob members
+        added, and the measurement of each track (zero rows for tracks without a detection).
+    """
+    n, dim = predicted.shape
+    m = z.shape[0]
+    out = det_of_track.copy()
+    owner = np.full(m, -1, np.int64)
+    for i in range(n):
+        if det_of_track[i] >= 0:
+            owner[det_of_track[i]] = i
+    e2 = extent * extent
+    for j in range(n):
+        if det_of_track[j] >= 0:
+            continue
+        inside = True
+        for k in range(dim):
+            inside = inside and low[k] <= predicted[j, k] <= high[k]
+        if not inside:  # a particle that left the view is no blob member
+            continue
+        best, best_d = -1, e2
+        for d in range(m):
+            i = owner[d]
+            if i < 0:
+                continue
+            dj = 0.0
+            di = 0.0
+            for k in range(dim):
+                dj += (predicted[j, k] - z[d, k]) ** 2
+                di += (predicted[i, k] - z[d, k]) ** 2
+            if dj <= best_d and di <= e2:
+                best, best_d = d, dj
+        out[j] = best
+    # rigid-group measurements for every blob with two or more tracks
+    z_tracks = np.zeros((n, dim))
+    count = np.zeros(m, np.int64)
+    centre = np.zeros((m, dim))
+    for i in range(n):
+        d = out[i]
+        if d >= 0:
+            count[d] += 1
+            for k in range(dim):
+                centre[d, k] += predicted[i, k]
+    for i in range(n):
+        d = out[i]
+        if d < 0:
+            continue
+        for k in range(dim):
+            if count[d] > 1:
+                z_tracks[i, k] = z[d, k] + predicted[i, k] - centre[d, k] / count[d]
+            else:
+                z_tracks[i, k] = z[d, k]
+    return out, z_tracks

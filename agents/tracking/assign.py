@@ -147,11 +147,11 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
         ValueError: if ``z`` is not (m, D).
         numpy.linalg.LinAlgError: if some predicted covariance is not positive definite.
     """
-    cost, lone_rows, lone_cols, rest_rows, rest_cols, bad = _kernels.gated_costs(
-        *_prepared(prediction, z), float(gate)
+    split = _kernels.gated_costs(*_prepared(prediction, z), float(gate))
+    _checked(split.bad)
+    return solve_split(
+        split.cost, float(gate), split.lone_rows, split.lone_cols, split.rest_rows, split.rest_cols
     )
-    _checked(bad)
-    return solve_split(cost, float(gate), lone_rows, lone_cols, rest_rows, rest_cols)
 
 
 def associate_greedy(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:

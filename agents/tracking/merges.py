@@ -42,67 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
-
-
-@njit(cache=True)
-def _share(
-    predicted: NDArray[np.float64],
-    z: NDArray[np.float64],
-    det_of_track: NDArray[np.int64],
-    extent: float,
-    low: NDArray[np.float64],
-    high: NDArray[np.float64],
-) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    n, dim = predicted.shape
-    m = z.shape[0]
-    out = det_of_track.copy()
-    owner = np.full(m, -1, np.int64)
-    for i in range(n):
-        if det_of_track[i] >= 0:
-            owner[det_of_track[i]] = i
-    e2 = extent * extent
-    for j in range(n):
-        if det_of_track[j] >= 0:
-            continue
-        inside = True
-        for k in range(dim):
-            inside = inside and low[k] <= predicted[j, k] <= high[k]
-        if not inside:  # a particle that left the view is no blob member
-            continue
-        best, best_d = -1, e2
-        for d in range(m):
-            i = owner[d]
-            if i < 0:
-                continue
-            dj = 0.0
-            di = 0.0
-            for k in range(dim):
-                dj += (predicted[j, k] - z[d, k]) ** 2
-                di += (predicted[i, k] - z[d, k]) ** 2
-            if dj <= best_d and di <= e2:
-                best, best_d = d, dj
-        out[j] = best
-    # rigid-group measurements for every blob with two or more tracks
-    z_tracks = np.zeros((n, dim))
-    count = np.zeros(m, np.int64)
-    centre = np.zeros((m, dim))
-    for i in range(n):
-        d = out[i]
-        if d >= 0:
-            count[d] += 1
-            for k in range(dim):
-                centre[d, k] += predicted[i, k]
-    for i in range(n):
-        d = out[i]
-        if d < 0:
-            continue
-        for k in range(dim):
-            if count[d] > 1:
-                z_tracks[i, k] = z[d, k] + predicted[i, k] - centre[d, k] / count[d]
-            else:
-                z_tracks[i, k] = z[d, k]
-    return out, z_tracks
+from agents.tracking._kernels import blob_measurements
 
 
 def share_blobs(
@@ -142,4 +82,4 @@ def share_blobs(
     dim = y.shape[1]
     lo = np.full(dim, -np.inf) if low is None else np.ascontiguousarray(low, dtype=np.float64)
     hi = np.full(dim, np.inf) if high is None else np.ascontiguousarray(high, dtype=np.float64)
-    return _share(y, zz, det, float(extent), lo, hi)
+    return blob_measurements(y, zz, det, float(extent), lo, hi)

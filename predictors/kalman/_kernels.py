@@ -15,9 +15,23 @@ one call instead of a few dozen numpy operations on ``(n, S, S)`` stacks.
 
 Inputs are float64 C-contiguous arrays (the callers in :mod:`predictors.kalman.predictor` make sure of it);
 the kernels allocate their outputs and never write to their inputs.
+
+Kernels and their results (``n`` tracks, ``S`` state entries, ``D`` measured ones):
+
+* :func:`project_tracks` → ``(z_mean (n, D), z_cov (n, D, D))``: ``(H x, H P Hᵀ + R)``.
+* :func:`predict_tracks` → ``(mean (n, S), cov (n, S, S))``: ``(F x, F P Fᵀ + Q)``.
+* :func:`predict_and_project_tracks` → :class:`PredictedTracks` ``(mean, cov, z_mean, z_cov)``:
+  both of the above in one call.
+* :func:`update_tracks` → :class:`UpdatedTracks` ``(mean, cov, status, row)``: the Joseph-form
+  update of the seen tracks.
+* :func:`start_tracks` → ``(mean (n, S), cov (n, S, S))``: the states of new tracks.
+* :func:`keep_and_start_tracks` → :class:`KeptAndStarted` ``(mean, cov, status)``: the survivors
+  followed by new tracks.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +47,55 @@ UPDATE_NOT_PD = 2
 START_OK = 0
 START_BAD_KEEP = 1
 START_NONFINITE_VELOCITY = 2
+
+
+class PredictedTracks(NamedTuple):
+    """Result of :func:`predict_and_project_tracks`: the predicted states and measurements.
+
+    Attributes:
+        mean: (n, S) predicted state means ``x⁻ = F x``.
+        cov: (n, S, S) predicted state covariances ``P⁻ = F P Fᵀ + Q``, exactly symmetric.
+        z_mean: (n, D) predicted measurements ``H x⁻``.
+        z_cov: (n, D, D) innovation covariances ``H P⁻ Hᵀ + R``, exactly symmetric.
+    """
+
+    mean: FloatArray
+    cov: FloatArray
+    z_mean: FloatArray
+    z_cov: FloatArray
+
+
+class UpdatedTracks(NamedTuple):
+    """Result of :func:`update_tracks`.
+
+    Attributes:
+        mean: (n, S) state means ``x⁺`` (unchanged for the tracks not seen).
+        cov: (n, S, S) state covariances ``P⁺``, exactly symmetric.
+        status: :data:`UPDATE_OK`, :data:`UPDATE_NONFINITE_Z` or :data:`UPDATE_NOT_PD` (the
+            arrays are then not meaningful).
+        row: −1, or the first offending row (a seen row of ``z`` holding NaN or inf; a seen
+            track whose ``S`` is not positive definite).
+    """
+
+    mean: FloatArray
+    cov: FloatArray
+    status: int
+    row: int
+
+
+class KeptAndStarted(NamedTuple):
+    """Result of :func:`keep_and_start_tracks`: the survivors, in order, then the new tracks.
+
+    Attributes:
+        mean: (n_keep + k, S) state means.
+        cov: (n_keep + k, S, S) state covariances.
+        status: :data:`START_OK`, :data:`START_BAD_KEEP` or :data:`START_NONFINITE_VELOCITY`
+            (the arrays are then not meaningful).
+    """
+
+    mean: FloatArray
+    cov: FloatArray
+    status: int
 
 
 @njit(inline="always")
@@ -216,21 +279,21 @@ def predict_tracks(
 @njit(cache=True)
 def predict_and_project_tracks(
     mean: FloatArray, cov: FloatArray, F: FloatArray, Q: FloatArray, H: FloatArray, R: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> PredictedTracks:
     """:func:`predict_tracks`, then :func:`project_tracks` of the prediction, in one call.
 
     Returns:
-        ``(x⁻ (n, S), P⁻ (n, S, S), H x⁻ (n, D), H P⁻ Hᵀ + R (n, D, D))``.
+        :class:`PredictedTracks` ``(x⁻ (n, S), P⁻ (n, S, S), H x⁻ (n, D), H P⁻ Hᵀ + R (n, D, D))``.
     """
     mean_p, cov_p = predict_tracks(mean, cov, F, Q)
     z_mean, z_cov = project_tracks(mean_p, cov_p, H, R)
-    return mean_p, cov_p, z_mean, z_cov
+    return PredictedTracks(mean_p, cov_p, z_mean, z_cov)
 
 
 @njit(cache=True)
 def update_tracks(
     mean: FloatArray, cov: FloatArray, z: FloatArray, seen: NDArray[np.bool_], H: FloatArray, R: FloatArray
-) -> tuple[FloatArray, FloatArray, int, int]:
+) -> UpdatedTracks:
     """Kalman update of the tracks with ``seen`` True by their rows of ``z`` (Joseph form).
 
     For each seen track
@@ -252,10 +315,10 @@ def update_tracks(
         R: (D, D), symmetric.
 
     Returns:
-        ``(x⁺ (n, S), P⁺ (n, S, S), status, row)``: status :data:`UPDATE_OK` (row −1), or
-        :data:`UPDATE_NONFINITE_Z` / :data:`UPDATE_NOT_PD` and the first offending ``row`` (a seen
-        row of ``z`` holding NaN or inf; a seen track whose ``S`` is not positive definite), in
-        which case the arrays are not meaningful.
+        :class:`UpdatedTracks` ``(x⁺ (n, S), P⁺ (n, S, S), status, row)``: status
+        :data:`UPDATE_OK` (row −1), or :data:`UPDATE_NONFINITE_Z` / :data:`UPDATE_NOT_PD` and the
+        first offending ``row`` (a seen row of ``z`` holding NaN or inf; a seen track whose ``S``
+        is not positive definite), in which case the arrays are not meaningful.
     """
     n, S = mean.shape
     D = H.shape[0]
@@ -265,7 +328,7 @@ def update_tracks(
         if seen[t]:
             for d in range(D):
                 if not np.isfinite(z[t, d]):
-                    return mean_u, cov_u, UPDATE_NONFINITE_Z, t
+                    return UpdatedTracks(mean_u, cov_u, UPDATE_NONFINITE_Z, t)
     if D == 2 and S == 4:
         bad = _update_rows(mean, cov, z, seen, H, R, mean_u, cov_u, 4, 2)
     elif D == 2 and S == 6:
@@ -273,8 +336,8 @@ def update_tracks(
     else:
         bad = _update_rows(mean, cov, z, seen, H, R, mean_u, cov_u, S, D)
     if bad >= 0:
-        return mean_u, cov_u, UPDATE_NOT_PD, bad
-    return mean_u, cov_u, UPDATE_OK, -1
+        return UpdatedTracks(mean_u, cov_u, UPDATE_NOT_PD, bad)
+    return UpdatedTracks(mean_u, cov_u, UPDATE_OK, -1)
 
 
 @njit(cache=True)
@@ -323,7 +386,7 @@ def keep_and_start_tracks(
     P0: FloatArray,
     velocity: FloatArray,
     velocity_cov: FloatArray,
-) -> tuple[FloatArray, FloatArray, int]:
+) -> KeptAndStarted:
     """The tracks with ``keep`` True (in order), followed by new tracks at ``z``: one pass for
     ``concat([state.take(keep), start(z, ...)])``.
 
@@ -334,7 +397,7 @@ def keep_and_start_tracks(
             ``velocity_cov`` (D, D) or (0, 0): the same prior for every new track).
 
     Returns:
-        ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
+        :class:`KeptAndStarted` ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
         :data:`START_OK`, :data:`START_BAD_KEEP` (``keep`` does not hold ``n_keep`` True) or
         :data:`START_NONFINITE_VELOCITY` (the arrays are then not meaningful).
     """
@@ -347,10 +410,10 @@ def keep_and_start_tracks(
     for i in range(keep.shape[0]):
         count += keep[i]
     if count != n_keep:
-        return out_mean, out_cov, START_BAD_KEEP
+        return KeptAndStarted(out_mean, out_cov, START_BAD_KEEP)
     for d in range(velocity.shape[0]):
         if not np.isfinite(velocity[d]):
-            return out_mean, out_cov, START_NONFINITE_VELOCITY
+            return KeptAndStarted(out_mean, out_cov, START_NONFINITE_VELOCITY)
     t = 0
     for i in range(keep.shape[0]):
         if keep[i]:
@@ -370,7 +433,7 @@ def keep_and_start_tracks(
                 for j in range(D):
                     out_cov[t, D + i, D + j] = velocity_cov[i, j]
         t += 1
-    return out_mean, out_cov, START_OK
+    return KeptAndStarted(out_mean, out_cov, START_OK)
 
 
 # -- nozzle-bar crossings in closed form (the LINE_ROLLOUT capability, predictors.kalman.rollout) --------

@@ -135,12 +135,13 @@ def _checked_update(
     mean: FloatArray, cov: FloatArray, z: FloatArray, seen: NDArray[np.bool_], H: FloatArray, R: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`~predictors.kalman._kernels.update_tracks`, its status turned into an exception."""
-    mean_u, cov_u, status, row = _kernels.update_tracks(mean, cov, z, seen, H, R)
-    if status == _kernels.UPDATE_NONFINITE_Z:
+    updated = _kernels.update_tracks(mean, cov, z, seen, H, R)
+    row = updated.row
+    if updated.status == _kernels.UPDATE_NONFINITE_Z:
         raise ValueError(f"z must be finite in the rows where seen is True; row {row} is {z[row].tolist()}")
-    if status == _kernels.UPDATE_NOT_PD:
+    if updated.status == _kernels.UPDATE_NOT_PD:
         raise np.linalg.LinAlgError(f"innovation covariance S of track {row} is not positive definite")
-    return mean_u, cov_u
+    return updated.mean, updated.cov
 
 
 def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: FloatArray) -> Gaussian:
@@ -503,14 +504,12 @@ class KalmanPredictor:
         vc = self._no_prior_cov if velocity_cov is None or self.order < 2 else _f64(velocity_cov)
         if vc.shape not in ((0, 0), (D, D)):
             raise ValueError(f"velocity_cov must have shape ({D}, {D}), got {vc.shape}")
-        mean_out, cov_out, status = _kernels.keep_and_start_tracks(
-            mean, cov, mask, n_keep, zz, self._P0, v, vc
-        )
-        if status == _kernels.START_BAD_KEEP:
+        out = _kernels.keep_and_start_tracks(mean, cov, mask, n_keep, zz, self._P0, v, vc)
+        if out.status == _kernels.START_BAD_KEEP:
             raise ValueError(f"keep holds {int(mask.sum())} True, not n_keep={n_keep}")
-        if status == _kernels.START_NONFINITE_VELOCITY:
+        if out.status == _kernels.START_NONFINITE_VELOCITY:
             raise ValueError(f"velocity must be a finite vector of shape ({D},), got {v.tolist()}")
-        return KalmanState(mean_out, cov_out)
+        return KalmanState(out.mean, out.cov)
 
     def estimate_mean(self, state: KalmanState) -> FloatArray:
         """The mean of :meth:`estimate`, ``H x`` (n, D), without its covariance: the position block
@@ -533,10 +532,8 @@ class KalmanPredictor:
         """
         self._need_reset()
         mean, cov = self._check_state(state)
-        mean_p, cov_p, z_mean, z_cov = _kernels.predict_and_project_tracks(
-            mean, cov, self.F, self.Q, self.H, self.R
-        )
-        return KalmanState(mean_p, cov_p), Gaussian(z_mean, z_cov)
+        p = _kernels.predict_and_project_tracks(mean, cov, self.F, self.Q, self.H, self.R)
+        return KalmanState(p.mean, p.cov), Gaussian(p.z_mean, p.z_cov)
 
     def update(self, state: KalmanState, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> KalmanState:
         """Correct the tracks with ``seen`` True by their rows of ``z`` (:func:`kf_update`).
