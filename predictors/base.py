@@ -73,7 +73,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from enum import StrEnum
-from typing import Any, Literal, Protocol, Self, overload, runtime_checkable
+from typing import Any, Literal, NamedTuple, Protocol, Self, overload, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -212,9 +212,19 @@ class Capability(StrEnum):
     RANDOM_STREAM = "random-stream"
 
 
-#: What a line roll-out returns for ``k`` tracks: ``ok`` (k,) whether a crossing was found,
-#: ``mean`` (k, 2) its ``(t̂, ŷ)`` and ``cov`` (k, 2, 2) (NaN where not ``ok``).
-Crossings = tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]
+class Crossings(NamedTuple):
+    """What a line roll-out returns for ``k`` tracks (the compiled passes build it too).
+
+    Attributes:
+        ok: (k,) bool, whether the roll-out found a crossing of the line.
+        mean: (k, 2) the crossing's time on the env's clock and lateral position ``(t̂, ŷ)``
+            (NaN where not ``ok``).
+        cov: (k, 2, 2) their covariance (NaN where not ``ok``).
+    """
+
+    ok: NDArray[np.bool_]
+    mean: NDArray[np.float64]
+    cov: NDArray[np.float64]
 
 
 class NoiseScale(Predictor, Protocol):

@@ -456,7 +456,7 @@ class GnnAgent:
         if n_keep == len(keep):
             return self._no_sorting
         gone = ~keep
-        ok, mean, cov = predict_crossings(
+        crossings = predict_crossings(
             self.predictor,
             self._state.take(gone),
             self._spec.sorting_line,
@@ -464,7 +464,8 @@ class GnnAgent:
             self._spec.dt,
             self._rollout_steps(),
         )
-        return pack_sorting(self._ids[gone][ok], mean[ok], cov[ok], self._spec.max_tracks)
+        ok = crossings.ok
+        return pack_sorting(self._ids[gone][ok], crossings.mean[ok], crossings.cov[ok], self._spec.max_tracks)
 
     def _estimate_mean(self, state: Any) -> NDArray[np.float64]:
         """The predictor's current estimates (n, D) as C-contiguous float64 (its ``estimate_mean``

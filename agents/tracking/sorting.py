@@ -84,7 +84,7 @@ def predict_crossings(
     mean = np.full((k, 2), np.nan)
     cov = np.full((k, 2, 2), np.nan)
     if k == 0:
-        return ok, mean, cov
+        return Crossings(ok, mean, cov)
     compiled = capability(predictor, Capability.LINE_ROLLOUT)  # the same roll-out, compiled
     if compiled is not None:
         result = compiled.rollout_crossings(state, line, frame, dt, max_steps)
@@ -128,7 +128,7 @@ def predict_crossings(
             state = state.take(going)
             rows, p, P = rows[going], p[going], P[going]
         p_prev, P_prev = p, P
-    return ok, mean, cov
+    return Crossings(ok, mean, cov)
 
 
 def _crossing(

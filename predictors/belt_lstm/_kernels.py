@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from predictors.base import Crossings
 from predictors.lstm_cell import cell_step
 from track_envs.compiled import njit
 
@@ -126,4 +127,4 @@ def lstm_crossings_kernel(
             zp0, zp1 = p0, p1
             pp0, pp1 = p0, p1
             Q00, Q01, Q10, Q11 = N00, N01, N10, N11
-    return ok, mean, cov
+    return Crossings(ok, mean, cov)

@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from predictors.base import Crossings
 from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
@@ -523,4 +524,4 @@ def kalman_crossings_kernel(
                 ok[i] = True
                 break
             x_prev, y_prev = x, y
-    return ok, out_mean, out_cov
+    return Crossings(ok, out_mean, out_cov)

@@ -11,7 +11,7 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from agents.tracking.sorting import predict_crossings
 from predictors import available_predictors, make_predictor, predictor_applies_to
-from predictors.base import Capability
+from predictors.base import Capability, Crossings
 from track_envs.metrics import SortingPrediction
 from track_envs.types import SensorSpec
 from track_envs.wrappers import TrackingMetrics
@@ -139,6 +139,7 @@ def test_kalman_closed_form_equals_the_frame_by_frame_roll_out(name):
         state, _ = predictor.predict(state)
     closed = predict_crossings(predictor, state, LINE, 7, SPEC.dt)
     generic = predict_crossings(_Wrapped(predictor), state, LINE, 7, SPEC.dt)
+    assert type(closed) is Crossings and type(generic) is Crossings  # compiled pass and frame by frame
     np.testing.assert_array_equal(closed[0], generic[0])
     assert not closed[0][3] and closed[0].sum() == 11
     np.testing.assert_allclose(closed[1], generic[1], rtol=1e-12, equal_nan=True)
@@ -230,6 +231,7 @@ def test_compiled_lstm_roll_out_equals_the_frame_by_frame_one(name, precision):
     line = float(spec.sorting_line)
     fast = predict_crossings(predictor, state, line, 40, spec.dt, 60)
     slow = predict_crossings(_Generic(predictor), state, line, 40, spec.dt, 60)
+    assert type(fast) is Crossings and type(slow) is Crossings
     np.testing.assert_array_equal(fast[0], slow[0])
     assert fast[0].sum() >= 10
     tol = 1e-12 if precision == "float64" else 1e-5
