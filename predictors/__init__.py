@@ -2,7 +2,9 @@
 
 Registry (:mod:`predictors.registry`): :func:`make_predictor` builds a predictor by name (an
 unknown name raises a ``ValueError`` that lists the valid ones); :func:`resolve_predictor` takes a
-name or a Predictor object, as a tracker's ``predictor`` argument does.
+name or a Predictor object, as a tracker's ``predictor`` argument does. :func:`motion_models`
+lists every motion model of the three kinds (Gaussian predictor, particle displacement, pose
+hypothesis) with the agents that take it.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from predictors.base import Capability, Predictor, capability, has_capability
+from predictors.motion_models import KINDS, MotionModel, motion_models
 from predictors.registry import (
     BELT_ENVS,
     PREDICTORS,
@@ -22,13 +25,16 @@ from predictors.registry import (
 
 __all__ = [
     "BELT_ENVS",
+    "KINDS",
     "PREDICTORS",
     "Capability",
+    "MotionModel",
     "Predictor",
     "available_predictors",
     "capability",
     "has_capability",
     "make_predictor",
+    "motion_models",
     "predictor_applies_to",
     "register_predictor",
     "resolve_predictor",

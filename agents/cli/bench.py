@@ -20,7 +20,7 @@ from agents import AGENTS, available_agents
 from agents.bench import cells as cells_mod
 from agents.bench.cells import NO_PREDICTOR, Group
 from agents.cli import arguments
-from predictors import PREDICTORS, available_predictors
+from predictors import KINDS, PREDICTORS, available_predictors, motion_models
 
 PROG = "track bench"
 
@@ -115,6 +115,14 @@ def cmd_list(args: argparse.Namespace) -> int:
         envs = [e for e in track_envs.ENV_IDS if any(why_not(e, a, name) is None for a in users)]
         print(f"  {name:<20} {describe(PREDICTORS.factory(name))}")
         print(f"  {'':<20} used by: {', '.join(users)}; envs: {', '.join(envs) or 'none'}")
+    print("\nmotion models of the other kinds (the predictors above are the Gaussian kind):")
+    for kind, what in KINDS.items():
+        if kind == "gaussian":
+            continue
+        print(f"  {kind}: {what}")
+        for model in motion_models(kind):
+            print(f"    {model.name:<18} {model.summary}")
+            print(f"    {'':<18} taken by: {', '.join(model.agents) or 'none'}")
     print(f"\nsuites: {', '.join(cells_mod.suite_names())} (or a .toml file; see {args.prog} run --help)")
     return 0
 
