@@ -95,7 +95,10 @@ class AlphaBetaPredictor:
     capabilities: ClassVar[frozenset[Capability]] = frozenset({Capability.VELOCITY_PRIOR})
 
     def __init__(self, *, tracking_index: float = 0.5, initial_velocity_std: float = 1.0):
-        for name, value in (("tracking_index", tracking_index), ("initial_velocity_std", initial_velocity_std)):
+        for name, value in (
+            ("tracking_index", tracking_index),
+            ("initial_velocity_std", initial_velocity_std),
+        ):
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         self.tracking_index = float(tracking_index)
