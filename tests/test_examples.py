@@ -297,3 +297,15 @@ def test_extend_agent_associates_within_its_gate_closed_form():
         example.NearestNeighbourAgent(gate=-1)
     with pytest.raises(ValueError, match=r"max_misses must be an integer >= 0, got 1.5"):
         example.NearestNeighbourAgent(max_misses=1.5)
+
+
+def test_the_extending_section_links_a_tested_example_for_each_extension_point():
+    import re
+
+    page = (EXAMPLES.parent / "docs" / "architecture.md").read_text()
+    start = page.index("\n## Extending\n")
+    section = page[start : page.index("\n## ", start + 1)]
+    linked = sorted(set(re.findall(r"examples/(extend_\w+)\.py", section)))
+    assert linked == sorted(p.stem for p in EXAMPLES.glob("extend_*.py")) and len(linked) == 5
+    tests = Path(__file__).read_text()
+    assert all(f'load("{name}")' in tests for name in linked)
