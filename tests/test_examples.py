@@ -122,3 +122,190 @@ def test_extend_metric_coverage_closed_form():
     coverage.update(truth, np.array([-1]), far)  # the second is 2 away
     coverage.update({"positions": np.zeros((1, 2)), "visible": np.array([0])}, np.array([-1]), far)
     assert coverage.compute() == {"coverage": 2 / 3}
+
+
+# -- the worked examples of docs/architecture.md#extending: a predictor, a learned predictor, an agent
+
+
+@pytest.fixture
+def scoped_registries(monkeypatch):
+    """The examples register a predictor or an agent; keep them out of the registries the other
+    tests iterate over."""
+    from agents.base import AGENTS
+    from predictors.registry import PREDICTORS
+
+    for registry in (AGENTS, PREDICTORS):
+        monkeypatch.setattr(registry, "_factories", dict(registry._factories))
+
+
+def sine_spec(**changes):
+    import dataclasses
+
+    import gymnasium as gym
+
+    import track_envs  # noqa: F401
+
+    return dataclasses.replace(gym.make("SineTarget-v0").unwrapped.sensor_spec, **changes)
+
+
+def track_episode(agent, steps, **env_kwargs):
+    """The episode metrics of ``agent`` on ``steps`` frames of SineTarget-v0 (seed 0)."""
+    import gymnasium as gym
+
+    from agents.bench.runner import run_episode
+    from track_envs.wrappers import TrackingMetrics
+
+    env = TrackingMetrics(gym.make("SineTarget-v0", max_episode_steps=steps, **env_kwargs))
+    return run_episode(env, agent, seed=0)[0]
+
+
+def test_extend_predictor_tracks_in_gnn_and_gnn_uses_its_declared_capability(scoped_registries, capsys):
+    from agents import make_agent
+
+    example = load("extend_predictor")
+    metrics = example.main(["--steps", "150"])  # check_predictor runs inside
+    assert metrics["lost"] == 0 and metrics["frames_without_estimate"] == 0
+    assert 0.05 < metrics["mean_error"] < 0.25  # σ_n = 0.1 per axis, clutter 0.5 per frame
+    assert "SineTarget-v0 + gnn(alpha-beta), 150 frames" in capsys.readouterr().out
+
+    class Counting(example.AlphaBetaPredictor):
+        """Counts the starts, and those with a velocity prior."""
+
+        def __init__(self):
+            super().__init__()
+            self.starts = self.with_prior = 0
+
+        def start(self, z, velocity=None, velocity_cov=None):
+            self.starts += 1
+            self.with_prior += velocity is not None
+            return super().start(z, velocity, velocity_cov)
+
+    class CoreOnly(Counting):
+        capabilities = frozenset()
+
+    declared, core = Counting(), CoreOnly()
+    for predictor in (declared, core):
+        track_episode(make_agent("gnn", predictor=predictor), 150, clutter_rate=0.5, max_tracks=16)
+    # gnn passes its learnt flow to the predictor that declares VELOCITY_PRIOR, never to the other
+    assert declared.with_prior > 10 and declared.with_prior < declared.starts
+    assert core.starts > 10 and core.with_prior == 0
+
+
+def test_extend_predictor_gains_are_the_kalman_steady_state_and_arguments_are_checked(scoped_registries):
+    from agents import make_agent
+
+    example = load("extend_predictor")
+    assert example.alpha_beta_gains(1.0) == pytest.approx((0.75, 0.5))  # Kalata's λ = 1 values
+    spec = sine_spec(dt=0.5, noise_std=0.2)
+    filt = example.AlphaBetaPredictor(tracking_index=0.3)
+    filt.reset(spec)
+    state, z = filt.start(np.zeros((3, 2))), np.zeros((3, 2))
+    for _ in range(300):
+        state, _ = filt.predict(state)
+        state = filt.update(state, z, np.ones(3, dtype=bool))
+    predicted, _ = filt.predict(state)
+    # the Kalman gain P⁻Hᵀ(HP⁻Hᵀ + R)⁻¹ of the covariance the Joseph form converged to is (α, β/dt)
+    P = predicted.P
+    gain = P[..., :, 0] / (P[..., 0, 0] + spec.noise_std**2)[..., None]
+    np.testing.assert_allclose(gain, np.broadcast_to([filt.alpha, filt.beta / 0.5], gain.shape), rtol=1e-9)
+
+    with pytest.raises(ValueError, match=r"tracking_index must be a finite number > 0, got 0"):
+        example.AlphaBetaPredictor(tracking_index=0)
+    example.register()
+    with pytest.raises(ValueError, match=r"no argument 'tracking_idx'.*'tracking_index'"):
+        make_agent("gnn", predictor="alpha-beta", tracking_idx=1.0)
+
+
+def test_extend_learned_predictor_trains_saves_loads_and_tracks_without_torch(
+    scoped_registries, tmp_path, monkeypatch, capsys
+):
+    import torch
+
+    from predictors.training.model_file import ModelFileError, load_model, save_model
+
+    example = load("extend_learned_predictor")
+    metrics = example.main(["--out", str(tmp_path), "--steps", "200"])
+    assert metrics["lost"] == 0 and metrics["frames_without_estimate"] == 0
+    assert metrics["mean_error"] < 0.2
+    assert "trained example-step-lstm (12 units" in capsys.readouterr().out
+
+    # the model file: safetensors + JSON, and it round-trips
+    model = load_model(tmp_path / "learned-step", kind=example.KIND, dim=2)
+    assert (tmp_path / "learned-step.safetensors").is_file() and model.architecture == {"hidden": 12}
+    assert model.meta["data"]["env_id"] == "PiecewiseTarget-v0"
+    # the learned covariance: above the next measurement's own noise σ_n² = 0.01, not far above
+    assert 0.01 < model.meta["calibration"]["residual_var"] < 0.03
+    save_model(tmp_path / "again" / "copy", model)
+    again = load_model(tmp_path / "again" / "copy", kind=example.KIND)
+    assert again.meta == model.meta and again.tensors.keys() == model.tensors.keys()
+    for name, tensor in model.tensors.items():
+        np.testing.assert_array_equal(again.tensors[name], tensor)
+
+    # the numpy inference (predictors.lstm_cell) equals the torch network of the same file
+    net = example.build_network(12)
+    net.load_state_dict({k: torch.from_numpy(v) for k, v in model.tensors.items()})
+    network = example.StepNetwork.from_model(model)
+    steps = np.random.default_rng(0).normal(0.0, 0.2, (5, 30, 2))
+    with torch.no_grad():
+        expected = net(torch.as_tensor(steps / network.scale, dtype=torch.float32)).numpy() * network.scale
+    h = c = np.zeros((5, 12))
+    for t in range(30):
+        out, h, c = network.step(steps[:, t], h, c)
+        np.testing.assert_allclose(out, expected[:, t], atol=1e-6)
+
+    # tracking from the file needs no torch, and gives the same episode
+    monkeypatch.setitem(sys.modules, "torch", None)  # any `import torch` now fails
+    tracked = example.main(["--model", str(tmp_path / "learned-step"), "--steps", "200"])
+    np.testing.assert_equal(tracked, metrics)
+
+    with pytest.raises(ModelFileError, match=r"holds a 'lstm' model; expected 'example-step-lstm'"):
+        example.LearnedStepPredictor(EXAMPLES.parent / "predictors" / "weights" / "lstm-cylinder")
+
+
+def test_extend_agent_passes_the_agent_checks_and_tracks(scoped_registries, capsys):
+    from agents import agent_traits, make_agent
+
+    metrics = load("extend_agent").main(["--steps", "150"])  # check_agent runs inside
+    assert metrics["lost"] == 0 and metrics["frames_without_estimate"] == 0
+    assert metrics["mean_error"] < 0.2  # the detections' own error is ≈ 0.125 (σ_n = 0.1 per axis)
+    assert "SineTarget-v0 + nearest, 150 frames" in capsys.readouterr().out
+    assert agent_traits(make_agent("nearest")).position_rank == 1
+
+
+def test_extend_agent_associates_within_its_gate_closed_form():
+    example = load("extend_agent")
+    agent = example.NearestNeighbourAgent(gate=1.0, max_misses=1)
+    agent.reset(sine_spec(max_detections=4, max_tracks=4))
+
+    def obs(*points):
+        detections = np.zeros((4, 2), dtype=np.float32)
+        detections[: len(points)] = np.reshape(points, (-1, 2))
+        return {"detections": detections, "mask": (np.arange(4) < len(points)).astype(np.int8)}
+
+    def live(report):
+        on = report["mask"] == 1
+        return report["ids"][on].tolist(), report["positions"][on].tolist(), report["detection"][on].tolist()
+
+    assert live(agent.act(obs((0, 0), (5, 5)))) == ([0, 1], [[0, 0], [5, 5]], [0, 1])
+    # each track takes the detection within its gate; the one far from both starts track 2
+    ids, positions, rows = live(agent.act(obs((5.5, 5), (0.25, 0), (9, 9))))
+    assert (ids, rows) == ([0, 1, 2], [1, 0, 2]) and positions == [[0.25, 0], [5.5, 5], [9, 9]]
+    # nothing seen: every track coasts where it was (constant position), then is deleted
+    assert live(agent.act(obs())) == (ids, positions, [-1, -1, -1])
+    assert live(agent.act(obs())) == ([], [], [])
+    with pytest.raises(ValueError, match=r"gate must be None or a finite distance > 0, got -1"):
+        example.NearestNeighbourAgent(gate=-1)
+    with pytest.raises(ValueError, match=r"max_misses must be an integer >= 0, got 1.5"):
+        example.NearestNeighbourAgent(max_misses=1.5)
+
+
+def test_the_extending_section_links_a_tested_example_for_each_extension_point():
+    import re
+
+    page = (EXAMPLES.parent / "docs" / "architecture.md").read_text()
+    start = page.index("\n## Extending\n")
+    section = page[start : page.index("\n## ", start + 1)]
+    linked = sorted(set(re.findall(r"examples/(extend_\w+)\.py", section)))
+    assert linked == sorted(p.stem for p in EXAMPLES.glob("extend_*.py")) and len(linked) == 5
+    tests = Path(__file__).read_text()
+    assert all(f'load("{name}")' in tests for name in linked)
