@@ -89,7 +89,7 @@ class CirclingTargetsEnv(TrackingEnv):
 def register() -> None:
     """Register :data:`ENV_ID` (idempotent)."""
     if ENV_ID not in gym.registry:
-        gym.register(ENV_ID, entry_point=CirclingTargetsEnv, max_episode_steps=200)
+        gym.register(ENV_ID, entry_point=f"{__name__}:CirclingTargetsEnv", max_episode_steps=200)
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:

@@ -37,7 +37,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from track_envs.arguments import check_int
 from track_envs.compiled import njit
@@ -107,8 +107,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         spec: SensorSpec,
         *,
         max_targets: int,
-        obs_low: NDArray,
-        obs_high: NDArray,
+        obs_low: ArrayLike,
+        obs_high: ArrayLike,
         position_shape: tuple[int, ...] | None = None,
         detection_shape: tuple[int, ...] | None = None,
         truth_extra_shapes: dict[str, tuple[int, ...]] | None = None,
