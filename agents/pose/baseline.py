@@ -199,8 +199,8 @@ class PoseBaselineAgent(PoseTracker):
 
     Args:
         options: The keywords of :class:`~predictors.pose.constant_velocity.ConstantVelocityPose`
-            (``smoothing``) and of :class:`PoseTrackingOptions`; ``inspect.signature`` lists
-            them with their defaults.
+            (``smoothing``) and of :class:`PoseTrackingOptions`; the signature lists them with
+            their defaults.
     """
 
     @takes_keywords_of(ConstantVelocityPose, PoseTrackingOptions)

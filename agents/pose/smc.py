@@ -30,7 +30,7 @@ class PoseSmcAgent(PoseTracker):
         options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
             ``window``, ``alpha``, ``elite``, …) and of
             :class:`~agents.pose.baseline.PoseTrackingOptions` but ``max_active``;
-            ``inspect.signature`` lists them with their defaults.
+            the signature lists them with their defaults.
     """
 
     @takes_keywords_of(SmcSettings, PoseTrackingOptions, exclude=("max_active",))
