@@ -30,12 +30,15 @@ lifetime bookkeeping of Algorithm 1).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking.assign import assign_greedy, assign_hungarian
 from predictors.pose import ConstantVelocityPose, PoseMotion
+from predictors.pose.options import split_keywords, takes_keywords_of
 from track_envs.metrics.keypoints import NUM_KEYPOINTS
 from track_envs.observation import check_observation
 from track_envs.report import pack_report
@@ -44,72 +47,79 @@ from track_envs.types import SensorSpec
 MAX_LIFETIME = 30
 
 
+@dataclass(frozen=True)
+class PoseTrackingOptions:
+    """The settings of the pose-tracking loop (:class:`PoseTracker`; keywords of every pose agent).
+
+    Attributes:
+        oks_threshold: Smallest score at which a track and a detected pose may be matched, in (0, 1).
+        assignment: ``"hungarian"`` (optimal) or ``"greedy"`` (best pairs first).
+        keypoint_threshold: Detected keypoints with a score at or below this are ignored, in [0, 1).
+        min_pose_score: Detections whose mean score over detected keypoints is below this are
+            ignored, in [0, 1].
+        min_keypoints: Detections with fewer usable keypoints are ignored, in [1, 17].
+        initial_lifetime: Lifetime count of a new track, in [0, 30].
+        area_factor: Object area as a fraction of the squared longer side of the detection's
+            keypoint bounding box (> 0).
+        report_coasting: Report every active track, not only those with a detection this frame.
+        max_active: Most active tracks (``F_max``); detections beyond it start no track
+            (``None``: no limit).
+    """
+
+    oks_threshold: float = 0.3
+    assignment: str = "hungarian"
+    keypoint_threshold: float = 0.0
+    min_pose_score: float = 0.0
+    min_keypoints: int = 1
+    initial_lifetime: int = 0
+    area_factor: float = 0.25
+    report_coasting: bool = False
+    max_active: int | None = None
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.oks_threshold < 1.0:
+            raise ValueError(
+                f"oks_threshold must be in (0, 1) (at 0 poses with nothing in common would match), "
+                f"got {self.oks_threshold!r}"
+            )
+        if self.assignment not in ("hungarian", "greedy"):
+            raise ValueError(f"assignment must be 'hungarian' or 'greedy', got {self.assignment!r}")
+        if not 0.0 <= self.keypoint_threshold < 1.0:
+            raise ValueError(f"keypoint_threshold must be in [0, 1), got {self.keypoint_threshold!r}")
+        if not 0.0 <= self.min_pose_score <= 1.0:
+            raise ValueError(f"min_pose_score must be in [0, 1], got {self.min_pose_score!r}")
+        if not (isinstance(self.min_keypoints, int) and 1 <= self.min_keypoints <= NUM_KEYPOINTS):
+            raise ValueError(f"min_keypoints must be an integer in [1, 17], got {self.min_keypoints!r}")
+        lifetime = self.initial_lifetime
+        if not (isinstance(lifetime, int) and 0 <= lifetime <= MAX_LIFETIME):
+            raise ValueError(f"initial_lifetime must be an integer in [0, {MAX_LIFETIME}], got {lifetime!r}")
+        if not (np.isfinite(self.area_factor) and self.area_factor > 0):
+            raise ValueError(f"area_factor must be positive and finite, got {self.area_factor!r}")
+        if self.max_active is not None and not (isinstance(self.max_active, int) and self.max_active >= 1):
+            raise ValueError(f"max_active must be None or an integer >= 1, got {self.max_active!r}")
+        for name in ("oks_threshold", "keypoint_threshold", "min_pose_score", "area_factor"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        object.__setattr__(self, "report_coasting", bool(self.report_coasting))
+
+
 class PoseTracker:
     """The pose-tracking loop (Okada et al. 2020, Algorithm 1): OKS scores, matching, lifetimes, births.
 
     Args:
         motion: The motion hypothesis (what the tracks predict), a
             :class:`~predictors.pose.base.PoseMotion`.
-        oks_threshold: Smallest score at which a track and a detected pose may be matched.
-        assignment: ``"hungarian"`` (optimal) or ``"greedy"`` (best pairs first).
-        keypoint_threshold: Detected keypoints with a score at or below this are ignored.
-        min_pose_score: Detections whose mean score over detected keypoints is below this are ignored.
-        min_keypoints: Detections with fewer usable keypoints are ignored.
-        initial_lifetime: Lifetime count of a new track.
-        area_factor: Object area as a fraction of the squared longer side of the detection's
-            keypoint bounding box.
-        report_coasting: Report every active track, not only those with a detection this frame.
-        max_active: Most active tracks (``F_max``); detections beyond it start no track.
+        options: The keywords of :class:`PoseTrackingOptions` (``oks_threshold``, ``assignment``,
+            …, ``max_active``), kept as :attr:`options`.
     """
 
     #: Tracks poses (17, 2), not points (see :func:`agents.agent_applies_to`).
     position_rank = 2
 
-    def __init__(
-        self,
-        motion: PoseMotion,
-        *,
-        oks_threshold: float = 0.3,
-        assignment: str = "hungarian",
-        keypoint_threshold: float = 0.0,
-        min_pose_score: float = 0.0,
-        min_keypoints: int = 1,
-        initial_lifetime: int = 0,
-        area_factor: float = 0.25,
-        report_coasting: bool = False,
-        max_active: int | None = None,
-    ) -> None:
-        if not 0.0 < oks_threshold < 1.0:
-            raise ValueError(
-                f"oks_threshold must be in (0, 1) (at 0 poses with nothing in common would match), "
-                f"got {oks_threshold!r}"
-            )
-        if assignment not in ("hungarian", "greedy"):
-            raise ValueError(f"assignment must be 'hungarian' or 'greedy', got {assignment!r}")
-        if not 0.0 <= keypoint_threshold < 1.0:
-            raise ValueError(f"keypoint_threshold must be in [0, 1), got {keypoint_threshold!r}")
-        if not 0.0 <= min_pose_score <= 1.0:
-            raise ValueError(f"min_pose_score must be in [0, 1], got {min_pose_score!r}")
-        if not (isinstance(min_keypoints, int) and 1 <= min_keypoints <= NUM_KEYPOINTS):
-            raise ValueError(f"min_keypoints must be an integer in [1, 17], got {min_keypoints!r}")
-        if not (isinstance(initial_lifetime, int) and 0 <= initial_lifetime <= MAX_LIFETIME):
-            raise ValueError(
-                f"initial_lifetime must be an integer in [0, {MAX_LIFETIME}], got {initial_lifetime!r}"
-            )
-        if not (np.isfinite(area_factor) and area_factor > 0):
-            raise ValueError(f"area_factor must be positive and finite, got {area_factor!r}")
-        if max_active is not None and not (isinstance(max_active, int) and max_active >= 1):
-            raise ValueError(f"max_active must be None or an integer >= 1, got {max_active!r}")
+    @takes_keywords_of(PoseTrackingOptions)
+    def __init__(self, motion: PoseMotion, **options: Any) -> None:
+        self.options = PoseTrackingOptions(**options)
         self.motion = motion
-        self.oks_threshold = float(oks_threshold)
-        self.assign = assign_hungarian if assignment == "hungarian" else assign_greedy
-        self.keypoint_threshold = float(keypoint_threshold)
-        self.min_pose_score = float(min_pose_score)
-        self.min_keypoints = min_keypoints
-        self.initial_lifetime = initial_lifetime
-        self.area_factor = float(area_factor)
-        self.report_coasting = bool(report_coasting)
-        self.max_active = max_active
+        self.assign = assign_hungarian if self.options.assignment == "hungarian" else assign_greedy
         self._spec: SensorSpec | None = None
 
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
@@ -125,15 +135,16 @@ class PoseTracker:
         spec = self._spec
         if spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
+        o = self.options
         rows, z = check_observation(obs, spec, (NUM_KEYPOINTS, 3))
-        found = z[..., 2] > self.keypoint_threshold  # (m, 17)
+        found = z[..., 2] > o.keypoint_threshold  # (m, 17)
         count = found.sum(axis=1)
         mean_score = np.where(found, z[..., 2], 0.0).sum(axis=1) / np.maximum(count, 1)
-        usable = (count >= self.min_keypoints) & (mean_score >= self.min_pose_score)
+        usable = (count >= o.min_keypoints) & (mean_score >= o.min_pose_score)
         rows, xy, found = rows[usable], z[usable, :, :2], found[usable]
         self.motion.predict()
         sim = self.motion.score(xy, found, self._areas(xy, found))
-        ti, di = self.assign(1.0 - sim, 1.0 - self.oks_threshold)
+        ti, di = self.assign(1.0 - sim, 1.0 - o.oks_threshold)
         self.motion.update(ti, di, xy, found)
         matched = np.zeros(len(self.ids), dtype=bool)
         matched[ti] = True
@@ -143,21 +154,21 @@ class PoseTracker:
         # births from the detections left over (up to max_active tracks)
         free = np.ones(len(rows), dtype=bool)
         free[di] = False
-        if self.max_active is not None:
-            room = max(self.max_active - int(np.sum(lifetime >= 0)), 0)
+        if o.max_active is not None:
+            room = max(o.max_active - int(np.sum(lifetime >= 0)), 0)
             free[np.flatnonzero(free)[room:]] = False
         self.motion.birth(xy[free], found[free])
         k = int(free.sum())
         self.ids = np.concatenate([self.ids, np.arange(self._next_id, self._next_id + k, dtype=np.int64)])
         self._next_id += k
-        self.lifetime = np.concatenate([lifetime, np.full(k, self.initial_lifetime, dtype=np.int64)])
+        self.lifetime = np.concatenate([lifetime, np.full(k, o.initial_lifetime, dtype=np.int64)])
         detection = np.concatenate([detection, rows[free]])
         shown = np.concatenate([matched, np.ones(k, dtype=bool)])
         alive = self.lifetime >= 0
         self.motion.keep(alive)
         self.ids, self.lifetime = self.ids[alive], self.lifetime[alive]
         shown, detection = shown[alive], detection[alive]
-        out = np.ones(len(self.ids), dtype=bool) if self.report_coasting else shown
+        out = np.ones(len(self.ids), dtype=bool) if o.report_coasting else shown
         out_rows = np.flatnonzero(out)
         if len(out_rows) > spec.max_tracks:  # keep the tracks with a detection, then the longest-lived
             order = np.lexsort((-self.lifetime[out_rows], ~shown[out_rows]))
@@ -167,7 +178,7 @@ class PoseTracker:
 
     def _areas(self, xy: NDArray, found: NDArray) -> NDArray[np.float64]:
         """Object areas (m,) of detected poses: ``area_factor · max(w, h)²`` of their keypoint box."""
-        return detection_areas(xy, found, self.area_factor)
+        return detection_areas(xy, found, self.options.area_factor)
 
 
 def detection_areas(xy: NDArray, found: NDArray, area_factor: float) -> NDArray[np.float64]:
@@ -187,33 +198,12 @@ class PoseBaselineAgent(PoseTracker):
     :class:`~predictors.pose.constant_velocity.ConstantVelocityPose` motion.
 
     Args:
-        oks_threshold, assignment, keypoint_threshold, min_pose_score, min_keypoints,
-            initial_lifetime, area_factor, report_coasting, max_active: see :class:`PoseTracker`.
-        smoothing: see :class:`~predictors.pose.constant_velocity.ConstantVelocityPose`.
+        options: The keywords of :class:`~predictors.pose.constant_velocity.ConstantVelocityPose`
+            (``smoothing``) and of :class:`PoseTrackingOptions`; the signature lists them with
+            their defaults.
     """
 
-    def __init__(
-        self,
-        oks_threshold: float = 0.3,
-        assignment: str = "hungarian",
-        keypoint_threshold: float = 0.0,
-        min_pose_score: float = 0.0,
-        min_keypoints: int = 1,
-        initial_lifetime: int = 0,
-        area_factor: float = 0.25,
-        smoothing: float = 0.5,
-        report_coasting: bool = False,
-        max_active: int | None = None,
-    ) -> None:
-        super().__init__(
-            ConstantVelocityPose(smoothing),
-            oks_threshold=oks_threshold,
-            assignment=assignment,
-            keypoint_threshold=keypoint_threshold,
-            min_pose_score=min_pose_score,
-            min_keypoints=min_keypoints,
-            initial_lifetime=initial_lifetime,
-            area_factor=area_factor,
-            report_coasting=report_coasting,
-            max_active=max_active,
-        )
+    @takes_keywords_of(ConstantVelocityPose, PoseTrackingOptions)
+    def __init__(self, **options: Any) -> None:
+        motion, loop = split_keywords(ConstantVelocityPose, options)
+        super().__init__(ConstantVelocityPose(**motion), **loop)

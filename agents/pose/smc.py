@@ -12,9 +12,11 @@ selected for matched filters; the algorithm is described there).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
-from agents.pose.baseline import PoseTracker
-from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion
+from agents.pose.baseline import PoseTracker, PoseTrackingOptions
+from predictors.pose.options import split_keywords, takes_keywords_of
+from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings
 
 __all__ = ["DEFAULT_MODEL", "PoseSmcAgent"]
 
@@ -24,63 +26,20 @@ class PoseSmcAgent(PoseTracker):
 
     Args:
         model: A ``pose-lstm`` model file (default: the shipped ``pose-lstm-walkers``).
-        particles, window, alpha, elite, epistemic, aleatoric, fixed_sigma, recurrence,
-            share_windows: see :class:`~predictors.pose_lstm.motion.SmcPoseMotion` (defaults
-            P = 300, L = 10, α = 0.45, e = 0.15).
-        max_filters: ``F_max``, the most active filters (100).
-        oks_threshold, assignment, keypoint_threshold, min_pose_score, min_keypoints,
-            initial_lifetime, area_factor, report_coasting: see :class:`agents.pose.baseline.PoseTracker`.
+        max_filters: ``F_max``, the most active filters (the loop's ``max_active``).
+        options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
+            ``window``, ``alpha``, ``elite``, …) and of
+            :class:`~agents.pose.baseline.PoseTrackingOptions` but ``max_active``;
+            the signature lists them with their defaults.
     """
 
-    def __init__(
-        self,
-        model: str | Path | None = None,
-        *,
-        particles: int = 300,
-        window: int = 10,
-        alpha: float = 0.45,
-        elite: float = 0.15,
-        epistemic: bool = True,
-        aleatoric: bool = True,
-        fixed_sigma: float | None = None,
-        recurrence: str = "window",
-        share_windows: bool = True,
-        max_filters: int = 100,
-        oks_threshold: float = 0.3,
-        assignment: str = "hungarian",
-        keypoint_threshold: float = 0.0,
-        min_pose_score: float = 0.0,
-        min_keypoints: int = 1,
-        initial_lifetime: int = 0,
-        area_factor: float = 0.25,
-        report_coasting: bool = False,
-    ) -> None:
+    @takes_keywords_of(SmcSettings, PoseTrackingOptions, exclude=("max_active",))
+    def __init__(self, model: str | Path | None = None, *, max_filters: int = 100, **options: Any) -> None:
         from predictors.pose_lstm.predictor import PosePredictor
 
         if not (isinstance(max_filters, int) and max_filters >= 1):
             raise ValueError(f"max_filters (F_max) must be an integer >= 1, got {max_filters!r}")
-        motion = SmcPoseMotion(
-            None,
-            particles=particles,
-            window=window,
-            alpha=alpha,
-            elite=elite,
-            epistemic=epistemic,
-            aleatoric=aleatoric,
-            fixed_sigma=fixed_sigma,
-            recurrence=recurrence,
-            share_windows=share_windows,
-        )
-        super().__init__(
-            motion,
-            oks_threshold=oks_threshold,
-            assignment=assignment,
-            keypoint_threshold=keypoint_threshold,
-            min_pose_score=min_pose_score,
-            min_keypoints=min_keypoints,
-            initial_lifetime=initial_lifetime,
-            area_factor=area_factor,
-            report_coasting=report_coasting,
-            max_active=max_filters,
-        )
+        settings, loop = split_keywords(SmcSettings, options)
+        motion = SmcPoseMotion(None, **settings)
+        super().__init__(motion, max_active=max_filters, **loop)
         motion.predictor = PosePredictor(DEFAULT_MODEL if model is None else model)

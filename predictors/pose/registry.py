@@ -23,8 +23,8 @@ AGENTS = {"constant-velocity": ("pose-baseline",), "smc": ("pose-smc",)}
 
 def smc(model: str | os.PathLike[str] | None = None, **kwargs: Any) -> Any:
     """:class:`predictors.pose_lstm.motion.SmcPoseMotion` with the pose predictor of ``model`` (a
-    ``pose-lstm`` model file; ``None``: the shipped ``pose-lstm-walkers``); ``kwargs`` are its
-    keyword arguments (``particles``, ``window``, ``alpha``, …)."""
+    ``pose-lstm`` model file; ``None``: the shipped ``pose-lstm-walkers``); ``kwargs`` are the
+    keywords of :class:`predictors.pose_lstm.motion.SmcSettings` (``particles``, ``window``, …)."""
     from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion
     from predictors.pose_lstm.predictor import PosePredictor
 

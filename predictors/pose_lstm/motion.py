@@ -48,6 +48,7 @@ detections each frame, so both semantics share everything else.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +56,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.pose.base import centroid_fill
+from predictors.pose.options import takes_keywords_of
 from predictors.pose_lstm.predictor import window_features
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
 from track_envs.types import SensorSpec
@@ -97,11 +99,11 @@ def resample_indices(weights: NDArray[np.float64], rng: np.random.Generator) -> 
     return np.minimum(idx, P - 1)
 
 
-class SmcPoseMotion:
-    """Particles of pose queues proposed by the probabilistic pose predictor (see module docstring).
+@dataclass(frozen=True)
+class SmcSettings:
+    """The settings of the SMC pose motion (:class:`SmcPoseMotion`; the keywords of ``pose-smc``).
 
-    Args:
-        predictor: A :class:`~predictors.pose_lstm.predictor.PosePredictor`.
+    Attributes:
         particles: ``P`` particles per filter (>= 1).
         window: ``L`` poses per queue (>= 1).
         alpha: Probability α of proposing from the particle's own history (eq. 6), in [0, 1].
@@ -115,20 +117,18 @@ class SmcPoseMotion:
             is the same as re-running every particle's window, which ``False`` does.
     """
 
-    def __init__(
-        self,
-        predictor: Any,
-        *,
-        particles: int = 300,
-        window: int = 10,
-        alpha: float = 0.45,
-        elite: float = 0.15,
-        epistemic: bool = True,
-        aleatoric: bool = True,
-        fixed_sigma: float | None = None,
-        recurrence: str = "window",
-        share_windows: bool = True,
-    ) -> None:
+    particles: int = 300
+    window: int = 10
+    alpha: float = 0.45
+    elite: float = 0.15
+    epistemic: bool = True
+    aleatoric: bool = True
+    fixed_sigma: float | None = None
+    recurrence: str = "window"
+    share_windows: bool = True
+
+    def __post_init__(self) -> None:
+        particles, window, alpha, elite = self.particles, self.window, self.alpha, self.elite
         if not (isinstance(particles, int | np.integer) and particles >= 1):
             raise ValueError(f"particles (P) must be an integer >= 1, got {particles!r}")
         if not (isinstance(window, int | np.integer) and window >= 1):
@@ -137,18 +137,32 @@ class SmcPoseMotion:
             raise ValueError(f"alpha must be in [0, 1], got {alpha!r}")
         if not (isinstance(elite, int | float) and 0.0 < elite <= 1.0):
             raise ValueError(f"elite (the elite ratio) must be in (0, 1], got {elite!r}")
-        if fixed_sigma is not None and not (np.isfinite(fixed_sigma) and fixed_sigma >= 0):
-            raise ValueError(f"fixed_sigma must be None or a number >= 0, got {fixed_sigma!r}")
-        if recurrence not in ("window", "carried"):
-            raise ValueError(f"recurrence must be 'window' or 'carried', got {recurrence!r}")
+        if self.fixed_sigma is not None and not (np.isfinite(self.fixed_sigma) and self.fixed_sigma >= 0):
+            raise ValueError(f"fixed_sigma must be None or a number >= 0, got {self.fixed_sigma!r}")
+        if self.recurrence not in ("window", "carried"):
+            raise ValueError(f"recurrence must be 'window' or 'carried', got {self.recurrence!r}")
+
+
+class SmcPoseMotion:
+    """Particles of pose queues proposed by the probabilistic pose predictor (see module docstring).
+
+    Args:
+        predictor: A :class:`~predictors.pose_lstm.predictor.PosePredictor`.
+        settings: The keywords of :class:`SmcSettings` (``particles``, ``window``, ``alpha``, …).
+    """
+
+    @takes_keywords_of(SmcSettings)
+    def __init__(self, predictor: Any, **settings: Any) -> None:
+        self.settings = SmcSettings(**settings)
+        s = self.settings
         self.predictor = predictor
-        self.P, self.L = int(particles), int(window)
-        self.alpha, self.elite = float(alpha), float(elite)
+        self.P, self.L = int(s.particles), int(s.window)
+        self.alpha, self.elite = float(s.alpha), float(s.elite)
         self.n_elite = max(1, math.ceil(self.elite * self.P - 1e-9))
-        self.epistemic, self.aleatoric = bool(epistemic), bool(aleatoric)
-        self.fixed_sigma = fixed_sigma
-        self.recurrence = recurrence
-        self.share_windows = bool(share_windows)
+        self.epistemic, self.aleatoric = bool(s.epistemic), bool(s.aleatoric)
+        self.fixed_sigma = s.fixed_sigma
+        self.recurrence = s.recurrence
+        self.share_windows = bool(s.share_windows)
 
     # -- episode state -------------------------------------------------------------------------
     def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
