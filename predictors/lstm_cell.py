@@ -1,4 +1,4 @@
-"""The inference LSTM cell of every learned family (numpy and compiled; no torch at run time).
+"""The inference LSTM cell of every learned family (numpy and compiled; torch only if asked for).
 
 One step of an LSTM layer of ``H`` units with input ``x`` (n, In) and state ``h, c`` (n, H), in
 torch's gate order ``i, f, g, o`` (the row blocks of ``weight_ih``, ``weight_hh`` and the biases):
@@ -22,6 +22,11 @@ evaluate the equations above:
   ``W = [w_ih; w_hh; b]`` (In + H + 1, 4H) multiplies ``[x, h, 1]``, its columns reordered to
   ``i, f, o, g`` and the sigmoid gates' columns multiplied by ½, so ``tanh(xh W)`` holds
   ``tanh(a/2)`` for the three sigmoid gates and ``tanh(a_g)`` for the cell input;
+  :meth:`FusedLSTMCell.sequence` runs the same step (the same gates, :func:`_gates`) over whole
+  sequences, a block of rows at a time in the transposed layout ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (the pose
+  predictor's windows). Its products are numpy's (the default) or, with ``matmul="torch"``,
+  ``torch.matmul`` on views of the same arrays (:data:`MATMULS`; the pose predictor's, since torch's
+  GEMM follows ``torch.set_num_threads`` and gives the same bits at any thread count);
 * the compiled steps for kernels: :func:`cell_step` (one row, fused ``[w_ih; w_hh]``, scalar loops;
   the belt LSTMs' roll-out to the nozzle bar) and :func:`cell_step_rows` (rows, the products by
   BLAS; the displacement LSTM's particle-filter frame), both through :func:`cell_update`, the

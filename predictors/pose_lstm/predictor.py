@@ -77,14 +77,17 @@ class PosePredictor:
 
     The LSTM runs through the inference cell of every learned family,
     :class:`predictors.lstm_cell.FusedLSTMCell` (float32, built from the model file's ``lstm.*``
-    tensors), its products by ``torch.matmul`` (``matmul="torch"``: torch's float32 GEMM, which
-    follows ``torch.set_num_threads``; at one thread the windows of a pose-smc frame encode about
-    1.2x faster than torch's ``nn.LSTM``); the fully-connected head is the network's
+    tensors; :meth:`~predictors.lstm_cell.FusedLSTMCell.sequence` over the windows, blocks of rows),
+    its products by ``torch.matmul`` (``matmul="torch"``): torch's GEMM follows
+    ``torch.set_num_threads`` and gives the same bits at any thread count, which numpy's BLAS does
+    not. At one thread this encodes a pose-smc frame's windows ≈1.2x faster than torch's
+    ``nn.LSTM``. The fully-connected head is the network's
     (:meth:`PosePredictorNet.head <predictors.pose_lstm.network.PosePredictorNet.head>`).
+
     Tolerance: the LSTM outputs equal ``PosePredictorNet.lstm`` (torch's oneDNN kernel) to 1e-6
-    (tested on the shipped weights), not bit for bit, since the two float32 GEMMs sum in different
-    orders. On the quick suite this moves the pose-smc trackers' mean OKS by < 1e-9 and leaves every
-    count (MOTA, ID switches, misses, false positives) equal.
+    (tested on the shipped weights), not bit for bit: the two float32 GEMMs sum in different
+    orders. On the quick suite this moves the pose-smc tracker's mean OKS by < 1e-9 and leaves
+    MOTA, ID switches, misses, false positives and OKS recall and precision equal.
 
     Args:
         model: A ``pose-lstm`` model file (path or loaded).
