@@ -1,4 +1,4 @@
-"""The inference LSTM cell of every learned family (numpy and compiled; no torch at run time).
+"""The inference LSTM cell of every learned family (numpy and compiled; torch only if asked for).
 
 One step of an LSTM layer of ``H`` units with input ``x`` (n, In) and state ``h, c`` (n, H), in
 torch's gate order ``i, f, g, o`` (the row blocks of ``weight_ih``, ``weight_hh`` and the biases):
@@ -22,6 +22,11 @@ evaluate the equations above:
   ``W = [w_ih; w_hh; b]`` (In + H + 1, 4H) multiplies ``[x, h, 1]``, its columns reordered to
   ``i, f, o, g`` and the sigmoid gates' columns multiplied by ½, so ``tanh(xh W)`` holds
   ``tanh(a/2)`` for the three sigmoid gates and ``tanh(a_g)`` for the cell input;
+  :meth:`FusedLSTMCell.sequence` runs the same step (the same gates, :func:`_gates`) over whole
+  sequences, a block of rows at a time in the transposed layout ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (the pose
+  predictor's windows). Its products are numpy's (the default) or, with ``matmul="torch"``,
+  ``torch.matmul`` on views of the same arrays (:data:`MATMULS`; the pose predictor's, since torch's
+  GEMM follows ``torch.set_num_threads`` and gives the same bits at any thread count);
 * the compiled steps for kernels: :func:`cell_step` (one row, fused ``[w_ih; w_hh]``, scalar loops;
   the belt LSTMs' roll-out to the nozzle bar) and :func:`cell_step_rows` (rows, the products by
   BLAS; the displacement LSTM's particle-filter frame), both through :func:`cell_update`, the
@@ -43,6 +48,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, TypeVar, cast
 
 import numpy as np
@@ -152,15 +158,59 @@ class LSTMCellWeights:
         c_new = f * c + i * g
         return cast("tuple[NDArray[F], NDArray[F]]", (o * np.tanh(c_new), c_new))
 
-    def fused(self) -> FusedLSTMCell:
-        """This layer as a float32 :class:`FusedLSTMCell` (fused and reordered in this dtype, then cast)."""
+    def fused(self, matmul: str = "numpy") -> FusedLSTMCell:
+        """This layer as a float32 :class:`FusedLSTMCell` (fused and reordered in this dtype, then cast)
+        whose products run on ``matmul`` (:data:`MATMULS`)."""
         H = self.hidden
         order = np.concatenate(
             [np.arange(0, H), np.arange(H, 2 * H), np.arange(3 * H, 4 * H), np.arange(2 * H, 3 * H)]
         )
         scale = np.concatenate([np.full(3 * H, 0.5), np.ones(H)])
         w = np.vstack([self.w_ih, self.w_hh, self.b[None, :]])[:, order] * scale
-        return FusedLSTMCell(w.astype(np.float32), self.inputs)
+        return FusedLSTMCell(w.astype(np.float32), self.inputs, matmul)
+
+
+#: The products a :class:`FusedLSTMCell` can run on: numpy's ``matmul`` (its BLAS) or ``torch.matmul``
+#: on zero-copy views of the same arrays (torch's BLAS, which follows ``torch.set_num_threads``).
+MATMULS = ("numpy", "torch")
+
+
+def _torch_matmul(a: NDArray[np.float32], b: NDArray[np.float32], out: NDArray[np.float32]) -> None:
+    """``out = a b`` by ``torch.matmul`` on views of the numpy arrays (no copies)."""
+    import torch
+
+    torch.matmul(torch.from_numpy(a), torch.from_numpy(b), out=torch.from_numpy(out))
+
+
+def _gates(
+    t: NDArray[np.float32],
+    c: NDArray[np.floating],
+    c_out: NDArray[np.floating],
+    h_out: NDArray[np.floating],
+    tmp: NDArray[np.floating],
+    axis: int = 1,
+) -> None:
+    """The gates and state update of :class:`FusedLSTMCell`, in place.
+
+    ``t = tanh(xh W)`` with the gates ``i, f, o, g`` along ``axis`` (the sigmoid gates' blocks hold
+    ``tanh(a/2)``): (n, 4H) rows of the state (``axis=1``) or its transpose (4H, n) (``axis=0``,
+    where every block is contiguous). Its first 3H become ``σ = ½ tanh(a/2) + ½``; then
+    ``c_out = σ_f ⊙ c + σ_i ⊙ tanh(a_g)`` (``c_out`` may be ``c``) and ``h_out = σ_o ⊙ tanh(c_out)``,
+    laid out as ``t``'s blocks; ``tmp`` is scratch of their shape.
+    """
+    H = c.shape[axis]
+
+    def block(j: int, width: int = 1) -> NDArray[np.float32]:
+        return t[:, j * H : (j + width) * H] if axis == 1 else t[j * H : (j + width) * H]
+
+    gates = block(0, 3)  # ½ tanh(a/2) + ½ = σ(a), in place
+    gates *= 0.5
+    gates += 0.5
+    np.multiply(block(1), c, out=c_out)
+    np.multiply(block(0), block(3), out=tmp)
+    c_out += tmp
+    np.tanh(c_out, out=tmp)  # of a contiguous array, as every tanh here
+    np.multiply(block(2), tmp, out=h_out)
 
 
 @dataclass(frozen=True)
@@ -171,32 +221,116 @@ class FusedLSTMCell:
         w: The fused weight (In + H + 1, 4H): ``[w_ih; w_hh; b]``, columns ``i, f, o, g``, the
             sigmoid gates' columns × ½.
         n_in: Input width ``In``.
+        matmul: What computes the products (:data:`MATMULS`): ``"numpy"`` or ``"torch"`` (needs
+            torch). The two GEMMs sum in different orders, so they agree to float32 rounding, not
+            bit for bit; the gates are numpy either way.
+
+    Raises:
+        ValueError: ``matmul`` not in :data:`MATMULS`.
     """
 
     w: NDArray[np.float32]
     n_in: int
+    matmul: str = "numpy"
+
+    def __post_init__(self) -> None:
+        if self.matmul not in MATMULS:
+            raise ValueError(f"matmul must be one of {MATMULS}, got {self.matmul!r}")
 
     @property
     def hidden(self) -> int:
         """Hidden units ``H``."""
         return int(self.w.shape[1] // 4)
 
+    @cached_property
+    def w_t(self) -> NDArray[np.float32]:
+        """``Wᵀ`` (4H, In + H + 1), C-contiguous: the weight of :meth:`sequence`'s products."""
+        return np.ascontiguousarray(self.w.T)
+
+    def _product(
+        self, a: NDArray[np.float32], b: NDArray[np.float32], out: NDArray[np.float32]
+    ) -> NDArray[np.float32]:
+        """``out = a b`` on :attr:`matmul`."""
+        if self.matmul == "torch":
+            _torch_matmul(a, b, out)
+        else:
+            np.matmul(a, b, out=out)
+        return out
+
     def step(
         self, x: NDArray[np.floating], h: NDArray[np.floating], c: NDArray[np.floating]
     ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """New ``(h, c)`` (float32) of rows ``x`` (n, In) with state ``h, c`` (n, H)."""
         H, k = self.hidden, self.n_in
-        xh = np.empty((len(x), k + H + 1), dtype=np.float32)
+        n = len(x)
+        xh = np.empty((n, k + H + 1), dtype=np.float32)
         xh[:, :k] = x
         xh[:, k : k + H] = h
         xh[:, k + H] = 1.0
-        t = np.tanh(xh @ self.w)
-        gates = t[:, : 3 * H]  # ½ tanh(a/2) + ½ = σ(a), in place
-        gates *= 0.5
-        gates += 0.5
-        c_new = gates[:, H : 2 * H] * c
-        c_new += gates[:, :H] * t[:, 3 * H :]
-        return gates[:, 2 * H :] * np.tanh(c_new), c_new
+        t = np.tanh(self._product(xh, self.w, np.empty((n, 4 * H), np.float32)))
+        c = np.asarray(c)
+        dtype = np.result_type(np.float32, c.dtype)  # float32 unless the state is wider
+        h_new, c_new, tmp = (np.empty((n, H), dtype) for _ in range(3))
+        _gates(t, c, c_new, h_new, tmp)
+        return h_new, c_new
+
+    def sequence(
+        self,
+        x: NDArray[np.floating],
+        state: tuple[NDArray[np.floating], NDArray[np.floating]] | None = None,
+        block: int = 512,
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """The state ``(h, c)`` (n, H) (float32) after the ``L`` steps of sequences ``x`` (n, L, In).
+
+        From ``state`` ``(h, c)`` (n, H each; zero if None). The equations of :meth:`step` (the
+        same :func:`_gates`), run ``block`` rows at a time through all ``L`` steps in the
+        transposed layout, ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (4H, block), so that a block stays in the CPU
+        cache and every gate is a contiguous array. From the zero state the first product is
+        ``Wᵀ [x, 1]ᵀ`` over the input and bias rows only (``h = 0``). The results equal
+        :meth:`step`'s to float32 rounding (the GEMM of another layout sums in another order).
+
+        Raises:
+            ValueError: ``x`` not (n, L, In), a ``state`` not (n, H), or ``block`` < 1.
+        """
+        H, k = self.hidden, self.n_in
+        x = np.asarray(x)
+        if x.ndim != 3 or x.shape[2] != k:
+            raise ValueError(f"x must be (n, L, {k}) sequences, got shape {x.shape}")
+        n, L = x.shape[:2]
+        if state is not None and not all(np.shape(a) == (n, H) for a in state):
+            raise ValueError(f"state must be (h, c) of shape {(n, H)}, got {[np.shape(a) for a in state]}")
+        if block < 1:
+            raise ValueError(f"block must be >= 1, got {block!r}")
+        w_t = self.w_t
+        w0_t = np.ascontiguousarray(w_t[:, [*range(k), k + H]])  # the input and bias rows
+        h_out, c_out = np.empty((n, H), np.float32), np.empty((n, H), np.float32)
+        width = 0
+        for s in range(0, n, block):
+            e = min(s + block, n)
+            if e - s != width:  # buffers (transposed: one column per sequence)
+                width = e - s
+                xh, a, c, tmp = (np.empty((r, width), np.float32) for r in (k + H + 1, 4 * H, H, H))
+                x0 = np.ones((k + 1, width), np.float32)
+                xh[k + H] = 1.0
+            h = xh[k : k + H]  # written where the next product reads it
+            if state is None:
+                c[:] = 0.0
+                h[:] = 0.0
+            else:
+                h[:] = state[0][s:e].T
+                c[:] = state[1][s:e].T
+            for t in range(L):
+                if t == 0 and state is None:
+                    x0[:k] = x[s:e, 0].T
+                    self._product(w0_t, x0, a)
+                else:
+                    xh[:k] = x[s:e, t].T
+                    self._product(w_t, xh, a)
+                np.tanh(a, out=a)
+                _gates(a, c, c, h, tmp, axis=0)
+            h_out[s:e] = h.T
+            c_out[s:e] = c.T
+        return h_out, c_out
 
 
 # -- compiled (numba) ---------------------------------------------------------------------------
@@ -278,6 +412,7 @@ def cell_step_rows(
 
 
 __all__ = [
+    "MATMULS",
     "FusedLSTMCell",
     "LSTMCellWeights",
     "cell_step",

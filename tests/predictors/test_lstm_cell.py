@@ -206,3 +206,52 @@ def test_pose_network_numpy_equals_torch() -> None:
             h, c = step(x[:, t], h, c)
         np.testing.assert_allclose(h, h_t[0].numpy(), rtol=0, atol=1e-6)
         np.testing.assert_allclose(c, c_t[0].numpy(), rtol=0, atol=1e-6)
+    for matmul in ("numpy", "torch"):  # the predictor's path: whole windows, blocks of rows
+        h, c = cell.fused(matmul).sequence(x, block=48)
+        np.testing.assert_allclose(h, h_t[0].numpy(), rtol=0, atol=1e-6)
+        np.testing.assert_allclose(c, c_t[0].numpy(), rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("matmul", ["numpy", "torch"])
+def test_the_blocked_sequence_equals_the_steps_and_torch(matmul: str) -> None:
+    """:meth:`FusedLSTMCell.sequence` (blocks of rows, transposed layout) equals :meth:`step` run
+    L times and torch's LSTM to float32 rounding, from the zero state and from a given one, for
+    blocks that do and do not divide the rows."""
+    net = _torch_lstm(3, 20, torch.float32, seed=7)
+    rng = np.random.default_rng(7)
+    x = rng.normal(0, 1.5, (70, 6, 3)).astype(np.float32)
+    h0, c0 = (rng.normal(0, 0.5, (70, 20)).astype(np.float32) for _ in range(2))
+    cell = _weights(net, np.float64).fused(matmul)
+    for state in (None, (h0, c0)):
+        with torch.no_grad():
+            hc = None if state is None else tuple(torch.from_numpy(a)[None] for a in state)
+            _, (h_t, c_t) = net(torch.from_numpy(x), hc)
+        h, c = (np.zeros((70, 20), np.float32),) * 2 if state is None else state
+        for t in range(x.shape[1]):
+            h, c = cell.step(x[:, t], h, c)
+        for block in (1, 16, 70, 512):
+            h_s, c_s = cell.sequence(x, state, block=block)
+            assert h_s.dtype == c_s.dtype == np.float32 and h_s.shape == c_s.shape == (70, 20)
+            np.testing.assert_allclose(h_s, h, rtol=0, atol=1e-6, err_msg=f"block {block}")
+            np.testing.assert_allclose(c_s, c, rtol=0, atol=1e-6, err_msg=f"block {block}")
+            np.testing.assert_allclose(h_s, h_t[0].numpy(), rtol=0, atol=1e-6, err_msg=f"block {block}")
+            np.testing.assert_allclose(c_s, c_t[0].numpy(), rtol=0, atol=1e-6, err_msg=f"block {block}")
+    empty = cell.sequence(np.zeros((0, 4, 3), np.float32))
+    assert empty[0].shape == (0, 20)
+
+
+def test_the_matmuls_agree_and_bad_arguments_are_named() -> None:
+    cell = _weights(_torch_lstm(3, 8, torch.float32, seed=8), np.float64)
+    x = np.random.default_rng(8).normal(0, 1.5, (9, 3)).astype(np.float32)
+    zero = np.zeros((9, 8), np.float32)
+    for a, b in zip(cell.fused().step(x, zero, zero), cell.fused("torch").step(x, zero, zero), strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-6)
+    with pytest.raises(ValueError, match=r"matmul must be one of \('numpy', 'torch'\), got 'blas'"):
+        cell.fused("blas")
+    fused = cell.fused()
+    with pytest.raises(ValueError, match=r"\(n, L, 3\).*\(9, 3\)"):
+        fused.sequence(x)
+    with pytest.raises(ValueError, match=r"block must be >= 1, got 0"):
+        fused.sequence(x[:, None], block=0)
+    with pytest.raises(ValueError, match=r"state must be \(h, c\) of shape \(9, 8\)"):
+        fused.sequence(x[:, None], (zero[:3], zero))

@@ -91,3 +91,40 @@ def test_the_training_command_writes_a_model_file_the_predictor_loads(tmp_path):
     predictor = PosePredictor(model)
     assert predictor.scale_for(720.0) == pytest.approx(10.0)
     assert train_main(["pose-lstm", "--sine", "--out", str(out)]) == 2  # needs a keypoint env
+
+
+def _walker_windows(n: int, L: int, seed: int) -> np.ndarray:
+    """Pointwise windows (n, L, 3) like the tracker's queues: walks with gaps and zero (unborn) prefixes."""
+    rng = np.random.default_rng(seed)
+    pos = 360.0 + np.cumsum(rng.normal(0, 8.0, (n, L, 2)), axis=1)
+    vis = rng.random((n, L)) < 0.85
+    vis[np.arange(n) < n // 4, : L // 2] = False  # a quarter of new filters: zeros before their first pose
+    return np.concatenate([np.where(vis[..., None], pos, 0.0), vis[..., None]], axis=-1)
+
+
+def test_the_shipped_predictor_encodes_as_torchs_lstm_to_1e6():
+    """The pose predictor's LSTM (the shared float32 cell, torch's GEMM) equals the network's
+    ``nn.LSTM`` to 1e-6 on the shipped weights: windows (several row blocks and a partial one),
+    the distribution of the head, and the carried steps (``h``; ``c`` to 1e-6 of its size)."""
+    import torch
+
+    from predictors.pose_lstm.motion import DEFAULT_MODEL
+
+    predictor = PosePredictor(DEFAULT_MODEL)
+    scale = predictor.scale_for(720.0)
+    inputs, _, _ = window_features(_walker_windows(1300, 10, 0), scale)
+    with torch.inference_mode():
+        _, (h_t, c_t) = predictor.net.lstm(torch.from_numpy(inputs))
+        mu_t, log_sigma_t = predictor.net.head(h_t[0])
+    h = predictor.encode(inputs)
+    assert h.dtype == np.float32 and h.shape == (1300, predictor.hidden)
+    np.testing.assert_allclose(h, h_t[0].numpy(), rtol=0, atol=1e-6)
+    mu, sigma = predictor.distribution(inputs, None, epistemic=False)
+    np.testing.assert_allclose(mu, mu_t.numpy(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(np.log(sigma), log_sigma_t.numpy(), rtol=0, atol=1e-5)
+    state = None  # carried: one step at a time from the zero state
+    for t in range(inputs.shape[1]):
+        state = predictor.step(inputs[:, t], state)
+    np.testing.assert_allclose(state[0], h_t[0].numpy(), rtol=0, atol=1e-6)
+    # the cell state grows to |c| ≈ 3 here: 1e-6 of its size (a few float32 ulp)
+    np.testing.assert_allclose(state[1], c_t[0].numpy(), rtol=1e-6, atol=1e-6)
