@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from agents.pose.baseline import PoseTracker, PoseTrackingOptions
-from predictors.pose.options import split_keywords, takes_keywords_of
 from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings
+from track_envs.registry import split_keywords, takes_keywords_of
 
 __all__ = ["DEFAULT_MODEL", "PoseSmcAgent"]
 

@@ -4,9 +4,8 @@
   OKS scores instead of a Gaussian, whole 17-keypoint poses) and :func:`centroid_fill`;
 * :mod:`~predictors.pose.constant_velocity`: :class:`ConstantVelocityPose`;
 * :mod:`~predictors.pose.registry`: :data:`POSE_MOTIONS` (the SMC motion of the pose LSTM lives in
-  :mod:`predictors.pose_lstm.motion`);
-* :mod:`~predictors.pose.options`: :func:`~predictors.pose.options.takes_keywords_of`, how the pose
-  trackers take the keywords of the settings they forward (each declared once).
+  :mod:`predictors.pose_lstm.motion`). The pose trackers take the keywords of the settings they
+  forward (each declared once) with :func:`track_envs.registry.takes_keywords_of`.
 """
 
 from predictors.pose.base import PoseMotion, centroid_fill

@@ -56,9 +56,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.pose.base import centroid_fill
-from predictors.pose.options import takes_keywords_of
 from predictors.pose_lstm.predictor import window_features
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
+from track_envs.registry import takes_keywords_of
 from track_envs.types import SensorSpec
 
 #: The shipped pose predictor (trained by the command in its sidecar).

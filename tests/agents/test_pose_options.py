@@ -13,9 +13,8 @@ from agents.bench.cells import expand, load_suite
 from agents.pose.baseline import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
 from agents.pose.smc import PoseSmcAgent
 from predictors.pose import ConstantVelocityPose
-from predictors.pose.options import keyword_parameters, split_keywords, takes_keywords_of
 from predictors.pose_lstm.motion import SmcPoseMotion, SmcSettings
-from track_envs.registry import UnknownArgumentError
+from track_envs.registry import UnknownArgumentError, keyword_parameters, split_keywords, takes_keywords_of
 
 LOOP = [f.name for f in dataclasses.fields(PoseTrackingOptions)]
 SMC = [f.name for f in dataclasses.fields(SmcSettings)]
