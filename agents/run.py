@@ -17,6 +17,8 @@ The command-line front end is ``track run`` (:mod:`agents.cli.run`).
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -24,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from track_envs.detections import Detections
+from track_envs.report import ReportOverflowError
 from track_envs.tracks import Tracks
 from track_envs.types import SensorSpec
 
@@ -57,6 +60,7 @@ def run_agent(
     covariance: bool = False,
     progress: bool = False,
     reset: bool = True,
+    grow: bool = True,
 ) -> Tracks:
     """Track a stream of detections with ``agent``; return every frame's reported tracks.
 
@@ -73,6 +77,12 @@ def run_agent(
             ``track_covariances()``; ignored (``Tracks.cov`` None) for an agent without it.
         progress: Show a tqdm progress bar (frames) on stderr.
         reset: Call ``agent.reset(spec, seed=seed)`` first (False: the caller has).
+        grow: When the agent has more live tracks than ``spec.max_tracks`` report rows (a
+            :class:`~track_envs.report.ReportOverflowError`), warn and run the stream again from
+            the start with ``max_tracks`` doubled (at least twice the tracks that overflowed),
+            so that a report size never makes a valid stream fail. The rows of a report do not
+            change the tracks of a deterministic agent, so the result is the run a large enough
+            report gives. Needs ``reset`` (an agent that was reset by the caller cannot be run again).
 
     Returns:
         :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
@@ -98,8 +108,26 @@ def run_agent(
             f"frame {t} holds {counts[t]} detections, more than max_detections={spec.max_detections}; "
             f"the fullest frame holds {counts.max()}"
         )
-    if reset:
-        agent.reset(spec, seed=seed)
+    while True:
+        if reset:
+            agent.reset(spec, seed=seed)
+        try:
+            return _run(agent, stream, spec, covariance=covariance, progress=progress)
+        except ReportOverflowError as exc:
+            if not (grow and reset):
+                raise
+            rows = max(2 * spec.max_tracks, 2 * exc.n_tracks)
+            warnings.warn(
+                f"{exc.n_tracks} live tracks did not fit a report of max_tracks={spec.max_tracks}; "
+                f"tracking again with max_tracks={rows}",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            spec = dataclasses.replace(spec, max_tracks=rows)
+
+
+def _run(agent: Any, stream: Detections, spec: SensorSpec, *, covariance: bool, progress: bool) -> Tracks:
+    """The loop of :func:`run_agent` over a reset agent."""
     covariances = getattr(agent, "track_covariances", None) if covariance else None
     bar = _progress(stream.n_frames, progress)
     act = agent.act

@@ -125,6 +125,22 @@ def empty_report(max_tracks: int, position_shape: tuple[int, ...]) -> dict[str, 
     }
 
 
+class ReportOverflowError(ValueError):
+    """More live tracks than a report has rows: ``n_tracks`` tracks, ``max_tracks`` rows.
+
+    A ``ValueError``, so callers that catch those still do; :func:`agents.run.run_agent` catches
+    this one and runs again with a larger report.
+    """
+
+    def __init__(self, n_tracks: int, max_tracks: int) -> None:
+        super().__init__(
+            f"{n_tracks} live tracks do not fit a report of max_tracks={max_tracks}; raise max_tracks "
+            "in the environment (or delete tracks sooner)"
+        )
+        self.n_tracks = int(n_tracks)
+        self.max_tracks = int(max_tracks)
+
+
 def pack_report(
     ids: NDArray[np.integer],
     positions: NDArray[np.floating],
@@ -134,14 +150,12 @@ def pack_report(
     """Pad ``n`` live tracks into a report of ``max_tracks`` rows.
 
     Raises:
-        ValueError: if ``n > max_tracks`` (no track is dropped silently) or the arrays disagree.
+        ReportOverflowError: if ``n > max_tracks`` (no track is dropped silently; a ValueError).
+        ValueError: if the arrays disagree.
     """
     n = len(ids)
     if n > max_tracks:
-        raise ValueError(
-            f"{n} live tracks do not fit a report of max_tracks={max_tracks}; raise max_tracks "
-            "in the environment (or delete tracks sooner)"
-        )
+        raise ReportOverflowError(n, max_tracks)
     positions = np.asarray(positions)
     if positions.shape[0] != n or len(detection) != n:
         raise ValueError(

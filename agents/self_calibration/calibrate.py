@@ -1,0 +1,490 @@
+"""Self-calibration: the sensor and motion noise of a Kalman tracker estimated from its own tracks.
+
+:func:`calibrate` needs nothing but the detections and the frame period. It iterates
+
+1. **first settings from the data** (:mod:`agents.self_calibration.scales`): the flow ``ū`` and
+   spread ``s`` of the frame-to-frame displacements give the measurement noise std ``s / 2``, a
+   process noise whose one-frame position std is ``s``, a velocity prior ``N(ū / dt, (2 s / dt)²)``
+   and an acceleration std ``2 s / dt²``;
+2. **track** the stream with the GNN tracker and the chosen Kalman model (:mod:`agents.gnn`);
+3. **estimate** from the confident tracks (at least ``MIN_TRACK_LENGTH`` detections) the
+   measurement variance ``r`` and the process-noise intensity ``q`` of the model by autocovariance
+   least squares on the differenced detections (:mod:`agents.self_calibration.noise`; Odelson,
+   Rajamani and Rawlings 2006), and the velocity prior — median and robust spread of each track's
+   first velocity — and, for the constant-acceleration model, the spread of the first accelerations;
+4. **repeat** 2–3 with the new settings until ``r`` and ``q`` change by less than ``SETTLED``
+   (relative) or ``max_iterations`` runs were made.
+
+The tracking runs work on the detections divided by a power of two near the stream's length
+``ℓ`` (exact in floating point), so the filters' absolute floors (``R >= 1e-12``) never meet the
+data, and every estimate is a second moment of positions: positions × k give ``σ`` × k, ``q`` × k²,
+velocities × k — the same tracks in pixels and in metres.
+
+Floors, relative to the data: ``σ >= 1e-3 ℓ`` and a process noise whose one-frame position variance
+is at least ``MIN_PROCESS_SHARE`` of ``r`` (a filter that believes its targets never deviate from
+the model stops following them).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.self_calibration.coasting import coasting_radii, reappearance_gaps
+from agents.self_calibration.noise import NoiseEstimate, estimate_noise
+from agents.self_calibration.scales import DataScales, data_scales
+from track_envs.detections import Detections
+from track_envs.tracks import Tracks
+from track_envs.types import SensorSpec
+
+#: Kalman model of each predictor the calibration knows; any other predictor is calibrated with
+#: the constant-velocity model, and only its measurement noise (the sensor spec's) is used.
+PREDICTOR_MODELS: dict[str, str] = {"kf-cv": "cv", "kf-ca": "ca", "random-walk": "random-walk"}
+#: Kinematic orders ``m`` of the models (the estimator's difference order).
+MODEL_ORDERS: dict[str, int] = {"random-walk": 1, "cv": 2, "ca": 3}
+#: Fewest detections of a track that the estimate takes.
+MIN_TRACK_LENGTH = 6
+#: Relative change of ``r`` and ``q`` under which the iteration stops.
+SETTLED = 0.1
+#: Least one-frame process position variance, as a share of ``r``.
+MIN_PROCESS_SHARE = 0.01
+#: Frames into a track its first velocity (and acceleration) are taken over.
+START_SPAN = 3
+#: The gate probability of the tracker (its default), for the printed gate radius.
+DEFAULT_P_GATE = 0.999
+#: Fewest frames a track may coast (the gnn's default).
+MIN_MAX_MISSES = 2
+#: Most frames a track may coast.
+MAX_MAX_MISSES = 100
+#: Share of track ends whose target re-appears (:mod:`agents.self_calibration.coasting`) from which
+#: tracks coast through the longest gap seen.
+REAPPEAR_SHARE = 0.05
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Tracker settings in input units: noise std, ``q``, velocity prior, acceleration std."""
+
+    noise_std: float
+    q: float
+    velocity_mean: NDArray[np.float64]
+    velocity_std: float
+    acceleration_std: float
+
+    def scaled(self, k: float) -> Settings:
+        """The settings for positions × ``k`` (``q`` is a variance intensity: × k²)."""
+        return Settings(
+            self.noise_std * k,
+            self.q * k * k,
+            self.velocity_mean * k,
+            self.velocity_std * k,
+            self.acceleration_std * k,
+        )
+
+
+@dataclass(frozen=True)
+class SelfCalibration:
+    """What :func:`calibrate` estimated, in the units of the input (positions as given, seconds).
+
+    Attributes:
+        dt: Frame period (s).
+        predictor: The predictor the settings are for; ``model`` its Kalman model.
+        noise_std: Measurement noise std per axis ``σ`` (the tracker's ``R = σ² I``).
+        q: Process-noise intensity of the model (units² / s³ for cv, / s⁵ for ca, / s for random-walk).
+        velocity_mean: (D,) mean velocity of a new track (units / s).
+        velocity_std: Std of a new track's velocity per axis (units / s).
+        acceleration_std: Std of a new track's acceleration (units / s²; used by ca).
+        p_gate: Gate probability; ``gate_radius`` the χ² gate at the steady-state innovation of a
+            track updated every frame, as a distance (units).
+        length: The stream's median nearest-neighbour distance within a frame (units).
+        flow: (D,) most common displacement per frame (units).
+        threshold: The default metric match distance, ``length / 2`` (units).
+        max_misses: Frames a track may coast: when at least ``REAPPEAR_SHARE`` of the confident
+            tracks' ends are followed by a start of the same target (their re-appearances,
+            :mod:`agents.self_calibration.coasting`, looked for while the coasted gate radius stays
+            within ``length / 2``), the longest gap of those; else ``MIN_MAX_MISSES``.
+        reappearing: That share; ``reappearance_gaps``: the gaps seen (frames).
+        iterations: Tracking runs made; ``settled``: whether ``r`` and ``q`` settled.
+        n_tracks: Confident tracks of the last estimate; ``n_differences``: differences it used.
+        sources: For each setting, ``"estimated"`` or ``"given"``.
+        history: ``(σ, q)`` after each run.
+    """
+
+    dt: float
+    predictor: str
+    model: str
+    noise_std: float
+    q: float
+    velocity_mean: tuple[float, ...]
+    velocity_std: float
+    acceleration_std: float
+    p_gate: float
+    gate_radius: float
+    length: float
+    flow: tuple[float, ...]
+    threshold: float
+    max_misses: int
+    reappearing: float
+    reappearance_gaps: tuple[int, ...]
+    iterations: int
+    settled: bool
+    n_tracks: int
+    n_differences: int
+    sources: dict[str, str] = field(default_factory=dict)
+    history: tuple[tuple[float, float], ...] = ()
+
+    def agent_kwargs(self) -> dict[str, Any]:
+        """``make_agent("gnn", predictor=..., **kwargs)`` keywords that carry the settings (the
+        measurement noise goes in the sensor spec, :meth:`sensor_spec`); empty for a predictor
+        that is not one of :data:`PREDICTOR_MODELS`."""
+        if self.predictor not in PREDICTOR_MODELS:
+            return {}
+        kwargs: dict[str, Any] = {"q": self.q, "max_misses": self.max_misses}
+        if self.model != "random-walk":
+            kwargs |= {
+                "initial_velocity": np.array(self.velocity_mean),
+                "initial_velocity_std": self.velocity_std,
+                "velocity_fallback": np.array(self.velocity_mean),
+            }
+        if self.model == "ca":
+            kwargs["initial_acceleration_std"] = self.acceleration_std
+        return kwargs
+
+    def sensor_spec(self, spec: SensorSpec) -> SensorSpec:
+        """``spec`` with the calibrated measurement noise std."""
+        return dataclasses.replace(spec, noise_std=self.noise_std)
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (units: those of the input, seconds)."""
+        out = dataclasses.asdict(self)
+        out["velocity_mean"] = list(self.velocity_mean)
+        out["flow"] = list(self.flow)
+        out["history"] = [list(h) for h in self.history]
+        out["units"] = "input units (positions as given after --scale), seconds"
+        return out
+
+
+def _order(predictor: str) -> tuple[str, int]:
+    model = PREDICTOR_MODELS.get(predictor, "cv")
+    return model, MODEL_ORDERS[model]
+
+
+def first_settings(scales: DataScales, dt: float, order: int) -> Settings:
+    """The settings of the first run from the stream's scales (module docstring, step 1)."""
+    s = scales.spread
+    m = order
+    # one-frame position variance of the process noise: q dt^(2m−1) / ((2m−1) ((m−1)!)²) = s²
+    q = s * s * (2 * m - 1) * math.factorial(m - 1) ** 2 / dt ** (2 * m - 1)
+    return Settings(
+        noise_std=s / 2,
+        q=q,
+        velocity_mean=scales.flow / dt,
+        velocity_std=2 * s / dt,
+        acceleration_std=2 * s / dt**2,
+    )
+
+
+def detection_labels(detections: Detections, tracks: Tracks) -> NDArray[np.int64]:
+    """(N,) the id of the track each detection updated (−1: none)."""
+    labels = np.full(len(detections), -1, np.int64)
+    if tracks.detection is None or not len(tracks):
+        return labels
+    used = tracks.detection >= 0
+    rows = detections.offsets[tracks.frame[used]] + tracks.detection[used]
+    labels[rows] = tracks.ids[used]
+    return labels
+
+
+def confident(labels: NDArray[np.int64], min_length: int = MIN_TRACK_LENGTH) -> NDArray[np.int64]:
+    """``labels`` with the tracks of fewer than ``min_length`` detections set to −1."""
+    out = labels.copy()
+    ok = labels >= 0
+    if not ok.any():
+        return out
+    ids, inverse, counts = np.unique(labels[ok], return_inverse=True, return_counts=True)
+    del ids
+    short = counts[inverse] < min_length
+    idx = np.flatnonzero(ok)[short]
+    out[idx] = -1
+    return out
+
+
+def start_motion(
+    points: NDArray[np.float64], frames: NDArray[np.int64], labels: NDArray[np.int64], dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """Each labelled track's first velocity and acceleration ((T, D) each), from its detections
+    ``0``, ``j`` and ``2 j`` (``j = START_SPAN``) by divided differences over their times; None
+    without tracks of ``2 j + 1`` detections."""
+    idx = np.flatnonzero(labels >= 0)
+    idx = idx[np.lexsort((frames[idx], labels[idx]))]
+    lab = labels[idx]
+    first = np.flatnonzero(np.concatenate([[True], lab[1:] != lab[:-1]]))
+    ends = np.concatenate([first[1:], [len(lab)]])
+    j = START_SPAN
+    first = first[ends - first > 2 * j]
+    if not len(first):
+        return None
+    i0, i1, i2 = idx[first], idx[first + j], idx[first + 2 * j]
+    t0, t1, t2 = (frames[i] * dt for i in (i0, i1, i2))
+    v01 = (points[i1] - points[i0]) / (t1 - t0)[:, None]
+    v12 = (points[i2] - points[i1]) / (t2 - t1)[:, None]
+    return v01, 2 * (v12 - v01) / (t2 - t0)[:, None]
+
+
+def _robust(values: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Median and (1.4826 MAD)² per column."""
+    med = np.median(values, axis=0)
+    return med, (1.4826 * np.median(np.abs(values - med), axis=0)) ** 2
+
+
+def estimate_settings(
+    detections: Detections, labels: NDArray[np.int64], dt: float, order: int, length: float, before: Settings
+) -> tuple[Settings, NoiseEstimate] | None:
+    """New settings from the confident tracks of ``labels`` (module docstring, step 3)."""
+    frames = detections.frame_index()
+    sure = confident(labels)
+    noise = estimate_noise(detections.points, frames, sure, dt, order)
+    if noise is None:
+        return None
+    r = max(noise.r, (1e-3 * length) ** 2)
+    m = order
+    q_floor = MIN_PROCESS_SHARE * r * (2 * m - 1) * math.factorial(m - 1) ** 2 / dt ** (2 * m - 1)
+    q = max(noise.q, q_floor)
+    motion = start_motion(detections.points, frames, sure, dt)
+    velocity_mean, velocity_std, acceleration_std = (
+        before.velocity_mean,
+        before.velocity_std,
+        before.acceleration_std,
+    )
+    if motion is not None and len(motion[0]) >= 3:
+        v, a = motion
+        velocity_mean, v_var = _robust(v)
+        # the first velocity is measured with variance 2 r / (j dt)²: a floor, not removed
+        velocity_std = float(np.sqrt(np.max(v_var) + 2 * r / (START_SPAN * dt) ** 2))
+        a_mean, a_var = _robust(a)
+        a_noise = 6 * r / (START_SPAN * dt) ** 4  # the divided difference's own noise variance
+        a_var = np.maximum(a_var - a_noise, 0.25 * a_var)
+        acceleration_std = float(np.sqrt(np.max(a_mean**2 + a_var)))
+        if not acceleration_std > 0:
+            acceleration_std = before.acceleration_std
+    return Settings(
+        float(np.sqrt(r)), float(q), np.asarray(velocity_mean, np.float64), velocity_std, acceleration_std
+    ), noise
+
+
+def steady_innovation_variance(order: int, dt: float, q: float, r: float) -> float:
+    """Per-axis innovation variance ``S = H P⁻ Hᵀ + r`` of the model's Kalman filter in steady state
+    (the Riccati recursion iterated to its fixed point)."""
+    from predictors.kalman.predictor import _kinematic_model
+
+    F, Q, H = _kinematic_model(order, 1, dt, q)
+    P = np.eye(order) * (r + 1.0 * 0)  # start from the measurement alone
+    P[0, 0] = r
+    S = r
+    for _ in range(500):
+        Pm = F @ P @ F.T + Q
+        S_new = float(Pm[0, 0] + r)
+        K = Pm[:, :1] / S_new
+        P = Pm - K @ Pm[:1, :]
+        if abs(S_new - S) <= 1e-12 * S_new:
+            S = S_new
+            break
+        S = S_new
+    return S
+
+
+def _power_of_two(x: float) -> float:
+    return float(2.0 ** round(math.log2(x)))
+
+
+def _run_gnn(
+    detections: Detections,
+    spec: SensorSpec,
+    predictor: str,
+    settings: Settings,
+    agent_kwargs: Mapping[str, Any],
+) -> Tracks:
+    """One tracking run of the gnn with ``settings`` (the stream and settings already normalised)."""
+    from agents import make_agent
+    from agents.run import run_agent
+
+    model = PREDICTOR_MODELS.get(predictor, "cv")
+    name = predictor if predictor in PREDICTOR_MODELS else "kf-cv"
+    kwargs: dict[str, Any] = {"q": settings.q}
+    if model != "random-walk":
+        kwargs |= {
+            "initial_velocity": settings.velocity_mean,
+            "initial_velocity_std": settings.velocity_std,
+            "velocity_fallback": settings.velocity_mean,
+        }
+    if model == "ca":
+        kwargs["initial_acceleration_std"] = settings.acceleration_std
+    kwargs = kwargs | dict(agent_kwargs) | {"predict_sorting": False}
+    agent = make_agent("gnn", predictor=name, **kwargs)
+    run_spec = dataclasses.replace(spec, noise_std=settings.noise_std, sorting_line=None)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a report grown in a trial run says nothing
+        return run_agent(agent, detections, run_spec, seed=0)
+
+
+def _given(agent_kwargs: Mapping[str, Any], name: str) -> bool:
+    return name in agent_kwargs
+
+
+def calibrate(
+    detections: Detections,
+    spec: SensorSpec,
+    *,
+    predictor: str = "kf-ca",
+    noise_std: float | None = None,
+    q: float | None = None,
+    velocity_mean: NDArray[np.floating] | None = None,
+    velocity_std: float | None = None,
+    agent_kwargs: Mapping[str, Any] | None = None,
+    max_iterations: int = 5,
+) -> SelfCalibration:
+    """Estimate the tracker's settings from the detections (module docstring).
+
+    Args:
+        detections: The stream.
+        spec: Its sensor spec (``dt``, region, sizes; its ``noise_std`` is not used).
+        predictor: The predictor the settings are for (``kf-ca``, ``kf-cv``, ``random-walk``;
+            any other: only the measurement noise applies, estimated with the cv model).
+        noise_std, q, velocity_mean, velocity_std: Given settings (input units), kept as given
+            instead of estimated.
+        agent_kwargs: Other gnn keywords of the tracking runs (e.g. ``p_gate``, ``max_misses``);
+            a ``q``, ``initial_velocity`` or ``initial_velocity_std`` among them counts as given.
+        max_iterations: Most tracking runs, >= 1.
+
+    Returns:
+        :class:`SelfCalibration`.
+
+    Raises:
+        ValueError: a stream without two consecutive frames holding detections (nothing to
+            calibrate from), or ``max_iterations < 1``.
+    """
+    if not (isinstance(max_iterations, int) and max_iterations >= 1):
+        raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+    agent_kwargs = dict(agent_kwargs or {})
+    given = {
+        "noise_std": noise_std,
+        "q": q if q is not None else agent_kwargs.pop("q", None),
+        "velocity_mean": velocity_mean
+        if velocity_mean is not None
+        else agent_kwargs.pop("initial_velocity", None),
+        "velocity_std": velocity_std
+        if velocity_std is not None
+        else agent_kwargs.pop("initial_velocity_std", None),
+        "acceleration_std": agent_kwargs.pop("initial_acceleration_std", None),
+    }
+    agent_kwargs.pop("velocity_fallback", None)
+    given_misses = agent_kwargs.get("max_misses")
+    scales = data_scales(detections)
+    if scales is None:
+        raise ValueError(
+            "cannot calibrate: no two consecutive frames hold detections; give the measurement noise "
+            "(--declared-noise-std) and the process noise (--process-noise) instead"
+        )
+    dt = spec.dt
+    model, order = _order(predictor)
+    unit = _power_of_two(scales.length)
+    # the runs see positions / unit (exact: a power of two); settings are kept in input units
+    normal = Detections(
+        detections.points / unit, detections.offsets, detections.ids, detections.first_frame, detections.times
+    )
+    normal_spec = dataclasses.replace(
+        spec,
+        region_low=tuple(v / unit for v in spec.region_low),
+        region_high=tuple(v / unit for v in spec.region_high),
+    )
+    if "region_margin" in agent_kwargs:
+        agent_kwargs["region_margin"] = float(agent_kwargs["region_margin"]) / unit
+    if "blob_extent" in agent_kwargs:
+        agent_kwargs["blob_extent"] = float(agent_kwargs["blob_extent"]) / unit
+
+    def with_given(s: Settings) -> Settings:
+        return Settings(
+            float(given["noise_std"]) if given["noise_std"] is not None else s.noise_std,
+            float(given["q"]) if given["q"] is not None else s.q,
+            np.asarray(given["velocity_mean"], np.float64)
+            if given["velocity_mean"] is not None
+            else s.velocity_mean,
+            float(given["velocity_std"]) if given["velocity_std"] is not None else s.velocity_std,
+            float(given["acceleration_std"]) if given["acceleration_std"] is not None else s.acceleration_std,
+        )
+
+    settings = with_given(first_settings(scales, dt, order))
+    history: list[tuple[float, float]] = []
+    settled = False
+    noise: NoiseEstimate | None = None
+    n_tracks = 0
+    runs = 0
+    labels = np.full(len(detections), -1, np.int64)
+    for _ in range(max_iterations):
+        tracks = _run_gnn(normal, normal_spec, predictor, settings.scaled(1 / unit), agent_kwargs)
+        runs += 1
+        labels = detection_labels(normal, tracks)
+        found = estimate_settings(detections, labels, dt, order, scales.length, settings)
+        if found is None:
+            break
+        new, noise = found
+        new = with_given(new)
+        n_tracks = int(len(np.unique(confident(labels)[confident(labels) >= 0])))
+        history.append((new.noise_std, new.q))
+        change = max(
+            abs(math.log(new.noise_std / settings.noise_std)) if settings.noise_std > 0 else math.inf,
+            abs(math.log(new.q / settings.q)) / 2,
+        )
+        settings = new
+        if change < SETTLED:
+            settled = True
+            break
+    p_gate = float(agent_kwargs.get("p_gate", DEFAULT_P_GATE))
+    from agents.tracking.assign import chi2_gate
+
+    S = steady_innovation_variance(order, dt, settings.q, settings.noise_std**2)
+    radii = coasting_radii(
+        order, dt, settings.q, settings.noise_std**2, p_gate, detections.dim, MAX_MAX_MISSES
+    )
+    # the ambiguity bound: missed frames after which the gate still lies within length / 2
+    horizon = int(np.sum(np.cumprod(radii[1:] <= scales.length / 2)))
+    gaps, n_ends = reappearance_gaps(
+        detections.points, detections.frame_index(), confident(labels), dt, radii[: horizon + 1], START_SPAN
+    )
+    reappearing = len(gaps) / n_ends if n_ends else 0.0
+    coast = int(gaps.max()) if len(gaps) and reappearing >= REAPPEAR_SHARE else MIN_MAX_MISSES
+    max_misses = int(given_misses) if given_misses is not None else max(MIN_MAX_MISSES, coast)
+    given["max_misses"] = given_misses
+    sources = {k: ("given" if v is not None else "estimated") for k, v in given.items()}
+    return SelfCalibration(
+        dt=float(dt),
+        predictor=predictor,
+        model=model,
+        noise_std=float(settings.noise_std),
+        q=float(settings.q),
+        velocity_mean=tuple(float(v) for v in settings.velocity_mean),
+        velocity_std=float(settings.velocity_std),
+        acceleration_std=float(settings.acceleration_std),
+        p_gate=p_gate,
+        gate_radius=float(math.sqrt(chi2_gate(p_gate, detections.dim) * S)),
+        length=float(scales.length),
+        flow=tuple(float(v) for v in scales.flow),
+        threshold=float(scales.length / 2),
+        max_misses=max_misses,
+        reappearing=float(reappearing),
+        reappearance_gaps=tuple(int(g) for g in np.sort(gaps)),
+        iterations=runs,
+        settled=settled,
+        n_tracks=n_tracks,
+        n_differences=0 if noise is None else noise.n_differences,
+        sources=sources,
+        history=tuple(history),
+    )
