@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments
+from agents.cli import arguments, self_calibration
 from agents.run import run_agent
 from predictors import available_predictors
 
@@ -35,9 +37,17 @@ wide (one row per frame, one x, y pair per track id: BeltReplay-v0 reads it back
 The sensor spec the tracker is told: --dt (or inferred from --time-column), --declared-noise-std
 (the measurement noise std, in the detections' units after --scale: the tracker's R; nothing is
 added to the detections; --noise-std is its deprecated alias), --region (or
-the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
+the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame; a
+report too small for the live tracks is grown, never an error).
+Self-calibration (--calibrate auto, the default, when --declared-noise-std is not given): the
+measurement noise, the Kalman process noise q, the velocity prior and how long a track coasts are
+estimated from the detections, in their own units (pixels or metres alike), printed and written to
+OUT.calibration.json; --declared-noise-std, --process-noise, --initial-velocity,
+--initial-velocity-std and max_misses in --agent-kwargs override their estimates. A run that looks
+wrong (most detections start a track, most tracks 1-2 frames long) is warned about.
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
-distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
+distance and cut-off --threshold, default half the median nearest-neighbour distance within a
+frame), and e1 / e2 when the detection file carries truth ids.
 """
 
 
@@ -111,6 +121,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     g.add_argument("--dt", type=float, help="frame period in seconds (default: inferred from --time-column)")
     arguments.add_declared_noise(g)
+    g.set_defaults(declared_noise_std=None)  # not given: the run calibrates itself (--calibrate auto)
+    self_calibration.add_arguments(g)
     g.add_argument("--p-detect", type=float, default=1.0, help="declared detection probability (default 1)")
     g.add_argument(
         "--clutter-rate", type=float, default=0.0, help="declared clutter detections per frame (default 0)"
@@ -141,7 +153,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     g.add_argument("--metrics", action="store_true", help="score the tracks against --gt and print the table")
     g.add_argument(
-        "--threshold", type=float, default=0.005, help="match distance and GOSPA cut-off (default 0.005)"
+        "--threshold",
+        type=float,
+        default=None,
+        help="match distance and GOSPA cut-off (default: half the median nearest-neighbour distance "
+        "within a frame of the detections, printed)",
     )
     arguments.add_no_progress(g)
     return p
@@ -180,6 +196,10 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
+    from agents.self_calibration.calibrate import live_track_bound
+    from agents.self_calibration.diagnostics import run_figures, run_warnings
+    from agents.self_calibration.report import calibration_lines, write_sidecar
+    from agents.self_calibration.scales import default_threshold
     from track_envs.detection_files import detection_format, read_detections
     from track_envs.detections import detection_sensor_spec
     from track_envs.track_files import read_tracks, write_tracks
@@ -196,18 +216,35 @@ def run(args: argparse.Namespace) -> int:
         detections,
         dt=args.dt,
         region=args.region,
-        measurement_noise_std=args.declared_noise_std,
+        measurement_noise_std=args.declared_noise_std or 0.0,
         p_detect=args.p_detect,
         clutter_rate=args.clutter_rate,
         max_detections=args.max_detections,
         max_tracks=args.max_tracks,
     )
-    agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
+    if args.predictor is not None and not agent_takes_predictor(args.agent):
+        raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
+    agent_kwargs = dict(args.agent_kwargs)
+    calibration = None
+    if self_calibration.wanted(args):
+        spec, agent_kwargs, calibration = self_calibration.calibrated(args, detections, spec, agent_kwargs)
+        for line in calibration_lines(calibration):
+            print(f"{args.prog}: {line}", file=sys.stderr)
+        if args.max_tracks is None:  # a report that holds every track the run can have
+            rows = live_track_bound(detections, int(agent_kwargs.get("max_misses", 2)))
+            spec = dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))
+    elif args.agent == "gnn":
+        agent_kwargs = self_calibration.given_kwargs(args) | agent_kwargs
+    agent = build_agent(args.agent, args.predictor, agent_kwargs)
     warm_up(agent)  # compile / load the kernels before the first frame
     read_s = time.perf_counter() - start
-    tracks = run_agent(
-        agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        tracks = run_agent(
+            agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
+        )
+    for w in caught:
+        print(f"{args.prog}: note: {w.message}", file=sys.stderr)
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
@@ -215,10 +252,26 @@ def run(args: argparse.Namespace) -> int:
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
+    problems = run_warnings(tracks, len(detections))
+    for problem in problems:
+        print(f"{args.prog}: warning: {problem}", file=sys.stderr)
+    threshold = args.threshold
+    if threshold is None and args.metrics:
+        threshold = calibration.threshold if calibration is not None else default_threshold(detections)
+        print(
+            f"{args.prog}: metric threshold {threshold:.4g} (input units: half the median nearest-neighbour "
+            "distance within a frame; --threshold sets it)",
+            file=sys.stderr,
+        )
+    if calibration is not None:
+        content = {"calibration": calibration.as_dict(), "run": run_figures(tracks, len(detections))}
+        content |= {"warnings": problems, "metric_threshold": threshold, "max_tracks": spec.max_tracks}
+        path = write_sidecar(args.out, content)
+        print(f"{args.prog}: calibration -> {path}", file=sys.stderr)
     if args.gt:
         truth = read_tracks(args.gt, args.gt_format, min_confidence=1.0 if _is_mot(args) else None)
         if args.metrics:
-            metrics, notes = score_tracks(tracks, truth, threshold=args.threshold, detections=detections)
+            metrics, notes = score_tracks(tracks, truth, threshold=threshold, detections=detections)
             print(format_metrics(metrics))
             for note in notes:
                 print(f"note: {note}", file=sys.stderr)

@@ -278,27 +278,6 @@ def estimate_settings(
     ), noise
 
 
-def steady_innovation_variance(order: int, dt: float, q: float, r: float) -> float:
-    """Per-axis innovation variance ``S = H P⁻ Hᵀ + r`` of the model's Kalman filter in steady state
-    (the Riccati recursion iterated to its fixed point)."""
-    from predictors.kalman.predictor import _kinematic_model
-
-    F, Q, H = _kinematic_model(order, 1, dt, q)
-    P = np.eye(order) * (r + 1.0 * 0)  # start from the measurement alone
-    P[0, 0] = r
-    S = r
-    for _ in range(500):
-        Pm = F @ P @ F.T + Q
-        S_new = float(Pm[0, 0] + r)
-        K = Pm[:, :1] / S_new
-        P = Pm - K @ Pm[:1, :]
-        if abs(S_new - S) <= 1e-12 * S_new:
-            S = S_new
-            break
-        S = S_new
-    return S
-
-
 def _power_of_two(x: float) -> float:
     return float(2.0 ** round(math.log2(x)))
 
@@ -437,7 +416,7 @@ def calibrate(
             break
         new, noise = found
         new = with_given(new)
-        n_tracks = int(len(np.unique(confident(labels)[confident(labels) >= 0])))
+        n_tracks = len(np.unique(confident(labels)[confident(labels) >= 0]))
         history.append((new.noise_std, new.q))
         change = max(
             abs(math.log(new.noise_std / settings.noise_std)) if settings.noise_std > 0 else math.inf,
@@ -448,9 +427,6 @@ def calibrate(
             settled = True
             break
     p_gate = float(agent_kwargs.get("p_gate", DEFAULT_P_GATE))
-    from agents.tracking.assign import chi2_gate
-
-    S = steady_innovation_variance(order, dt, settings.q, settings.noise_std**2)
     radii = coasting_radii(
         order, dt, settings.q, settings.noise_std**2, p_gate, detections.dim, MAX_MAX_MISSES
     )
@@ -474,7 +450,7 @@ def calibrate(
         velocity_std=float(settings.velocity_std),
         acceleration_std=float(settings.acceleration_std),
         p_gate=p_gate,
-        gate_radius=float(math.sqrt(chi2_gate(p_gate, detections.dim) * S)),
+        gate_radius=float(radii[0]),
         length=float(scales.length),
         flow=tuple(float(v) for v in scales.flow),
         threshold=float(scales.length / 2),
@@ -488,3 +464,14 @@ def calibrate(
         sources=sources,
         history=tuple(history),
     )
+
+
+def live_track_bound(detections: Detections, max_misses: int) -> int:
+    """The most live tracks a GNN tracker can hold: a live track was updated or born in one of
+    the last ``max_misses + 1`` frames, each with a detection of its own, so the most detections
+    in any ``max_misses + 1`` consecutive frames (at least 1)."""
+    if not detections.n_frames:
+        return 1
+    cum = np.concatenate([[0], np.cumsum(detections.counts)])
+    w = min(max_misses + 1, detections.n_frames)
+    return max(int((cum[w:] - cum[:-w]).max()), 1)

@@ -58,6 +58,8 @@ def reappearance_gaps(
     """
     idx = np.flatnonzero(labels >= 0)
     idx = idx[np.lexsort((frames[idx], labels[idx]))]
+    if not len(idx):
+        return np.zeros(0, np.int64), 0
     lab = labels[idx]
     head = np.flatnonzero(np.concatenate([[True], lab[1:] != lab[:-1]]))
     tail = np.concatenate([head[1:], [len(lab)]]) - 1
@@ -85,4 +87,4 @@ def reappearance_gaps(
             j = lo + int(np.argmax(near))
             taken[j] = True
             gaps.append(int(t_start[j] - t_end[e] - 1))
-    return np.asarray(gaps, np.int64), int(len(last))
+    return np.asarray(gaps, np.int64), len(last)

@@ -149,7 +149,7 @@ def estimate_noise(
         r=r,
         q=qd / dt ** (2 * m - 1),
         order=m,
-        n_differences=int(len(d)),
+        n_differences=len(d),
         n_outliers=int(bad.sum()),
         autocovariance=tuple(float(v) for v in c),
     )

@@ -110,4 +110,15 @@ def data_scales(detections: Detections) -> DataScales | None:
     spread = float(1.4826 * np.max(mad))
     if not spread > 0:
         spread = 0.01 * length
-    return DataScales(length=length, flow=flow.astype(np.float64), spread=spread, n_pairs=int(len(near)))
+    return DataScales(length=length, flow=flow.astype(np.float64), spread=spread, n_pairs=len(near))
+
+
+def default_threshold(detections: Detections) -> float:
+    """The default metric match distance: half the median nearest-neighbour distance within a
+    frame (half the median frame-to-frame nearest displacement for a stream with one detection
+    per frame; 1 for a stream without either)."""
+    length = within_frame_distance(detections)
+    if length is None:
+        scales = data_scales(detections)
+        length = scales.length if scales is not None else 2.0
+    return length / 2

@@ -1,0 +1,67 @@
+"""What a self-calibrated run prints and writes: the estimates in the input's units, the run's
+figures and warnings, as text lines and as a JSON sidecar next to the track file."""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+from agents.self_calibration.calibrate import SelfCalibration
+
+#: Suffix of the sidecar: ``tracks.txt`` → ``tracks.txt.calibration.json``.
+SIDECAR_SUFFIX = ".calibration.json"
+
+_Q_UNITS = {"cv": "units²/s³", "ca": "units²/s⁵", "random-walk": "units²/s"}
+
+
+def _vector(values: tuple[float, ...]) -> str:
+    return "(" + ", ".join(f"{v:.4g}" for v in values) + ")"
+
+
+def calibration_lines(cal: SelfCalibration) -> list[str]:
+    """The estimates, one per line, each with its unit ("input units": positions as given) and
+    whether it was estimated or given."""
+    src = cal.sources
+
+    def tag(name: str) -> str:
+        return "given" if src.get(name) == "given" else "estimated"
+
+    state = "settled" if cal.settled else "not settled"
+    lines = [
+        f"self-calibration ({cal.iterations} tracking runs, {state}; model {cal.model}, dt {cal.dt:g} s; "
+        f"from {cal.n_tracks} confident tracks):",
+        f"  measurement noise std {cal.noise_std:.4g} (input units, {tag('noise_std')})",
+        f"  process noise q {cal.q:.4g} ({_Q_UNITS[cal.model].replace('units', 'input units')}, {tag('q')})",
+    ]
+    if cal.model != "random-walk":
+        lines.append(
+            f"  velocity prior mean {_vector(cal.velocity_mean)} std {cal.velocity_std:.4g} "
+            f"(input units/s, {tag('velocity_mean')})"
+        )
+    if cal.model == "ca":
+        lines.append(
+            f"  acceleration prior std {cal.acceleration_std:.4g} (input units/s², {tag('acceleration_std')})"
+        )
+    lines += [
+        f"  gate p {cal.p_gate:g}: radius {cal.gate_radius:.4g} (input units, steady state)",
+        f"  coasting: max_misses {cal.max_misses} ({tag('max_misses')}; "
+        f"{100 * cal.reappearing:.0f}% of track ends re-appear)",
+        f"  data: nearest-neighbour distance {cal.length:.4g}, flow {_vector(cal.flow)} per frame "
+        "(input units)",
+    ]
+    return lines
+
+
+def sidecar_path(out: str | os.PathLike[str]) -> str:
+    """The sidecar of a track file: its path plus :data:`SIDECAR_SUFFIX`."""
+    return os.fspath(out) + SIDECAR_SUFFIX
+
+
+def write_sidecar(out: str | os.PathLike[str], content: dict[str, Any]) -> str:
+    """Write ``content`` as JSON next to the track file ``out``; its path."""
+    path = sidecar_path(out)
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(content, f, indent=2, sort_keys=True)
+        f.write("\n")
+    return path
