@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from agents.self_calibration.noise import design_matrix, estimate_noise
 from predictors.kalman.predictor import _kinematic_model
 from track_envs.detection_files import write_wide_detections
 from track_envs.detections import Detections, detection_sensor_spec
+from track_envs.track_scoring import score_tracks
 
 #: Pixels per metre of the pixel versions (a 56 µm pixel, as on a sorter camera).
 PIXELS = 1 / 5.6e-5
@@ -206,15 +208,24 @@ def pixel_file(tmp_path_factory, belt):
 def run_cli(command: str, capsys) -> tuple[int, str, str]:
     argv = shlex.split(command)
     assert argv[:2] == ["track", "run"]
-    code = track_main([*argv[1:], "--no-progress"])
+    code = track_main(argv[1:])
     out = capsys.readouterr()
     return code, out.out, out.err
 
 
+def readme_points_command() -> str:
+    """The command of the README's "Points" subsection."""
+    text = (Path(__file__).parents[2] / "README.md").read_text(encoding="utf-8")
+    section = text.split("### Points", 1)[1].split("\n### ", 1)[0]
+    return section.split("```bash\n", 1)[1].split("\n```", 1)[0].strip()
+
+
 def test_readme_command_calibrates_a_pixel_recording(pixel_file, belt, tmp_path, capsys, monkeypatch):
+    command = readme_points_command()
+    assert command == "track run recording.csv --dt 0.005 --out tracks.csv"
     monkeypatch.chdir(tmp_path)
     (tmp_path / "recording.csv").write_bytes(pixel_file.read_bytes())
-    code, _, err = run_cli("track run recording.csv --dt 0.005 --out tracks.csv", capsys)
+    code, _, err = run_cli(command, capsys)
     assert code == 0, err
     assert "measurement noise std" in err and "(input units, estimated)" in err
     sidecar = json.loads((tmp_path / "tracks.csv.calibration.json").read_text())
@@ -230,7 +241,7 @@ def test_readme_command_calibrates_a_pixel_recording(pixel_file, belt, tmp_path,
 def test_flags_override_their_estimates(pixel_file, tmp_path, capsys):
     out = tmp_path / "t.txt"
     code, _, err = run_cli(
-        f"track run {pixel_file} --dt 0.005 --out {out} --calibrate on --declared-noise-std 2 "
+        f"track run {pixel_file} --dt 0.005 --out {out} --no-progress --calibrate on --declared-noise-std 2 "
         "--process-noise 1e9 --initial-velocity 17000,0 --initial-velocity-std 900 "
         "--agent-kwargs max_misses=3",
         capsys,
@@ -250,7 +261,7 @@ def test_flags_override_their_estimates(pixel_file, tmp_path, capsys):
 
 def test_max_tracks_never_fails_a_valid_file(pixel_file, tmp_path, capsys):
     code, _, err = run_cli(
-        f"track run {pixel_file} --dt 0.005 --out {tmp_path / 't.txt'} --max-tracks 2", capsys
+        f"track run {pixel_file} --dt 0.005 --out {tmp_path / 't.txt'} --max-tracks 2 --no-progress", capsys
     )
     assert code == 0, err
     assert "note: " in err and "tracking again with max_tracks=" in err
@@ -272,9 +283,30 @@ def test_metric_threshold_defaults_from_the_data(tmp_path, capsys):
     )
     code, out, err = run_cli(
         f"track run {det} --dt 0.04 --out {tmp_path / 't.txt'} --gt {truth} --metrics --calibrate off "
-        "--declared-noise-std 1",
+        "--no-progress --declared-noise-std 1",
         capsys,
     )
     assert code == 0, err
     assert "metric threshold 50 (input units" in err
     assert "mota" in out
+
+
+# -- the figures of docs/self_calibration.md -----------------------------------------------------
+@pytest.mark.slow
+def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
+    from bench_self_calibration import belt_sample, tud_campus
+
+    for (det, truth), dt, threshold, best in (
+        (belt_sample(5e-4), 0.01, 0.005, 0.982),  # best of the hand-tuned grid (docs/self_calibration.md)
+        (tud_campus(), 0.04, 50.0, 0.666),
+    ):
+        spec = detection_sensor_spec(det, dt=dt)
+        cal = calibrate(det, spec)
+        tracks = run_agent(
+            make_agent("gnn", predictor="kf-ca", **cal.agent_kwargs()), det, cal.sensor_spec(spec)
+        )
+        mota = score_tracks(tracks, truth, threshold=threshold)[0]["mota"]
+        assert mota >= best - 0.03
