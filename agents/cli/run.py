@@ -226,18 +226,25 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
     agent_kwargs = dict(args.agent_kwargs)
     calibration = None
+    calibration_s = 0.0
     if self_calibration.wanted(args):
+        calibration_start = time.perf_counter()
         spec, agent_kwargs, calibration = self_calibration.calibrated(args, detections, spec, agent_kwargs)
+        calibration_s = time.perf_counter() - calibration_start
         for line in calibration_lines(calibration):
             print(f"{args.prog}: {line}", file=sys.stderr)
         if args.max_tracks is None:  # a report that holds every track the run can have
             rows = live_track_bound(detections, int(agent_kwargs.get("max_misses", 2)))
             spec = dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))
-    elif args.agent == "gnn":
+    elif self_calibration.given_kwargs(args):
+        if args.agent != "gnn":
+            raise ValueError(
+                "--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn"
+            )
         agent_kwargs = self_calibration.given_kwargs(args) | agent_kwargs
     agent = build_agent(args.agent, args.predictor, agent_kwargs)
     warm_up(agent)  # compile / load the kernels before the first frame
-    read_s = time.perf_counter() - start
+    read_s = time.perf_counter() - start - calibration_s
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", RuntimeWarning)
         tracks = run_agent(
@@ -267,7 +274,7 @@ def run(args: argparse.Namespace) -> int:
         content = {"calibration": calibration.as_dict(), "run": run_figures(tracks, len(detections))}
         content |= {"warnings": problems, "metric_threshold": threshold, "max_tracks": spec.max_tracks}
         path = write_sidecar(args.out, content)
-        print(f"{args.prog}: calibration -> {path}", file=sys.stderr)
+        print(f"{args.prog}: calibration ({calibration_s:.2f} s) -> {path}", file=sys.stderr)
     if args.gt:
         truth = read_tracks(args.gt, args.gt_format, min_confidence=1.0 if _is_mot(args) else None)
         if args.metrics:

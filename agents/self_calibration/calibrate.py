@@ -314,10 +314,6 @@ def _run_gnn(
         return run_agent(agent, detections, run_spec, seed=0)
 
 
-def _given(agent_kwargs: Mapping[str, Any], name: str) -> bool:
-    return name in agent_kwargs
-
-
 def calibrate(
     detections: Detections,
     spec: SensorSpec,
