@@ -28,8 +28,9 @@ def calibration_lines(cal: SelfCalibration) -> list[str]:
         return "given" if src.get(name) == "given" else "estimated"
 
     state = "settled" if cal.settled else "not settled"
+    runs = f"{cal.iterations} tracking run{'s' if cal.iterations != 1 else ''}"
     lines = [
-        f"self-calibration ({cal.iterations} tracking runs, {state}; model {cal.model}, dt {cal.dt:g} s; "
+        f"self-calibration ({runs}, {state}; model {cal.model}, dt {cal.dt:g} s; "
         f"from {cal.n_tracks} confident tracks):",
         f"  measurement noise std {cal.noise_std:.4g} (input units, {tag('noise_std')})",
         f"  process noise q {cal.q:.4g} ({_Q_UNITS[cal.model].replace('units', 'input units')}, {tag('q')})",
@@ -50,6 +51,11 @@ def calibration_lines(cal: SelfCalibration) -> list[str]:
         f"  data: nearest-neighbour distance {cal.length:.4g}, flow {_vector(cal.flow)} per frame "
         "(input units)",
     ]
+    if cal.n_tracks == 0:
+        lines.append(
+            "  no track held enough detections to estimate from: these are the first settings from "
+            "the data's spacing and flow, not estimates"
+        )
     return lines
 
 

@@ -14,7 +14,7 @@ input's own units:
   belt's motion per frame, for walking people about zero;
 * the **spread** ``s``: the robust standard deviation (1.4826 × median absolute deviation, the
   larger of the axes) of the displacements within ``ℓ / 2`` of the flow — measurement noise and
-  the targets' differences of motion together.
+  the targets' differences of motion together — at least ``MIN_SPREAD ℓ``.
 
 Every figure is a distance (or a displacement) between detections, so positions × k give
 figures × k: nothing depends on the unit.
@@ -34,6 +34,8 @@ from track_envs.detections import Detections
 NEIGHBOURS = 4
 #: Frame pairs (evenly spaced) the flow is taken over, at most.
 MAX_FRAME_PAIRS = 400
+#: Least spread, as a share of the length (noise-free targets moving alike have none).
+MIN_SPREAD = 0.01
 #: Displacements the mode is searched among, at most (evenly spaced).
 MAX_CANDIDATES = 4000
 
@@ -107,9 +109,7 @@ def data_scales(detections: Detections) -> DataScales | None:
     flow = np.median(d[np.linalg.norm(d - cand[int(np.argmax(density))], axis=1) <= 0.1 * length], axis=0)
     near = d[np.linalg.norm(d - flow, axis=1) <= 0.5 * length]
     mad = np.median(np.abs(near - np.median(near, axis=0)), axis=0)
-    spread = float(1.4826 * np.max(mad))
-    if not spread > 0:
-        spread = 0.01 * length
+    spread = max(float(1.4826 * np.max(mad)), MIN_SPREAD * length)
     return DataScales(length=length, flow=flow.astype(np.float64), spread=spread, n_pairs=len(near))
 
 
