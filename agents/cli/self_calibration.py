@@ -55,7 +55,10 @@ def add_arguments(group: Any) -> None:
 
 
 def wanted(args: argparse.Namespace) -> bool:
-    """Whether this run calibrates itself."""
+    """Whether this run calibrates itself (point trackers only: a pose agent's detections are
+    keypoint sets, which the point-motion model does not describe)."""
+    if args.agent.startswith("pose"):
+        return False
     return args.calibrate == "on" or (args.calibrate == "auto" and args.declared_noise_std is None)
 
 
