@@ -3,6 +3,7 @@
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.base import Metric
 from track_envs.metrics.belt import AssociationErrors
+from track_envs.metrics.boxes import BoxClearMot, box_iou, iou_distances
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric
@@ -15,6 +16,7 @@ from track_envs.metrics.track_error import TrackErrorDistribution
 __all__ = [
     "AleatoricArea",
     "AssociationErrors",
+    "BoxClearMot",
     "ClearMot",
     "GospaMetric",
     "GospaResult",
@@ -27,7 +29,9 @@ __all__ = [
     "SingleTargetError",
     "SortingPrediction",
     "TrackErrorDistribution",
+    "box_iou",
     "gospa",
+    "iou_distances",
     "mahalanobis_sq",
     "oks",
     "pairwise_oks",
