@@ -137,7 +137,7 @@ def read_mot_rows(
     if negative.any():
         row, k = first_bad(negative)
         raise table.error(
-            row, 4 + k, f"({_MOT_NAMES[4 + k]}) holds {head[row, 4 + k]!r}; a box's size must be >= 0"
+            row, 4 + k, f"({_MOT_NAMES[4 + k]}) holds {float(head[row, 4 + k])!r}; a box's size must be >= 0"
         )
     confidence = values[:, 6] if values.shape[1] > 6 else np.ones(len(values))
     confidence = np.where(np.isnan(confidence), 1.0, confidence)
@@ -167,8 +167,8 @@ def _confident(label: str, confidence: NDArray[np.float64], min_confidence: floa
     if len(keep) and not keep.any():
         raise DetectionFileError(
             f"{label}: min_confidence={min_confidence!r} (track run: --min-confidence) drops every one of "
-            f"the {len(keep)} rows; their "
-            f"confidences (column index 6) range from {confidence.min()!r} to {confidence.max()!r}"
+            f"the {len(keep)} rows; their confidences (column index 6) range from "
+            f"{float(confidence.min())!r} to {float(confidence.max())!r}"
         )
     return keep
 
