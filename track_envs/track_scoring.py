@@ -32,15 +32,16 @@ NO_DETECTION_IDS = (
 )
 
 
-def match_kind(tracks: Tracks, truth: Tracks, match: str = "auto") -> str:
-    """``"iou"`` or ``"distance"``: ``match``, or for ``"auto"`` IoU when both have boxes.
+def match_kind(tracks_boxed: bool, truth_boxed: bool, match: str = "auto") -> str:
+    """``"iou"`` or ``"distance"``: ``match``, or for ``"auto"`` IoU when the tracks and the truth
+    both have boxes (``tracks_boxed``, ``truth_boxed``: ``Tracks.boxes is not None``).
 
     Raises:
         ValueError: an unknown ``match``, or ``"iou"`` when either has no boxes (naming which).
     """
     if match not in MATCHES:
         raise ValueError(f"match must be one of {list(MATCHES)}, got {match!r}")
-    boxed = {"tracks": tracks.boxes is not None, "ground truth": truth.boxes is not None}
+    boxed = {"tracks": bool(tracks_boxed), "ground truth": bool(truth_boxed)}
     if match == "auto":
         return "iou" if all(boxed.values()) else "distance"
     if match == "iou" and not all(boxed.values()):
@@ -86,7 +87,7 @@ def score_tracks(
     from track_envs.metrics import AssociationErrors, BoxClearMot, ClearMot
     from track_envs.wrappers.tracking_metrics import point_metrics
 
-    kind = match_kind(tracks, truth, match)
+    kind = match_kind(tracks.boxes is not None, truth.boxes is not None, match)
     metrics = point_metrics(threshold)
     if kind == "iou":
         metrics = [BoxClearMot(min_iou) if isinstance(m, ClearMot) else m for m in metrics]

@@ -221,7 +221,13 @@ def run(args: argparse.Namespace) -> int:
     fmt = detection_format(args.detections, args.input_format)
     start = time.perf_counter()
     detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
-    with flags_named(getattr(args, "argv", None)):
+    truth = None
+    if args.gt:  # read (and checked) before tracking, as --out
+        truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
+    kind = "distance"
+    if truth is not None:
+        kind = match_kind(detections.boxes is not None, truth.boxes is not None, args.match)
+    with FlagNames(getattr(args, "argv", None)):
         spec = detection_sensor_spec(
             detections,
             dt=args.dt,
@@ -245,25 +251,16 @@ def run(args: argparse.Namespace) -> int:
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
-    if args.gt:
-        truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
-        if args.metrics:
-            kind = match_kind(tracks, truth, args.match)
-            print(
-                f"matching: {match_line(kind, threshold=args.threshold, min_iou=args.min_iou)}",
-                file=sys.stderr,
-            )
-            metrics, notes = score_tracks(
-                tracks,
-                truth,
-                threshold=args.threshold,
-                detections=detections,
-                match=kind,
-                min_iou=args.min_iou,
-            )
-            print(format_metrics(metrics))
-            for note in notes:
-                print(f"note: {note}", file=sys.stderr)
+    if truth is not None and args.metrics:
+        print(
+            f"matching: {match_line(kind, threshold=args.threshold, min_iou=args.min_iou)}", file=sys.stderr
+        )
+        metrics, notes = score_tracks(
+            tracks, truth, threshold=args.threshold, detections=detections, match=kind, min_iou=args.min_iou
+        )
+        print(format_metrics(metrics))
+        for note in notes:
+            print(f"note: {note}", file=sys.stderr)
     return 0
 
 
@@ -279,7 +276,7 @@ SPEC_FLAGS = {
 }
 
 
-class flags_named:
+class FlagNames:
     """A context that re-raises a ``ValueError`` whose message names an argument of
     :func:`~track_envs.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
     naming the flag instead — the one the user typed, where an old alias was used (``--noise-std``)."""
@@ -290,7 +287,7 @@ class flags_named:
         if any(len(a) > 2 and "--noise-std".startswith(a) for a in typed):
             self.flags["measurement_noise_std"] = "--noise-std"
 
-    def __enter__(self) -> flags_named:
+    def __enter__(self) -> FlagNames:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: Any) -> bool:

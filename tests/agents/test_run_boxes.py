@@ -99,3 +99,14 @@ def test_out_is_checked_before_tracking(tmp_path, capsys, where):
     said = "does not exist" if where == "missing folder" else "is a directory"
     assert err.startswith("track run: error: --out") and said in err
     assert "frames" not in err  # nothing was read or tracked
+
+
+def test_iou_matching_of_points_is_refused_before_tracking(tmp_path, capsys):
+    det, gt = tmp_path / "det.txt", tmp_path / "gt.txt"
+    det.write_text("1,-1,0.5,0.5,0,0,1\n2,-1,0.6,0.5,0,0,1\n")  # points: 0 x 0 boxes
+    gt.write_text("1,1,0,0,1,1,1,1,1\n2,1,0.1,0,1,1,1,1,1\n")
+    argv = [str(det), "--dt=0.04", f"--out={tmp_path / 't.txt'}", f"--gt={gt}", "--metrics", "--match=iou"]
+    assert main([*argv, "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--match iou) needs boxes, and the tracks have none" in err and "frames" not in err
+    assert not (tmp_path / "t.txt").exists()

@@ -192,12 +192,14 @@ def test_box_iou_by_hand() -> None:
 
 
 def test_match_kind_defaults_to_iou_where_both_have_boxes() -> None:
-    boxed = Tracks([0], [1], [[1.0, 1.0]], 1, boxes=[[0, 0, 2, 2]])
-    points = Tracks([0], [1], [[1.0, 1.0]], 1)
-    assert match_kind(boxed, boxed) == "iou" and match_kind(boxed, points) == "distance"
-    assert match_kind(boxed, boxed, "distance") == "distance"
+    assert match_kind(True, True) == "iou" and match_kind(True, False) == "distance"
+    assert match_kind(True, True, "distance") == "distance"
     with pytest.raises(ValueError, match=r"--match iou\) needs boxes, and the ground truth have none"):
-        match_kind(boxed, points, "iou")
+        match_kind(True, False, "iou")
+    with pytest.raises(ValueError, match=r"the tracks and ground truth have none"):
+        match_kind(False, False, "iou")
+    with pytest.raises(ValueError, match=r"match must be one of \['auto', 'iou', 'distance'\]"):
+        match_kind(True, True, "IoU")
 
 
 def test_iou_and_distance_matching_differ_as_they_should() -> None:
