@@ -271,3 +271,17 @@ def test_box_clear_mot_takes_padded_frames() -> None:
     assert out["num_matches"] == 1 and out["mota"] == 1.0 and out["motp"] == 0.0
     with pytest.raises(ValueError, match=r"need 'boxes'"):
         metric.update({k: v for k, v in truth.items() if k != "boxes"}, np.full(2, -1), report)
+
+
+def test_tracks_validate_keep_and_compare_their_boxes() -> None:
+    with pytest.raises(ValueError, match=r"Tracks.boxes must have shape \(1, 4\)"):
+        Tracks([0], [1], [[0.0, 0.0]], 1, boxes=np.zeros((1, 2)))
+    a = Tracks([0], [1], [[0.0, 0.0]], 1, boxes=[[0, 0, 1, 1]])
+    b = Tracks([0], [2], [[0.0, 0.0]], 1, boxes=[[np.nan] * 4])
+    joined = Tracks.concatenate([a, b.with_frames(1)])
+    assert joined.boxes is not None and joined.boxes.shape == (2, 4)
+    assert Tracks.concatenate([a, Tracks([0], [2], [[0.0, 0.0]], 1)]).boxes is None  # not every part
+    assert a.with_frames(5).boxes is not None and b.equals(b.with_boxes(np.full((1, 4), np.nan)))
+    assert not a.equals(a.with_boxes(np.array([[0.0, 0.0, 2.0, 1.0]])))
+    frame = a.padded_frame(0, 1, 3)
+    np.testing.assert_array_equal(frame["boxes"], [[0, 0, 1, 1], [np.nan] * 4, [np.nan] * 4])
