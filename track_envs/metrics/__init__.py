@@ -6,6 +6,8 @@ from track_envs.metrics.belt import AssociationErrors
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric
+from track_envs.metrics.hota import HotaAccumulator
+from track_envs.metrics.hota_similarity import box_iou, point_similarity
 from track_envs.metrics.keypoints import KeypointMota, PoseOks, oks, pairwise_oks
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 from track_envs.metrics.single_target import SingleTargetError
@@ -18,6 +20,7 @@ __all__ = [
     "ClearMot",
     "GospaMetric",
     "GospaResult",
+    "HotaAccumulator",
     "KeypointMota",
     "Metric",
     "Nees",
@@ -27,8 +30,10 @@ __all__ = [
     "SingleTargetError",
     "SortingPrediction",
     "TrackErrorDistribution",
+    "box_iou",
     "gospa",
     "mahalanobis_sq",
     "oks",
     "pairwise_oks",
+    "point_similarity",
 ]
