@@ -311,7 +311,7 @@ def _check_keypoints(
         if bad.any():
             i, j = np.argwhere(bad)[0]
             raise ValueError(
-                f"{path}: annotation {i}: keypoint {names[j]!r}: {what} = {values[i, j]!r} {why}"
+                f"{path}: annotation {i}: keypoint {names[j]!r}: {what} = {float(values[i, j])!r} {why}"
             )
 
 
@@ -335,7 +335,7 @@ def _keypoint_scores(
     if bad.any():
         i, j = np.argwhere(bad)[0]
         raise ValueError(
-            f"{path}: annotation {i}: keypoint {names[j]!r}: score = {out[i, j]!r} is not in [0, 1]"
+            f"{path}: annotation {i}: keypoint {names[j]!r}: score = {float(out[i, j])!r} is not in [0, 1]"
         )
     return out
 
