@@ -114,9 +114,12 @@ def read_pose_file(
             raise ValueError(f"{path}: COCO keypoint results must be a JSON list of pose records")
         return _coco(data, path, frames, file_names, num_keypoints)
     if fmt == "posetrack":
-        json_pose_format(data, path)
         if not isinstance(data, dict):
-            raise ValueError(f"{path}: a PoseTrack file must be a JSON object")
+            raise ValueError(
+                f"{path}: a PoseTrack file must be a JSON object with 'images' and 'annotations', got a "
+                f"{type(data).__name__} (COCO keypoint results are a list: --input-format coco)"
+            )
+        json_pose_format(data, path)
         return _posetrack(data, path)
     raise ValueError(f"pose format must be one of {['auto', *POSE_FORMATS]}, got {format!r}")
 
@@ -285,7 +288,8 @@ def _keypoint_table(
             for j, value in enumerate(values):
                 if isinstance(value, bool) or not isinstance(value, int | float):
                     raise ValueError(
-                        f"{path}: annotation {i}: keypoint {j // 3} value {'xyv'[j % 3]} is not a number: {value!r}"
+                        f"{path}: annotation {i}: keypoint {j // 3} value {'xyv'[j % 3]} is not a "
+                        f"number: {value!r}"
                     ) from None
         raise
 
@@ -369,7 +373,8 @@ def _head_box(r: dict[str, Any], i: int, path: str | os.PathLike[str]) -> list[f
     )
     if not ok or not np.all(np.isfinite(box)) or box[2] < 0 or box[3] < 0:
         raise ValueError(
-            f"{path}: annotation {i}: 'bbox_head' must be 4 finite numbers x, y, w >= 0, h >= 0, got {box!r:.80}"
+            f"{path}: annotation {i}: 'bbox_head' must be 4 finite numbers x, y, w >= 0, h >= 0, "
+            f"got {box!r:.80}"
         )
     return [float(b) for b in box]
 

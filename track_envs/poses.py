@@ -19,6 +19,7 @@ and the keypoint's confidence, a confidence of 0 (and ``x = y = 0``) for a keypo
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -147,7 +148,7 @@ class PoseStream:
         """(N,) PoseTrack head sizes ``0.6 · ‖(w, h)‖`` of the head boxes (NaN without one)."""
         return 0.6 * np.hypot(self.head_boxes[:, 2], self.head_boxes[:, 3])
 
-    def with_rows(self, **columns: NDArray) -> PoseStream:
+    def with_rows(self, **columns: Any) -> PoseStream:
         """A copy with some per-pose columns replaced (``track_ids=...``, ``scores=...``, ...)."""
         return replace(self, **columns)  # type: ignore[arg-type]
 

@@ -189,8 +189,8 @@ def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
     from track_envs.detection_files import detection_format, read_detections
     from track_envs.detections import detection_sensor_spec
-    from track_envs.track_files import read_tracks, write_tracks
     from track_envs.pose_files import is_pose_file
+    from track_envs.track_files import read_tracks, write_tracks
     from track_envs.track_scoring import score_tracks
 
     if is_pose_file(args.detections, args.input_format):

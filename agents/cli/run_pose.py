@@ -75,7 +75,8 @@ def run_poses(args: argparse.Namespace) -> int:
     write_posetrack(args.out, tracks)
     print(
         f"{args.prog}: {stream.n_frames} frames, {len(stream)} poses ({fmt}, read in {read_s:.2f} s) -> "
-        f"{len(tracks)} tracked poses, {len(set(tracks.track_ids.tolist()))} tracks -> {args.out} (posetrack)",
+        f"{len(tracks)} tracked poses, {len(set(tracks.track_ids.tolist()))} tracks -> {args.out} "
+        "(posetrack)",
         file=sys.stderr,
     )
     if truth is not None and args.metrics:

@@ -28,12 +28,14 @@ def run_pose_agent(agent: Any, stream: PoseStream, spec: SensorSpec, *, seed: in
     """Track ``stream`` with a pose agent (``reset(spec, seed=seed)`` first); return the tracks.
 
     Raises:
-        ValueError: an agent that does not track poses or needs truth; a stream whose poses do not have the 17 COCO keypoints the pose agents track.
+        ValueError: an agent that does not track poses or needs truth; a stream whose poses do
+            not have the 17 COCO keypoints the pose agents track.
     """
     check_file_agent(agent, "pose", flag="")
     if stream.num_keypoints != NUM_KEYPOINTS:
         raise ValueError(
-            f"the pose agents track the {NUM_KEYPOINTS} COCO keypoints; the file's poses have {stream.num_keypoints}"
+            f"the pose agents track the {NUM_KEYPOINTS} COCO keypoints; the file's poses have "
+            f"{stream.num_keypoints}"
         )
     agent.reset(spec, seed=seed)
     frame_ids, ids, poses, rows = [], [], [], []

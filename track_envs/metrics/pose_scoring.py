@@ -10,7 +10,8 @@ the PCKh criterion holds,
 
 .. math::
 
-    \\lVert x_k - g_k \\rVert \\,/\\, h \\le 0.5, \\qquad h = 0.6 \\, \\lVert (w, h)_{\\text{bbox\\_head}} \\rVert,
+    \\lVert x_k - g_k \\rVert \\,/\\, s \\le 0.5, \\qquad
+    s = 0.6 \\, \\lVert (w, h)_{\\text{bbox\\_head}} \\rVert,
 
 the head size of the truth's head box (``getHeadSize`` of poseval). The CLEAR MOT events per joint
 follow py-motmetrics' rules (:class:`~track_envs.metrics.clear_mot.ClearMot`, as poseval's
@@ -19,7 +20,8 @@ follow py-motmetrics' rules (:class:`~track_envs.metrics.clear_mot.ClearMot`, as
 .. math::
 
     \\mathrm{MOTA}_k = 1 - \\frac{\\mathrm{FN}_k + \\mathrm{FP}_k + \\mathrm{IDSW}_k}{\\mathrm{GT}_k}, \\qquad
-    \\mathrm{MOTA} = 1 - \\frac{\\sum_k (\\mathrm{FN}_k + \\mathrm{FP}_k + \\mathrm{IDSW}_k)}{\\sum_k \\mathrm{GT}_k}.
+    \\mathrm{MOTA} = 1 - \\frac{\\sum_k (\\mathrm{FN}_k + \\mathrm{FP}_k + \\mathrm{IDSW}_k)}
+        {\\sum_k \\mathrm{GT}_k}.
 
 Differences from poseval: every keypoint the files name is scored (poseval maps PoseTrack's 17
 slots to its 15 joints and drops the ears, which PoseTrack 2018 never labels); a joint that no
@@ -63,7 +65,8 @@ def scored_frames(tracks: PoseStream, truth: PoseStream) -> tuple[NDArray[np.int
 def _check(tracks: PoseStream, truth: PoseStream) -> None:
     if tracks.num_keypoints != truth.num_keypoints:
         raise ValueError(
-            f"the tracks have {tracks.num_keypoints} keypoints per pose, the ground truth {truth.num_keypoints}"
+            f"the tracks have {tracks.num_keypoints} keypoints per pose, the ground truth "
+            f"{truth.num_keypoints}"
         )
     if np.any(truth.track_ids < 0):
         i = int(np.argmax(truth.track_ids < 0))
@@ -124,7 +127,8 @@ def per_joint_mota(tracks: PoseStream, truth: PoseStream, *, pckh: float = 0.5) 
 
 
 def truth_areas(truth: PoseStream, area_factor: float = 0.25) -> NDArray[np.float64]:
-    """(N,) object areas ``area_factor · max(w, h)²`` of the truths' labelled-keypoint boxes (0 without any)."""
+    """(N,) object areas ``area_factor · max(w, h)²`` of the truths' labelled-keypoint boxes
+    (0 without a labelled keypoint)."""
     present = truth.present[..., None]
     lo = np.min(np.where(present, truth.keypoints, np.inf), axis=1)
     hi = np.max(np.where(present, truth.keypoints, -np.inf), axis=1)
