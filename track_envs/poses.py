@@ -150,7 +150,7 @@ class PoseStream:
 
     def with_rows(self, **columns: Any) -> PoseStream:
         """A copy with some per-pose columns replaced (``track_ids=...``, ``scores=...``, ...)."""
-        return replace(self, **columns)  # type: ignore[arg-type]
+        return replace(self, **columns)
 
     def equals(self, other: PoseStream) -> bool:
         """Whether both streams hold the same frames and poses, value for value (NaN equal to NaN)."""

@@ -166,8 +166,10 @@ def score_poses(
         hota = pose_hota(tracks, truth, area_factor=area_factor)
     except ImportError:
         notes.append("HOTA left out: track_envs.metrics.hota is not installed")
-    else:
-        metrics = {**{k: v for k, v in hota.items()}, **metrics}
+    else:  # the totals, HOTA, then the joints
+        joints = {k: v for k, v in metrics.items() if k.startswith("mota_")}
+        totals = {k: v for k, v in metrics.items() if k not in joints}
+        metrics = {**totals, **hota, **joints}
     frames, track_frames = scored_frames(tracks, truth)
     if len(frames) < truth.n_frames:
         notes.append(f"{truth.n_frames - len(frames)} ground-truth frames without annotations are not scored")
