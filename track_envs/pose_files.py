@@ -26,7 +26,9 @@ visibility, ``0, 0, 0`` for a keypoint not labelled, ``scores``, ``score``) and 
 poseval requires track ids in 0–999: :func:`posetrack_track_ids` renumbers the tracks 0, 1, … by
 first frame; beyond 1,000 tracks a new track takes the smallest id of a track that has ended
 (its last frame before the new one's first), and a video in which more than 1,000 tracks overlap
-in time is an error.
+in time is an error. poseval finds the joints by the names in ``categories`` (PoseTrack's own
+17, with ``head_bottom`` and ``head_top`` in COCO's eye slots): results of a COCO file carry
+COCO's names unless they are renamed to the ground truth's (``track run --gt`` does).
 """
 
 from __future__ import annotations
