@@ -139,7 +139,7 @@ def terminal_table(rows: Sequence[Row], color: bool | None = None) -> str:
                     f"\033[1m{c}\033[0m" if v.endswith("*") else c for c, v in zip(cells, b, strict=True)
                 ]
             lines.append("  ".join(cells).rstrip())
-    lines.append("\n* best per env and setting (lower is better for errors, higher for MOTA/IDF1/OKS)")
+    lines.append("\n* best per env and setting (lower is better for errors, higher for MOTA/IDF1/HOTA/OKS)")
     return "\n".join(lines)
 
 
