@@ -38,7 +38,8 @@ The sensor spec the tracker is told: --dt (or inferred from --time-column), --de
 added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
-distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
+distance and cut-off --threshold), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr (similarity
+max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids.
 """
 
 

@@ -114,17 +114,16 @@ class HotaAccumulator:
                 f"similarity has shape {sim.shape}; it must be (len(gt_ids), len(tracker_ids)) = "
                 f"({gt.size}, {tr.size})"
             )
-        if sim.size and not (np.all(sim >= 0.0) and np.all(sim <= 1.0)):
+        if sim.size and not (sim.min() >= 0.0 and sim.max() <= 1.0):  # NaN fails both
             bad = sim[~((sim >= 0.0) & (sim <= 1.0))][0]
             raise ValueError(f"similarity values must be in [0, 1]; got {float(bad)}")
         rows, cols = np.nonzero(sim)
         values = sim[rows, cols]
-        # Soft match S / (row sum + column sum − S), 0 where that denominator is <= eps.
-        denominator = sim.sum(0)[np.newaxis, :] + sim.sum(1)[:, np.newaxis] - sim
-        denominator = denominator[rows, cols]
-        soft = np.zeros_like(values)
+        # Soft match S / (column sum + row sum − S), 0 where that denominator is <= eps (the
+        # operations in TrackEval's order, so P sums the very same floats).
+        denominator = sim.sum(0)[cols] + sim.sum(1)[rows] - values
         ok = denominator > _EPS
-        soft[ok] = values[ok] / denominator[ok]
+        soft = np.divide(values, denominator, out=np.zeros_like(values), where=ok)
         self._gt_ids.append(gt)
         self._tr_ids.append(tr)
         self._rows.append(rows.astype(np.int64, copy=False))
@@ -265,7 +264,7 @@ def _ids(values: ArrayLike, name: str) -> NDArray[np.int64]:
     ids = np.asarray(values)
     if ids.ndim != 1:
         raise ValueError(f"{name} must be 1-D; got shape {ids.shape}")
-    if ids.size and not np.issubdtype(ids.dtype, np.integer):
+    if ids.size and ids.dtype.kind not in "iu":
         raise ValueError(f"{name} must be integers; got dtype {ids.dtype}")
     ids = ids.astype(np.int64, copy=False)
     if ids.size > 1:
