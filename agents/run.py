@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.file_kinds import check_file_agent
 from track_envs.detections import Detections
 from track_envs.tracks import Tracks, carried_boxes
 from track_envs.types import SensorSpec
@@ -87,13 +88,15 @@ def run_agent(
         block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
 
     Raises:
-        ValueError: a frame with more detections than ``spec.max_detections`` (named), or
-            detections whose dimension is not ``spec.dim``.
+        ValueError: a frame with more detections than ``spec.max_detections`` (named),
+            detections whose dimension is not ``spec.dim``, or an agent that cannot track
+            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`).
     """
     if isinstance(agent, str):
         from agents import make_agent
 
         agent = make_agent(agent)
+    check_file_agent(agent, "point", flag="")
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
     if stream.dim != spec.dim:
         raise ValueError(f"the detections are {stream.dim}-d but the sensor spec is {spec.dim}-d")

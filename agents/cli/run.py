@@ -12,7 +12,8 @@ from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments
+from agents.cli import arguments, run_pose
+from agents.file_kinds import check_file_agent
 from agents.run import run_agent
 from predictors import available_predictors
 
@@ -44,7 +45,8 @@ The sensor spec the tracker is told: --dt (or inferred from --time-column), --de
 added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
-distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids. --match
+distance and cut-off --threshold), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr (similarity
+max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids. --match
 auto (default) matches boxes by IoU >= --min-iou (0.5, as MOTChallenge) when the tracks and the
 ground truth both have boxes, else centres within --threshold; the line "matching: ..." says which.
 """
@@ -83,12 +85,15 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         epilog=EPILOG.replace(PROG + " ", prog + " "),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide)")
+    p.add_argument(
+        "detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide, .json poses)"
+    )
     p.add_argument(
         "--input-format",
-        choices=["auto", "mot", "wide"],
+        choices=["auto", "mot", "wide", "coco", "posetrack"],
         default="auto",
-        help="auto (default): .txt is MOT, anything else wide",
+        help="auto (default): .txt is MOT, .json poses (COCO results or PoseTrack, from the content), "
+        "anything else wide",
     )
     g = p.add_argument_group("reading the detections")
     g.add_argument("--header", type=_header, default="auto", help="wide: auto (default), yes or no")
@@ -115,7 +120,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     g.add_argument("--scale", type=float, default=1.0, help="multiply positions (e.g. metres per pixel)")
     g = p.add_argument_group("the tracker and the sensor it is told of")
-    g.add_argument("--agent", default="gnn", choices=available_agents(), help="default gnn")
+    g.add_argument("--agent", choices=available_agents(), help=run_pose.agent_help())
     g.add_argument(
         "--predictor", choices=available_predictors(), help="for agents that take one (default kf-ca)"
     )
@@ -136,7 +141,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     arguments.add_seed(g, help="agent seed")
     g = p.add_argument_group("output and scoring")
     arguments.add_out(g, kind="file", help="the track file to write (in --format)", required=True)
-    g.add_argument("--format", choices=["mot", "wide", "long"], default="mot", help="default mot")
+    g.add_argument(
+        "--format", choices=["mot", "wide", "long"], help="default mot (pose files: PoseTrack JSON)"
+    )
     g.add_argument(
         "--box-size",
         type=float,
@@ -170,6 +177,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         "--min-iou", type=float, default=0.5, help="--match iou: smallest IoU of a match (default 0.5)"
     )
     arguments.add_no_progress(g)
+    run_pose.add_pose_arguments(p)
     return p
 
 
@@ -208,9 +216,15 @@ def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
     from track_envs.detection_files import CONSIDERED, detection_format, read_detections
     from track_envs.detections import detection_sensor_spec
+    from track_envs.pose_files import is_pose_file
     from track_envs.track_files import read_tracks, write_tracks
     from track_envs.track_scoring import match_kind, match_line, score_tracks
 
+    if is_pose_file(args.detections, args.input_format):
+        return run_pose.run_poses(args)
+    args.agent = args.agent or "gnn"
+    args.format = args.format or "mot"
+    check_file_agent(args.agent, "point")
     if args.covariance and args.format != "long":
         raise ValueError("--covariance needs --format long (MOT and wide files hold no covariance)")
     if args.metrics and not args.gt:
