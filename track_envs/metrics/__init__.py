@@ -3,7 +3,7 @@
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.base import Metric
 from track_envs.metrics.belt import AssociationErrors
-from track_envs.metrics.boxes import BoxClearMot, box_iou, iou_distances
+from track_envs.metrics.boxes import BoxClearMot, iou_distances
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric

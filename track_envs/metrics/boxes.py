@@ -25,20 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from track_envs.metrics.clear_mot import ClearMot
-
-
-def box_iou(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
-    """(m, n) IoU of every box of ``a`` (m, 4) with every box of ``b`` (n, 4), ``(left, top, w, h)``."""
-    x = np.asarray(a, dtype=np.float64).reshape(-1, 4)[:, None]
-    y = np.asarray(b, dtype=np.float64).reshape(-1, 4)[None, :]
-    low = np.maximum(x[..., :2], y[..., :2])
-    high = np.minimum(x[..., :2] + x[..., 2:], y[..., :2] + y[..., 2:])
-    inter = np.prod(np.maximum(high - low, 0.0), axis=-1)
-    size_x = np.maximum(x[..., :2] + x[..., 2:] - x[..., :2], 0.0)  # the corners' difference, as the
-    size_y = np.maximum(y[..., :2] + y[..., 2:] - y[..., :2], 0.0)  # intersection's (same rounding)
-    union = np.prod(size_x, axis=-1) + np.prod(size_y, axis=-1) - inter
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(inter > 0, inter / union, 0.0)
+from track_envs.metrics.hota_similarity import box_iou
 
 
 def iou_distances(a: ArrayLike, b: ArrayLike, min_iou: float = 0.5) -> NDArray[np.float64]:
