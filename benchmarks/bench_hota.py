@@ -1,6 +1,6 @@
 """HotaAccumulator against TrackEval's HOTA.eval_sequence on the same per-frame similarity matrices.
 
-    python benchmarks/bench_hota.py [--frames 5000] [--targets 40] [--repeat 3]
+    python benchmarks/bench_hota.py [--frames 1000 5000] [--targets 40] [--repeat 3]
 
 Sequences: the two MOT15 sequences py-motmetrics ships (TUD-Campus, TUD-Stadtmitte; box IoU of
 test.txt against gt.txt) and a long synthetic point scene (``--targets`` random walkers born and
@@ -51,15 +51,15 @@ def synthetic_frames(
     rng: np.random.Generator, n_frames: int, n_targets: int, tau: float = 1.0
 ) -> list[Frame]:
     """Random walkers in a 20 × 20 box (each dies with probability 1/200 per frame and is replaced
-    by a new id), tracked with noise 0.2, 10% misses, 3 clutter rows per frame, and a tracker id
-    that changes with probability 1/300 per frame."""
+    by a new id), tracked with noise 0.2, 10% misses, 3 false tracks per frame (random positions,
+    each id living 10 frames), and a tracker id that changes with probability 1/300 per frame."""
     positions = rng.uniform(0, 20, (n_targets, 2))
     velocity = rng.normal(0, 0.05, (n_targets, 2))
     ids = np.arange(n_targets)
     track_of = np.arange(n_targets) + 100_000
     next_id, next_track = n_targets, 100_000 + n_targets
     frames = []
-    for _ in range(n_frames):
+    for t in range(n_frames):
         dead = rng.random(n_targets) < 1 / 200
         n_dead = int(dead.sum())
         ids[dead] = np.arange(next_id, next_id + n_dead)
@@ -74,7 +74,7 @@ def synthetic_frames(
         seen = rng.random(n_targets) > 0.1
         reported = positions[seen] + rng.normal(0, 0.2, (int(seen.sum()), 2))
         clutter = rng.uniform(0, 20, (3, 2))
-        tracker_ids = np.concatenate([track_of[seen], rng.integers(10**9, 2 * 10**9, 3)])
+        tracker_ids = np.concatenate([track_of[seen], 10**9 + 3 * (t // 10) + np.arange(3)])
         points = np.concatenate([reported, clutter])
         frames.append((ids.copy(), tracker_ids, point_similarity(positions, points, tau)))
     return frames
@@ -112,7 +112,9 @@ def ours(frames: list[Frame]) -> dict[str, NDArray[np.float64]]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=5000, help="frames of the synthetic scene")
+    parser.add_argument(
+        "--frames", type=int, nargs="+", default=[1000, 5000], help="frames of the synthetic scenes"
+    )
     parser.add_argument("--targets", type=int, default=40, help="targets in view in the synthetic scene")
     parser.add_argument("--repeat", type=int, default=3, help="timings per side (the best is kept)")
     args = parser.parse_args(argv)
@@ -122,15 +124,15 @@ def main(argv: list[str] | None = None) -> None:
     sequences = {
         "TUD-Campus (MOT15, IoU)": tud_frames("TUD-Campus"),
         "TUD-Stadtmitte (MOT15, IoU)": tud_frames("TUD-Stadtmitte"),
-        f"synthetic points ({args.targets} targets)": synthetic_frames(
-            np.random.default_rng(0), args.frames, args.targets
-        ),
     }
+    for n_frames in args.frames:
+        frames = synthetic_frames(np.random.default_rng(0), n_frames, args.targets)
+        sequences[f"synthetic points ({args.targets} targets, {n_frames})"] = frames
     load = os.getloadavg()
     print(f"load average: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (1/5/15 min), {os.cpu_count()} CPUs")
     print(
-        f"{'sequence':34s} {'frames':>6s} {'rows':>7s} {'HOTA':>7s} {'ours ms':>9s} {'TrackEval ms':>12s} "
-        f"{'speed-up':>8s} {'max |diff|':>10s}"
+        f"{'sequence':36s} {'frames':>6s} {'rows':>7s} {'ids gt x trk':>12s} {'HOTA':>7s} {'ours ms':>9s} "
+        f"{'TrackEval ms':>12s} {'speed-up':>8s} {'max |diff|':>10s}"
     )
     for name, frames in sequences.items():
         data = trackeval_data(frames)
@@ -139,9 +141,10 @@ def main(argv: list[str] | None = None) -> None:
         t_te, theirs = best_of(args.repeat, lambda data=data, metric=metric: metric.eval_sequence(data))
         diff = max(float(np.max(np.abs(mine[k] - theirs[k]))) for k in HOTA_FIELDS)
         rows = data["num_gt_dets"] + data["num_tracker_dets"]
+        ids = f"{data['num_gt_ids']} x {data['num_tracker_ids']}"
         print(
-            f"{name:34s} {len(frames):6d} {rows:7d} {np.mean(mine['HOTA']):7.4f} {1e3 * t_ours:9.1f} "
-            f"{1e3 * t_te:12.1f} {t_te / t_ours:7.1f}x {diff:10.1e}"
+            f"{name:36s} {len(frames):6d} {rows:7d} {ids:>12s} {np.mean(mine['HOTA']):7.4f} "
+            f"{1e3 * t_ours:9.1f} {1e3 * t_te:12.1f} {t_te / t_ours:7.1f}x {diff:10.1e}"
         )
 
 

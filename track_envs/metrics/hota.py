@@ -70,6 +70,9 @@ class HotaAccumulator:
 
     Ids are any integers (unique within a frame); similarities are in [0, 1]. Memory grows with
     the number of non-zero similarities (and of rows) seen, not with the number of ids squared.
+    :meth:`compute` solves an assignment (scipy's ``linear_sum_assignment``) only in the frames
+    where some row or column has two non-zero similarities (elsewhere the optimum takes every
+    non-zero pair) and counts the 19 thresholds at once from each matched pair's similarity.
 
     Example::
 
