@@ -8,6 +8,11 @@ block of frames at a time into one array (no per-frame allocation), and the repo
 10 µs a frame) are turned into :class:`~track_envs.tracks.Tracks` a block at a time (one
 vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
 
+Where the detections are boxes (:attr:`~track_envs.detections.Detections.boxes`), every row of
+the tracks carries the box of the detection its track was updated with that frame, and while it
+coasts the last box it had (:func:`track_envs.tracks.carried_boxes`, one vectorised pass after
+the loop).
+
 An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
 the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
 its predictor's estimate); ``covariance=True`` collects them.
@@ -25,9 +30,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.file_kinds import check_file_agent
 from track_envs.detections import Detections
 from track_envs.report import ReportOverflowError
-from track_envs.tracks import Tracks
+from track_envs.tracks import Tracks, carried_boxes
 from track_envs.types import SensorSpec
 
 #: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
@@ -86,18 +92,21 @@ def run_agent(
 
     Returns:
         :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
-        values as float64), the detection row each track was updated with (−1: coasted) and,
-        with ``covariance``, the covariances. A report's arrays are kept by reference until their
+        values as float64), the detection row each track was updated with (−1: coasted),
+        with box detections the box of each row (``Tracks.boxes``) and, with ``covariance``,
+        the covariances. A report's arrays are kept by reference until their
         block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
 
     Raises:
-        ValueError: a frame with more detections than ``spec.max_detections`` (named), or
-            detections whose dimension is not ``spec.dim``.
+        ValueError: a frame with more detections than ``spec.max_detections`` (named),
+            detections whose dimension is not ``spec.dim``, or an agent that cannot track
+            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`).
     """
     if isinstance(agent, str):
         from agents import make_agent
 
         agent = make_agent(agent)
+    check_file_agent(agent, "point", flag="")
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
     if stream.dim != spec.dim:
         raise ValueError(f"the detections are {stream.dim}-d but the sensor spec is {spec.dim}-d")
@@ -156,7 +165,10 @@ def _run(agent: Any, stream: Detections, spec: SensorSpec, *, covariance: bool, 
     finally:
         if bar is not None:
             bar.close()
-    return Tracks.concatenate(parts, stream.n_frames)
+    tracks = Tracks.concatenate(parts, stream.n_frames)
+    if stream.boxes is not None and tracks.detection is not None:
+        tracks = tracks.with_boxes(carried_boxes(tracks, stream.boxes, stream.offsets))
+    return tracks
 
 
 def _progress(total: int, enabled: bool) -> Any:
