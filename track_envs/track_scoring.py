@@ -84,13 +84,14 @@ def score_tracks(
     Returns:
         ``(metrics, notes)``: one flat dict of floats, and what was skipped and why.
     """
-    from track_envs.metrics import AssociationErrors, BoxClearMot, ClearMot
+    from track_envs.metrics import AssociationErrors, BoxClearMot, BoxHota, ClearMot, Hota
     from track_envs.wrappers.tracking_metrics import point_metrics
 
     kind = match_kind(tracks.boxes is not None, truth.boxes is not None, match)
     metrics = point_metrics(threshold)
     if kind == "iou":
         metrics = [BoxClearMot(min_iou) if isinstance(m, ClearMot) else m for m in metrics]
+        metrics = [BoxHota() if isinstance(m, Hota) else m for m in metrics]
     notes: list[str] = []
     with_ids = detections is not None and detections.has_ids and tracks.detection is not None
     if not with_ids:

@@ -9,7 +9,7 @@ from track_envs.metrics.gospa import GospaResult, gospa
 from track_envs.metrics.gospa_stream import GospaMetric
 from track_envs.metrics.hota import HotaAccumulator
 from track_envs.metrics.hota_similarity import box_iou, point_similarity
-from track_envs.metrics.hota_stream import Hota, PoseHota
+from track_envs.metrics.hota_stream import BoxHota, Hota, PoseHota
 from track_envs.metrics.keypoints import KeypointMota, PoseOks, oks, pairwise_oks
 from track_envs.metrics.prediction import Nees, PredictionError, Reliability, mahalanobis_sq
 from track_envs.metrics.single_target import SingleTargetError
@@ -20,6 +20,7 @@ __all__ = [
     "AleatoricArea",
     "AssociationErrors",
     "BoxClearMot",
+    "BoxHota",
     "ClearMot",
     "GospaMetric",
     "GospaResult",

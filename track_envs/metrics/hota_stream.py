@@ -9,6 +9,8 @@ environments add is the similarity between the visible truth and the reported tr
   :func:`~track_envs.wrappers.tracking_metrics.point_metrics`). A pair is then a true positive
   at α when ``d ≤ (1 − α) τ``: the α-average sweeps the match distance from ``0.95 τ`` down to
   ``0.05 τ``, and LocA is ``1 − (mean matched distance)/τ``.
+* :class:`BoxHota`, boxes (MOTChallenge files): ``S`` the intersection over union of the boxes
+  (``truth["boxes"]``, ``report["boxes"]``; a box that is not finite overlaps nothing).
 * :class:`PoseHota`, poses: ``S`` the object keypoint similarity (OKS, COCO's, with the truth
   area ``area_factor · scale²`` as :class:`~track_envs.metrics.keypoints.PoseOks` uses).
 
@@ -26,7 +28,7 @@ from numpy.typing import NDArray
 
 from track_envs.metrics.base import live_report, live_truth
 from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
-from track_envs.metrics.hota_similarity import point_similarity
+from track_envs.metrics.hota_similarity import box_iou, point_similarity
 from track_envs.metrics.keypoints import _report_poses, _truth_poses, oks
 
 #: HOTA's figure names (:data:`~track_envs.metrics.hota.HOTA_FIELDS`) and the metric keys they
@@ -86,6 +88,44 @@ class Hota:
 
     def compute(self) -> dict[str, float]:
         """``hota``, ``det_a``, ``ass_a``, ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr``."""
+        return hota_keys(self._acc.compute())
+
+
+class BoxHota:
+    """Streaming HOTA of boxed reports against the visible boxed truth, with IoU as similarity.
+
+    Frames carry ``truth["boxes"]`` and ``report["boxes"]`` (rows, 4) ``(left, top, width, height)``
+    as :class:`~track_envs.metrics.boxes.BoxClearMot` reads them; TrackEval's MOTChallenge HOTA is
+    this on the same boxes.
+    """
+
+    needs_truth = True
+
+    def __init__(self) -> None:
+        self._acc = HotaAccumulator()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new episode)."""
+        self._acc.reset()
+
+    def update(
+        self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
+    ) -> None:
+        """Add one frame (``detection_ids`` is unused)."""
+        del detection_ids
+        if "boxes" not in truth or "boxes" not in report:
+            raise ValueError("BoxHota scores boxes: the truth and the report need 'boxes' (rows, 4)")
+        live_t = np.asarray(truth["visible"], dtype=bool) & (np.asarray(truth["ids"]) >= 0)
+        live_r = np.asarray(report["mask"]) == 1
+        a = np.asarray(truth["boxes"], dtype=np.float64)[live_t]
+        b = np.asarray(report["boxes"], dtype=np.float64)[live_r]
+        similarity = (
+            np.nan_to_num(box_iou(a, b), nan=0.0) if len(a) and len(b) else np.zeros((len(a), len(b)))
+        )
+        self._acc.add_frame(np.asarray(truth["ids"])[live_t], np.asarray(report["ids"])[live_r], similarity)
+
+    def compute(self) -> dict[str, float]:
+        """The same keys as :meth:`Hota.compute`."""
         return hota_keys(self._acc.compute())
 
 

@@ -248,3 +248,21 @@ def test_tud_sequences_match_trackeval_motchallenge_evaluation(tmp_path):
     for name in TUD_HOTA:
         reference = results["MotChallenge2DBox"]["t"][name]["pedestrian"]["HOTA"]
         assert max_difference(ours(tud_frames(name)), reference) < 1e-9
+
+
+@pytest.mark.parametrize("name", sorted(TUD_HOTA))
+def test_score_tracks_scores_boxes_with_iou_hota(name):
+    """``score_tracks`` (track run --metrics) on boxed MOT files uses IoU as HOTA's similarity, so
+    the shipped test.txt scores TrackEval's MOTChallenge HOTA against its gt."""
+    from track_envs.detection_files import CONSIDERED
+    from track_envs.track_files import read_tracks
+    from track_envs.track_scoring import score_tracks
+
+    tracks = read_tracks(TUD_DATA / name / "test.txt", "mot")
+    truth = read_tracks(TUD_DATA / name / "gt.txt", "mot", min_confidence=CONSIDERED)
+    metrics, _ = score_tracks(tracks, truth, threshold=50.0)
+    hota, det_a, ass_a, loc_a = TUD_HOTA[name]
+    assert metrics["hota"] == pytest.approx(hota, abs=1e-6)
+    assert metrics["det_a"] == pytest.approx(det_a, abs=1e-6)
+    assert metrics["ass_a"] == pytest.approx(ass_a, abs=1e-6)
+    assert metrics["loc_a"] == pytest.approx(loc_a, abs=1e-6)
