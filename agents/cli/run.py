@@ -288,7 +288,9 @@ def run(args: argparse.Namespace) -> int:
             spec = dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))
     elif self_calibration.given_kwargs(args):
         if args.agent != "gnn":
-            raise ValueError("--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn")
+            raise ValueError(
+                "--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn"
+            )
         agent_kwargs = self_calibration.given_kwargs(args) | agent_kwargs
     agent = build_agent(args.agent, args.predictor, agent_kwargs)
     warm_up(agent)  # compile / load the kernels before the first frame

@@ -308,5 +308,5 @@ def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
         tracks = run_agent(
             make_agent("gnn", predictor="kf-ca", **cal.agent_kwargs()), det, cal.sensor_spec(spec)
         )
-        mota = score_tracks(tracks, truth, threshold=threshold)[0]["mota"]
+        mota = score_tracks(tracks, truth, threshold=threshold, match="distance")[0]["mota"]
         assert mota >= best - 0.03
