@@ -10,7 +10,7 @@ from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments
+from agents.cli import arguments, sorting
 from agents.run import run_agent
 from predictors import available_predictors
 
@@ -24,6 +24,8 @@ examples:
   track run sorter.csv --time-column time --out tracks.csv --format long --covariance
   track run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
   track run det.txt --agent gnn --agent-kwargs p_gate=0.99,max_misses=3 --seed 1 --out tracks.txt
+  track run sorter.csv --time-column time --out tracks.csv --sorting-line 0.45
+  track run sorter.csv --time-column time --out tracks.csv --sorting-check line=0.35,cut=0.3
 
 Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; boxes
 reduced to their centres) or a wide per-frame CSV (optional header; frame column, count column,
@@ -38,6 +40,10 @@ added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
 distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
+Sorting: --sorting-line X writes each track's predicted crossing of the nozzle bar x = X (past the
+camera window) to OUT.sorting.csv; --sorting-check line=L,cut=C checks such predictions without
+truth: a virtual line L inside the window, predicted from the detections at x <= C, scored
+against where the tracks crossed L (hit rate, error percentiles; OUT.sorting-check.csv).
 """
 
 
@@ -144,6 +150,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         "--threshold", type=float, default=0.005, help="match distance and GOSPA cut-off (default 0.005)"
     )
     arguments.add_no_progress(g)
+    sorting.add_arguments(p)
     return p
 
 
@@ -202,12 +209,20 @@ def run(args: argparse.Namespace) -> int:
         max_detections=args.max_detections,
         max_tracks=args.max_tracks,
     )
+    check = sorting.check_arguments(args, spec)
     agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
     warm_up(agent)  # compile / load the kernels before the first frame
     read_s = time.perf_counter() - start
-    tracks = run_agent(
-        agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
+    result = run_agent(
+        agent,
+        detections,
+        spec,
+        seed=args.seed,
+        covariance=args.covariance,
+        progress=not args.no_progress,
+        sorting_line=args.sorting_line,
     )
+    tracks, crossings = result if isinstance(result, tuple) else (result, None)
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
@@ -215,6 +230,10 @@ def run(args: argparse.Namespace) -> int:
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
+    if crossings is not None:
+        sorting.write_predictions(args, crossings, tracks)
+    if check is not None:
+        sorting.run_check(args, check, agent, detections, spec, tracks)
     if args.gt:
         truth = read_tracks(args.gt, args.gt_format, min_confidence=1.0 if _is_mot(args) else None)
         if args.metrics:
