@@ -104,9 +104,7 @@ def cut_stream(detections: Detections, cut: float) -> tuple[Detections, NDArray[
     in ``detections.points``."""
     keep = detections.points[:, 0] <= cut
     kept = np.flatnonzero(keep)
-    counts = np.add.reduceat(keep.astype(np.int64), detections.offsets[:-1]) if len(keep) else keep
-    counts = np.where(detections.counts > 0, counts, 0)  # reduceat of an empty frame reads the next
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    offsets = np.concatenate([[0], np.cumsum(keep)]).astype(np.int64)[detections.offsets]
     stream = Detections(
         detections.points[kept],
         offsets,
