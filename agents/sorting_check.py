@@ -62,6 +62,8 @@ class SortingCheck:
             detection), ``t_true`` and ``y_true`` (the reference track's crossing; NaN if none).
         observed: The reference tracks' crossings of ``L``.
         distance: (n,) ``L − x_seen`` of each scored prediction (the rows of ``score``).
+        seen: (k,) index into ``detections.points`` of the last detection each of
+            ``predictions`` starts from.
     """
 
     line: float
@@ -70,6 +72,7 @@ class SortingCheck:
     predictions: PredictedCrossings
     observed: ObservedCrossings
     distance: NDArray[np.float64]
+    seen: NDArray[np.int64]
 
 
 def check_line_and_cut(spec: SensorSpec, line: Any, cut: Any) -> tuple[float, float]:
@@ -200,7 +203,7 @@ def check_sorting(
     rows = _last_rows(track)
     order = np.argsort(track[rows], kind="stable")
     distance = (line - x_seen[rows])[order][np.searchsorted(track[rows][order], score.ids)]
-    return SortingCheck(line, cut, score, predictions, observed, distance)
+    return SortingCheck(line, cut, score, predictions, observed, distance, full_index)
 
 
 def _last_rows(ids: NDArray[np.int64]) -> NDArray[np.int64]:
