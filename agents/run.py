@@ -8,6 +8,11 @@ block of frames at a time into one array (no per-frame allocation), and the repo
 10 µs a frame) are turned into :class:`~track_envs.tracks.Tracks` a block at a time (one
 vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
 
+Where the detections are boxes (:attr:`~track_envs.detections.Detections.boxes`), every row of
+the tracks carries the box of the detection its track was updated with that frame, and while it
+coasts the last box it had (:func:`track_envs.tracks.carried_boxes`, one vectorised pass after
+the loop).
+
 An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
 the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
 its predictor's estimate); ``covariance=True`` collects them.
@@ -23,10 +28,11 @@ from typing import Any, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.file_kinds import check_file_agent
 from agents.sorting_collect import SortingCollector, sorting_spec
 from track_envs.crossing_predictions import PredictedCrossings
 from track_envs.detections import Detections
-from track_envs.tracks import Tracks
+from track_envs.tracks import Tracks, carried_boxes
 from track_envs.types import SensorSpec
 
 #: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
@@ -111,22 +117,25 @@ def run_agent(
 
     Returns:
         :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
-        values as float64), the detection row each track was updated with (−1: coasted) and,
-        with ``covariance``, the covariances. A report's arrays are kept by reference until their
+        values as float64), the detection row each track was updated with (−1: coasted),
+        with box detections the box of each row (``Tracks.boxes``) and, with ``covariance``,
+        the covariances. A report's arrays are kept by reference until their
         block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
         With ``sorting_line``: ``(tracks, crossings)``, ``crossings`` the
         :class:`~track_envs.crossing_predictions.PredictedCrossings` of every report, with the
         frame each was reported in (``crossings.last()``: the one per track that counts).
 
     Raises:
-        ValueError: a frame with more detections than ``spec.max_detections`` (named), or
-            detections whose dimension is not ``spec.dim``; a ``sorting_line`` not downstream
-            of the region, or an agent that reports no crossings.
+        ValueError: a frame with more detections than ``spec.max_detections`` (named),
+            detections whose dimension is not ``spec.dim``, an agent that cannot track
+            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`); a
+            ``sorting_line`` not downstream of the region, or an agent that reports no crossings.
     """
     if isinstance(agent, str):
         from agents import make_agent
 
         agent = make_agent(agent)
+    check_file_agent(agent, "point", flag="")
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
     if stream.dim != spec.dim:
         raise ValueError(f"the detections are {stream.dim}-d but the sensor spec is {spec.dim}-d")
@@ -174,6 +183,8 @@ def run_agent(
         if bar is not None:
             bar.close()
     tracks = Tracks.concatenate(parts, stream.n_frames)
+    if stream.boxes is not None and tracks.detection is not None:
+        tracks = tracks.with_boxes(carried_boxes(tracks, stream.boxes, stream.offsets))
     return tracks if sorting is None else (tracks, sorting.result())
 
 

@@ -8,8 +8,9 @@ line are counted on the raw bytes (vectorised, so ragged rows are allowed: missi
 read as NaN), and pandas' C parser reads every cell as a float. Only on a parse error is the text
 scanned again, with :mod:`csv`, to name the first cell that is not a number.
 
-Rows and columns in messages are counted from 1, as an editor or spreadsheet shows them; the row
-is the file's line number (a header is line 1).
+Rows in messages are the file's line numbers, from 1, as an editor shows them (a header is line
+1); columns are named by their index from 0 (``column index 3``), as the readers' column options
+count them.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ class DetectionFileError(TrackFileError):
     """A detection or track file is missing, unreadable or not in the expected layout.
 
     The message starts with the file's path and names the problem and, where there is one, the
-    row and column (both counted from 1).
+    row (the line number, from 1) and the column (its index, from 0, as column options count).
     """
 
 
@@ -85,7 +86,7 @@ class Table:
         """An error about cell ``values[row, column]`` (0-based), named as the file shows it."""
         name = f" ({self.names[column]!r})" if self.names and column < len(self.names) else ""
         return DetectionFileError(
-            f"{self.label}: row {self.first_row + row}, column {column + 1}{name} {what}"
+            f"{self.label}: row {self.first_row + row}, column index {column}{name} {what}"
         )
 
     def column(self, spec: int | str, what: str) -> int:
@@ -189,11 +190,11 @@ def _locate_text(
     reader = csv.reader(io.StringIO(text), delimiter=delimiter, quoting=csv.QUOTE_NONE)
     try:
         for row, fields in enumerate(reader, start=first_row):
-            for column, field in enumerate(fields, start=1):
+            for column, field in enumerate(fields):
                 if not _is_number_or_missing(field):
                     shown = field if len(field) <= 40 else field[:40] + "..."
                     return DetectionFileError(
-                        f"{label}: row {row}, column {column} holds text {shown!r}, expected a number"
+                        f"{label}: row {row}, column index {column} holds text {shown!r}, expected a number"
                     )
     except csv.Error as scan_exc:
         return DetectionFileError(f"{label}: row {reader.line_num + first_row - 1}: {scan_exc}")

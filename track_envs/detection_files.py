@@ -1,17 +1,25 @@
 """Read and write per-frame point detections without identities: MOTChallenge and wide CSV files.
 
-Two layouts (Rows and columns in error messages count from 1, as an editor shows them; column
-*selection* arguments count from 0, as pandas does, or take header names):
+Two layouts (rows in error messages are the file's line numbers, from 1, as an editor shows them;
+columns are named by their index from 0 — ``column index 1 ('count')`` — as the column
+*selection* arguments count them, as pandas does, or by header name):
 
 **MOTChallenge** ``det.txt`` (Milan, Leal-Taixé, Reid, Roth, Schindler: "MOT16: A Benchmark for
 Multi-Object Tracking", 2016): no header, one detection per line,
 ``frame, id, bb_left, bb_top, bb_width, bb_height, conf, x, y, z`` (later fields optional, at
 least the first six). Frames count from 1; ``id`` is −1 in detection files. A point tracker needs
-centres, so every box is reduced to its centre ``(bb_left + bb_width / 2, bb_top + bb_height / 2)``
-(a point written with width and height 0 is its own centre). Rows may come in any frame order; a
-frame without a row is an empty frame. An ``id >= 0`` (a simulated recording's truth id) is kept
-as :attr:`Detections.ids`. :func:`write_mot_detections` writes the point as a box of
-``box_size`` (default 0) about it, and the confidence, and ``-1, -1, -1`` for the world x, y, z.
+centres, so every box gives its centre ``(bb_left + bb_width / 2, bb_top + bb_height / 2)`` as
+:attr:`Detections.points`, and the box itself is kept as :attr:`Detections.boxes`
+``(bb_left, bb_top, bb_width, bb_height)`` — unless every box has width and height 0 (a file of
+points: ``boxes`` None). ``swap_xy`` swaps the box's axes with the point's (``(bb_top, bb_left,
+bb_height, bb_width)``) and ``scale`` multiplies all four numbers, so the box's centre stays the
+point. A confidence of −1 means "not given" (MOTChallenge tracker output and MOT15 detections
+write it): ``min_confidence`` drops only rows with a confidence below it that is not −1, and a
+filter that drops every row is an error naming the confidences the file holds. Rows may come in
+any frame order; a frame without a row is an empty frame. An ``id >= 0`` (a simulated
+recording's truth id) is kept as :attr:`Detections.ids`. :func:`write_mot_detections` writes each
+detection's box (or, for points, a box of ``box_size``, default 0, about the point), the
+confidence, and ``-1, -1, -1`` for the world x, y, z.
 
 **Wide per-frame CSV** (the layout sorter software commonly writes): one row per frame, an
 optional header, a frame-number column, a count column, optionally a time column (seconds), and
@@ -47,6 +55,7 @@ from track_envs.detections import Detections
 from track_envs.track_csv import _format_rows
 
 __all__ = [
+    "CONSIDERED",
     "DetectionFileError",
     "MotRows",
     "read_detections",
@@ -72,8 +81,9 @@ class MotRows:
         frame: (N,) int64 frame index from 0 (the file's frame number − 1).
         ids: (N,) int64 the file's id column.
         centres: (N, 2) float64 box centres.
-        confidence: (N,) float64 (1 where the file has no confidence column).
+        confidence: (N,) float64 (1 where the file has no confidence column; −1: not given).
         n_frames: The last frame number of the file (frames 1..n_frames).
+        boxes: (N, 4) float64 ``bb_left, bb_top, bb_width, bb_height``.
     """
 
     frame: NDArray[np.int64]
@@ -81,23 +91,31 @@ class MotRows:
     centres: NDArray[np.float64]
     confidence: NDArray[np.float64]
     n_frames: int
+    boxes: NDArray[np.float64]
+
+    @property
+    def has_boxes(self) -> bool:
+        """Whether any row is a box (width or height > 0); a file of points has none."""
+        return bool(np.any(self.boxes[:, 2:] > 0))
 
 
 def read_mot_rows(
     path: str | os.PathLike[str], *, min_confidence: float | None = None, delimiter: str = ","
 ) -> MotRows:
-    """The rows of a MOTChallenge file (detections or tracks), boxes reduced to centres.
+    """The rows of a MOTChallenge file (detections, tracks or ground truth): boxes and their centres.
 
     Args:
         path: The file.
-        min_confidence: Drop rows whose confidence (column 7) is below this (motmetrics'
-            ``min_confidence``; 1 for ground truth keeps the rows flagged "considered").
+        min_confidence: Drop rows whose confidence (column index 6) is below this, except rows
+            with −1 ("not given"). For ground truth, 1 keeps the rows flagged "considered"
+            (MOT16 and later write 1 or 0 there, MOT15 writes 1): :data:`CONSIDERED`.
         delimiter: Field separator.
 
     Raises:
         DetectionFileError: naming the row and column of a missing, non-numeric or non-finite
-            field among the first six, a frame number that is not an integer >= 1, or an id
-            that is not an integer.
+            field among the first six, a frame number that is not an integer >= 1, an id that is
+            not an integer, or a negative width or height; and a ``min_confidence`` that drops
+            every row (naming the confidences the file holds).
     """
     table = read_table(path, header=False, delimiter=delimiter)
     values = table.values
@@ -115,11 +133,17 @@ def read_mot_rows(
     frames, ids = head[:, 0], head[:, 1]
     _check_integers(table, frames, 0, "frame", low=1)
     _check_integers(table, ids, 1, "id", low=None)
+    negative = head[:, 4:6] < 0
+    if negative.any():
+        row, k = first_bad(negative)
+        raise table.error(
+            row, 4 + k, f"({_MOT_NAMES[4 + k]}) holds {float(head[row, 4 + k])!r}; a box's size must be >= 0"
+        )
     confidence = values[:, 6] if values.shape[1] > 6 else np.ones(len(values))
     confidence = np.where(np.isnan(confidence), 1.0, confidence)
     centres = np.stack([head[:, 2] + head[:, 4] / 2, head[:, 3] + head[:, 5] / 2], axis=1)
     n_frames = int(frames.max())
-    keep = slice(None) if min_confidence is None else confidence >= float(min_confidence)
+    keep = slice(None) if min_confidence is None else _confident(table.label, confidence, min_confidence)
     frame = frames[keep].astype(np.int64) - 1
     order = np.argsort(frame, kind="stable")
     return MotRows(
@@ -128,7 +152,25 @@ def read_mot_rows(
         centres=np.ascontiguousarray(centres[keep][order]),
         confidence=confidence[keep][order],
         n_frames=n_frames,
+        boxes=np.ascontiguousarray(head[:, 2:6][keep][order]),
     )
+
+
+#: The ``min_confidence`` that keeps the ground-truth rows flagged "considered" (column index 6
+#: is 1, or −1: not given) and drops the others (0), as motmetrics reads MOTChallenge ground truth.
+CONSIDERED = 1.0
+
+
+def _confident(label: str, confidence: NDArray[np.float64], min_confidence: float) -> NDArray[np.bool_]:
+    """Rows whose confidence is at least ``min_confidence`` or −1 ("not given"); an error if none."""
+    keep = (confidence >= float(min_confidence)) | (confidence == -1)
+    if len(keep) and not keep.any():
+        raise DetectionFileError(
+            f"{label}: min_confidence={min_confidence!r} (track run: --min-confidence) drops every one of "
+            f"the {len(keep)} rows; their confidences (column index 6) range from "
+            f"{float(confidence.min())!r} to {float(confidence.max())!r}"
+        )
+    return keep
 
 
 def read_mot_detections(
@@ -140,13 +182,15 @@ def read_mot_detections(
     n_frames: int | None = None,
     delimiter: str = ",",
 ) -> Detections:
-    """Detections of a MOTChallenge ``det.txt`` (box centres; frame 1 is frame 0 of the stream).
+    """Detections of a MOTChallenge ``det.txt``: box centres as points, and the boxes (module
+    docstring; frame 1 is frame 0 of the stream).
 
     Args:
         path: The file.
-        min_confidence: Drop detections whose confidence is below this.
-        swap_xy: Swap x and y.
-        scale: Multiply positions by this (e.g. metres per pixel).
+        min_confidence: Drop detections whose confidence is below this (−1, "not given", is
+            kept); dropping every detection is an error.
+        swap_xy: Swap x and y (a box ``(left, top, w, h)`` becomes ``(top, left, h, w)``).
+        scale: Multiply positions and boxes by this (e.g. metres per pixel).
         n_frames: Frames of the stream (default: up to the file's last frame number); frames
             after the last detection are empty.
         delimiter: Field separator.
@@ -156,11 +200,16 @@ def read_mot_detections(
     total = rows.n_frames if n_frames is None else max(int(n_frames), rows.n_frames)
     counts = np.bincount(rows.frame, minlength=total)
     points = rows.centres[:, ::-1] if swap_xy else rows.centres
+    boxes = None
+    if rows.has_boxes:
+        boxes = rows.boxes[:, [1, 0, 3, 2]] if swap_xy else rows.boxes
+        boxes = boxes * scale if scale != 1.0 else boxes
     return Detections(
         points=points * scale if scale != 1.0 else np.ascontiguousarray(points),
         offsets=np.concatenate([[0], np.cumsum(counts)]),
         ids=np.where(rows.ids >= 0, rows.ids, -1),
         first_frame=1,
+        boxes=boxes,
     )
 
 
@@ -169,15 +218,22 @@ def write_mot_detections(
 ) -> None:
     """Write detections as a MOTChallenge ``det.txt`` (frame ``t`` of the stream as frame ``t + 1``).
 
-    Each row is ``frame, id, x - box_size/2, y - box_size/2, box_size, box_size, confidence, -1, -1, -1``
-    with the detection's truth id (−1 where it has none). With ``box_size`` 0 the file reads back
-    bit for bit; any other size rounds the centre (``x - s/2 + s/2``) in the last bit.
+    Each row is ``frame, id, bb_left, bb_top, bb_width, bb_height, confidence, -1, -1, -1`` with the
+    detection's truth id (−1 where it has none): the detection's box where it has one, else
+    ``x - box_size/2, y - box_size/2, box_size, box_size``. Boxes, and points with ``box_size`` 0,
+    read back bit for bit; any other size rounds the centre (``x - s/2 + s/2``) in the last bit.
     """
     if detections.dim != 2:
         raise ValueError(f"MOTChallenge files hold 2-d points; these detections are {detections.dim}-d")
     frame = detections.frame_index() + 1
     _write_mot(
-        path, frame, detections.ids, detections.points, box_size, [repr(float(confidence)), "-1,-1,-1"]
+        path,
+        frame,
+        detections.ids,
+        detections.points,
+        box_size,
+        [repr(float(confidence)), "-1,-1,-1"],
+        boxes=detections.boxes,
     )
 
 
@@ -188,18 +244,26 @@ def _write_mot(
     points: NDArray[np.float64],
     box_size: float,
     tail: list[str],
+    *,
+    boxes: NDArray[np.float64] | None = None,
 ) -> None:
-    """Rows ``frame, id, left, top, w, h, *tail`` (``tail`` written as given on every row)."""
+    """Rows ``frame, id, left, top, w, h, *tail`` (``tail`` written as given on every row): the
+    row's box from ``boxes`` (N, 4) where it is finite, else a ``box_size`` box about the point."""
     size = float(box_size)
     if not (np.isfinite(size) and size >= 0):
         raise ValueError(f"box_size must be a finite number >= 0, got {box_size!r}")
     half = size / 2
     left = points[:, 0] - half if size else points[:, 0]
     top = points[:, 1] - half if size else points[:, 1]
-    end = "," + ",".join([repr(size), repr(size), *tail])
+    sized = np.broadcast_to(np.float64(size), left.shape)
+    columns = np.stack([left, top, sized, sized], axis=1)
+    if boxes is not None:
+        given = np.isfinite(boxes).all(axis=1)
+        columns[given] = boxes[given]
+    end = "," + ",".join(tail)
     lines = [
-        f"{f},{i},{x!r},{y!r}{end}"
-        for f, i, x, y in zip(frame.tolist(), ids.tolist(), left.tolist(), top.tolist(), strict=True)
+        f"{f},{i},{x!r},{y!r},{w!r},{h!r}{end}"
+        for f, i, (x, y, w, h) in zip(frame.tolist(), ids.tolist(), columns.tolist(), strict=True)
     ]
     lines.append("")
     Path(path).write_text("\n".join(lines), encoding="ascii")
@@ -283,7 +347,7 @@ def read_wide_detections(
         raise table.error(
             r,
             pair_columns[k],
-            f"is empty but column {other + 1} (its pair) holds a number; x and y must be both "
+            f"is empty but column index {other} (its pair) holds a number; x and y must be both "
             "numbers or both empty",
         )
     live = ~nan[:, 0::2]
@@ -409,13 +473,13 @@ def _pair_columns(
         raise DetectionFileError(f"{table.label}: no x, y columns (the file has {n} columns)")
     if len(columns) % 2:
         raise DetectionFileError(
-            f"{table.label}: {len(columns)} x, y columns (columns {columns[0] + 1}-{columns[-1] + 1}) is an "
+            f"{table.label}: {len(columns)} x, y columns (column indices {columns[0]}-{columns[-1]}) is an "
             "odd count; expected (x, y) pairs"
         )
     clash = sorted(set(columns) & set(used.values()))
     if clash:
         raise DetectionFileError(
-            f"{table.label}: column {clash[0] + 1} is both an x, y column and {_name_of(used, clash[0])}"
+            f"{table.label}: column index {clash[0]} is both an x, y column and {_name_of(used, clash[0])}"
         )
     return columns
 

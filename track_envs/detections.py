@@ -30,6 +30,10 @@ class Detections:
             recording's MOT ``id`` column), −1 for clutter or unknown.
         first_frame: The file's frame number of frame 0 (1 for MOTChallenge files).
         times: (n_frames,) float64 time stamps in seconds where the file has a time column, else None.
+        boxes: (N, 4) float64 box of every detection, ``(left, top, width, height)`` in the units
+            of ``points`` (a MOTChallenge file's ``bb_left, bb_top, bb_width, bb_height``), or None
+            for point detections. A box's centre is its point: ``points = (left + width / 2,
+            top + height / 2)`` as the reader computes it.
     """
 
     points: NDArray[np.float64]
@@ -37,6 +41,7 @@ class Detections:
     ids: NDArray[np.int64] = None  # type: ignore[assignment]
     first_frame: int = 0
     times: NDArray[np.float64] | None = None
+    boxes: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         points = np.ascontiguousarray(self.points, dtype=np.float64)
@@ -60,6 +65,14 @@ class Detections:
             times = np.asarray(times, dtype=np.float64)
             if times.shape != (len(offsets) - 1,):
                 raise ValueError(f"Detections.times must have shape ({len(offsets) - 1},), got {times.shape}")
+        boxes = self.boxes
+        if boxes is not None:
+            boxes = np.ascontiguousarray(boxes, dtype=np.float64)
+            if boxes.shape != (len(points), 4):
+                raise ValueError(f"Detections.boxes must have shape ({len(points)}, 4), got {boxes.shape}")
+            if not np.isfinite(boxes).all() or np.any(boxes[:, 2:] < 0):
+                raise ValueError("Detections.boxes must be finite with width and height >= 0")
+        object.__setattr__(self, "boxes", boxes)
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "offsets", offsets)
         object.__setattr__(self, "ids", ids)
@@ -123,6 +136,10 @@ class Detections:
         """The (m_t, D) detections of frame ``t``."""
         return self.points[self.offsets[t] : self.offsets[t + 1]]
 
+    def frame_boxes(self, t: int) -> NDArray[np.float64] | None:
+        """The (m_t, 4) boxes of frame ``t``'s detections, or None for point detections."""
+        return None if self.boxes is None else self.boxes[self.offsets[t] : self.offsets[t + 1]]
+
     def frame_ids(self, t: int) -> NDArray[np.int64]:
         """The (m_t,) truth ids of frame ``t``'s detections (−1: none)."""
         return self.ids[self.offsets[t] : self.offsets[t + 1]]
@@ -149,11 +166,15 @@ class Detections:
         return dt if np.isfinite(dt) and dt > 0 else None
 
     def equals(self, other: Detections) -> bool:
-        """Whether both streams hold the same frames, points, ids, first frame and times, bit for bit."""
+        """Whether both streams hold the same frames, points, ids, first frame, times and boxes, bit
+        for bit."""
         same_times = (self.times is None and other.times is None) or (
             self.times is not None
             and other.times is not None
             and np.array_equal(self.times, other.times, equal_nan=True)
+        )
+        same_boxes = (self.boxes is None and other.boxes is None) or (
+            self.boxes is not None and other.boxes is not None and np.array_equal(self.boxes, other.boxes)
         )
         return (
             np.array_equal(self.offsets, other.offsets)
@@ -161,6 +182,7 @@ class Detections:
             and np.array_equal(self.ids, other.ids)
             and self.first_frame == other.first_frame
             and same_times
+            and same_boxes
         )
 
 

@@ -12,8 +12,9 @@ The format is the one published with recorded belt-sorting data sets:
 * ``x`` and ``y`` are either both numbers or both missing, and infinities are not allowed.
 
 Line endings may be LF, CRLF or CR; a UTF-8 byte-order mark and trailing blank lines are ignored, a
-blank line inside the file is an error. Rows and columns in error messages are counted from 1, as an
-editor or spreadsheet shows them.
+blank line inside the file is an error. Rows in error messages are line numbers, from 1, as an
+editor shows them; columns are named by their index, from 0 (``column index 3``), as column options
+count them.
 
 Every problem with a file raises :class:`TrackFileError`, whose message starts with the file's path
 and says what is wrong and where, e.g. ``tracks.csv: row 17 has 9 fields, expected 8 (ragged rows)``.
@@ -318,11 +319,12 @@ def _locate_text(data: bytes, label: str, first_row: int, exc: Exception) -> Tra
     reader = csv.reader(io.StringIO(text), quoting=csv.QUOTE_NONE)
     try:
         for row, fields in enumerate(reader, start=first_row):
-            for column, field in enumerate(fields, start=1):
+            for column, field in enumerate(fields):
                 if not _is_number_or_missing(field):
                     shown = field if len(field) <= 40 else field[:40] + "..."
                     return TrackFileError(
-                        f"{label}: row {row}, column {column} holds text {shown!r}, expected a number or NaN"
+                        f"{label}: row {row}, column index {column} holds text {shown!r}, "
+                        "expected a number or NaN"
                     )
     except csv.Error as scan_exc:  # e.g. a field over csv's size limit: that is not a number either
         return TrackFileError(f"{label}: row {reader.line_num + first_row - 1}: {scan_exc} ({reason})")
@@ -335,7 +337,7 @@ def _check_values(values: NDArray[np.float64], label: str, *, first_row: int) ->
     if inf.any():
         row, column = np.argwhere(inf)[0]
         raise TrackFileError(
-            f"{label}: row {first_row + row}, column {column + 1} holds {values[row, column]}, "
+            f"{label}: row {first_row + row}, column index {column} holds {values[row, column]}, "
             "an infinity; expected a finite number or NaN"
         )
     nan = np.isnan(values)
@@ -344,6 +346,6 @@ def _check_values(values: NDArray[np.float64], label: str, *, first_row: int) ->
         row, pair = np.argwhere(half)[0]
         missing, present = ("x", "y") if nan[row, 2 * pair] else ("y", "x")
         raise TrackFileError(
-            f"{label}: row {first_row + row}, pair {pair} (columns {2 * pair + 1}-{2 * pair + 2}) has "
+            f"{label}: row {first_row + row}, pair {pair} (column indices {2 * pair}-{2 * pair + 1}) has "
             f"{missing} missing but {present} set; x and y must be both numbers or both NaN"
         )

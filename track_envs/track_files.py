@@ -5,16 +5,21 @@
   ``frame, id, bb_left, bb_top, bb_width, bb_height, conf, -1, -1, -1``; ground truth
   (``truth=True``) is ``frame, id, bb_left, bb_top, bb_width, bb_height, 1, 1, 1`` (considered,
   class 1, visibility 1), so that py-motmetrics (``motmetrics.io.loadtxt(path, fmt="mot15-2D")``,
-  ground truth with ``min_confidence=1``) and TrackEval read both unchanged. A point is written as a
-  box of ``box_size`` (default 0) about it: motmetrics' Euclidean distance on the ``X, Y`` fields
-  (``compare_to_groundtruth(gt, ts, "euc", distfields=["X", "Y"], distth=c)``) then scores the
-  points themselves, and the file reads back bit for bit.
+  ground truth with ``min_confidence=1``) and TrackEval read both unchanged. Tracks with boxes
+  (:attr:`Tracks.boxes`, from box detections) write each row's box, so IoU scoring works
+  (``compare_to_groundtruth(gt, ts, "iou", distth=0.5)``); a row without a box, and tracks of
+  points, are written as a box of ``box_size`` (default 0) about the point: motmetrics' Euclidean
+  distance on the ``X, Y`` fields (``compare_to_groundtruth(gt, ts, "euc", distfields=["X", "Y"],
+  distth=c)``) then scores the points themselves — only against truth written the same way: the
+  ``X, Y`` of a real MOTChallenge gt are box corners, not centres. Read back, a file whose boxes
+  all have width and height 0 is points (``boxes`` None); every other file keeps its boxes.
 * ``wide``: the recorded-track layout of BeltReplay-v0 (:mod:`track_envs.track_csv`): no header,
   one row per frame, one ``(x, y)`` column pair per id, NaN where the id has no track; column pair
   ``k`` holds the ``k``-th smallest id (for ids numbered 0, 1, 2, ... the id itself).
 * ``long``: a header ``frame,id,x,y`` then one row per track and frame, plus ``var_x,cov_xy,var_y``
-  where the tracks have covariances and ``detection`` (the detection index within the frame the
-  track was updated with, −1: coasted) where they have it.
+  where the tracks have covariances, ``detection`` (the detection index within the frame the
+  track was updated with, −1: coasted) where they have it, and
+  ``bb_left,bb_top,bb_width,bb_height`` (empty cells where a row has none) where they have boxes.
 
 Every float is written as its ``repr``, so each format reads back bit for bit (the wide format
 keeps no ids other than the column order, and no covariance).
@@ -35,6 +40,7 @@ from track_envs.tracks import Tracks
 TRACK_FORMATS = ("mot", "wide", "long")
 LONG_COLUMNS = ("frame", "id", "x", "y")
 COV_COLUMNS = ("var_x", "cov_xy", "var_y")
+BOX_COLUMNS = ("bb_left", "bb_top", "bb_width", "bb_height")
 
 
 def write_tracks(
@@ -52,7 +58,8 @@ def write_tracks(
         tracks: 2-d tracks.
         format: The layout.
         truth: MOT only: write ground-truth rows (``1, 1, 1`` flags) instead of tracker rows.
-        box_size: MOT only: width and height of the box written about each point.
+        box_size: MOT only: width and height of the box written about each point (rows
+            without a box; tracks with boxes write their own).
 
     Raises:
         ValueError: an unknown format, tracks that are not 2-d, or (wide) no track at all.
@@ -63,7 +70,7 @@ def write_tracks(
         raise ValueError(f"track files hold 2-d points; these tracks are {tracks.positions.shape[1]}-d")
     if format == "mot":
         tail = ["1", "1", "1"] if truth else ["1.0", "-1,-1,-1"]
-        _write_mot(path, tracks.frame + 1, tracks.ids, tracks.positions, box_size, tail)
+        _write_mot(path, tracks.frame + 1, tracks.ids, tracks.positions, box_size, tail, boxes=tracks.boxes)
     elif format == "wide":
         if not len(tracks):
             raise ValueError("the wide track layout needs at least one track (one column pair)")
@@ -87,7 +94,8 @@ def read_tracks(
         format: ``"mot"``, ``"wide"``, ``"long"`` or ``"auto"`` (:func:`track_format`).
         n_frames: Frames of the stream, when longer than the file's last frame.
         min_confidence: MOT only: drop rows whose confidence (the "considered" flag of ground
-            truth) is below this.
+            truth) is below this, except −1 ("not given");
+            :data:`~track_envs.detection_files.CONSIDERED` keeps ground truth's considered rows.
 
     Raises:
         DetectionFileError: naming the file and the row and column of the first bad cell, or
@@ -96,7 +104,8 @@ def read_tracks(
     fmt = track_format(path, format)
     if fmt == "mot":
         rows = read_mot_rows(path, min_confidence=min_confidence)
-        tracks = Tracks(rows.frame, rows.ids, rows.centres, rows.n_frames)
+        boxes = rows.boxes if rows.has_boxes else None
+        tracks = Tracks(rows.frame, rows.ids, rows.centres, rows.n_frames, boxes=boxes)
     elif fmt == "wide":
         tracks = Tracks.from_wide(load_track_csv(path))
     else:
@@ -136,12 +145,17 @@ def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
         columns |= {"var_x": tracks.cov[:, 0, 0], "cov_xy": tracks.cov[:, 0, 1], "var_y": tracks.cov[:, 1, 1]}
     if tracks.detection is not None:
         columns["detection"] = tracks.detection
+    if tracks.boxes is not None:
+        columns |= dict(zip(BOX_COLUMNS, tracks.boxes.T, strict=True))
     text = [
         list(map(repr, np.asarray(v).tolist()))
         if name not in ("frame", "id", "detection")
         else list(map(str, np.asarray(v).tolist()))
         for name, v in columns.items()
     ]
+    if tracks.boxes is not None:  # a row without a box: empty cells
+        for k in range(len(text) - 4, len(text)):
+            text[k] = ["" if cell == "nan" else cell for cell in text[k]]
     lines = [",".join(columns), *map(",".join, zip(*text, strict=True)), ""]
     Path(path).write_text("\n".join(lines), encoding="ascii")
 
@@ -177,9 +191,12 @@ def _read_long(path: str | os.PathLike[str]) -> Tracks:
         vx, cxy, vy = (v[:, col[c]] for c in COV_COLUMNS)
         cov = np.stack([np.stack([vx, cxy], -1), np.stack([cxy, vy], -1)], axis=1)
     detection = v[:, col["detection"]].astype(np.int64) if "detection" in col else None
+    boxes = (
+        np.stack([v[:, col[c]] for c in BOX_COLUMNS], axis=1) if all(c in col for c in BOX_COLUMNS) else None
+    )
     positions = np.stack([v[:, col["x"]], v[:, col["y"]]], axis=1)
     n_frames = int(frame[-1]) + 1 if len(frame) else 0
-    return Tracks(frame, table.integers(col["id"]), positions, n_frames, cov, detection)
+    return Tracks(frame, table.integers(col["id"]), positions, n_frames, cov, detection, boxes)
 
 
 def _check_unique(tracks: Tracks, path: str | os.PathLike[str]) -> None:

@@ -7,6 +7,12 @@ The association errors need the truth id behind every detection, which a file ha
 was written from a simulation (a MOT detection file's id column); without them they are skipped,
 with a note saying so. Fed the same truth, reports and detection ids, the figures equal those of
 ``TrackingMetrics`` in the gym loop, bit for bit.
+
+Boxes: where the tracks and the truth both have boxes (:attr:`Tracks.boxes`: box detections, a
+MOTChallenge gt), CLEAR MOT and IDF1 match boxes by overlap instead (``match="iou"``, the default
+then: a track matches a truth when ``IoU >= min_iou``, 0.5 as MOTChallenge does, at distance
+``1 − IoU``; :class:`~track_envs.metrics.BoxClearMot`), and MOTP is the mean ``1 − IoU``. GOSPA
+and e1 / e2 stay on the centres (GOSPA with cut-off ``threshold``).
 """
 
 from __future__ import annotations
@@ -16,6 +22,9 @@ import numpy as np
 from track_envs.detections import Detections
 from track_envs.tracks import Tracks
 
+#: How CLEAR MOT and IDF1 match tracks to truths: ``auto`` (IoU where both have boxes).
+MATCHES = ("auto", "iou", "distance")
+
 #: The note returned when the e1 / e2 metrics are skipped.
 NO_DETECTION_IDS = (
     "e1, e2, e_mean skipped: they need the truth id behind every detection, and the detection file has "
@@ -23,26 +32,66 @@ NO_DETECTION_IDS = (
 )
 
 
+def match_kind(tracks_boxed: bool, truth_boxed: bool, match: str = "auto") -> str:
+    """``"iou"`` or ``"distance"``: ``match``, or for ``"auto"`` IoU when the tracks and the truth
+    both have boxes (``tracks_boxed``, ``truth_boxed``: ``Tracks.boxes is not None``).
+
+    Raises:
+        ValueError: an unknown ``match``, or ``"iou"`` when either has no boxes (naming which).
+    """
+    if match not in MATCHES:
+        raise ValueError(f"match must be one of {list(MATCHES)}, got {match!r}")
+    boxed = {"tracks": bool(tracks_boxed), "ground truth": bool(truth_boxed)}
+    if match == "auto":
+        return "iou" if all(boxed.values()) else "distance"
+    if match == "iou" and not all(boxed.values()):
+        lacking = " and ".join(name for name, has in boxed.items() if not has)
+        raise ValueError(
+            f"match='iou' (track run: --match iou) needs boxes, and the {lacking} have none (points, or "
+            "a MOT file whose boxes are all 0 x 0); use match='distance'"
+        )
+    return match
+
+
+def match_line(kind: str, *, threshold: float, min_iou: float) -> str:
+    """How CLEAR MOT and IDF1 match with ``kind`` (``"iou"`` or ``"distance"``), in words."""
+    if kind == "iou":
+        return f"boxes, IoU >= {min_iou:g} (MOTChallenge; MOTP is the mean 1 - IoU of the matches)"
+    return f"centres, distance <= {threshold:g} (MOTP is the mean distance of the matches)"
+
+
 def score_tracks(
-    tracks: Tracks, truth: Tracks, *, threshold: float, detections: Detections | None = None
+    tracks: Tracks,
+    truth: Tracks,
+    *,
+    threshold: float,
+    detections: Detections | None = None,
+    match: str = "auto",
+    min_iou: float = 0.5,
 ) -> tuple[dict[str, float], list[str]]:
     """The metrics of ``tracks`` against ``truth`` over every frame of either.
 
     Args:
         tracks: The tracker's tracks (their ``detection`` rows index each frame's detections).
         truth: Ground-truth positions, one row per visible target and frame.
-        threshold: ``c``: the CLEAR MOT match distance and the GOSPA cut-off, in the files' units.
+        threshold: ``c``: the CLEAR MOT match distance (``match="distance"``) and the GOSPA
+            cut-off, in the files' units.
         detections: The detections that were tracked; with truth ids (``detections.has_ids``)
             the association errors e1 / e2 / e_mean are scored too.
+        match: ``"iou"`` (boxes), ``"distance"`` (centres) or ``"auto"`` (:func:`match_kind`).
+        min_iou: The smallest IoU of a CLEAR MOT match with ``match="iou"``.
 
     Returns:
         ``(metrics, notes)``: one flat dict of floats, and what was skipped and why.
     """
-    from track_envs.metrics import AssociationErrors
+    from track_envs.metrics import AssociationErrors, BoxClearMot, ClearMot
     from track_envs.wrappers.tracking_metrics import point_metrics
 
-    notes: list[str] = []
+    kind = match_kind(tracks.boxes is not None, truth.boxes is not None, match)
     metrics = point_metrics(threshold)
+    if kind == "iou":
+        metrics = [BoxClearMot(min_iou) if isinstance(m, ClearMot) else m for m in metrics]
+    notes: list[str] = []
     with_ids = detections is not None and detections.has_ids and tracks.detection is not None
     if not with_ids:
         metrics = [m for m in metrics if not isinstance(m, AssociationErrors)]

@@ -1,7 +1,8 @@
 """Tracks over a whole stream: what a tracker reported (or the truth), one row per (frame, track).
 
 :class:`Tracks` is the long layout every track file maps to: ``frame`` (from 0), ``ids``,
-``positions`` and, where a predictor gives one, the covariance of each position. It converts from
+``positions`` and, where a predictor gives one, the covariance of each position, and where the
+detections were boxes, the box of each row. It converts from
 the per-frame reports of the tracking contract (:meth:`Tracks.from_reports`) and to the per-frame
 padded arrays the streaming metrics take (:meth:`Tracks.padded_frame`).
 """
@@ -20,7 +21,7 @@ _FEW_ROWS = 64
 
 @dataclass(frozen=True, eq=False)
 class Tracks:
-    """Rows ``(frame, id, position[, covariance][, detection])``, sorted by frame.
+    """Rows ``(frame, id, position[, covariance][, detection][, box])``, sorted by frame.
 
     Attributes:
         frame: (N,) int64 frame index from 0, non-decreasing.
@@ -30,6 +31,10 @@ class Tracks:
         cov: (N, D, D) float64 covariance of each position, or None.
         detection: (N,) int64 index of the detection (within its frame) the track was updated
             with, −1 where it coasted, or None.
+        boxes: (N, 4) float64 box of each row, ``(left, top, width, height)`` (MOTChallenge's
+            ``bb_left, bb_top, bb_width, bb_height``; NaN: a row without a box), or None. A
+            tracker's row carries the box of the detection it was updated with, and while it
+            coasts the last box it had (:func:`carried_boxes`).
     """
 
     frame: NDArray[np.int64]
@@ -38,6 +43,7 @@ class Tracks:
     n_frames: int
     cov: NDArray[np.float64] | None = None
     detection: NDArray[np.int64] | None = None
+    boxes: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         frame = np.ascontiguousarray(self.frame, dtype=np.int64).reshape(-1)
@@ -69,6 +75,11 @@ class Tracks:
             if detection.shape != (n,):
                 raise ValueError(f"Tracks.detection must have shape ({n},), got {detection.shape}")
             object.__setattr__(self, "detection", detection)
+        if self.boxes is not None:
+            boxes = np.ascontiguousarray(self.boxes, dtype=np.float64)
+            if boxes.shape != (n, 4):
+                raise ValueError(f"Tracks.boxes must have shape ({n}, 4), got {boxes.shape}")
+            object.__setattr__(self, "boxes", boxes)
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -129,7 +140,8 @@ class Tracks:
     @classmethod
     def concatenate(cls, parts: Sequence[Tracks], n_frames: int = 0) -> Tracks:
         """The rows of ``parts`` in order (each part's frames after the previous part's), in a
-        stream of at least ``n_frames`` frames; covariances and detections kept if every part has them."""
+        stream of at least ``n_frames`` frames; covariances, detections and boxes kept if every
+        part has them."""
         if not parts:
             return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), n_frames)
 
@@ -144,13 +156,24 @@ class Tracks:
             max(n_frames, *(p.n_frames for p in parts)),
             joined("cov"),
             joined("detection"),
+            joined("boxes"),
         )
 
     def with_frames(self, n_frames: int) -> Tracks:
         """The same rows in a stream of ``max(n_frames, self.n_frames)`` frames."""
         return Tracks(
-            self.frame, self.ids, self.positions, max(n_frames, self.n_frames), self.cov, self.detection
+            self.frame,
+            self.ids,
+            self.positions,
+            max(n_frames, self.n_frames),
+            self.cov,
+            self.detection,
+            self.boxes,
         )
+
+    def with_boxes(self, boxes: NDArray[np.float64] | None) -> Tracks:
+        """The same rows with ``boxes`` (N, 4) (None: without boxes)."""
+        return Tracks(self.frame, self.ids, self.positions, self.n_frames, self.cov, self.detection, boxes)
 
     # -- the wide layout (one row per frame, one (x, y) pair per id) ---------------------------
     def to_wide(self) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -173,7 +196,8 @@ class Tracks:
     # -- per frame ----------------------------------------------------------------------------
     def padded_frame(self, lo: int, hi: int, rows: int) -> dict[str, NDArray]:
         """Rows ``lo:hi`` (one frame's) as a report dict padded to ``rows`` rows (also the padded
-        truth layout: ``ids`` −1 on padding, ``visible`` True on real rows)."""
+        truth layout: ``ids`` −1 on padding, ``visible`` True on real rows; ``boxes`` (rows, 4),
+        NaN on padding, where the tracks have boxes)."""
         n = hi - lo
         if n > rows:
             raise ValueError(f"a frame holds {n} rows, more than the {rows} rows to pad to")
@@ -187,16 +211,22 @@ class Tracks:
             detection[:n] = self.detection[lo:hi]
         mask = np.zeros(rows, dtype=np.int8)
         mask[:n] = 1
-        return {
+        frame = {
             "ids": ids,
             "positions": positions,
             "detection": detection,
             "mask": mask,
             "visible": mask == 1,
         }
+        if self.boxes is not None:
+            boxes = np.full((rows, 4), np.nan)
+            boxes[:n] = self.boxes[lo:hi]
+            frame["boxes"] = boxes
+        return frame
 
     def equals(self, other: Tracks, *, covariance: bool = True) -> bool:
-        """Same rows bit for bit (and the same covariances, when ``covariance`` and both have them)."""
+        """Same rows bit for bit (and the same covariances, when ``covariance`` and both have them;
+        the same boxes, NaN equal to NaN, when both have them)."""
         same = (
             self.n_frames == other.n_frames
             and np.array_equal(self.frame, other.frame)
@@ -205,4 +235,38 @@ class Tracks:
         )
         if same and covariance and self.cov is not None and other.cov is not None:
             same = np.array_equal(self.cov, other.cov)
+        if same and self.boxes is not None and other.boxes is not None:
+            same = np.array_equal(self.boxes, other.boxes, equal_nan=True)
         return bool(same)
+
+
+def carried_boxes(
+    tracks: Tracks, boxes: NDArray[np.float64], offsets: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """The box of every row of a tracker's ``tracks``: that of the detection the track was updated
+    with (``tracks.detection``, a row within its frame of detections whose boxes are
+    ``boxes[offsets[t]:offsets[t + 1]]``), and while it coasts (−1) the last box it had; NaN before
+    its first update.
+
+    Vectorised: rows sorted by (id, frame), each row takes the box of the latest updated row at or
+    before it (a running maximum of updated row positions) if that row belongs to the same id.
+    """
+    if tracks.detection is None:
+        raise ValueError("carried_boxes needs the tracks' detection rows (Tracks.detection)")
+    n = len(tracks)
+    out = np.full((n, 4), np.nan)
+    if not n:
+        return out
+    order = np.lexsort((tracks.frame, tracks.ids))  # by id, then frame
+    ids, frame, det = tracks.ids[order], tracks.frame[order], tracks.detection[order]
+    updated = (det >= 0) & (det < offsets[frame + 1] - offsets[frame])
+    position = np.where(updated, np.arange(n), -1)
+    last = np.maximum.accumulate(position)  # latest updated position at or before each row
+    start = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+    group_start = np.repeat(start, np.diff(np.r_[start, n]))
+    carried = last >= group_start  # the latest update belongs to this id
+    source = last[carried]
+    out_sorted = np.full((n, 4), np.nan)
+    out_sorted[carried] = boxes[offsets[frame[source]] + det[source]]
+    out[order] = out_sorted
+    return out

@@ -49,7 +49,8 @@ from agents.bench.rows import Row, aggregate, params_text, row_label, save_figur
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
 HEADLINE = (
-    *("e_mean", "mota", "idf1", "id_switches", "gospa", "mean_error", "rmse", "lost", "oks_mean"),
+    *("e_mean", "mota", "idf1", "hota", "det_a", "ass_a", "id_switches", "gospa"),
+    *("mean_error", "rmse", "lost", "oks_mean"),
     *("sorting_hit_rate", "sorting_time_p95_ms", "sorting_lateral_p95_mm"),
 )
 #: The error keys of the sorting prediction (track_envs.metrics.sorting), lower is better.
@@ -65,7 +66,7 @@ LOWER_IS_BETTER = frozenset(
 )
 HIGHER_IS_BETTER = frozenset(
     {"mota", "idf1", "idp", "idr", "oks_mean", "oks_recall", "oks_precision", "sorting_hit_rate"}
-    | {"sorting_predicted"}
+    | {"sorting_predicted", "hota", "det_a", "ass_a", "loc_a", "det_re", "det_pr", "ass_re", "ass_pr"}
 )
 #: Metrics that cannot be negative (every scored metric but MOTA, which is 1 - errors / truths).
 NON_NEGATIVE = (LOWER_IS_BETTER | HIGHER_IS_BETTER | {"e1", "e2", "num_switches"}) - {"mota"}
@@ -138,7 +139,7 @@ def terminal_table(rows: Sequence[Row], color: bool | None = None) -> str:
                     f"\033[1m{c}\033[0m" if v.endswith("*") else c for c, v in zip(cells, b, strict=True)
                 ]
             lines.append("  ".join(cells).rstrip())
-    lines.append("\n* best per env and setting (lower is better for errors, higher for MOTA/IDF1/OKS)")
+    lines.append("\n* best per env and setting (lower is better for errors, higher for MOTA/IDF1/HOTA/OKS)")
     return "\n".join(lines)
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+import re
 import sys
 import time
 from collections.abc import Sequence
@@ -10,7 +12,8 @@ from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments, sorting
+from agents.cli import arguments, run_pose, sorting
+from agents.file_kinds import check_file_agent
 from agents.run import run_agent
 from predictors import available_predictors
 
@@ -23,23 +26,31 @@ examples:
       --format wide
   track run sorter.csv --time-column time --out tracks.csv --format long --covariance
   track run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
+  track run test.txt --dt 0.04 --declared-noise-std 5 --out tracks.txt --gt gt.txt --metrics --match iou
   track run det.txt --agent gnn --agent-kwargs p_gate=0.99,max_misses=3 --seed 1 --out tracks.txt
   track run sorter.csv --time-column time --out tracks.csv --sorting-line 0.45
   track run sorter.csv --time-column time --out tracks.csv --sorting-check line=0.35,cut=0.3
 
-Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; boxes
-reduced to their centres) or a wide per-frame CSV (optional header; frame column, count column,
-optionally a time column, then x, y pairs padded with NaN). --input-format auto reads .txt as MOT
-and anything else as wide. Column options take an index (from 0) or a header name.
-Outputs (--format): mot (MOTChallenge rows, frames from 1: py-motmetrics and TrackEval read it),
-wide (one row per frame, one x, y pair per track id: BeltReplay-v0 reads it back) or long
-(frame,id,x,y[,var_x,cov_xy,var_y],detection with a header).
+Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; the
+tracker follows the boxes' centres and each output row carries its detection's box; a confidence
+of -1 means "not given" and --min-confidence keeps it) or a wide per-frame CSV (optional header;
+frame column, count column, optionally a time column, then x, y pairs padded with NaN).
+--input-format auto reads .txt as MOT and anything else as wide. Column options take an index
+(from 0) or a header name; error messages name columns by the same index.
+Outputs (--format): mot (MOTChallenge rows, frames from 1, each row the box of the detection the
+track was updated with, the last one while it coasts, or a --box-size box about a point:
+py-motmetrics and TrackEval read it), wide (one row per frame, one x, y pair per track id:
+BeltReplay-v0 reads it back) or long (frame,id,x,y[,var_x,cov_xy,var_y],detection
+[,bb_left,bb_top,bb_width,bb_height] with a header).
 The sensor spec the tracker is told: --dt (or inferred from --time-column), --declared-noise-std
 (the measurement noise std, in the detections' units after --scale: the tracker's R; nothing is
 added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame).
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
-distance and cut-off --threshold), and e1 / e2 when the detection file carries truth ids.
+distance and cut-off --threshold), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr (similarity
+max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids. --match
+auto (default) matches boxes by IoU >= --min-iou (0.5, as MOTChallenge) when the tracks and the
+ground truth both have boxes, else centres within --threshold; the line "matching: ..." says which.
 Sorting: --sorting-line X writes each track's predicted crossing of the nozzle bar x = X (past the
 camera window) to OUT.sorting.csv; --sorting-check line=L,cut=C checks such predictions without
 truth: a virtual line L inside the window, predicted from the detections at x <= C, scored
@@ -80,12 +91,15 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         epilog=EPILOG.replace(PROG + " ", prog + " "),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide)")
+    p.add_argument(
+        "detections", metavar="DETECTIONS", help="detection file (.txt MOT, .csv / .zip wide, .json poses)"
+    )
     p.add_argument(
         "--input-format",
-        choices=["auto", "mot", "wide"],
+        choices=["auto", "mot", "wide", "coco", "posetrack"],
         default="auto",
-        help="auto (default): .txt is MOT, anything else wide",
+        help="auto (default): .txt is MOT, .json poses (COCO results or PoseTrack, from the content), "
+        "anything else wide",
     )
     g = p.add_argument_group("reading the detections")
     g.add_argument("--header", type=_header, default="auto", help="wide: auto (default), yes or no")
@@ -101,14 +115,18 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     g.add_argument("--delimiter", default=",", help="field separator (default ',')")
     g.add_argument(
-        "--min-confidence", type=float, default=None, help="mot: drop detections below this confidence"
+        "--min-confidence",
+        type=float,
+        default=None,
+        help="mot: drop detections below this confidence (-1, 'not given', is kept; dropping all "
+        "is an error)",
     )
     g.add_argument(
         "--swap-xy", action="store_true", help="swap x and y (sorters often write the belt direction as y)"
     )
     g.add_argument("--scale", type=float, default=1.0, help="multiply positions (e.g. metres per pixel)")
     g = p.add_argument_group("the tracker and the sensor it is told of")
-    g.add_argument("--agent", default="gnn", choices=available_agents(), help="default gnn")
+    g.add_argument("--agent", choices=available_agents(), help=run_pose.agent_help())
     g.add_argument(
         "--predictor", choices=available_predictors(), help="for agents that take one (default kf-ca)"
     )
@@ -129,9 +147,14 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     arguments.add_seed(g, help="agent seed")
     g = p.add_argument_group("output and scoring")
     arguments.add_out(g, kind="file", help="the track file to write (in --format)", required=True)
-    g.add_argument("--format", choices=["mot", "wide", "long"], default="mot", help="default mot")
     g.add_argument(
-        "--box-size", type=float, default=0.0, help="mot: box width/height about each point (default 0)"
+        "--format", choices=["mot", "wide", "long"], help="default mot (pose files: PoseTrack JSON)"
+    )
+    g.add_argument(
+        "--box-size",
+        type=float,
+        default=0.0,
+        help="mot, point input: box width/height about each point (default 0; box input writes its boxes)",
     )
     g.add_argument(
         "--covariance",
@@ -149,7 +172,18 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     g.add_argument(
         "--threshold", type=float, default=0.005, help="match distance and GOSPA cut-off (default 0.005)"
     )
+    g.add_argument(
+        "--match",
+        choices=["auto", "iou", "distance"],
+        default="auto",
+        help="how MOTA / IDF1 match tracks to truths: iou (boxes), distance (centres, --threshold) or "
+        "auto (default: iou when the tracks and the ground truth have boxes)",
+    )
+    g.add_argument(
+        "--min-iou", type=float, default=0.5, help="--match iou: smallest IoU of a match (default 0.5)"
+    )
     arguments.add_no_progress(g)
+    run_pose.add_pose_arguments(p)
     sorting.add_arguments(p)
     return p
 
@@ -187,28 +221,44 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
-    from track_envs.detection_files import detection_format, read_detections
+    from track_envs.detection_files import CONSIDERED, detection_format, read_detections
     from track_envs.detections import detection_sensor_spec
+    from track_envs.pose_files import is_pose_file
     from track_envs.track_files import read_tracks, write_tracks
-    from track_envs.track_scoring import score_tracks
+    from track_envs.track_scoring import match_kind, match_line, score_tracks
 
+    if is_pose_file(args.detections, args.input_format):
+        return run_pose.run_poses(args)
+    args.agent = args.agent or "gnn"
+    args.format = args.format or "mot"
+    check_file_agent(args.agent, "point")
     if args.covariance and args.format != "long":
         raise ValueError("--covariance needs --format long (MOT and wide files hold no covariance)")
     if args.metrics and not args.gt:
         raise ValueError("--metrics needs --gt GT (the ground-truth file)")
+    if not (0 < args.min_iou <= 1):
+        raise ValueError(f"--min-iou must be in (0, 1], got {args.min_iou!r}")
+    check_out_file(args.out)
     fmt = detection_format(args.detections, args.input_format)
     start = time.perf_counter()
     detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
-    spec = detection_sensor_spec(
-        detections,
-        dt=args.dt,
-        region=args.region,
-        measurement_noise_std=args.declared_noise_std,
-        p_detect=args.p_detect,
-        clutter_rate=args.clutter_rate,
-        max_detections=args.max_detections,
-        max_tracks=args.max_tracks,
-    )
+    truth = None
+    if args.gt:  # read (and checked) before tracking, as --out
+        truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
+    kind = "distance"
+    if truth is not None:
+        kind = match_kind(detections.boxes is not None, truth.boxes is not None, args.match)
+    with FlagNames(getattr(args, "argv", None)):
+        spec = detection_sensor_spec(
+            detections,
+            dt=args.dt,
+            region=args.region,
+            measurement_noise_std=args.declared_noise_std,
+            p_detect=args.p_detect,
+            clutter_rate=args.clutter_rate,
+            max_detections=args.max_detections,
+            max_tracks=args.max_tracks,
+        )
     check = sorting.check_arguments(args, spec)
     agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
     warm_up(agent)  # compile / load the kernels before the first frame
@@ -234,14 +284,66 @@ def run(args: argparse.Namespace) -> int:
         sorting.write_predictions(args, crossings, tracks)
     if check is not None:
         sorting.run_check(args, check, agent, detections, spec, tracks)
-    if args.gt:
-        truth = read_tracks(args.gt, args.gt_format, min_confidence=1.0 if _is_mot(args) else None)
-        if args.metrics:
-            metrics, notes = score_tracks(tracks, truth, threshold=args.threshold, detections=detections)
-            print(format_metrics(metrics))
-            for note in notes:
-                print(f"note: {note}", file=sys.stderr)
+    if truth is not None and args.metrics:
+        print(
+            f"matching: {match_line(kind, threshold=args.threshold, min_iou=args.min_iou)}", file=sys.stderr
+        )
+        metrics, notes = score_tracks(
+            tracks, truth, threshold=args.threshold, detections=detections, match=kind, min_iou=args.min_iou
+        )
+        print(format_metrics(metrics))
+        for note in notes:
+            print(f"note: {note}", file=sys.stderr)
     return 0
+
+
+#: detection_sensor_spec's argument names and the flags of ``track run`` that set them.
+SPEC_FLAGS = {
+    "measurement_noise_std": "--declared-noise-std",
+    "max_detections": "--max-detections",
+    "max_tracks": "--max-tracks",
+    "clutter_rate": "--clutter-rate",
+    "p_detect": "--p-detect",
+    "region": "--region",
+    "dt": "--dt",
+}
+
+
+class FlagNames:
+    """A context that re-raises a ``ValueError`` whose message names an argument of
+    :func:`~track_envs.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
+    naming the flag instead — the one the user typed, where an old alias was used (``--noise-std``)."""
+
+    def __init__(self, argv: Sequence[str] | None) -> None:
+        self.flags = dict(SPEC_FLAGS)
+        typed = [a.split("=", 1)[0] for a in (argv or ()) if a.startswith("--")]
+        if any(len(a) > 2 and "--noise-std".startswith(a) for a in typed):
+            self.flags["measurement_noise_std"] = "--noise-std"
+
+    def __enter__(self) -> FlagNames:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: Any) -> bool:
+        if isinstance(exc, ValueError) and "--" not in str(exc):
+            names = "|".join(map(re.escape, self.flags))
+            text = re.sub(rf"\b({names})\b", lambda m: self.flags[m.group(1)], str(exc))
+            raise ValueError(text) from exc
+        return False
+
+
+def check_out_file(path: str, flag: str = "--out") -> None:
+    """Raise ``ValueError`` naming ``flag`` unless ``path`` can be written: not a directory, its
+    directory exists and is writable (and an existing file is writable) — checked before tracking,
+    so that a long run does not fail at its end."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ValueError(
+            f"{flag} {path} is a directory; give a file name (e.g. {os.path.join(path, 'tracks.txt')})"
+        )
+    if not os.path.isdir(folder):
+        raise ValueError(f"{flag} {path}: the directory {folder} does not exist")
+    if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise ValueError(f"{flag} {path} is not writable")
 
 
 def _is_mot(args: argparse.Namespace) -> bool:
@@ -254,6 +356,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     """Entry point of ``track run`` (``prog``: the name it answers to, e.g. ``track-run``)."""
     args = build_parser(prog).parse_args(argv)
     args.prog = prog
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     try:
         return run(args)
     except (ValueError, OSError) as exc:

@@ -5,7 +5,8 @@ Model kinds (one subcommand each): the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-
 :mod:`predictors.belt_lstm.training`), the displacement LSTM of the LSTM particle filter
 (``displacement-lstm``, :mod:`predictors.displacement_lstm.training`) and the probabilistic pose
 predictor of the SMC pose tracker (``pose-lstm``, :mod:`predictors.pose_lstm.training`);
-``calibrate`` refits a model file's covariance scale on held-out tracks.
+``calibrate`` refits a model file's covariance scale on the tracks it is given (calibration data:
+tracks the model was not trained on; the reliability curves it plots are of those same tracks).
 
 The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.training.model_file`); pass it to a
 tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
@@ -15,7 +16,8 @@ the particle filter as ``make_agent("pf", model="lstm", model_weights="OUT")``.
 give it a scaled identity covariance ``s·I`` and choose the scale by a line search for the best
 association accuracy. Here the candidates are ``s = f · s₀`` for factors ``f`` on a log grid around
 ``s₀``, the mean squared one-step error per axis on the validation tracks (what training stores as
-``calibration.cov_scale``); each candidate tracks held-out episodes with ``gnn`` and the scale with
+``calibration.cov_scale``); each candidate tracks validation episodes (not trained on, but the
+search picks its scale on them) with ``gnn`` and the scale with
 the lowest mean e_mean (ties: the one nearest ``s₀``) is written back to the model file, with the
 whole search in ``training.tuning`` (:func:`line_search`, run after every ``track train lstm``).
 """
@@ -178,9 +180,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "calibrate",
         parents=[data],
-        help="refit a model file's covariance scale factor r on held-out tracks",
-        description="Refit a model file's covariance scale factor r on held-out tracks (p_des = 0.999) "
-        "and plot the reliability curves before and after.",
+        help="refit a model file's covariance scale factor r on calibration tracks (not trained on)",
+        description="Refit a model file's covariance scale factor r on calibration tracks, data the model "
+        "was not trained on (p_des = 0.999), and plot the reliability curves on those tracks before "
+        "(r = 1) and after (the fitted r).",
     )
     p.add_argument("model_file", help="the model file to recalibrate (rewritten in place unless --out)")
     arguments.add_seed(p, help="noise and mc-lstm masks")
@@ -479,16 +482,24 @@ def _calibrate(args: argparse.Namespace, argv: list[str]) -> int:
     plot = Path(args.plot) if args.plot else Path(str(model.path).removesuffix(".json") + ".reliability.png")
     cover_before = coverage(before.valid_d2(), P_DES, model.dim)
     cover_after = coverage(after.valid_d2(), P_DES, model.dim)
-    curves = {
-        f"before (r = 1, coverage@0.999 {cover_before:.4f})": reliability(*before.flat()),
-        f"after (r = {cal.scale:.3g}, coverage@0.999 {cover_after:.4f})": reliability(*after.flat()),
-    }
-    plot_reliability(curves, plot, title=f"{model.kind}: reliability on {len(tracks)} held-out tracks")
+    labels = calibrate_labels(cal.scale, cover_before, cover_after)
+    curves = {labels[0]: reliability(*before.flat()), labels[1]: reliability(*after.flat())}
+    plot_reliability(curves, plot, title=f"{model.kind}: reliability on {len(tracks)} calibration tracks")
     out = args.out or str(model.path)
     save_model(out, scaled)
     old = model.meta.get("calibration", {}).get("scale", 1.0)
-    print(f"r = {cal.scale:.4g} (was {old:.4g}); wrote {out} and {plot}")
+    print(f"r = {cal.scale:.4g} (was {old:.4g}); curves: {labels[0]}; {labels[1]}; wrote {out} and {plot}")
     return 0
+
+
+def calibrate_labels(scale: float, cover_before: float, cover_after: float) -> tuple[str, str]:
+    """The labels of ``calibrate``'s two reliability curves, with the factors it prints
+    (``r`` to 4 significant digits, as the summary line; coverage at p_des = 0.999 on the same
+    calibration tracks)."""
+    return (
+        f"before (r = 1, coverage@0.999 {cover_before:.4f})",
+        f"after (r = {scale:.4g}, coverage@0.999 {cover_after:.4f})",
+    )
 
 
 def _reload(path: str | os.PathLike[str]) -> ModelFile:
@@ -573,12 +584,12 @@ def line_search(
 
 
 def lstm_tuner(model_path: Path, args: argparse.Namespace) -> dict[str, Any]:
-    """``track train lstm``'s post-training step: the line search on held-out episodes.
+    """``track train lstm``'s post-training step: the line search on validation episodes.
 
-    Held-out data: env episodes with seeds after the training ones (``--data-seed + --episodes +
-    100 …``, 1,000 frames each) or, for ``--tracks``, the replayed file; the added noise is the
-    largest of ``--added-noise-std`` (at least 0.1 mm: the line search needs association errors to
-    separate the candidates).
+    Validation data (not trained on; the search picks the scale on them): env episodes with seeds
+    after the training ones (``--data-seed + --episodes + 100 …``, 1,000 frames each) or, for
+    ``--tracks``, the replayed file; the added noise is the largest of ``--added-noise-std`` (at
+    least 0.1 mm: the line search needs association errors to separate the candidates).
     """
     from predictors.belt_lstm.training import check_noise_std
 

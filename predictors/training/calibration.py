@@ -82,7 +82,8 @@ def reliability(
 def fit_recalibration(
     means: FloatArray, covs: FloatArray, targets: FloatArray, p_des: float = P_DES
 ) -> Recalibration:
-    """Fit ``R`` and ``r`` on held-out predictions (see the module docstring).
+    """Fit ``R`` and ``r`` on predictions of data the model was not trained on (calibration data;
+    see the module docstring). Coverage measured on these same predictions is not held out.
 
     Raises:
         ValueError: for ``p_des`` outside (0, 1) or fewer than 100 predictions (too few to fit
@@ -91,7 +92,7 @@ def fit_recalibration(
     if not 0.0 < p_des < 1.0:
         raise ValueError(f"p_des must be in (0, 1), got {p_des!r}")
     if len(means) < 100:
-        raise ValueError(f"calibration needs at least 100 held-out predictions, got {len(means)}")
+        raise ValueError(f"calibration needs at least 100 predictions, got {len(means)}")
     dim = means.shape[1]
     d2 = Reliability()._d2(means, covs, targets)
     # the grid plus the expected levels of the empirical quantiles around p_des, so the curve has

@@ -81,8 +81,11 @@ def save_model(path: str | os.PathLike[str], model: ModelFile) -> tuple[Path, Pa
     """Write ``model`` as ``path.safetensors`` + ``path.json``; return both paths.
 
     The sidecar records each tensor's shape, so a loader can check the weights before using them.
+    Both files are written as any file is (permissions from the umask, e.g. 0644): the tensors are
+    serialised in memory and written with ``Path.write_bytes``, since safetensors' ``save_file``
+    writes through a private temporary file (0600).
     """
-    from safetensors.numpy import save_file
+    from safetensors.numpy import save
 
     tensor_path, sidecar_path = model_paths(path)
     tensor_path.parent.mkdir(parents=True, exist_ok=True)
@@ -96,7 +99,7 @@ def save_model(path: str | os.PathLike[str], model: ModelFile) -> tuple[Path, Pa
         "tensors": {name: list(a.shape) for name, a in arrays.items()},
         **{k: v for k, v in model.meta.items() if k not in _RESERVED},
     }
-    save_file(arrays, str(tensor_path), metadata={"kind": model.kind})
+    tensor_path.write_bytes(save(arrays, metadata={"kind": model.kind}))
     sidecar_path.write_text(json.dumps(sidecar, indent=2, sort_keys=False, default=_json_default) + "\n")
     return tensor_path, sidecar_path
 

@@ -172,7 +172,7 @@ def test_a_bad_detection_file_is_named_by_track_run(tmp_path, capsys):
     det = tmp_path / "d.csv"
     det.write_text("0,1,0.1,0.1\n1,1,oops,0.1\n")
     assert main([str(det), "--dt=0.01", f"--out={tmp_path / 't.txt'}", "--no-progress"]) == 2
-    assert f"{det}: row 2, column 3 holds text 'oops'" in capsys.readouterr().err
+    assert f"{det}: row 2, column index 2 holds text 'oops'" in capsys.readouterr().err
 
 
 def test_streams_from_frames_keep_order():

@@ -23,7 +23,9 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_train_from_a_track_file_then_track_with_it(recording: Path, tmp_path: Path, capsys) -> None:
+def test_train_from_a_track_file_then_track_with_it(
+    recording: Path, tmp_path: Path, capsys, monkeypatch
+) -> None:
     out = tmp_path / "nll"
     argv = ["nll-lstm", "--tracks", str(recording), "--dt", "0.01", "--epochs", "4", "--batch-size", "64"]
     assert main([*argv, "--out", str(out), "--no-progress", "--added-noise-std", "1e-4"]) == 0
@@ -43,10 +45,25 @@ def test_train_from_a_track_file_then_track_with_it(recording: Path, tmp_path: P
         obs, *_ = env.step(agent.act(obs))
     assert agent.n_tracks > 0
 
+    import predictors.training.calibration as calibration
+
+    drawn: dict[str, object] = {}
+    original = calibration.plot_reliability
+
+    def spy(curves, path, title=""):
+        drawn.update(labels=list(curves), title=title)
+        original(curves, path, title)
+
+    monkeypatch.setattr(calibration, "plot_reliability", spy)
     plot = tmp_path / "rel.png"
     assert main(["calibrate", str(out), "--tracks", str(recording), "--dt", "0.01", "--plot", str(plot)]) == 0
     assert plot.stat().st_size > 5_000
-    assert "r = " in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    factor = printed.split("r = ", 1)[1].split(" ", 1)[0]  # the factor the summary prints
+    before, after = drawn["labels"]  # type: ignore[misc]
+    assert before.startswith("before (r = 1,") and after.startswith(f"after (r = {factor},")
+    assert before in printed and after in printed  # each curve's label is printed as drawn
+    assert "calibration tracks" in str(drawn["title"]) and "held-out" not in str(drawn["title"])
 
 
 def test_lstm_line_search_writes_the_chosen_scale(recording: Path, tmp_path: Path) -> None:

@@ -51,7 +51,7 @@ def test_closed_form_coverage() -> None:
 
 
 def test_too_few_predictions_and_bad_level() -> None:
-    with pytest.raises(ValueError, match=r"at least 100 held-out predictions, got 10"):
+    with pytest.raises(ValueError, match=r"at least 100 predictions, got 10"):
         fit_recalibration(*_predictions(10, 1.0, seed=0))
     with pytest.raises(ValueError, match=r"p_des must be in \(0, 1\), got 1.0"):
         fit_recalibration(*_predictions(200, 1.0, seed=0), p_des=1.0)

@@ -88,3 +88,18 @@ def test_require_shapes_names_the_tensor(tmp_path: Path) -> None:
 
 def test_model_paths_strip_either_suffix() -> None:
     assert model_paths("w/x.json") == model_paths("w/x.safetensors") == model_paths("w/x")
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077])
+def test_both_files_get_the_permissions_of_any_new_file(tmp_path: Path, umask: int) -> None:
+    import os
+    import stat
+
+    old = os.umask(umask)
+    try:
+        tensor_path, sidecar_path = save_model(tmp_path / "m", _model())
+        (tmp_path / "plain.txt").write_text("x")
+    finally:
+        os.umask(old)
+    modes = {stat.S_IMODE(p.stat().st_mode) for p in (tensor_path, sidecar_path, tmp_path / "plain.txt")}
+    assert modes == {0o666 & ~umask}

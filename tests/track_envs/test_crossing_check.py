@@ -68,7 +68,9 @@ def test_crossing_file_errors_name_the_column(tmp_path):
     with pytest.raises(DetectionFileError, match=r"lacks \['cov_ty', 'var_y'\]"):
         read_crossings(path)
     path.write_text("id,frame,t_cross,y_cross,var_t,cov_ty,var_y\n1.5,2,0.1,0.2,0.3,0,1\n")
-    with pytest.raises(DetectionFileError, match=r"row 2, column 1 \('id'\) holds 1.5; expected an integer"):
+    with pytest.raises(
+        DetectionFileError, match=r"row 2, column index 0 \('id'\) holds 1.5; expected an integer"
+    ):
         read_crossings(path)
 
 

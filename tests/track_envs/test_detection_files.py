@@ -163,34 +163,38 @@ def test_sensor_spec_is_given_or_inferred() -> None:
 # ------------------------------------------------------------------------------------ named errors
 
 BAD_WIDE = [
-    ("frame,count,x0,y0\n0,1,0.5,0.5\n1,1,abc,0.5\n", {}, r"bad\.csv: row 3, column 3 holds text 'abc'"),
-    ("frame,count,x0,y0\n0,1,0.5,inf\n", {}, r"row 2, column 4 \('y0'\) holds inf, an infinity"),
+    (
+        "frame,count,x0,y0\n0,1,0.5,0.5\n1,1,abc,0.5\n",
+        {},
+        r"bad\.csv: row 3, column index 2 holds text 'abc'",
+    ),
+    ("frame,count,x0,y0\n0,1,0.5,inf\n", {}, r"row 2, column index 3 \('y0'\) holds inf, an infinity"),
     (
         "frame,count,x0,y0\n0,1,0.5,\n",
         {},
-        r"row 2, column 4 \('y0'\) is empty but column 3 \(its pair\) holds",
+        r"row 2, column index 3 \('y0'\) is empty but column index 2 \(its pair\) holds",
     ),
     (
         "frame,count,x0,y0\n0,2,0.5,0.5\n",
         {},
-        r"row 2, column 2 \('count'\) says 2 detections but 1 \(x, y\) pairs",
+        r"row 2, column index 1 \('count'\) says 2 detections but 1 \(x, y\) pairs",
     ),
     (
         "frame,count,x0,y0\n3,1,0.5,0.5\n2,1,0.5,0.5\n",
         {},
-        r"row 3, column 1 \('frame'\) holds frame 2 after frame 3",
+        r"row 3, column index 0 \('frame'\) holds frame 2 after frame 3",
     ),
     (
         "frame,count,x0,y0\n0.5,1,0.5,0.5\n",
         {},
-        r"row 2, column 1 \('frame'\) holds 0.5; the frame number must be",
+        r"row 2, column index 0 \('frame'\) holds 0.5; the frame number must be",
     ),
     (
         "frame,count,x0,y0\n0,-1,NaN,NaN\n",
         {},
-        r"row 2, column 2 \('count'\) holds -1.0; the count must be an integer >= 0",
+        r"row 2, column index 1 \('count'\) holds -1.0; the count must be an integer >= 0",
     ),
-    ("frame,count,x0,y0,x1\n0,1,0.5,0.5,1\n", {}, r"3 x, y columns \(columns 3-5\) is an odd count"),
+    ("frame,count,x0,y0,x1\n0,1,0.5,0.5,1\n", {}, r"3 x, y columns \(column indices 2-4\) is an odd count"),
     (
         "frame,count,x0,y0\n0,1,0.5,0.5\n",
         {"time_column": "time"},
@@ -219,12 +223,12 @@ def test_bad_wide_files_are_named_by_file_row_and_column(
 
 
 BAD_MOT = [
-    ("1,-1,0,0,1,1,1\n2,-1,0,x,1,1,1\n", r"row 2, column 4 holds text 'x'"),
+    ("1,-1,0,0,1,1,1\n2,-1,0,x,1,1,1\n", r"row 2, column index 3 holds text 'x'"),
     ("1,-1,0,0,1\n", r"rows have 5 fields; a MOTChallenge row has at least 6"),
-    ("0,-1,0,0,1,1,1\n", r"row 1, column 1 holds 0.0; the frame must be an integer >= 1"),
-    ("1,0.5,0,0,1,1,1\n", r"row 1, column 2 holds 0.5; the id must be an integer"),
-    ("1,-1,0,0,1,1,1\n1,-1,0,0,1\n", r"row 2, column 6 \(bb_height\) is empty"),
-    ("1,-1,0,0,inf,1,1\n", r"row 1, column 5 \(bb_width\) holds inf"),
+    ("0,-1,0,0,1,1,1\n", r"row 1, column index 0 holds 0.0; the frame must be an integer >= 1"),
+    ("1,0.5,0,0,1,1,1\n", r"row 1, column index 1 holds 0.5; the id must be an integer"),
+    ("1,-1,0,0,1,1,1\n1,-1,0,0,1\n", r"row 2, column index 5 \(bb_height\) is empty"),
+    ("1,-1,0,0,inf,1,1\n", r"row 1, column index 4 \(bb_width\) holds inf"),
 ]
 
 

@@ -93,7 +93,7 @@ def test_every_truth_metric_declares_its_need():
         and hasattr(c, "update")
         and list(inspect.signature(c.update).parameters)[1:] == ["truth", "detection_ids", "report"]
     ]
-    assert len(streaming) == 7
+    assert len(streaming) == 10  # with BoxClearMot, Hota and PoseHota
     assert all(c.needs_truth is True for c in streaming)
 
 

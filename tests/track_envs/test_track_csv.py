@@ -134,7 +134,7 @@ def test_frame_range(tmp_path: Path, frames: tuple[int, int]) -> None:
 def test_frame_range_reports_rows_of_the_whole_file(tmp_path: Path) -> None:
     path = write_text(tmp_path / "t.csv", "1,2\n3,4\n5,6\n7,abc\n")
     assert_bit_equal(load_track_csv(path, frames=(1, 3)), np.array([[[3.0, 4.0]], [[5.0, 6.0]]]))
-    with pytest.raises(TrackFileError, match="row 4, column 2 holds text 'abc'"):
+    with pytest.raises(TrackFileError, match="row 4, column index 1 holds text 'abc'"):
         load_track_csv(path, frames=(2, 4))
 
 
@@ -166,14 +166,14 @@ def test_malformed_frames_raise_value_error(tmp_path: Path, frames: object) -> N
         ("1,2\n3,4\n5,6\n1,2,3,4\n", "row 4 has 4 fields, expected 2"),
         ("1,2\n\n3,4\n", "row 2 is blank"),
         ("1,2,3\n4,5,6\n", "3 columns is an odd count; expected (x, y) pairs"),
-        ("1,2\n3,4\n5,abc\n", "row 3, column 2 holds text 'abc', expected a number or NaN"),
-        ("1,2,3,4\nNA,1,2,3\n", "row 2, column 1 holds text 'NA'"),
-        ("1,2\n3,1_0\n", "row 2, column 2 holds text '1_0'"),
-        ('1,2\n"3",4\n', "row 2, column 1 holds text '\"3\"'"),
-        ("1,2,3,4\n1,2,,5\n", "row 2, pair 1 (columns 3-4) has x missing but y set"),
-        ("1,2,3,4\n1,NaN,3,4\n", "row 2, pair 0 (columns 1-2) has y missing but x set"),
-        ("1,2\n3,inf\n", "row 2, column 2 holds inf, an infinity"),
-        ("1,2\n-Infinity,4\n", "row 2, column 1 holds -inf, an infinity"),
+        ("1,2\n3,4\n5,abc\n", "row 3, column index 1 holds text 'abc', expected a number or NaN"),
+        ("1,2,3,4\nNA,1,2,3\n", "row 2, column index 0 holds text 'NA'"),
+        ("1,2\n3,1_0\n", "row 2, column index 1 holds text '1_0'"),
+        ('1,2\n"3",4\n', "row 2, column index 0 holds text '\"3\"'"),
+        ("1,2,3,4\n1,2,,5\n", "row 2, pair 1 (column indices 2-3) has x missing but y set"),
+        ("1,2,3,4\n1,NaN,3,4\n", "row 2, pair 0 (column indices 0-1) has y missing but x set"),
+        ("1,2\n3,inf\n", "row 2, column index 1 holds inf, an infinity"),
+        ("1,2\n-Infinity,4\n", "row 2, column index 0 holds -inf, an infinity"),
         ("", "file is empty"),
         ("\n\n", "file is empty"),
     ],
@@ -221,7 +221,7 @@ def test_error_inside_zip_names_archive_and_member(tmp_path: Path) -> None:
     path = tmp_path / "bundle.zip"
     with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("tracks.csv", "1,2\n3,x\n")
-    with pytest.raises(TrackFileError, match=r"bundle\.zip \(member tracks\.csv\): row 2, column 2"):
+    with pytest.raises(TrackFileError, match=r"bundle\.zip \(member tracks\.csv\): row 2, column index 1"):
         load_track_csv(path)
 
 

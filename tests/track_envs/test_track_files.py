@@ -90,7 +90,9 @@ def test_an_id_twice_in_a_frame_is_named(tmp_path: Path) -> None:
 
 def test_long_files_name_bad_cells(tmp_path: Path) -> None:
     (tmp_path / "t.csv").write_text("frame,id,x,y\n0,1,0.5,0.5\n1,1.5,0.5,0.5\n")
-    with pytest.raises(DetectionFileError, match=r"row 3, column 2 \('id'\) holds 1.5; expected an integer"):
+    with pytest.raises(
+        DetectionFileError, match=r"row 3, column index 1 \('id'\) holds 1.5; expected an integer"
+    ):
         read_tracks(tmp_path / "t.csv")
 
 

@@ -304,10 +304,15 @@ class KeypointWalkersEnv(TrackingEnv):
         return -float(cost.sum() + 0.5 * (m + n - 2 * len(r)))
 
     def default_metrics(self) -> list[Any]:
-        """Per-keypoint MOTA (PCKh 0.5) and pose OKS (:mod:`track_envs.metrics.keypoints`)."""
+        """Per-keypoint MOTA (PCKh 0.5) and pose OKS (:mod:`track_envs.metrics.keypoints`), and HOTA
+        with OKS as similarity (:class:`~track_envs.metrics.hota_stream.PoseHota`)."""
+        from track_envs.metrics.hota_stream import PoseHota
         from track_envs.metrics.keypoints import keypoint_metrics
 
-        return list(keypoint_metrics(pckh=0.5, area_factor=self.area_factor))
+        return [
+            *keypoint_metrics(pckh=0.5, area_factor=self.area_factor),
+            PoseHota(area_factor=self.area_factor),
+        ]
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:

@@ -34,7 +34,7 @@ INTRO = [
     "  per-track noise std drawn from 0–0.5 mm and calibrated at p = 0.999; on spheres and cuboids",
     "  they are used as they are (a transfer test, not a retraining). The `lstm` covariance s·I is",
     "  the line-searched one of its model file. The Kalman filters run with the registry's defaults",
-    "  (as the tracker uses them) and, in Fig. 6, also with q tuned for 0.1 mm noise on held-out",
+    "  (as the tracker uses them) and, in Fig. 6, also with q tuned for 0.1 mm noise on validation",
     "  tracks (`benchmarks/bench_lstm_accuracy.py`). The paper's Fig. 6 uses real peppercorn tracks",
     "  and Figs. 3–4 and 7 its DEM cylinders; ours are simulated cylinders (and spheres, cuboids).",
 ]

@@ -8,7 +8,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, SortingPrediction
+from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, Hota, SortingPrediction
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -33,7 +33,7 @@ def test_episode_metrics_on_truncation_equal_the_metrics_fed_by_hand():
     result = infos[-1]["episode_metrics"]
     assert len(reports) == 60
     c = env.unwrapped.gospa_c
-    by_hand = [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c)]
+    by_hand = [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c), Hota(threshold=c)]
     for info, report in zip(infos[:-1], reports, strict=True):
         for metric in by_hand:
             # the env lists the particles behind merged detections; these metrics read them
@@ -47,7 +47,7 @@ def test_episode_metrics_on_truncation_equal_the_metrics_fed_by_hand():
     for key, value in expected.items():
         assert result[key] == pytest.approx(value, nan_ok=True), key
     assert all(isinstance(v, float) for v in result.values())
-    assert {"e1", "e2", "e_mean", "mota", "id_switches", "idf1", "gospa"} <= result.keys()
+    assert {"e1", "e2", "e_mean", "mota", "id_switches", "idf1", "gospa", "hota"} <= result.keys()
 
 
 def test_episode_metrics_on_termination():

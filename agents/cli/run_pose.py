@@ -1,0 +1,103 @@
+"""``track run`` on pose files (COCO keypoint results, PoseTrack JSON: :mod:`track_envs.pose_files`).
+
+The file is read into a :class:`~track_envs.poses.PoseStream`, tracked with a pose agent
+(:func:`agents.pose.run.run_pose_agent`), written as PoseTrack results and, with ``--gt`` and
+``--metrics``, scored with per-joint MOTA and HOTA
+(:func:`track_envs.metrics.pose_scoring.score_poses`). Which agents run on which kind of file:
+:mod:`agents.file_kinds`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from agents.base import warm_up
+from agents.file_kinds import FILE_KINDS, check_file_agent, file_agents
+
+
+def agent_help() -> str:
+    """The ``--agent`` help: the agents for each kind of file."""
+    kinds = "; ".join(f"{kind} files: {', '.join(file_agents(kind))}" for kind in FILE_KINDS)
+    return f"default gnn for point files, pose-baseline for pose files ({kinds})"
+
+
+def add_pose_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of pose files."""
+    g = p.add_argument_group("pose files (COCO keypoint results, PoseTrack JSON)")
+    g.add_argument(
+        "--frames",
+        help="COCO: the frame order, a JSON with 'images' (PoseTrack / COCO annotations; default: --gt's "
+        "images, else sorted image ids) or a text file of image ids",
+    )
+    g.add_argument("--pckh", type=float, default=0.5, help="per-joint MOTA match radius in head sizes (0.5)")
+
+
+def run_poses(args: argparse.Namespace) -> int:
+    """Read a pose file, track it with a pose agent, write PoseTrack results, score against --gt."""
+    from agents.cli.run import build_agent, format_metrics
+    from agents.pose.run import run_pose_agent
+    from track_envs.metrics.pose_scoring import score_poses
+    from track_envs.pose_files import image_list, json_pose_format, load_json, read_pose_file, write_posetrack
+    from track_envs.poses import pose_sensor_spec
+
+    name = args.agent or "pose-baseline"
+    check_file_agent(name, "pose")
+    _reject_point_options(args)
+    if args.metrics and not args.gt:
+        raise ValueError("--metrics needs --gt GT (the PoseTrack ground-truth file)")
+    start = time.perf_counter()
+    fmt = (
+        args.input_format
+        if args.input_format != "auto"
+        else json_pose_format(load_json(args.detections), args.detections)
+    )
+    frames: list[int] | None = None
+    names: list[str] | None = None
+    if fmt == "coco" and (args.frames or args.gt):
+        frames, names = image_list(args.frames or args.gt)
+    stream = read_pose_file(args.detections, fmt, frames=frames, file_names=names)
+    truth = read_pose_file(args.gt, "posetrack") if args.gt else None
+    spec = pose_sensor_spec(
+        stream,
+        fps=1.0 / args.dt if args.dt else 30.0,
+        max_detections=args.max_detections,
+        max_tracks=args.max_tracks,
+    )
+    agent = build_agent(name, args.predictor, dict(args.agent_kwargs))
+    warm_up(agent)
+    read_s = time.perf_counter() - start
+    tracks = run_pose_agent(agent, stream, spec, seed=args.seed)
+    if truth is not None and tracks.keypoint_names != truth.keypoint_names:
+        tracks = tracks.with_rows(keypoint_names=truth.keypoint_names)  # poseval reads the names
+    write_posetrack(args.out, tracks)
+    print(
+        f"{args.prog}: {stream.n_frames} frames, {len(stream)} poses ({fmt}, read in {read_s:.2f} s) -> "
+        f"{len(tracks)} tracked poses, {len(set(tracks.track_ids.tolist()))} tracks -> {args.out} "
+        "(posetrack)",
+        file=sys.stderr,
+    )
+    if truth is not None and args.metrics:
+        metrics, notes = score_poses(tracks, truth, pckh=args.pckh)
+        print(format_metrics(metrics))
+        for note in notes:
+            print(f"note: {note}", file=sys.stderr)
+    return 0
+
+
+def _reject_point_options(args: argparse.Namespace) -> None:
+    given: dict[str, Any] = {
+        "--format": args.format,
+        "--covariance": args.covariance or None,
+        "--region": args.region,
+        "--swap-xy": args.swap_xy or None,
+    }
+    bad = [flag for flag, value in given.items() if value is not None]
+    if args.scale != 1.0:
+        bad.append("--scale")
+    if bad:
+        raise ValueError(
+            f"{', '.join(bad)}: not for pose files (they are read in pixels and written as PoseTrack JSON)"
+        )

@@ -1,0 +1,275 @@
+"""HOTA: Higher Order Tracking Accuracy, accumulated one frame at a time.
+
+Luiten, Ošep, Dendorfer, Torr, Geiger, Leal-Taixé, Leibe, "HOTA: A Higher Order Metric for
+Evaluating Multi-Object Tracking", IJCV 129 (2021). The input of a frame is the truth ids, the
+tracker ids and a similarity ``S`` (n, m) in [0, 1] between them (IoU for boxes, OKS for poses,
+``max(0, 1 − d/τ)`` for points); nothing else about the objects is needed.
+
+**Matching.** The truth/tracker pairs are matched one-to-one in every frame, maximising the sum of
+
+.. math::
+
+    \\mathrm{score}_t(i, j) = A(g_i, k_j)\\, S_t(i, j),
+    \\qquad
+    A(g, k) = \\frac{P(g, k)}{N_g + N_k - P(g, k)},
+    \\qquad
+    P(g, k) = \\sum_t \\frac{S_t(i, j)}{\\sum_{j'} S_t(i, j') + \\sum_{i'} S_t(i', j) - S_t(i, j)},
+
+where ``N_g``, ``N_k`` count the frames in which truth id ``g`` and tracker id ``k`` appear and
+``P`` is the whole sequence's soft count of frames in which they are matched (a frame's term is
+0 where its denominator is at most machine epsilon). ``A`` is a global alignment of identities,
+so matching needs the whole sequence first: :meth:`HotaAccumulator.add_frame` stores each frame's
+non-zero similarities and ``P``, and :meth:`HotaAccumulator.compute` runs the per-frame
+Hungarian assignments (as the authors' TrackEval does).
+
+**Scores at a threshold α.** A matched pair is a true positive (TP) at α when ``S ≥ α − ε``
+(machine epsilon); the other truth and tracker rows are misses (FN) and false positives (FP).
+With ``c_α(g, k)`` the number of TPs between ``g`` and ``k`` and ``|·|`` counts summed over the
+sequence,
+
+.. math::
+
+    \\mathrm{DetRe}_α = \\frac{|TP|}{|TP| + |FN|},\\;
+    \\mathrm{DetPr}_α = \\frac{|TP|}{|TP| + |FP|},\\;
+    \\mathrm{DetA}_α = \\frac{|TP|}{|TP| + |FN| + |FP|},
+
+.. math::
+
+    \\mathrm{AssA}_α = \\frac{1}{|TP|} \\sum_{(g,k)} c_α(g,k)\\, \\frac{c_α(g,k)}{N_g + N_k - c_α(g,k)},\\;
+    \\mathrm{AssRe}_α = \\frac{1}{|TP|} \\sum c_α \\frac{c_α}{N_g},\\;
+    \\mathrm{AssPr}_α = \\frac{1}{|TP|} \\sum c_α \\frac{c_α}{N_k},
+
+``HOTA_α = sqrt(DetA_α · AssA_α)`` and ``LocA_α`` the mean similarity of the TPs. Every
+denominator is floored at 1 (LocA's sum and count at 1e-10, so LocA is 1 with no TP), as in
+TrackEval. The reported figures are the means over α = 0.05, 0.10, …, 0.95 (19 values).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+
+#: The 19 localisation thresholds α = 0.05, 0.10, …, 0.95 (the same floats as TrackEval's).
+ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
+
+#: The α-averaged figures :meth:`HotaAccumulator.compute` returns, in this order.
+HOTA_FIELDS: tuple[str, ...] = ("HOTA", "DetA", "AssA", "LocA", "DetRe", "DetPr", "AssRe", "AssPr")
+
+_EPS = float(np.finfo(float).eps)
+
+#: Matched pairs: dense truth ids, dense tracker ids, frame counts per dense truth and tracker id,
+#: number of tracker ids, similarities.
+_Matches = tuple[
+    NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64], int, NDArray[np.float64]
+]
+
+
+class HotaAccumulator:
+    """Streaming HOTA of one sequence: feed frames with :meth:`add_frame`, summarise with :meth:`compute`.
+
+    Ids are any integers (unique within a frame); similarities are in [0, 1]. Memory grows with
+    the number of non-zero similarities (and of rows) seen, not with the number of ids squared.
+
+    Example::
+
+        acc = HotaAccumulator()
+        for gt_ids, tracker_ids, similarity in frames:
+            acc.add_frame(gt_ids, tracker_ids, similarity)
+        acc.compute()["HOTA"]
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new sequence)."""
+        self._gt_ids: list[NDArray[np.int64]] = []
+        self._tr_ids: list[NDArray[np.int64]] = []
+        # Non-zero similarity entries: frame, row, column, similarity, per-frame soft match.
+        self._rows: list[NDArray[np.int64]] = []
+        self._cols: list[NDArray[np.int64]] = []
+        self._sims: list[NDArray[np.float64]] = []
+        self._soft: list[NDArray[np.float64]] = []
+        self._frames = 0
+
+    @property
+    def n_frames(self) -> int:
+        """Frames added since the last reset."""
+        return self._frames
+
+    def add_frame(self, gt_ids: ArrayLike, tracker_ids: ArrayLike, similarity: ArrayLike) -> None:
+        """Add one frame.
+
+        Args:
+            gt_ids: (n,) integer truth ids present in the frame, unique.
+            tracker_ids: (m,) integer tracker ids present in the frame, unique.
+            similarity: (n, m) similarities in [0, 1] (row ``i`` is ``gt_ids[i]``).
+        """
+        gt = _ids(gt_ids, "gt_ids")
+        tr = _ids(tracker_ids, "tracker_ids")
+        sim = np.asarray(similarity, dtype=np.float64)
+        if sim.shape != (gt.size, tr.size):
+            raise ValueError(
+                f"similarity has shape {sim.shape}; it must be (len(gt_ids), len(tracker_ids)) = "
+                f"({gt.size}, {tr.size})"
+            )
+        if sim.size and not (sim.min() >= 0.0 and sim.max() <= 1.0):  # NaN fails both
+            bad = sim[~((sim >= 0.0) & (sim <= 1.0))][0]
+            raise ValueError(f"similarity values must be in [0, 1]; got {float(bad)}")
+        rows, cols = np.nonzero(sim)
+        values = sim[rows, cols]
+        # Soft match S / (column sum + row sum − S), 0 where that denominator is <= eps (the
+        # operations in TrackEval's order, so P sums the very same floats).
+        denominator = sim.sum(0)[cols] + sim.sum(1)[rows] - values
+        ok = denominator > _EPS
+        soft = np.divide(values, denominator, out=np.zeros_like(values), where=ok)
+        self._gt_ids.append(gt)
+        self._tr_ids.append(tr)
+        self._rows.append(rows.astype(np.int64, copy=False))
+        self._cols.append(cols.astype(np.int64, copy=False))
+        self._sims.append(values)
+        self._soft.append(soft)
+        self._frames += 1
+
+    def compute_arrays(self) -> dict[str, NDArray[np.float64]]:
+        """The per-α figures: each of :data:`HOTA_FIELDS` and ``HOTA_TP``, ``HOTA_FN``, ``HOTA_FP``
+        as (19,) arrays over :data:`ALPHAS`."""
+        n_alpha = ALPHAS.size
+        n_gt = sum(f.size for f in self._gt_ids)
+        n_tr = sum(f.size for f in self._tr_ids)
+        tp: NDArray[np.float64] = np.zeros(n_alpha)
+        loc_sum: NDArray[np.float64] = np.zeros(n_alpha)
+        ass = {name: np.zeros(n_alpha) for name in ("AssA", "AssRe", "AssPr")}
+        matched = self._matches()
+        if matched is not None:
+            gt_dense, tr_dense, gt_count, tr_count, n_tr_ids, pair_sim = matched
+            # A TP at α_a for every a < passes: α ascend, so a pair passes a prefix of them.
+            passes = np.searchsorted(ALPHAS - _EPS, pair_sim, side="right")
+            hist = np.bincount(passes, minlength=n_alpha + 1).astype(np.float64)
+            tp = np.cumsum(hist[::-1])[::-1][1:]
+            loc_hist = np.bincount(passes, weights=pair_sim, minlength=n_alpha + 1).astype(np.float64)
+            loc_sum = np.cumsum(loc_hist[::-1])[::-1][1:]
+            # c_α(g, k): TP counts per id pair and α.
+            keys, key_of = np.unique(gt_dense * n_tr_ids + tr_dense, return_inverse=True)
+            by_pass = np.zeros((keys.size, n_alpha + 1))
+            np.add.at(by_pass, (key_of, passes), 1.0)
+            counts = np.cumsum(by_pass[:, ::-1], axis=1)[:, ::-1][:, 1:]  # (pairs, α)
+            n_g = gt_count[keys // n_tr_ids][:, np.newaxis]
+            n_k = tr_count[keys % n_tr_ids][:, np.newaxis]
+            weight = np.maximum(1.0, tp)
+            ass["AssA"] = np.sum(counts * (counts / np.maximum(1.0, n_g + n_k - counts)), axis=0) / weight
+            ass["AssRe"] = np.sum(counts * (counts / np.maximum(1.0, n_g)), axis=0) / weight
+            ass["AssPr"] = np.sum(counts * (counts / np.maximum(1.0, n_k)), axis=0) / weight
+        fn = n_gt - tp
+        fp = n_tr - tp
+        det_a = tp / np.maximum(1.0, tp + fn + fp)
+        return {
+            "HOTA": np.sqrt(det_a * ass["AssA"]),
+            "DetA": det_a,
+            "AssA": ass["AssA"],
+            "LocA": np.maximum(1e-10, loc_sum) / np.maximum(1e-10, tp),
+            "DetRe": tp / np.maximum(1.0, tp + fn),
+            "DetPr": tp / np.maximum(1.0, tp + fp),
+            "AssRe": ass["AssRe"],
+            "AssPr": ass["AssPr"],
+            "HOTA_TP": tp,
+            "HOTA_FN": fn,
+            "HOTA_FP": fp,
+        }
+
+    def compute(self) -> dict[str, float]:
+        """The :data:`HOTA_FIELDS` averaged over the 19 α (does not reset). With no frame, or no
+        truth or no tracker row at all, HOTA, DetA, AssA and the rest are 0 and LocA is 1."""
+        arrays = self.compute_arrays()
+        return {name: float(np.mean(arrays[name])) for name in HOTA_FIELDS}
+
+    def _matches(
+        self,
+    ) -> (
+        tuple[
+            NDArray[np.int64],
+            NDArray[np.int64],
+            NDArray[np.float64],
+            NDArray[np.float64],
+            int,
+            NDArray[np.float64],
+        ]
+        | None
+    ):
+        """Per-frame optimal assignments. Returns the dense truth and tracker id of every matched
+        pair with non-zero similarity, the frame counts per dense id, the number of tracker ids and
+        the pairs' similarities; None when no similarity is non-zero."""
+        if not self._frames:
+            return None
+        sims = np.concatenate(self._sims)
+        if not sims.size:
+            return None
+        gt_sizes = np.fromiter((f.size for f in self._gt_ids), np.int64, self._frames)
+        tr_sizes = np.fromiter((f.size for f in self._tr_ids), np.int64, self._frames)
+        entries = np.fromiter((f.size for f in self._sims), np.int64, self._frames)
+        gt_values, gt_dense_rows = np.unique(np.concatenate(self._gt_ids), return_inverse=True)
+        tr_values, tr_dense_rows = np.unique(np.concatenate(self._tr_ids), return_inverse=True)
+        n_tr_ids = tr_values.size
+        gt_count = np.bincount(gt_dense_rows, minlength=gt_values.size).astype(np.float64)
+        tr_count = np.bincount(tr_dense_rows, minlength=n_tr_ids).astype(np.float64)
+        gt_start = np.concatenate(([0], np.cumsum(gt_sizes)[:-1]))
+        tr_start = np.concatenate(([0], np.cumsum(tr_sizes)[:-1]))
+        frame = np.repeat(np.arange(self._frames), entries)
+        rows = np.concatenate(self._rows)
+        cols = np.concatenate(self._cols)
+        g = gt_dense_rows[gt_start[frame] + rows]
+        k = tr_dense_rows[tr_start[frame] + cols]
+        # Global alignment A(g, k) over the id pairs that ever have a non-zero similarity; the
+        # soft counts are summed in frame order (bincount adds in input order).
+        keys, key_of = np.unique(g * n_tr_ids + k, return_inverse=True)
+        soft_count = np.bincount(key_of, weights=np.concatenate(self._soft), minlength=keys.size)
+        alignment = soft_count / (gt_count[keys // n_tr_ids] + tr_count[keys % n_tr_ids] - soft_count)
+        score = alignment[key_of] * sims
+        # Frames where every row and column has at most one non-zero entry, all with a positive
+        # score, need no assignment: the optimum takes every such pair.
+        row_dup = _frames_with_repeats(gt_start[frame] + rows, frame, self._frames)
+        col_dup = _frames_with_repeats(tr_start[frame] + cols, frame, self._frames)
+        entry_start = np.concatenate(([0], np.cumsum(entries)[:-1]))
+        zero_score = np.zeros(self._frames, dtype=bool)
+        zero_score[frame[score <= 0.0]] = True
+        hard = row_dup | col_dup | zero_score
+        take = ~hard[frame]
+        for t in np.flatnonzero(hard):
+            lo, hi = entry_start[t], entry_start[t] + entries[t]
+            r, c = rows[lo:hi], cols[lo:hi]
+            dense = np.zeros((gt_sizes[t], tr_sizes[t]))
+            dense[r, c] = score[lo:hi]
+            match_rows, match_cols = linear_sum_assignment(-dense)
+            # Keep the assigned pairs that are stored entries (non-zero similarity).
+            lookup = np.full((gt_sizes[t], tr_sizes[t]), -1, dtype=np.int64)
+            lookup[r, c] = np.arange(lo, hi)
+            chosen = lookup[match_rows, match_cols]
+            take[chosen[chosen >= 0]] = True
+        return g[take], k[take], gt_count, tr_count, n_tr_ids, sims[take]
+
+
+def _frames_with_repeats(
+    keys: NDArray[np.int64], frame: NDArray[np.int64], n_frames: int
+) -> NDArray[np.bool_]:
+    """(n_frames,) True for the frames in which some key (a row or a column) occurs twice."""
+    _, first, counts = np.unique(keys, return_index=True, return_counts=True)
+    repeats = np.zeros(n_frames, dtype=bool)
+    repeats[frame[first[counts > 1]]] = True
+    return repeats
+
+
+def _ids(values: ArrayLike, name: str) -> NDArray[np.int64]:
+    """``values`` as a 1-D int64 array of unique ids, or a ValueError naming ``name``."""
+    ids = np.asarray(values)
+    if ids.ndim != 1:
+        raise ValueError(f"{name} must be 1-D; got shape {ids.shape}")
+    if ids.size and ids.dtype.kind not in "iu":
+        raise ValueError(f"{name} must be integers; got dtype {ids.dtype}")
+    ids = ids.astype(np.int64, copy=False)
+    if ids.size > 1:
+        ordered = np.sort(ids)
+        repeated = ordered[1:][ordered[1:] == ordered[:-1]]
+        if repeated.size:
+            raise ValueError(f"{name} must be unique within a frame; {int(repeated[0])} appears twice")
+    return ids

@@ -1,0 +1,124 @@
+"""HOTA as a streaming :class:`~track_envs.metrics.base.Metric` of the environments' reports.
+
+Luiten et al., "HOTA: A Higher Order Metric for Evaluating Multi-Object Tracking", IJCV 2021;
+the figures and their definitions are those of :mod:`track_envs.metrics.hota`. What the
+environments add is the similarity between the visible truth and the reported tracks (mask 1):
+
+* :class:`Hota`, points: ``S = max(0, 1 − d/τ)`` with ``d`` the Euclidean distance and ``τ`` the
+  metric's distance threshold (the CLEAR MOT match distance and GOSPA cut-off ``c`` of
+  :func:`~track_envs.wrappers.tracking_metrics.point_metrics`). A pair is then a true positive
+  at α when ``d ≤ (1 − α) τ``: the α-average sweeps the match distance from ``0.95 τ`` down to
+  ``0.05 τ``, and LocA is ``1 − (mean matched distance)/τ``.
+* :class:`PoseHota`, poses: ``S`` the object keypoint similarity (OKS, COCO's, with the truth
+  area ``area_factor · scale²`` as :class:`~track_envs.metrics.keypoints.PoseOks` uses).
+
+The keys of :meth:`Hota.compute` are :data:`HOTA_KEYS`' values: ``hota``, ``det_a``, ``ass_a``,
+``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr`` (the α-averaged figures; 0, and
+``loc_a`` 1, before any truth or report row).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from track_envs.metrics.base import live_report, live_truth
+from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
+from track_envs.metrics.hota_similarity import point_similarity
+from track_envs.metrics.keypoints import _report_poses, _truth_poses, oks
+
+#: HOTA's figure names (:data:`~track_envs.metrics.hota.HOTA_FIELDS`) and the metric keys they
+#: have in ``episode_metrics``, records and tables.
+HOTA_KEYS: dict[str, str] = {
+    "HOTA": "hota",
+    "DetA": "det_a",
+    "AssA": "ass_a",
+    "LocA": "loc_a",
+    "DetRe": "det_re",
+    "DetPr": "det_pr",
+    "AssRe": "ass_re",
+    "AssPr": "ass_pr",
+}
+
+
+def hota_keys(figures: Mapping[str, float]) -> dict[str, float]:
+    """:meth:`HotaAccumulator.compute`'s figures under their metric keys (:data:`HOTA_KEYS`)."""
+    return {HOTA_KEYS[name]: float(figures[name]) for name in HOTA_FIELDS}
+
+
+class Hota:
+    """Streaming HOTA of point reports (mask 1 rows) against the visible truth.
+
+    Similarity ``max(0, 1 − d/τ)`` (see the module docstring); track ids are the report's, truth
+    ids the truth's.
+
+    Args:
+        threshold: τ, the distance at which the similarity reaches 0 (sensor units), > 0 and finite.
+    """
+
+    needs_truth = True
+
+    def __init__(self, threshold: float) -> None:
+        if not (np.isfinite(threshold) and threshold > 0):
+            raise ValueError(f"threshold must be > 0 and finite (sensor units); got {threshold!r}")
+        self.threshold = float(threshold)
+        self._acc = HotaAccumulator()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new episode)."""
+        self._acc.reset()
+
+    def update(
+        self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
+    ) -> None:
+        """Add one frame from ``info["truth"]`` and the report (``detection_ids`` is unused)."""
+        del detection_ids
+        truth_ids, x = live_truth(truth)
+        report_ids, y, _ = live_report(report)
+        if x.ndim != 2 or y.ndim != 2 or x.shape[1] != y.shape[1]:
+            raise ValueError(
+                "Hota scores point reports (max_tracks, D) against truth (max_targets, D); got report "
+                f"positions {np.shape(report['positions'])} and truth {np.shape(truth['positions'])}"
+            )
+        self._acc.add_frame(truth_ids, report_ids, point_similarity(x, y, self.threshold))
+
+    def compute(self) -> dict[str, float]:
+        """``hota``, ``det_a``, ``ass_a``, ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr``."""
+        return hota_keys(self._acc.compute())
+
+
+class PoseHota:
+    """Streaming HOTA of reported poses against the visible truth poses, with OKS as similarity.
+
+    Args:
+        area_factor: The truth area is ``area_factor · scale²`` (as :class:`PoseOks`), > 0.
+    """
+
+    needs_truth = True
+
+    def __init__(self, area_factor: float = 0.2) -> None:
+        if not (np.isfinite(area_factor) and area_factor > 0):
+            raise ValueError(f"area_factor must be positive and finite, got {area_factor!r}")
+        self.area_factor = float(area_factor)
+        self._acc = HotaAccumulator()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new episode)."""
+        self._acc.reset()
+
+    def update(
+        self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
+    ) -> None:
+        """Add one frame (``detection_ids`` is unused)."""
+        del detection_ids
+        truth_ids, g, visible, scale = _truth_poses(truth)
+        report_ids, x = _report_poses(report)
+        area = self.area_factor * np.asarray(scale, dtype=np.float64) ** 2
+        similarity = oks(g, visible, area, x).T if len(g) and len(x) else np.zeros((len(g), len(x)))
+        self._acc.add_frame(truth_ids, report_ids, np.clip(similarity, 0.0, 1.0))
+
+    def compute(self) -> dict[str, float]:
+        """The same keys as :meth:`Hota.compute`."""
+        return hota_keys(self._acc.compute())
