@@ -12,7 +12,7 @@ from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments, run_pose
+from agents.cli import arguments, run_pose, sorting
 from agents.file_kinds import check_file_agent
 from agents.run import run_agent
 from predictors import available_predictors
@@ -28,6 +28,8 @@ examples:
   track run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
   track run test.txt --dt 0.04 --declared-noise-std 5 --out tracks.txt --gt gt.txt --metrics --match iou
   track run det.txt --agent gnn --agent-kwargs p_gate=0.99,max_misses=3 --seed 1 --out tracks.txt
+  track run sorter.csv --time-column time --out tracks.csv --sorting-line 0.45
+  track run sorter.csv --time-column time --out tracks.csv --sorting-check line=0.35,cut=0.3
 
 Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; the
 tracker follows the boxes' centres and each output row carries its detection's box; a confidence
@@ -49,6 +51,10 @@ distance and cut-off --threshold), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, 
 max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids. --match
 auto (default) matches boxes by IoU >= --min-iou (0.5, as MOTChallenge) when the tracks and the
 ground truth both have boxes, else centres within --threshold; the line "matching: ..." says which.
+Sorting: --sorting-line X writes each track's predicted crossing of the nozzle bar x = X (past the
+camera window) to OUT.sorting.csv; --sorting-check line=L,cut=C checks such predictions without
+truth: a virtual line L inside the window, predicted from the detections at x <= C, scored
+against where the tracks crossed L (hit rate, error percentiles; OUT.sorting-check.csv).
 """
 
 
@@ -178,6 +184,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     arguments.add_no_progress(g)
     run_pose.add_pose_arguments(p)
+    sorting.add_arguments(p)
     return p
 
 
@@ -252,12 +259,20 @@ def run(args: argparse.Namespace) -> int:
             max_detections=args.max_detections,
             max_tracks=args.max_tracks,
         )
+    check = sorting.check_arguments(args, spec)
     agent = build_agent(args.agent, args.predictor, dict(args.agent_kwargs))
     warm_up(agent)  # compile / load the kernels before the first frame
     read_s = time.perf_counter() - start
-    tracks = run_agent(
-        agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
+    result = run_agent(
+        agent,
+        detections,
+        spec,
+        seed=args.seed,
+        covariance=args.covariance,
+        progress=not args.no_progress,
+        sorting_line=args.sorting_line,
     )
+    tracks, crossings = result if isinstance(result, tuple) else (result, None)
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
@@ -265,6 +280,10 @@ def run(args: argparse.Namespace) -> int:
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
+    if crossings is not None:
+        sorting.write_predictions(args, crossings, tracks)
+    if check is not None:
+        sorting.run_check(args, check, agent, detections, spec, tracks)
     if truth is not None and args.metrics:
         print(
             f"matching: {match_line(kind, threshold=args.threshold, min_iou=args.min_iou)}", file=sys.stderr
