@@ -25,12 +25,14 @@ from __future__ import annotations
 import dataclasses
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.file_kinds import check_file_agent
+from agents.sorting_collect import SortingCollector, sorting_spec
+from track_envs.crossing_predictions import PredictedCrossings
 from track_envs.detections import Detections
 from track_envs.report import ReportOverflowError
 from track_envs.tracks import Tracks, carried_boxes
@@ -57,6 +59,7 @@ def packed_block(
     return det, mask
 
 
+@overload
 def run_agent(
     agent: Any,
     detections: Detections | Sequence[ArrayLike],
@@ -67,7 +70,37 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
-) -> Tracks:
+    sorting_line: None = None,
+) -> Tracks: ...
+
+
+@overload
+def run_agent(
+    agent: Any,
+    detections: Detections | Sequence[ArrayLike],
+    spec: SensorSpec,
+    *,
+    seed: int | None = 0,
+    covariance: bool = False,
+    progress: bool = False,
+    reset: bool = True,
+    grow: bool = True,
+    sorting_line: float,
+) -> tuple[Tracks, PredictedCrossings]: ...
+
+
+def run_agent(
+    agent: Any,
+    detections: Detections | Sequence[ArrayLike],
+    spec: SensorSpec,
+    *,
+    seed: int | None = 0,
+    covariance: bool = False,
+    progress: bool = False,
+    reset: bool = True,
+    grow: bool = True,
+    sorting_line: float | None = None,
+) -> Tracks | tuple[Tracks, PredictedCrossings]:
     """Track a stream of detections with ``agent``; return every frame's reported tracks.
 
     Args:
@@ -89,6 +122,10 @@ def run_agent(
             so that a report size never makes a valid stream fail. The rows of a report do not
             change the tracks of a deterministic agent, so the result is the run a large enough
             report gives. Needs ``reset`` (an agent that was reset by the caller cannot be run again).
+        sorting_line: A sorting line ``x = sorting_line`` downstream of the region (the nozzle
+            bar): the agent is told of it (``spec.sorting_line``) and the predicted crossings
+            of its reports' sorting channels are returned too. ``None`` (default): ``spec`` as
+            given, tracks only.
 
     Returns:
         :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
@@ -96,11 +133,15 @@ def run_agent(
         with box detections the box of each row (``Tracks.boxes``) and, with ``covariance``,
         the covariances. A report's arrays are kept by reference until their
         block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
+        With ``sorting_line``: ``(tracks, crossings)``, ``crossings`` the
+        :class:`~track_envs.crossing_predictions.PredictedCrossings` of every report, with the
+        frame each was reported in (``crossings.last()``: the one per track that counts).
 
     Raises:
         ValueError: a frame with more detections than ``spec.max_detections`` (named),
-            detections whose dimension is not ``spec.dim``, or an agent that cannot track
-            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`).
+            detections whose dimension is not ``spec.dim``, an agent that cannot track
+            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`); a
+            ``sorting_line`` not downstream of the region, or an agent that reports no crossings.
     """
     if isinstance(agent, str):
         from agents import make_agent
@@ -117,11 +158,13 @@ def run_agent(
             f"frame {t} holds {counts[t]} detections, more than max_detections={spec.max_detections}; "
             f"the fullest frame holds {counts.max()}"
         )
+    spec = sorting_spec(spec, sorting_line)
     while True:
+        sorting = None if sorting_line is None else SortingCollector(agent, spec.sorting_line)  # type: ignore[arg-type]
         if reset:
             agent.reset(spec, seed=seed)
         try:
-            return _run(agent, stream, spec, covariance=covariance, progress=progress)
+            return _run(agent, stream, spec, sorting, covariance=covariance, progress=progress)
         except ReportOverflowError as exc:
             if not (grow and reset):
                 raise
@@ -135,8 +178,16 @@ def run_agent(
             spec = dataclasses.replace(spec, max_tracks=rows)
 
 
-def _run(agent: Any, stream: Detections, spec: SensorSpec, *, covariance: bool, progress: bool) -> Tracks:
-    """The loop of :func:`run_agent` over a reset agent."""
+def _run(
+    agent: Any,
+    stream: Detections,
+    spec: SensorSpec,
+    sorting: SortingCollector | None,
+    *,
+    covariance: bool,
+    progress: bool,
+) -> Tracks | tuple[Tracks, PredictedCrossings]:
+    """The loop of :func:`run_agent` over a reset agent (with ``sorting``: its crossings too)."""
     covariances = getattr(agent, "track_covariances", None) if covariance else None
     bar = _progress(stream.n_frames, progress)
     act = agent.act
@@ -159,6 +210,10 @@ def _run(agent: Any, stream: Detections, spec: SensorSpec, *, covariance: bool, 
                 live.append(report["mask"])
                 if covs is not None:
                     covs.append(covariances())  # type: ignore[misc]
+                if sorting is not None:
+                    sorting.add(report)
+            if sorting is not None:
+                sorting.gather()
             parts.append(Tracks.from_columns(ids, positions, rows, live, covariances=covs, first_frame=start))
             if bar is not None:
                 bar.update(stop - start)
@@ -168,7 +223,7 @@ def _run(agent: Any, stream: Detections, spec: SensorSpec, *, covariance: bool, 
     tracks = Tracks.concatenate(parts, stream.n_frames)
     if stream.boxes is not None and tracks.detection is not None:
         tracks = tracks.with_boxes(carried_boxes(tracks, stream.boxes, stream.offsets))
-    return tracks
+    return tracks if sorting is None else (tracks, sorting.result())
 
 
 def _progress(total: int, enabled: bool) -> Any:

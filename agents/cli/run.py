@@ -14,7 +14,7 @@ from typing import Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments, run_pose, self_calibration
+from agents.cli import arguments, run_pose, self_calibration, sorting
 from agents.file_kinds import check_file_agent
 from agents.run import run_agent
 from predictors import available_predictors
@@ -30,6 +30,8 @@ examples:
   track run det.txt --dt 0.005 --out tracks.txt --gt gt.txt --metrics --threshold 0.005
   track run test.txt --dt 0.04 --declared-noise-std 5 --out tracks.txt --gt gt.txt --metrics --match iou
   track run det.txt --agent gnn --agent-kwargs p_gate=0.99,max_misses=3 --seed 1 --out tracks.txt
+  track run sorter.csv --time-column time --out tracks.csv --sorting-line 0.45
+  track run sorter.csv --time-column time --out tracks.csv --sorting-check line=0.35,cut=0.3
 
 Inputs: a MOTChallenge det.txt (frame, id, bb_left, bb_top, bb_width, bb_height, conf, ...; the
 tracker follows the boxes' centres and each output row carries its detection's box; a confidence
@@ -59,6 +61,10 @@ frame), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr (similarity
 max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids. --match
 auto (default) matches boxes by IoU >= --min-iou (0.5, as MOTChallenge) when the tracks and the
 ground truth both have boxes, else centres within --threshold; the line "matching: ..." says which.
+Sorting: --sorting-line X writes each track's predicted crossing of the nozzle bar x = X (past the
+camera window) to OUT.sorting.csv; --sorting-check line=L,cut=C checks such predictions without
+truth: a virtual line L inside the window, predicted from the detections at x <= C, scored
+against where the tracks crossed L (hit rate, error percentiles; OUT.sorting-check.csv).
 """
 
 
@@ -194,6 +200,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     arguments.add_no_progress(g)
     run_pose.add_pose_arguments(p)
+    sorting.add_arguments(p)
     return p
 
 
@@ -272,6 +279,7 @@ def run(args: argparse.Namespace) -> int:
             max_detections=args.max_detections,
             max_tracks=args.max_tracks,
         )
+    check = sorting.check_arguments(args, spec)
     if args.predictor is not None and not agent_takes_predictor(args.agent):
         raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
     agent_kwargs = dict(args.agent_kwargs)
@@ -297,11 +305,18 @@ def run(args: argparse.Namespace) -> int:
     read_s = time.perf_counter() - start - calibration_s
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", RuntimeWarning)
-        tracks = run_agent(
-            agent, detections, spec, seed=args.seed, covariance=args.covariance, progress=not args.no_progress
+        result = run_agent(
+            agent,
+            detections,
+            spec,
+            seed=args.seed,
+            covariance=args.covariance,
+            progress=not args.no_progress,
+            sorting_line=args.sorting_line,
         )
     for w in caught:
         print(f"{args.prog}: note: {w.message}", file=sys.stderr)
+    tracks, crossings = result if isinstance(result, tuple) else (result, None)
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
@@ -309,6 +324,10 @@ def run(args: argparse.Namespace) -> int:
         f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
         file=sys.stderr,
     )
+    if crossings is not None:
+        sorting.write_predictions(args, crossings, tracks)
+    if check is not None:
+        sorting.run_check(args, check, agent, detections, spec, tracks)
     problems = run_warnings(tracks, len(detections))
     for problem in problems:
         print(f"{args.prog}: warning: {problem}", file=sys.stderr)

@@ -93,11 +93,15 @@ def _reject_point_options(args: argparse.Namespace) -> None:
         "--covariance": args.covariance or None,
         "--region": args.region,
         "--swap-xy": args.swap_xy or None,
+        "--sorting-line": getattr(args, "sorting_line", None),
+        "--sorting-check": getattr(args, "sorting_check", None),
+        "--sorting-out": getattr(args, "sorting_out", None),
     }
     bad = [flag for flag, value in given.items() if value is not None]
     if args.scale != 1.0:
         bad.append("--scale")
     if bad:
         raise ValueError(
-            f"{', '.join(bad)}: not for pose files (they are read in pixels and written as PoseTrack JSON)"
+            f"{', '.join(bad)}: not for pose files (they are read in pixels and written as PoseTrack JSON; "
+            "sorting predictions are for point tracks)"
         )

@@ -48,7 +48,7 @@ def test_round_trip_read_track_write_read_back_and_score(files, tmp_path):
     metrics, _ = score_poses(back, read_pose_file(root / "gt.json"))
     # measured: MOTA 0.6554, HOTA 0.7427 (pose-baseline on this episode)
     assert metrics["mota"] == pytest.approx(0.6554, abs=5e-4)
-    assert metrics["HOTA"] == pytest.approx(0.7427, abs=5e-4)
+    assert metrics["hota"] == pytest.approx(0.7427, abs=5e-4)
 
 
 def readme_commands() -> list[str]:
@@ -70,8 +70,8 @@ def test_readme_commands_run(files, command, monkeypatch, capsys):
     back = read_pose_file(root / "tracks.json")
     assert back.n_frames == FRAMES and len(back) > 0
     values = dict(line.split() for line in capsys.readouterr().out.splitlines()[2:])
-    assert {"mota", "HOTA", "DetA", "AssA", "mota_nose", "id_switches"} <= set(values)
-    assert 0.6 < float(values["mota"]) <= 1 and 0.7 < float(values["HOTA"]) <= 1
+    assert {"mota", "hota", "det_a", "ass_a", "mota_nose", "id_switches"} <= set(values)
+    assert 0.6 < float(values["mota"]) <= 1 and 0.7 < float(values["hota"]) <= 1
 
 
 @pytest.mark.slow
@@ -82,7 +82,7 @@ def test_pose_smc_and_baseline_figures(files, tmp_path, capsys):
         argv = [str(root / "det.json"), "--agent", agent, "--gt", str(root / "gt.json"), "--metrics"]
         assert main([*argv, "--out", str(tmp_path / f"{agent}.json"), "--no-progress"]) == 0
         table = dict(line.split() for line in capsys.readouterr().out.splitlines()[2:])
-        figures[agent] = (float(table["mota"]), float(table["HOTA"]))
+        figures[agent] = (float(table["mota"]), float(table["hota"]))
     # measured on this episode: pose-baseline MOTA 0.6554 HOTA 0.7427, pose-smc MOTA 0.6681 HOTA 0.7773
     assert figures["pose-baseline"] == pytest.approx((0.6554, 0.7427), abs=5e-4)
     assert figures["pose-smc"] == pytest.approx((0.6681, 0.7773), abs=5e-3)
@@ -140,3 +140,10 @@ def test_run_agent_and_run_pose_agent_refuse_the_wrong_agent(files):
         run_agent("one-step", [np.zeros((1, 2))], spec)
     with pytest.raises(ValueError, match=r"'GnnAgent' tracks points, not poses"):
         run_pose_agent(make_agent("gnn"), det, pose_sensor_spec(det))
+
+
+def test_sorting_flags_are_refused_on_pose_files(files, tmp_path, capsys):
+    root, _, _ = files
+    out = str(tmp_path / "t.json")
+    assert main([str(root / "video.json"), "--sorting-line", "0.5", "--out", out]) == 2
+    assert "--sorting-line" in capsys.readouterr().err

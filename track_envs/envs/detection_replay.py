@@ -72,11 +72,19 @@ class DetectionReplayEnv(TrackingEnv):
     - ``max_detections``, ``max_tracks``: rows of the observation and the report; default the
       fullest frame (at least 16) and twice that (at least 16).
     - ``shuffle``: shuffle the detection rows each frame (default True).
+    - ``nozzle_offset``: distance in the detections' units from the region's ``x_high`` (the end
+      of the camera window) to the nozzle bar (> 0), as in BeltSorter-v0 and BeltReplay-v0:
+      ``sensor_spec.sorting_line`` is ``x_high + nozzle_offset``, so a tracker (the gnn agent)
+      predicts each track's crossing of the bar in its report's sorting channel. There is no
+      crossing truth to score them (see ``track run --sorting-check`` for a truth-free check).
+      Default None: no nozzle bar. The observations are the same either way.
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
     - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
       what this id emits needs DetectionReplay-v1.
+    - v0, nozzle bar: ``nozzle_offset`` (default None) sets ``sensor_spec.sorting_line``; the
+      streams are unchanged.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012
@@ -98,9 +106,13 @@ class DetectionReplayEnv(TrackingEnv):
         max_detections: int | None = None,
         max_tracks: int | None = None,
         shuffle: bool = True,
+        nozzle_offset: float | None = None,
         render_mode: str | None = None,
     ):
+        import dataclasses
+
         from track_envs.detection_files import read_detections
+        from track_envs.envs.nozzle import check_nozzle_offset
 
         if detections is not None and path is not None:
             raise ValueError("give either path or detections, not both")
@@ -133,6 +145,9 @@ class DetectionReplayEnv(TrackingEnv):
             max_detections=max_detections,
             max_tracks=max_tracks,
         )
+        self.nozzle_offset = check_nozzle_offset(nozzle_offset, high=np.inf)
+        if self.nozzle_offset is not None:
+            spec = dataclasses.replace(spec, sorting_line=spec.region_high[0] + self.nozzle_offset)
         low, high = np.asarray(spec.region_low), np.asarray(spec.region_high)
         if len(detections):  # observation bounds hold every detection, even outside a given region
             low, high = (

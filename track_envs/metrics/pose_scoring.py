@@ -39,8 +39,6 @@ pose agents use for detections). Truths and tracks without a labelled keypoint a
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -139,9 +137,10 @@ def truth_areas(truth: PoseStream, area_factor: float = 0.25) -> NDArray[np.floa
 def pose_hota(tracks: PoseStream, truth: PoseStream, *, area_factor: float = 0.25) -> dict[str, float]:
     """HOTA with OKS similarity (module docstring), from :class:`track_envs.metrics.hota.HotaAccumulator`."""
     from track_envs.metrics.hota import HotaAccumulator
+    from track_envs.metrics.hota_stream import hota_keys
 
     _check(tracks, truth)
-    acc: Any = HotaAccumulator()
+    acc = HotaAccumulator()
     area = truth_areas(truth, area_factor)
     frames, track_frames = scored_frames(tracks, truth)
     for t, u in zip(frames.tolist(), track_frames.tolist(), strict=True):
@@ -153,7 +152,7 @@ def pose_hota(tracks: PoseStream, truth: PoseStream, *, area_factor: float = 0.2
             truth.keypoints[g][gk], truth.present[g][gk], area[g][gk], tracks.keypoints[h][hk]
         )  # (n, m)
         acc.add_frame(truth.track_ids[g][gk], tracks.track_ids[h][hk], sim.T)
-    return {key: float(value) for key, value in acc.compute().items()}
+    return hota_keys(acc.compute())
 
 
 def score_poses(
@@ -161,15 +160,11 @@ def score_poses(
 ) -> tuple[dict[str, float], list[str]]:
     """Per-joint MOTA and HOTA (OKS) of ``tracks`` against ``truth``, and notes (what was left out)."""
     metrics = per_joint_mota(tracks, truth, pckh=pckh)
-    notes = []
-    try:
-        hota = pose_hota(tracks, truth, area_factor=area_factor)
-    except ImportError:
-        notes.append("HOTA left out: track_envs.metrics.hota is not installed")
-    else:  # the totals, HOTA, then the joints
-        joints = {k: v for k, v in metrics.items() if k.startswith("mota_")}
-        totals = {k: v for k, v in metrics.items() if k not in joints}
-        metrics = {**totals, **hota, **joints}
+    notes: list[str] = []
+    hota = pose_hota(tracks, truth, area_factor=area_factor)
+    joints = {k: v for k, v in metrics.items() if k.startswith("mota_")}
+    totals = {k: v for k, v in metrics.items() if k not in joints}
+    metrics = {**totals, **hota, **joints}  # the totals, HOTA, then the joints
     frames, track_frames = scored_frames(tracks, truth)
     if len(frames) < truth.n_frames:
         notes.append(f"{truth.n_frames - len(frames)} ground-truth frames without annotations are not scored")

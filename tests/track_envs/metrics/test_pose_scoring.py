@@ -140,8 +140,8 @@ def test_perfect_tracks_score_one(episode):
     metrics, _ = score_poses(gt, gt)
     assert (
         metrics["mota"] == 1.0
-        and metrics["HOTA"] == pytest.approx(1.0)
-        and metrics["AssA"] == pytest.approx(1.0)
+        and metrics["hota"] == pytest.approx(1.0)
+        and metrics["ass_a"] == pytest.approx(1.0)
     )
 
 
@@ -151,5 +151,5 @@ def test_hota_uses_oks_and_drops_with_identity_errors(episode):
     half = gt.frame_index() >= gt.n_frames // 2
     swapped = gt.with_rows(track_ids=np.where(half, gt.track_ids + 1000, gt.track_ids))
     h = pose_hota(swapped, gt)
-    assert h["DetA"] == pytest.approx(1.0) and h["LocA"] == pytest.approx(1.0)
-    assert 0.3 < h["AssA"] < 0.75 and h["HOTA"] == pytest.approx(np.sqrt(h["AssA"]))
+    assert h["det_a"] == pytest.approx(1.0) and h["loc_a"] == pytest.approx(1.0)
+    assert 0.3 < h["ass_a"] < 0.75 and h["hota"] == pytest.approx(np.sqrt(h["ass_a"]))
