@@ -171,6 +171,27 @@ class Tracks:
             self.boxes,
         )
 
+    def updated_rows(self) -> Tracks:
+        """Only the rows of tracks updated with a detection in their frame (``detection >= 0``):
+        the coasting rows dropped, as MOTChallenge trackers write their output (a box where the
+        object was seen). Tracks without detection rows are returned as they are."""
+        if self.detection is None:
+            return self
+        keep = self.detection >= 0
+
+        def rows(a: NDArray | None) -> NDArray | None:
+            return None if a is None else a[keep]
+
+        return Tracks(
+            self.frame[keep],
+            self.ids[keep],
+            self.positions[keep],
+            self.n_frames,
+            rows(self.cov),
+            rows(self.detection),
+            rows(self.boxes),
+        )
+
     def with_boxes(self, boxes: NDArray[np.float64] | None) -> Tracks:
         """The same rows with ``boxes`` (N, 4) (None: without boxes)."""
         return Tracks(self.frame, self.ids, self.positions, self.n_frames, self.cov, self.detection, boxes)

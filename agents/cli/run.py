@@ -198,6 +198,14 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     g.add_argument(
         "--min-iou", type=float, default=0.5, help="--match iou: smallest IoU of a match (default 0.5)"
     )
+    g.add_argument(
+        "--coasting-rows",
+        choices=["auto", "all", "none"],
+        default="auto",
+        help="write the rows of tracks coasting through a frame without a detection: all, none, or auto "
+        "(default: none for box input, as MOTChallenge trackers write boxes only where they saw the "
+        "object; all for points)",
+    )
     arguments.add_no_progress(g)
     run_pose.add_pose_arguments(p)
     sorting.add_arguments(p)
@@ -317,6 +325,8 @@ def run(args: argparse.Namespace) -> int:
     for w in caught:
         print(f"{args.prog}: note: {w.message}", file=sys.stderr)
     tracks, crossings = result if isinstance(result, tuple) else (result, None)
+    if coasting_rows(args, detections) == "none":
+        tracks = tracks.updated_rows()
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
@@ -403,6 +413,14 @@ def check_out_file(path: str, flag: str = "--out") -> None:
         raise ValueError(f"{flag} {path}: the directory {folder} does not exist")
     if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise ValueError(f"{flag} {path} is not writable")
+
+
+def coasting_rows(args: argparse.Namespace, detections: Any) -> str:
+    """``--coasting-rows`` resolved: ``"none"`` or ``"all"`` (``auto``: none where the detections
+    carry boxes, all for points)."""
+    if args.coasting_rows != "auto":
+        return str(args.coasting_rows)
+    return "none" if detections.boxes is not None else "all"
 
 
 def _is_mot(args: argparse.Namespace) -> bool:

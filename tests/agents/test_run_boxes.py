@@ -7,6 +7,7 @@ import re
 import shlex
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from agents.cli.run import main
@@ -38,11 +39,24 @@ def test_the_readme_recipe_tracks_tud_campus_keeping_boxes_and_scores_with_iou(t
     assert main([*argv, "--no-progress"]) == 0
     captured = capsys.readouterr()
     assert "matching: boxes, IoU >= 0.5" in captured.err
-    assert metric(captured.out, "mota") == pytest.approx(0.504178, abs=1e-6)
-    assert metric(captured.out, "idf1") == pytest.approx(0.524917, abs=1e-6)
+    assert metric(captured.out, "mota") == pytest.approx(0.526462, abs=1e-6)
+    assert metric(captured.out, "idf1") == pytest.approx(0.567986, abs=1e-6)
+    assert metric(captured.out, "hota") == pytest.approx(0.405065, abs=1e-6)
     out = tmp_path / argv[argv.index("--out") + 1]
     tracks = read_tracks(out)
     assert tracks.boxes is not None and tracks.boxes[:, 2:].min() > 10  # real boxes, not points
+    assert len(tracks) == 222  # box input: only the rows updated with a detection (--coasting-rows auto)
+
+
+@pytest.mark.filterwarnings("ignore:Operation with tuple is deprecated")
+def test_coasting_rows_all_writes_the_frames_a_track_coasts_with_its_last_box(tmp_path, capsys):
+    campus = DATA / "TUD-Campus"
+    argv = [str(campus / "test.txt"), "--dt=0.04", f"--gt={campus / 'gt.txt'}", "--metrics"]
+    out = tmp_path / "t.txt"
+    assert main([*argv, f"--out={out}", "--coasting-rows=all", "--no-progress"]) == 0
+    assert metric(capsys.readouterr().out, "mota") == pytest.approx(0.415042, abs=1e-6)
+    tracks = read_tracks(out)
+    assert len(tracks) == 295 and tracks.boxes is not None and np.isfinite(tracks.boxes).all()
 
 
 @pytest.mark.filterwarnings("ignore:Operation with tuple is deprecated")
