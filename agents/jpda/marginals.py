@@ -1,0 +1,185 @@
+r"""Marginal association probabilities of JPDA for a whole frame.
+
+For tracks ``i`` and detections ``j`` with the joint-event weights of :mod:`agents.jpda.weights`,
+
+.. math::
+
+    β_{ij} = \sum_{θ \ni (i,j)} P(θ \mid Z), \qquad
+    β_{i∅} = \sum_{θ:\ i \text{ missed}} P(θ \mid Z), \qquad
+    β_{∅j} = \sum_{θ:\ j \text{ clutter}} P(θ \mid Z)
+
+(Fortmann, Bar-Shalom, Scheffe: Sonar tracking of multiple targets using joint probabilistic
+data association, 1983); ``Σ_j β_ij + β_i∅ = 1`` for every track and
+``Σ_i β_ij + β_∅j = 1`` for every detection.
+
+The events factorise over the gating clusters (:mod:`agents.jpda.clusters`). A cluster of
+``n`` tracks and ``m`` detections is computed exactly (:mod:`agents.jpda.exact`, bitmask over
+the smaller side, ``O(max(n,m) · k · 2^k)`` for ``k = min(n, m)``) when ``k <= max_exact``;
+clusters of equal ``k`` and orientation go through the recursion together as one batch. Beyond
+that bound the cluster is approximated by loopy belief propagation (:mod:`agents.jpda.lbp`,
+Williams and Lau 2014) and its tracks are flagged ``exact = False``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.jpda.clusters import GateClusters, gate_clusters
+from agents.jpda.exact import exact_marginals
+from agents.jpda.lbp import lbp_marginals
+from agents.jpda.weights import EventWeights, jpda_log_weights
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+#: Default largest ``min(n_tracks, n_detections)`` of a cluster computed exactly (2^12 masks).
+MAX_EXACT = 12
+
+
+@dataclass(frozen=True)
+class Marginals:
+    """JPDA marginal association probabilities of one frame.
+
+    Attributes:
+        pairs: (n_tracks, n_detections) ``β_ij``.
+        miss: (n_tracks,) ``β_i∅``, track ``i`` not detected (or outside its gate).
+        clutter: (n_detections,) ``β_∅j``, detection ``j`` from clutter.
+        exact: (n_tracks,) whether the track's cluster was computed exactly (else by loopy
+            belief propagation).
+    """
+
+    pairs: FloatArray
+    miss: FloatArray
+    clutter: FloatArray
+    exact: NDArray[np.bool_]
+
+    @property
+    def beta(self) -> FloatArray:
+        """(n_tracks, n_detections + 1): ``β_ij`` with ``β_i∅`` as the last column."""
+        return np.concatenate([self.pairs, self.miss[:, None]], axis=1)
+
+
+def _rank_in_cluster(labels: IntArray, n_clusters: int) -> IntArray:
+    """Position of every vertex among the vertices of its cluster, in index order."""
+    order = np.argsort(labels, kind="stable")
+    start = np.concatenate([[0], np.cumsum(np.bincount(labels, minlength=n_clusters))[:-1]])
+    rank = np.empty(len(labels), dtype=np.intp)
+    rank[order] = np.arange(len(labels)) - start[labels[order]]
+    return rank
+
+
+def _members(labels: IntArray, rank: IntArray, batch_of: IntArray, B: int, width: int) -> IntArray:
+    """(B, width) vertex ids of the batched clusters, -1 for padding."""
+    out = np.full((B, max(width, 0)), -1, dtype=np.intp)
+    sel = np.flatnonzero(batch_of[labels] >= 0)
+    out[batch_of[labels[sel]], rank[sel]] = sel
+    return out
+
+
+def _no_event(tracks: IntArray) -> ValueError:
+    return ValueError(
+        f"no joint event has positive weight in the cluster of tracks {tracks.tolist()}: with "
+        "p_detect * p_gate = 1 every track must take a detection, and these cannot all"
+    )
+
+
+def association_marginals(weights: EventWeights, *, max_exact: int = MAX_EXACT) -> Marginals:
+    """``β_ij``, ``β_i∅`` and ``β_∅j`` of every track and detection of a frame.
+
+    Args:
+        weights: the log joint-event weights (:func:`agents.jpda.weights.jpda_log_weights`).
+        max_exact: clusters with ``min(n_tracks, n_detections) <= max_exact`` are exact.
+
+    Raises:
+        ValueError: if ``max_exact < 0``, or if some cluster has no joint event of positive
+            weight (possible only with ``p_D P_G = 1``).
+    """
+    if max_exact < 0:
+        raise ValueError(f"max_exact must be >= 0, got {max_exact!r}")
+    lp, lm = weights.log_pair, weights.log_miss
+    n, m = lp.shape
+    clusters: GateClusters = gate_clusters(np.isfinite(lp))
+    nc = clusters.n_clusters
+    tl, dl = clusters.track_cluster, clusters.detection_cluster
+    n_t, n_d = clusters.n_tracks(), clusters.n_detections()
+    k = np.minimum(n_t, n_d)
+    pairs = np.zeros((n, m))
+    miss = np.ones(n)
+    clutter = np.ones(m)
+    exact = np.ones(n, dtype=bool)
+    lonely = (n_d[tl] == 0) & ~np.isfinite(lm)
+    if lonely.any():
+        raise _no_event(np.flatnonzero(lonely)[:1])
+    t_rank, d_rank = _rank_in_cluster(tl, nc), _rank_in_cluster(dl, nc)
+    for size in np.unique(k[(k > 0) & (k <= max_exact)]):
+        for tracks_are_rows in (True, False):
+            side = n_t if tracks_are_rows else n_d
+            group = np.flatnonzero((k == size) & (side == size) & (tracks_are_rows | (n_t != size)))
+            if len(group) == 0:
+                continue
+            B = len(group)
+            batch_of = np.full(nc, -1, dtype=np.intp)
+            batch_of[group] = np.arange(B)
+            T = _members(tl, t_rank, batch_of, B, int(n_t[group].max()))
+            D = _members(dl, d_rank, batch_of, B, int(n_d[group].max()))
+            tv, dv = T >= 0, D >= 0
+            L = np.where(tv[:, :, None] & dv[:, None, :], lp[T[:, :, None], D[:, None, :]], -np.inf)
+            u = np.where(tv, lm[T], 0.0)
+            v = np.zeros(D.shape)
+            if tracks_are_rows:
+                P, Pt, Pd, log_z = exact_marginals(L, u, v)
+            else:
+                Pt_ = exact_marginals(np.swapaxes(L, 1, 2), v, u)
+                P, Pd, Pt, log_z = np.swapaxes(Pt_[0], 1, 2), Pt_[1], Pt_[2], Pt_[3]
+            if not np.all(np.isfinite(log_z)):
+                raise _no_event(T[int(np.argmin(np.isfinite(log_z)))])
+            both = tv[:, :, None] & dv[:, None, :]
+            b, r, c = np.nonzero(both)
+            pairs[T[b, r], D[b, c]] = P[b, r, c]
+            miss[T[tv]] = Pt[tv]
+            clutter[D[dv]] = Pd[dv]
+    for label in np.flatnonzero(k > max_exact):
+        tracks, dets = np.flatnonzero(tl == label), np.flatnonzero(dl == label)
+        p, mi, cl = lbp_marginals(lp[np.ix_(tracks, dets)], lm[tracks])
+        pairs[np.ix_(tracks, dets)] = p
+        miss[tracks], clutter[dets], exact[tracks] = mi, cl, False
+    return Marginals(pairs, miss, clutter, exact)
+
+
+def jpda_marginals(
+    log_likelihood: NDArray[np.floating],
+    gate: NDArray[np.bool_],
+    p_detect: float,
+    clutter_density: float,
+    p_gate: float = 1.0,
+    *,
+    max_exact: int = MAX_EXACT,
+) -> Marginals:
+    """:func:`association_marginals` of :func:`agents.jpda.weights.jpda_log_weights`."""
+    weights = jpda_log_weights(log_likelihood, gate, p_detect, clutter_density, p_gate)
+    return association_marginals(weights, max_exact=max_exact)
+
+
+def cluster_marginals(log_pair: NDArray[np.floating], log_miss: NDArray[np.floating]) -> Marginals:
+    """Exact marginals of one set of tracks and detections taken as a single cluster.
+
+    Args:
+        log_pair: (n, m) ``log w_ij`` (``-inf`` outside the gate).
+        log_miss: (n,) ``log w_i∅``.
+
+    Raises:
+        ValueError: on a shape mismatch, NaN weights, or when no event has positive weight.
+    """
+    lp = np.asarray(log_pair, dtype=np.float64)
+    lm = np.asarray(log_miss, dtype=np.float64)
+    if lp.ndim != 2 or lm.shape != (lp.shape[0],):
+        raise ValueError(f"need log_pair (n, m) and log_miss (n,), got {lp.shape} and {lm.shape}")
+    if np.isnan(lp).any() or np.isnan(lm).any():
+        raise ValueError("log_pair and log_miss must not contain NaN")
+    P, Pu, Pv, log_z = exact_marginals(lp[None], lm[None], np.zeros((1, lp.shape[1])))
+    if not np.isfinite(log_z[0]):
+        raise _no_event(np.arange(lp.shape[0]))
+    return Marginals(P[0], Pu[0], Pv[0], np.ones(lp.shape[0], dtype=bool))
