@@ -61,6 +61,8 @@ class GateClusters:
 
 
 def _split_by_label(labels: IntArray, n_labels: int) -> list[IntArray]:
+    if n_labels == 0:
+        return []
     order = np.argsort(labels, kind="stable")
     bounds = np.cumsum(np.bincount(labels, minlength=n_labels))[:-1]
     return [part.astype(np.intp) for part in np.split(order, bounds)]

@@ -48,7 +48,7 @@ def _leave_one_out(x: FloatArray, axis: int) -> FloatArray:
 
 
 def lbp_marginals(
-    log_pair: FloatArray, log_miss: FloatArray, tol: float = 1e-12, max_iter: int = 10_000
+    log_pair: FloatArray, log_miss: FloatArray, tol: float = 1e-10, max_iter: int = 2_000
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Approximate ``β_ij`` (n, m), ``β_i∅`` (n,) and ``β_∅j`` (m,) of one cluster.
 
