@@ -12,7 +12,8 @@ For tracks ``i`` and detections ``j`` with the joint-event weights of :mod:`agen
 data association, 1983); ``Σ_j β_ij + β_i∅ = 1`` for every track and
 ``Σ_i β_ij + β_∅j = 1`` for every detection.
 
-The events factorise over the gating clusters (:mod:`agents.jpda.clusters`). A cluster of
+The events factorise over the gating clusters (:mod:`agents.jpda.clusters`). Clusters of one
+track are the PDA filter's closed form, all at once. Any other cluster of
 ``n`` tracks and ``m`` detections is computed exactly (:mod:`agents.jpda.exact`, bitmask over
 the smaller side, ``O(max(n,m) · k · 2^k)`` for ``k = min(n, m)``) when ``k <= max_exact``;
 clusters of equal ``k`` and orientation go through the recursion together as one batch. Beyond
@@ -28,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.jpda.clusters import GateClusters, gate_clusters
-from agents.jpda.exact import exact_marginals
+from agents.jpda.exact import exact_marginals, logsumexp
 from agents.jpda.lbp import lbp_marginals
 from agents.jpda.weights import EventWeights, jpda_log_weights
 
@@ -79,6 +80,22 @@ def _members(labels: IntArray, rank: IntArray, batch_of: IntArray, B: int, width
     return out
 
 
+def _single_track(
+    lp: FloatArray, lm: FloatArray, rows: IntArray, pairs: FloatArray, miss: FloatArray, clutter: FloatArray
+) -> None:
+    """Clusters of one track (Bar-Shalom's PDA): ``β_ij = w_ij / (w_i∅ + Σ_j' w_ij')``, all rows at once.
+
+    Each of their detections is gated to this track only, so ``β_∅j = 1 − β_ij``.
+    """
+    scores = np.concatenate([lp[rows], lm[rows, None]], axis=1)
+    log_z = logsumexp(scores, axis=1)
+    beta = np.exp(scores - log_z[:, None])
+    pairs[rows] = beta[:, :-1]
+    miss[rows] = beta[:, -1]
+    r, c = np.nonzero(np.isfinite(lp[rows]))
+    clutter[c] = 1.0 - beta[r, c]
+
+
 def _no_event(tracks: IntArray) -> ValueError:
     return ValueError(
         f"no joint event has positive weight in the cluster of tracks {tracks.tolist()}: with "
@@ -113,11 +130,15 @@ def association_marginals(weights: EventWeights, *, max_exact: int = MAX_EXACT) 
     lonely = (n_d[tl] == 0) & ~np.isfinite(lm)
     if lonely.any():
         raise _no_event(np.flatnonzero(lonely)[:1])
+    lone = np.flatnonzero((n_t[tl] == 1) & (n_d[tl] > 0))
+    if len(lone):
+        _single_track(lp, lm, lone, pairs, miss, clutter)
     t_rank, d_rank = _rank_in_cluster(tl, nc), _rank_in_cluster(dl, nc)
-    for size in np.unique(k[(k > 0) & (k <= max_exact)]):
+    multi = (n_t > 1) & (k > 0) & (k <= max_exact)
+    for size in np.unique(k[multi]):
         for tracks_are_rows in (True, False):
             side = n_t if tracks_are_rows else n_d
-            group = np.flatnonzero((k == size) & (side == size) & (tracks_are_rows | (n_t != size)))
+            group = np.flatnonzero(multi & (k == size) & (side == size) & (tracks_are_rows | (n_t != size)))
             if len(group) == 0:
                 continue
             B = len(group)
