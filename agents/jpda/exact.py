@@ -114,12 +114,12 @@ def exact_marginals(
         terms.fill(-np.inf)
         terms[:, K, :] = F[c] + v[:, c, None]
         terms[:, rows, with_r] = F[c][:, without] + L[:, :, c, None]
-        F[c + 1] = logsumexp(terms, axis=1)
+        F[c + 1] = np.logaddexp.reduce(terms, axis=1)
     for c in range(C - 1, -1, -1):
         terms.fill(-np.inf)
         terms[:, K, :] = G[c + 1] + v[:, c, None]
         terms[:, rows, without] = G[c + 1][:, with_r] + L[:, :, c, None]
-        G[c] = logsumexp(terms, axis=1)
+        G[c] = np.logaddexp.reduce(terms, axis=1)
     log_z = G[0][:, 0]
     with np.errstate(invalid="ignore"):
         pair = (

@@ -96,6 +96,45 @@ def _single_track(
     clutter[c] = 1.0 - beta[r, c]
 
 
+def _exact_batch(
+    lp: FloatArray,
+    lm: FloatArray,
+    T: IntArray,
+    D: IntArray,
+    flip: NDArray[np.bool_],
+    K: int,
+    pairs: FloatArray,
+    miss: FloatArray,
+    clutter: FloatArray,
+) -> None:
+    """Exact marginals of a batch of clusters, the smaller side of each as the bitmask rows.
+
+    ``T``, ``D`` (B, W): track and detection ids of each cluster (-1 padding). Where ``flip`` the
+    detections are the rows (``u = 0``) and the tracks the columns (``v = log w_i∅``); padded
+    rows and columns have no pairs and unmatched weight 1.
+    """
+    fl = flip[:, None]
+    R = np.where(fl, D, T)[:, :K]
+    C = np.where(fl, T, D)
+    rv, cv = R >= 0, C >= 0
+    tr = np.where(fl[:, :, None], C[:, None, :], R[:, :, None])  # track of pair (b, r, c)
+    de = np.where(fl[:, :, None], R[:, :, None], C[:, None, :])  # detection of pair (b, r, c)
+    both = rv[:, :, None] & cv[:, None, :]
+    L = np.where(both, lp[np.maximum(tr, 0), np.maximum(de, 0)], -np.inf)
+    top = len(lm) - 1
+    u = np.where(rv & ~fl, lm[np.clip(R, 0, top)], 0.0)
+    v = np.where(cv & fl, lm[np.clip(C, 0, top)], 0.0)
+    P, Pu, Pv, log_z = exact_marginals(L, u, v)
+    if not np.all(np.isfinite(log_z)):
+        raise _no_event(np.sort(T[int(np.argmin(np.isfinite(log_z)))]))
+    b, r, c = np.nonzero(both)
+    pairs[tr[b, r, c], de[b, r, c]] = P[b, r, c]
+    for ids, valid, prob, is_track in ((R, rv, Pu, ~fl), (C, cv, Pv, fl)):
+        t_sel, d_sel = valid & is_track, valid & ~is_track
+        miss[ids[t_sel]] = prob[t_sel]
+        clutter[ids[d_sel]] = prob[d_sel]
+
+
 def _no_event(tracks: IntArray) -> ValueError:
     return ValueError(
         f"no joint event has positive weight in the cluster of tracks {tracks.tolist()}: with "
@@ -108,7 +147,8 @@ def association_marginals(weights: EventWeights, *, max_exact: int = MAX_EXACT) 
 
     Args:
         weights: the log joint-event weights (:func:`agents.jpda.weights.jpda_log_weights`).
-        max_exact: clusters with ``min(n_tracks, n_detections) <= max_exact`` are exact.
+        max_exact: clusters with ``min(n_tracks, n_detections) <= max_exact`` are exact (and
+            clusters of one track always).
 
     Raises:
         ValueError: if ``max_exact < 0``, or if some cluster has no joint event of positive
@@ -135,34 +175,16 @@ def association_marginals(weights: EventWeights, *, max_exact: int = MAX_EXACT) 
         _single_track(lp, lm, lone, pairs, miss, clutter)
     t_rank, d_rank = _rank_in_cluster(tl, nc), _rank_in_cluster(dl, nc)
     multi = (n_t > 1) & (k > 0) & (k <= max_exact)
-    for size in np.unique(k[multi]):
-        for tracks_are_rows in (True, False):
-            side = n_t if tracks_are_rows else n_d
-            group = np.flatnonzero(multi & (k == size) & (side == size) & (tracks_are_rows | (n_t != size)))
-            if len(group) == 0:
-                continue
-            B = len(group)
-            batch_of = np.full(nc, -1, dtype=np.intp)
-            batch_of[group] = np.arange(B)
-            T = _members(tl, t_rank, batch_of, B, int(n_t[group].max()))
-            D = _members(dl, d_rank, batch_of, B, int(n_d[group].max()))
-            tv, dv = T >= 0, D >= 0
-            L = np.where(tv[:, :, None] & dv[:, None, :], lp[T[:, :, None], D[:, None, :]], -np.inf)
-            u = np.where(tv, lm[T], 0.0)
-            v = np.zeros(D.shape)
-            if tracks_are_rows:
-                P, Pt, Pd, log_z = exact_marginals(L, u, v)
-            else:
-                Pt_ = exact_marginals(np.swapaxes(L, 1, 2), v, u)
-                P, Pd, Pt, log_z = np.swapaxes(Pt_[0], 1, 2), Pt_[1], Pt_[2], Pt_[3]
-            if not np.all(np.isfinite(log_z)):
-                raise _no_event(T[int(np.argmin(np.isfinite(log_z)))])
-            both = tv[:, :, None] & dv[:, None, :]
-            b, r, c = np.nonzero(both)
-            pairs[T[b, r], D[b, c]] = P[b, r, c]
-            miss[T[tv]] = Pt[tv]
-            clutter[D[dv]] = Pd[dv]
-    for label in np.flatnonzero(k > max_exact):
+    width = np.where(k <= 2, 2, np.where(k <= 4, 4, k))  # few batches: pad small clusters
+    for K in np.unique(width[multi]):
+        group = np.flatnonzero(multi & (width == K))
+        batch_of = np.full(nc, -1, dtype=np.intp)
+        batch_of[group] = np.arange(len(group))
+        W = int(max(n_t[group].max(), n_d[group].max()))
+        T = _members(tl, t_rank, batch_of, len(group), W)
+        D = _members(dl, d_rank, batch_of, len(group), W)
+        _exact_batch(lp, lm, T, D, n_t[group] > n_d[group], int(K), pairs, miss, clutter)
+    for label in np.flatnonzero((n_t > 1) & (k > max_exact)):
         tracks, dets = np.flatnonzero(tl == label), np.flatnonzero(dl == label)
         p, mi, cl = lbp_marginals(lp[np.ix_(tracks, dets)], lm[tracks])
         pairs[np.ix_(tracks, dets)] = p
