@@ -16,9 +16,16 @@ The events factorise over the gating clusters (:mod:`agents.jpda.clusters`). Clu
 track are the PDA filter's closed form, all at once. Any other cluster of
 ``n`` tracks and ``m`` detections is computed exactly (:mod:`agents.jpda.exact`, bitmask over
 the smaller side, ``O(max(n,m) · k · 2^k)`` for ``k = min(n, m)``) when ``k <= max_exact``;
-clusters of equal ``k`` and orientation go through the recursion together as one batch. Beyond
-that bound the cluster is approximated by loopy belief propagation (:mod:`agents.jpda.lbp`,
-Williams and Lau 2014) and its tracks are flagged ``exact = False``.
+clusters go through the recursion together, one batch per bitmask width (``k`` of 1–2 padded
+to 2 rows, 3–4 to 4, larger ``k`` as they are; padded rows and columns never match). Beyond
+that bound a cluster of several tracks is approximated by loopy belief propagation
+(:mod:`agents.jpda.lbp`, Williams and Lau 2014) and its tracks are flagged ``exact = False``;
+the error of that approximation, measured against the exact marginals, is pinned in
+``tests/agents/jpda/test_jpda_lbp.py`` (max |Δβ| up to 0.19 on random 8-target frames, median
+0.02–0.05: a fallback, not a substitute).
+
+Accuracy: equal to brute-force enumeration of the joint events to 1e-13 (tests) and to Stone
+Soup 1.9.1's ``JPDA`` / ``JPDAwithEHM`` to 4.4e-16 on the same Gaussians.
 """
 
 from __future__ import annotations
