@@ -1,0 +1,26 @@
+"""Joint probabilistic data association (Fortmann, Bar-Shalom, Scheffe: Sonar tracking of multiple
+targets using joint probabilistic data association, 1983): gating clusters and the marginal
+association probabilities of tracks and detections."""
+
+from agents.jpda.clusters import GateClusters, gate_clusters
+from agents.jpda.marginals import (
+    MAX_EXACT,
+    Marginals,
+    association_marginals,
+    cluster_marginals,
+    jpda_marginals,
+)
+from agents.jpda.weights import EventWeights, gaussian_log_likelihood, jpda_log_weights
+
+__all__ = [
+    "MAX_EXACT",
+    "EventWeights",
+    "GateClusters",
+    "Marginals",
+    "association_marginals",
+    "cluster_marginals",
+    "gate_clusters",
+    "gaussian_log_likelihood",
+    "jpda_log_weights",
+    "jpda_marginals",
+]
