@@ -50,7 +50,25 @@ def hota_keys(figures: Mapping[str, float]) -> dict[str, float]:
     return {HOTA_KEYS[name]: float(figures[name]) for name in HOTA_FIELDS}
 
 
-class Hota:
+class _StreamingHota:
+    """What the streaming HOTA metrics share: the accumulator, ``reset`` and ``compute``; each
+    subclass turns a frame into (truth ids, report ids, similarity) in ``update``."""
+
+    needs_truth = True
+
+    def __init__(self) -> None:
+        self._acc = HotaAccumulator()
+
+    def reset(self) -> None:
+        """Forget every frame (start a new episode)."""
+        self._acc.reset()
+
+    def compute(self) -> dict[str, float]:
+        """``hota``, ``det_a``, ``ass_a``, ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr``."""
+        return hota_keys(self._acc.compute())
+
+
+class Hota(_StreamingHota):
     """Streaming HOTA of point reports (mask 1 rows) against the visible truth.
 
     Similarity ``max(0, 1 − d/τ)`` (see the module docstring); track ids are the report's, truth
@@ -60,17 +78,11 @@ class Hota:
         threshold: τ, the distance at which the similarity reaches 0 (sensor units), > 0 and finite.
     """
 
-    needs_truth = True
-
     def __init__(self, threshold: float) -> None:
         if not (np.isfinite(threshold) and threshold > 0):
             raise ValueError(f"threshold must be > 0 and finite (sensor units); got {threshold!r}")
         self.threshold = float(threshold)
-        self._acc = HotaAccumulator()
-
-    def reset(self) -> None:
-        """Forget every frame (start a new episode)."""
-        self._acc.reset()
+        super().__init__()
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
@@ -86,27 +98,14 @@ class Hota:
             )
         self._acc.add_frame(truth_ids, report_ids, point_similarity(x, y, self.threshold))
 
-    def compute(self) -> dict[str, float]:
-        """``hota``, ``det_a``, ``ass_a``, ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr``."""
-        return hota_keys(self._acc.compute())
 
-
-class BoxHota:
+class BoxHota(_StreamingHota):
     """Streaming HOTA of boxed reports against the visible boxed truth, with IoU as similarity.
 
     Frames carry ``truth["boxes"]`` and ``report["boxes"]`` (rows, 4) ``(left, top, width, height)``
     as :class:`~track_envs.metrics.boxes.BoxClearMot` reads them; TrackEval's MOTChallenge HOTA is
     this on the same boxes.
     """
-
-    needs_truth = True
-
-    def __init__(self) -> None:
-        self._acc = HotaAccumulator()
-
-    def reset(self) -> None:
-        """Forget every frame (start a new episode)."""
-        self._acc.reset()
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
@@ -124,29 +123,19 @@ class BoxHota:
         )
         self._acc.add_frame(np.asarray(truth["ids"])[live_t], np.asarray(report["ids"])[live_r], similarity)
 
-    def compute(self) -> dict[str, float]:
-        """The same keys as :meth:`Hota.compute`."""
-        return hota_keys(self._acc.compute())
 
-
-class PoseHota:
+class PoseHota(_StreamingHota):
     """Streaming HOTA of reported poses against the visible truth poses, with OKS as similarity.
 
     Args:
         area_factor: The truth area is ``area_factor · scale²`` (as :class:`PoseOks`), > 0.
     """
 
-    needs_truth = True
-
     def __init__(self, area_factor: float = 0.2) -> None:
         if not (np.isfinite(area_factor) and area_factor > 0):
             raise ValueError(f"area_factor must be positive and finite, got {area_factor!r}")
         self.area_factor = float(area_factor)
-        self._acc = HotaAccumulator()
-
-    def reset(self) -> None:
-        """Forget every frame (start a new episode)."""
-        self._acc.reset()
+        super().__init__()
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
@@ -158,7 +147,3 @@ class PoseHota:
         area = self.area_factor * np.asarray(scale, dtype=np.float64) ** 2
         similarity = oks(g, visible, area, x).T if len(g) and len(x) else np.zeros((len(g), len(x)))
         self._acc.add_frame(truth_ids, report_ids, np.clip(similarity, 0.0, 1.0))
-
-    def compute(self) -> dict[str, float]:
-        """The same keys as :meth:`Hota.compute`."""
-        return hota_keys(self._acc.compute())
