@@ -44,6 +44,9 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_lstm_accuracy.py
 	$(PY) benchmarks/bench_rendering.py
 	$(PY) benchmarks/bench_track_run.py
+	$(PY) benchmarks/bench_hota.py
+	$(PY) benchmarks/bench_self_calibration.py
+	$(PY) benchmarks/bench_jpda_marginals.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache
