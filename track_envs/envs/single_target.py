@@ -258,10 +258,13 @@ class SingleTargetEnv(TrackingEnv):
         return to_world(z, self.rotation_deg, self.offset), source
 
     def default_metrics(self) -> list[Any]:
-        """:class:`~track_envs.metrics.single_target.SingleTargetError` with this env's occlusion."""
-        from track_envs.metrics.single_target import SingleTargetError
+        """:class:`~track_envs.metrics.single_target.SingleTargetError` with this env's occlusion, and
+        HOTA (:class:`~track_envs.metrics.hota_stream.Hota`) with τ the distance at which a track
+        counts as lost (5 trajectory units, Jung et al. 2019)."""
+        from track_envs.metrics.hota_stream import Hota
+        from track_envs.metrics.single_target import LOST_THRESHOLD, SingleTargetError
 
-        return [SingleTargetError(occlusion=self.occlusion)]
+        return [SingleTargetError(occlusion=self.occlusion), Hota(threshold=LOST_THRESHOLD)]
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
