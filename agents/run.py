@@ -70,6 +70,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
+    calibrate: bool = False,
     sorting_line: None = None,
 ) -> Tracks: ...
 
@@ -85,6 +86,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
+    calibrate: bool = False,
     sorting_line: float,
 ) -> tuple[Tracks, PredictedCrossings]: ...
 
@@ -99,6 +101,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
+    calibrate: bool = False,
     sorting_line: float | None = None,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
     """Track a stream of detections with ``agent``; return every frame's reported tracks.
@@ -122,6 +125,14 @@ def run_agent(
             so that a report size never makes a valid stream fail. The rows of a report do not
             change the tracks of a deterministic agent, so the result is the run a large enough
             report gives. Needs ``reset`` (an agent that was reset by the caller cannot be run again).
+        calibrate: Estimate the measurement noise, the process noise, the velocity prior and
+            the coasting length from ``detections`` first
+            (:func:`agents.self_calibration.calibrate`, as ``track run`` does when no noise is
+            given) and track with them: ``spec``'s noise std is replaced, ``max_tracks`` sized
+            for the estimated coasting, and ``agent`` must be a registered agent's name (the
+            estimate sets its keywords: gnn with kf-ca gets all of them, any other agent the
+            noise only). For the figures, or another predictor, call ``calibrate`` yourself and
+            build the agent with its ``agent_kwargs()``.
         sorting_line: A sorting line ``x = sorting_line`` downstream of the region (the nozzle
             bar): the agent is told of it (``spec.sorting_line``) and the predicted crossings
             of its reports' sorting channels are returned too. ``None`` (default): ``spec`` as
@@ -143,12 +154,14 @@ def run_agent(
             recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`); a
             ``sorting_line`` not downstream of the region, or an agent that reports no crossings.
     """
+    stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
+    if calibrate:
+        agent, spec = calibrated_agent(agent, stream, spec)
     if isinstance(agent, str):
         from agents import make_agent
 
         agent = make_agent(agent)
     check_file_agent(agent, "point", flag="")
-    stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
     if stream.dim != spec.dim:
         raise ValueError(f"the detections are {stream.dim}-d but the sensor spec is {spec.dim}-d")
     counts = stream.counts
@@ -176,6 +189,27 @@ def run_agent(
                 stacklevel=2,
             )
             spec = dataclasses.replace(spec, max_tracks=rows)
+
+
+def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
+    """The agent ``name`` built with the settings :func:`agents.self_calibration.calibrate`
+    estimates from ``stream``, and ``spec`` with the estimated noise and a report that holds every
+    track the estimated coasting allows (``run_agent(..., calibrate=True)``)."""
+    from agents import make_agent
+    from agents.self_calibration import calibrate
+    from agents.self_calibration.calibrate import live_track_bound
+
+    if not isinstance(name, str):
+        raise ValueError(
+            "run_agent(calibrate=True) needs the agent by name (e.g. 'gnn'): the estimate sets its "
+            f"keywords; got {type(name).__name__}. Or call agents.self_calibration.calibrate(...) and "
+            "build the agent with its agent_kwargs()"
+        )
+    estimate = calibrate(stream, spec)
+    kwargs = estimate.agent_kwargs() if name == "gnn" else {}
+    spec = estimate.sensor_spec(spec)
+    rows = live_track_bound(stream, estimate.max_misses)
+    return make_agent(name, **kwargs), dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))
 
 
 def _run(

@@ -310,3 +310,23 @@ def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
         )
         mota = score_tracks(tracks, truth, threshold=threshold, match="distance")[0]["mota"]
         assert mota >= best - 0.03
+
+
+def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, capsys):
+    """``run_agent("gnn", ..., calibrate=True)`` gives the tracks of ``track run`` with only --dt."""
+    from track_envs.detection_files import read_wide_detections
+    from track_envs.track_files import read_tracks
+
+    out = tmp_path / "t.csv"
+    code, _, err = run_cli(
+        f"track run {pixel_file} --dt 0.005 --out {out} --format long --no-progress", capsys
+    )
+    assert code == 0, err
+    detections = read_wide_detections(pixel_file)
+    tracks = run_agent("gnn", detections, detection_sensor_spec(detections, dt=0.005), calibrate=True)
+
+    written = read_tracks(out, "long")
+    np.testing.assert_array_equal(tracks.ids, written.ids)
+    np.testing.assert_array_equal(tracks.detection, written.detection)
+    with pytest.raises(ValueError, match="needs the agent by name"):
+        run_agent(make_agent("gnn"), detections, detection_sensor_spec(detections, dt=0.005), calibrate=True)
