@@ -55,10 +55,8 @@ def add_arguments(group: Any) -> None:
 
 
 def wanted(args: argparse.Namespace) -> bool:
-    """Whether this run calibrates itself (point trackers only: a pose agent's detections are
-    keypoint sets, which the point-motion model does not describe)."""
-    if args.agent.startswith("pose"):
-        return False
+    """Whether this point-file run calibrates itself (pose files are tracked by pose agents, which
+    ``track run`` sends elsewhere before this is asked, and point agents only reach here)."""
     return args.calibrate == "on" or (args.calibrate == "auto" and args.declared_noise_std is None)
 
 
