@@ -156,20 +156,14 @@ def read_crossings(path: str | os.PathLike[str]) -> PredictedCrossings:
         DetectionFileError: a missing file, a header without the columns of
             :data:`CROSSING_COLUMNS` (named), or a non-integer id / frame (row and column named).
     """
-    from track_envs.csv_table import DetectionFileError, read_table
+    from track_envs.csv_table import read_table
 
     header = ",".join(CROSSING_COLUMNS)
     small = Path(path).is_file() and Path(path).stat().st_size < 2 * len(header)
     if small and Path(path).read_bytes().strip() == header.encode():  # no prediction
         return PredictedCrossings.empty()
     table = read_table(path, header=True)
-    assert table.names is not None
-    missing = [c for c in CROSSING_COLUMNS if c not in table.names]
-    if missing:
-        raise DetectionFileError(
-            f"{table.label}: the header lacks {missing}; a crossing file starts {','.join(CROSSING_COLUMNS)}"
-        )
-    col = {name: table.column(name, "column") for name in table.names}
+    col = table.named_columns(CROSSING_COLUMNS, "crossing")
     v = table.values
     for name in ("id", "frame"):
         values = v[:, col[name]]

@@ -18,6 +18,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,6 +89,21 @@ class Table:
         return DetectionFileError(
             f"{self.label}: row {self.first_row + row}, column index {column}{name} {what}"
         )
+
+    def named_columns(self, required: Sequence[str], kind: str) -> dict[str, int]:
+        """Every header name's 0-based index, checked to hold ``required`` (a ``kind`` file, e.g.
+        "long track", starts with them).
+
+        Raises:
+            DetectionFileError: naming the required columns the header lacks.
+        """
+        names = self.names or []
+        missing = [c for c in required if c not in names]
+        if missing:
+            raise DetectionFileError(
+                f"{self.label}: the header lacks {missing}; a {kind} file starts {','.join(required)}"
+            )
+        return {name: names.index(name) for name in names}  # a repeated name: its first column
 
     def column(self, spec: int | str, what: str) -> int:
         """The 0-based index of column ``spec`` (an index from 0, negative from the end, or a header name).

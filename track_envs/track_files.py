@@ -162,13 +162,7 @@ def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
 
 def _read_long(path: str | os.PathLike[str]) -> Tracks:
     table = read_table(path, header=True)
-    assert table.names is not None
-    missing = [c for c in LONG_COLUMNS if c not in table.names]
-    if missing:
-        raise DetectionFileError(
-            f"{table.label}: the header lacks {missing}; a long track file starts {','.join(LONG_COLUMNS)}"
-        )
-    col = {n: table.column(n, "column") for n in table.names}
+    col = table.named_columns(LONG_COLUMNS, "long track")
     v = table.values
     for name in ("frame", "id", "x", "y"):
         bad = ~np.isfinite(v[:, col[name]])

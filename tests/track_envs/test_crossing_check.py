@@ -194,3 +194,19 @@ def test_bad_tolerances_are_named(kwargs, message):
     args = {"lateral_tolerance": 1e-3, "time_tolerance": 1e-3, "min_seen": 1} | kwargs
     with pytest.raises(ValueError, match=message):
         check_tolerances(**args)
+
+
+def test_files_without_the_required_columns_are_named(tmp_path):
+    from track_envs.crossing_predictions import read_crossings
+    from track_envs.csv_table import DetectionFileError
+    from track_envs.track_files import read_tracks
+
+    path = tmp_path / "c.csv"
+    path.write_text("id,frame,t_cross\n1,2,0.5\n")
+    with pytest.raises(
+        DetectionFileError, match=r"the header lacks \['y_cross', 'var_t'.*a crossing file starts"
+    ):
+        read_crossings(path)
+    path.write_text("frame,id,x\n0,1,0.5\n")
+    with pytest.raises(DetectionFileError, match=r"the header lacks \['y'.*a long track file starts"):
+        read_tracks(path, "long")
