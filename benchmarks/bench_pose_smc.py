@@ -1,35 +1,49 @@
-"""Benchmark: frames per second of the SMC pose tracker (pose-smc) against re-running every window.
+"""Benchmark: frames per second of the SMC pose tracker (pose-smc) against the straightforward one.
 
 The scene: KeypointWalkers-v0 with ``--people`` people in view from the first frame, no arrivals,
-no vanishing, the recorded observations of one episode (so both trackers see the same frames).
+no vanishing, the recorded observations of one episode (so every tracker sees the same frames).
 Each tracker runs the frames ``--warmup`` … ``--warmup + --frames`` (after tracking the warm-up
-frames, so the filters are set up) on ``--threads`` torch threads. The reference, timed in the same
-run, is the straightforward implementation of the stateless predictor: ``recurrence="window",
-share_windows=False`` re-runs the 64-unit LSTM over every particle's L-window every frame. The
-measured ones: the default ``share_windows=True`` (the same result: the LSTM runs once per
-distinct queue of a filter, since resampled copies and particles that selected the observation
-history share their queue; dropout and the Gaussian draw stay per particle), and
-``recurrence="carried"`` (one LSTM step per particle and keypoint per frame; its semantics
-differ, see :mod:`agents.pose.smc`). The table gives the active filters and the LSTM sequences
-per frame and the LSTM arithmetic: ``4 · 64 · (64 + 3 + 1)`` multiply-adds per sequence and step.
+frames, so the filters are set up) on ``--threads`` threads (``torch.set_num_threads``, which also
+sizes the predictor's compiled products). Variants, timed in the same run:
 
-A second table times the LSTM alone on the windows the default variant encodes in those frames
-(recorded in a separate, untimed run), median of ``--repeats`` passes: torch's ``nn.LSTM`` of the
-network (oneDNN), and the shared float32 cell (:class:`predictors.lstm_cell.FusedLSTMCell`) with its
-products by numpy (its BLAS, whose threads are its own, not ``--threads``) and by ``torch.matmul``
-(the predictor's), with the largest difference of their outputs ``h`` from ``nn.LSTM``'s.
+* **reference** — the straightforward implementation of the stateless predictor: torch's
+  ``nn.LSTM(3, 64)`` of the network re-run over every particle's L-window for all
+  ``filters × P × 17`` keypoint sequences, then the network's FC head (torch), every frame. The
+  random draws (dropout masks, Gaussian noise, resampling, selection) are the tracker's own, so
+  its tracks equal the others' to float32 rounding.
+* **every window** (``share_windows=False``): the same work through the predictor's own float32
+  cell (products summed in a fixed order): the exactness reference of the default.
+* **default** (``share_windows=True``): the LSTM once per distinct input prefix of the filters'
+  distinct queues (:class:`predictors.pose_lstm.prefix_tree.PrefixTree`) and the FC block's first
+  layer once per distinct queue; dropout and the draw per particle. Bit for bit the reports of
+  *every window* (checked here on the timed frames).
+* **carried** (``recurrence="carried"``): one LSTM step per particle and keypoint per frame; its
+  semantics differ (see :mod:`predictors.pose_lstm.motion`).
+
+Then the default's time per stage (window features, the prefix tree, the LSTM steps, the FC head,
+the draw, OKS, the rest of the loop), with the LSTM's arithmetic rate against the machine's float32
+GEMM rate (``torch.matmul`` of two 1024 × 1024 matrices) measured in the same run.
+
+``--scale`` instead times the default alone at several people counts and particle counts, with
+the LSTM node steps per frame (the distinct work) next to ``filters × P × 17 × L``.
 
 Usage::
 
     python benchmarks/bench_pose_smc.py [--people 10] [--particles 300] [--window 10] [--frames 20]
+    python benchmarks/bench_pose_smc.py --scale [--threads 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
+from collections import defaultdict
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -39,25 +53,38 @@ import torch
 
 import track_envs  # noqa: F401
 from agents.pose.smc import PoseSmcAgent
-from predictors.lstm_cell import LSTMCellWeights
+from predictors.pose_lstm import motion as motion_module
+from predictors.pose_lstm import prefix_tree
 from predictors.pose_lstm.motion import DEFAULT_MODEL
 from predictors.pose_lstm.predictor import PosePredictor
 from track_envs.report import empty_report
 
+#: Multiply-adds of one LSTM step of one sequence: 4 gates × 64 units × (3 inputs + 64 + bias).
+MACS_PER_STEP = 4 * 64 * (3 + 64 + 1)
 
-class RecordingPredictor(PosePredictor):
-    """The pose predictor, keeping a copy of every batch of windows it encodes."""
 
-    def __init__(self, model: Path) -> None:
-        super().__init__(model)
-        self.windows: list[np.ndarray] = []
+class TorchReferencePredictor(PosePredictor):
+    """The pose predictor computed the straightforward way: ``nn.LSTM`` and the network's head."""
 
     def encode(self, inputs: np.ndarray) -> np.ndarray:
-        self.windows.append(np.array(inputs))
-        return super().encode(inputs)
+        with torch.inference_mode():
+            return self.net.lstm(torch.from_numpy(np.ascontiguousarray(inputs)))[1][0][0].numpy()
+
+    def head_of(
+        self, h: np.ndarray, rng: Any, epistemic: bool = True, rows: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        h = h if rows is None else h[rows]
+        masks = None
+        if epistemic and self.dropout > 0:
+            keep = 1.0 - self.dropout
+            draw = rng.random((len(h), self.fc_units), dtype=np.float32)
+            masks = torch.from_numpy((draw < keep) / np.float32(keep))
+        with torch.inference_mode():
+            mu, log_sigma = self.net.head(torch.from_numpy(h), masks)
+        return mu.numpy().astype(np.float64), np.exp(log_sigma.numpy().astype(np.float64))
 
 
-def record(people: int, frames: int, seed: int) -> tuple[list[dict], object]:
+def record(people: int, frames: int, seed: int) -> tuple[list[dict], Any]:
     env = gym.make(
         "KeypointWalkers-v0",
         num_people=people,
@@ -76,50 +103,198 @@ def record(people: int, frames: int, seed: int) -> tuple[list[dict], object]:
     return out, spec
 
 
-def time_agent(agent: PoseSmcAgent, stream: list[dict], spec, warmup: int) -> tuple[float, float, float]:
-    """Seconds per frame, mean active filters, mean distinct queues per frame."""
+def run(agent: PoseSmcAgent, stream: list[dict], spec: Any, warmup: int) -> dict[str, Any]:
+    """Seconds per timed frame, mean filters and distinct queues, the timed frames' reports."""
     agent.reset(spec, seed=0)
     for obs in stream[:warmup]:
         agent.act(obs)
-    filters, distinct = [], []
+    filters, distinct, reports = [], [], []
     elapsed = 0.0
     for obs in stream[warmup:]:
-        m = agent.motion
+        m: Any = agent.motion
         distinct.append(int(np.sum(m.rep == np.arange(m.P))))
         t0 = time.perf_counter()
-        agent.act(obs)
+        report = agent.act(obs)
         elapsed += time.perf_counter() - t0
+        reports.append({k: np.array(v) for k, v in report.items()})
         filters.append(len(agent.ids))
-    return elapsed / (len(stream) - warmup), float(np.mean(filters)), float(np.mean(distinct))
-
-
-def time_encodes(windows: list[np.ndarray], repeats: int) -> list[tuple[str, float, float]]:
-    """(label, median ms per frame, max |h − h_nn.LSTM|) of each LSTM over the recorded windows."""
-    predictor = PosePredictor(DEFAULT_MODEL)
-    weights = LSTMCellWeights.from_tensors(predictor.model.tensors, "lstm.", "_l0")
-
-    def nn_lstm(x: np.ndarray) -> np.ndarray:
-        with torch.inference_mode():
-            return predictor.net.lstm(torch.from_numpy(x))[1][0][0].numpy()
-
-    encoders = {
-        "torch nn.LSTM (oneDNN)": nn_lstm,
-        "FusedLSTMCell, numpy matmul": lambda x: weights.fused("numpy").sequence(x)[0],
-        "FusedLSTMCell, torch matmul (the predictor's)": predictor.encode,
+    frames = len(stream) - warmup
+    return {
+        "dt": elapsed / frames,
+        "filters": float(np.mean(filters)),
+        "distinct": float(np.mean(distinct)),
+        "reports": reports,
     }
-    reference = [nn_lstm(x) for x in windows]
-    times: dict[str, list[float]] = {label: [] for label in encoders}
-    for _ in range(repeats):  # interleaved, so that the machine's load weighs on each alike
-        for label, encode in encoders.items():
+
+
+def same_reports(a: list[dict], b: list[dict]) -> tuple[bool, float]:
+    """(ids equal in every frame, largest position difference in px)."""
+    ids = all(np.array_equal(x["ids"], y["ids"]) for x, y in zip(a, b, strict=True))
+    diff = max(
+        float(np.nanmax(np.abs(x["positions"] - y["positions"]), initial=0.0))
+        for x, y in zip(a, b, strict=True)
+    )
+    return ids, diff
+
+
+class StageClock:
+    """Wall time per stage of the default variant, by wrapping the functions each stage calls."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = defaultdict(float)
+        self.nodes = 0
+
+    @contextmanager
+    def wrapped(self, agent: PoseSmcAgent) -> Iterator[None]:
+        motion: Any = agent.motion
+        predictor = motion.predictor
+        patches: list[tuple[Any, str, Any]] = []
+
+        def patch(owner: Any, name: str, label: str) -> None:
+            original = getattr(owner, name)
+
+            def timed(*args: Any, **kwargs: Any) -> Any:
+                t0 = time.perf_counter()
+                try:
+                    return original(*args, **kwargs)
+                finally:
+                    self.seconds[label] += time.perf_counter() - t0
+
+            patches.append((owner, name, original))
+            setattr(owner, name, timed)
+
+        tree_of = prefix_tree.PrefixTree.of
+
+        def counted_tree(x: np.ndarray) -> prefix_tree.PrefixTree:
             t0 = time.perf_counter()
-            for x in windows:
-                encode(x)
-            times[label].append((time.perf_counter() - t0) / len(windows))
-    rows = []
-    for label, encode in encoders.items():
-        err = max(float(np.abs(encode(x) - r).max()) for x, r in zip(windows, reference, strict=True))
-        rows.append((label, float(np.median(times[label])), err))
-    return rows
+            tree = tree_of(x)
+            self.seconds["prefix tree (lexsort)"] += time.perf_counter() - t0
+            self.nodes += tree.nodes
+            return tree
+
+        patches.append((prefix_tree.PrefixTree, "of", prefix_tree.PrefixTree.__dict__["of"]))
+        prefix_tree.PrefixTree.of = staticmethod(counted_tree)  # type: ignore[method-assign]
+        patch(motion_module, "window_features", "window features (queues → steps)")
+        patch(prefix_tree.PrefixTree, "encode", "LSTM node steps")
+        patch(predictor, "head_of", "FC head (dropout masks drawn)")
+        patch(predictor, "draw", "Gaussian draw")
+        patch(motion, "score", "OKS + elites")
+        patch(motion, "update", "push, resample, select")
+        try:
+            yield
+        finally:
+            for owner, name, original in reversed(patches):
+                setattr(owner, name, original)
+
+
+def gemm_rate(repeats: int = 5) -> float:
+    """GFLOP/s of ``torch.matmul`` on two float32 1024 × 1024 matrices (median of ``repeats``)."""
+    a = torch.rand(1024, 1024)
+    torch.matmul(a, a)
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        torch.matmul(a, a)
+        times.append(time.perf_counter() - t0)
+    return 2 * 1024**3 / float(np.median(times)) / 1e9
+
+
+def load_note() -> str:
+    one, five, _ = os.getloadavg()
+    return f"load average {one:.2f} (1 min), {five:.2f} (5 min) on {os.cpu_count()} CPUs"
+
+
+def compare(args: argparse.Namespace) -> None:
+    stream, spec = record(args.people, args.warmup + args.frames, args.seed)
+    kw = {"particles": args.particles, "window": args.window}
+    reference = PoseSmcAgent(share_windows=False, **kw)
+    reference.motion.predictor = TorchReferencePredictor(DEFAULT_MODEL)  # type: ignore[attr-defined]
+    variants: dict[str, PoseSmcAgent] = {
+        "reference: nn.LSTM over every particle's window + FC head": reference,
+        "every window, the predictor's cell (share_windows=False)": PoseSmcAgent(share_windows=False, **kw),
+        "default: prefix tree over distinct queues": PoseSmcAgent(**kw),
+        "carried state (other semantics)": PoseSmcAgent(recurrence="carried", **kw),
+    }
+    print(f"people {args.people}, P = {args.particles}, L = {args.window}, threads {args.threads}")
+    print(load_note())
+    gflops = gemm_rate()
+    results = {label: run(agent, stream, spec, args.warmup) for label, agent in variants.items()}
+    labels = list(results)
+    ref_dt = results[labels[0]]["dt"]
+    print("| variant | filters | LSTM sequences / frame | steps | GMAC / frame", end="")
+    print(" | ms / frame | frames / s | speed-up |")
+    print("|---|---|---|---|---|---|---|---|")
+    for label, r in results.items():
+        seq = r["filters"] * args.particles * 17
+        steps = 1 if label.startswith("carried") else args.window
+        gmac = (seq + (r["filters"] * 17 if steps == 1 else 0)) * steps * MACS_PER_STEP / 1e9
+        cells = f"{r['filters']:.1f} | {seq:.0f} | {steps} | {gmac:.2f}"
+        cells += f" | {r['dt'] * 1e3:.1f} | {1 / r['dt']:.1f} | {ref_dt / r['dt']:.1f}x"
+        print(f"| {label} | {cells} |")
+    ids, diff = same_reports(results[labels[1]]["reports"], results[labels[2]]["reports"])
+    print(f"\ndefault vs every window: ids equal {ids}, largest position difference {diff:.3g} px")
+    ids, diff = same_reports(results[labels[0]]["reports"], results[labels[2]]["reports"])
+    print(f"default vs nn.LSTM reference: ids equal {ids}, largest position difference {diff:.3g} px")
+    stages(args, stream, spec, gflops)
+
+
+def stages(args: argparse.Namespace, stream: list[dict], spec: Any, gflops: float) -> None:
+    agent = PoseSmcAgent(particles=args.particles, window=args.window)
+    clock = StageClock()
+    agent.reset(spec, seed=0)
+    for obs in stream[: args.warmup]:
+        agent.act(obs)
+    total = 0.0
+    with clock.wrapped(agent):
+        for obs in stream[args.warmup :]:
+            t0 = time.perf_counter()
+            agent.act(obs)
+            total += time.perf_counter() - t0
+    frames = len(stream) - args.warmup
+    ms: dict[str, float] = {k: v / frames * 1e3 for k, v in clock.seconds.items()}
+    rows = list(ms.items())
+    rest = total / frames * 1e3 - sum(ms.values())
+    rows.append(("rest of the frame (matching, births, queue bookkeeping)", rest))
+    nodes = clock.nodes / frames
+    lstm_ms = ms.get("LSTM node steps", float("nan"))
+    rate = 2 * nodes * MACS_PER_STEP / (lstm_ms / 1e3) / 1e9
+    print(f"\nwhere the default's {total / frames * 1e3:.1f} ms per frame go ({frames} frames):")
+    print("| stage | ms / frame | share |")
+    print("|---|---|---|")
+    for label, v in rows:
+        print(f"| {label} | {v:.1f} | {v / (total / frames * 1e3):.0%} |")
+    print(
+        f"\nLSTM: {nodes:.0f} node steps per frame, {2 * nodes * MACS_PER_STEP / 1e9:.2f} GFLOP in "
+        f"{lstm_ms:.1f} ms = {rate:.1f} GFLOP/s; torch.matmul 1024² float32 in the same run: "
+        f"{gflops:.1f} GFLOP/s ({rate / gflops:.0%} of it)"
+    )
+
+
+def scale(args: argparse.Namespace) -> None:
+    grid = [(p, args.particles) for p in (5, 10, 20, 50)] + [(args.people, P) for P in (100, 300, 1000)]
+    print(f"L = {args.window}, threads {args.threads}; {load_note()}")
+    print("| people | P | filters | particle sequences × L / frame | LSTM node steps / frame", end="")
+    print(" | ms / frame | frames / s |")
+    print("|---|---|---|---|---|---|---|")
+    for people, P in dict.fromkeys(grid):
+        stream, spec = record(people, args.warmup + args.frames, args.seed)
+        agent = PoseSmcAgent(particles=P, window=args.window)
+        clock = StageClock()
+        agent.reset(spec, seed=0)
+        for obs in stream[: args.warmup]:
+            agent.act(obs)
+        total, filters = 0.0, []
+        with clock.wrapped(agent):
+            for obs in stream[args.warmup :]:
+                t0 = time.perf_counter()
+                agent.act(obs)
+                total += time.perf_counter() - t0
+                filters.append(len(agent.ids))
+        f = float(np.mean(filters))
+        dt = total / args.frames
+        naive = f * P * 17 * args.window
+        nodes = clock.nodes / args.frames
+        print(f"| {people} | {P} | {f:.1f} | {naive:,.0f} | {nodes:,.0f} | {dt * 1e3:.1f} | {1 / dt:.1f} |")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -129,54 +304,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--window", type=int, default=10)
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--warmup", type=int, default=5)
-    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--repeats", type=int, default=5, help="passes of the LSTM timing (median)")
+    parser.add_argument("--scale", action="store_true", help="the scale table instead of the comparison")
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
-    stream, spec = record(args.people, args.warmup + args.frames, args.seed)
-    variants = {
-        "window, every particle (reference)": {"share_windows": False},
-        "window, distinct queues (default)": {},
-        "carried state": {"recurrence": "carried"},
-    }
-    rows = []
-    for label, kwargs in variants.items():
-        agent = PoseSmcAgent(particles=args.particles, window=args.window, **kwargs)
-        rows.append((label, *time_agent(agent, stream, spec, args.warmup)))
-    macs = 4 * 64 * (64 + 3 + 1)
-    print(f"people {args.people}, P = {args.particles}, L = {args.window}, torch threads {args.threads}")
-    head = (
-        "| variant | filters | LSTM sequences / frame | steps each | GMAC / frame | ms / frame | frames / s |"
-    )
-    print(head + " speed-up |")
-    print("|---|---|---|---|---|---|---|---|")
-    ref = rows[0][1]
-    for label, dt, filters, distinct in rows:
-        steps = 1 if label.startswith("carried") else args.window
-        queues = filters * args.particles if "every" in label or steps == 1 else distinct
-        seqs = queues * 17 + (filters * 17 if steps == 1 else 0)  # carried: + the observation states
-        gmac = seqs * steps * macs / 1e9
-        cells = f"{filters:.1f} | {seqs:.0f} | {steps} | {gmac:.2f} | {dt * 1e3:.0f} | {1 / dt:.1f}"
-        cells += f" | {ref / dt:.1f}x"
-        print(f"| {label} | {cells} |")
-    recorder = PoseSmcAgent(particles=args.particles, window=args.window)
-    recorder.motion.predictor = RecordingPredictor(DEFAULT_MODEL)
-    recorder.reset(spec, seed=0)
-    for i, obs in enumerate(stream):
-        if i == args.warmup:
-            recorder.motion.predictor.windows.clear()
-        recorder.act(obs)
-    windows = recorder.motion.predictor.windows
-    print(
-        f"\nLSTM of the default variant's windows: {np.mean([len(x) for x in windows]):.0f} sequences "
-        f"x {args.window} steps per frame, median of {args.repeats} passes"
-    )
-    print("| LSTM | ms / frame | speed-up | max abs(h - h_nn.LSTM) |")
-    print("|---|---|---|---|")
-    encodes = time_encodes(windows, args.repeats)
-    for label, dt, err in encodes:
-        print(f"| {label} | {dt * 1e3:.1f} | {encodes[0][1] / dt:.2f}x | {err:.1e} |")
+    run_mode: Callable[[argparse.Namespace], None] = scale if args.scale else compare
+    run_mode(args)
 
 
 if __name__ == "__main__":

@@ -54,6 +54,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
+from predictors.ordered_product import ordered_product
 from track_envs.compiled import njit
 
 FloatArray = NDArray[np.floating]
@@ -170,9 +171,11 @@ class LSTMCellWeights:
         return FusedLSTMCell(w.astype(np.float32), self.inputs, matmul)
 
 
-#: The products a :class:`FusedLSTMCell` can run on: numpy's ``matmul`` (its BLAS) or ``torch.matmul``
-#: on zero-copy views of the same arrays (torch's BLAS, which follows ``torch.set_num_threads``).
-MATMULS = ("numpy", "torch")
+#: The products a :class:`FusedLSTMCell` can run on: numpy's ``matmul`` (its BLAS), ``torch.matmul``
+#: on zero-copy views of the same arrays (torch's BLAS, which follows ``torch.set_num_threads``), or
+#: ``"ordered"``, :func:`predictors.ordered_product.ordered_product` (compiled; every element summed
+#: in the order of ``k``, so its bits do not depend on the shapes, the layout or the threads).
+MATMULS = ("numpy", "torch", "ordered")
 
 
 def _torch_matmul(a: NDArray[np.float32], b: NDArray[np.float32], out: NDArray[np.float32]) -> None:
@@ -221,9 +224,10 @@ class FusedLSTMCell:
         w: The fused weight (In + H + 1, 4H): ``[w_ih; w_hh; b]``, columns ``i, f, o, g``, the
             sigmoid gates' columns × ½.
         n_in: Input width ``In``.
-        matmul: What computes the products (:data:`MATMULS`): ``"numpy"`` or ``"torch"`` (needs
-            torch). The two GEMMs sum in different orders, so they agree to float32 rounding, not
-            bit for bit; the gates are numpy either way.
+        matmul: What computes the products (:data:`MATMULS`): ``"numpy"``, ``"torch"`` (needs
+            torch) or ``"ordered"``. They sum in different orders, so they agree to float32
+            rounding, not bit for bit; the gates are numpy either way.
+        threads: Threads of the ``"ordered"`` products (the others follow their library's setting).
 
     Raises:
         ValueError: ``matmul`` not in :data:`MATMULS`.
@@ -232,10 +236,13 @@ class FusedLSTMCell:
     w: NDArray[np.float32]
     n_in: int
     matmul: str = "numpy"
+    threads: int = 1
 
     def __post_init__(self) -> None:
         if self.matmul not in MATMULS:
             raise ValueError(f"matmul must be one of {MATMULS}, got {self.matmul!r}")
+        if not (isinstance(self.threads, int) and self.threads >= 1):
+            raise ValueError(f"threads must be an integer >= 1, got {self.threads!r}")
 
     @property
     def hidden(self) -> int:
@@ -253,6 +260,8 @@ class FusedLSTMCell:
         """``out = a b`` on :attr:`matmul`."""
         if self.matmul == "torch":
             _torch_matmul(a, b, out)
+        elif self.matmul == "ordered":
+            ordered_product(a, b, out, self.threads)
         else:
             np.matmul(a, b, out=out)
         return out

@@ -24,6 +24,8 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
+from predictors.pose_lstm.predictor import LEAKY_SLOPE, LOG_SIGMA_RANGE
+
 #: The model kind of the pose predictor in a model file.
 KIND = "pose-lstm"
 #: LSTM units (Okada et al. 2020, Fig. 4).
@@ -32,8 +34,6 @@ HIDDEN = 64
 FC = 40
 #: Dropout rate of the fully-connected block (training and test).
 DROPOUT = 0.3
-#: Bounds of the predicted ``log σ`` (scaled units), for a finite loss.
-LOG_SIGMA_RANGE = (-6.0, 4.0)
 
 
 class PosePredictorNet(nn.Module):
@@ -73,7 +73,7 @@ class PosePredictorNet(nn.Module):
 
     def head(self, h: torch.Tensor, masks: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """The FC block on LSTM outputs ``h`` (B, hidden) → ``(μ, log σ)``."""
-        a = nn.functional.leaky_relu(self.fc(h))
+        a = nn.functional.leaky_relu(self.fc(h), LEAKY_SLOPE)
         if masks is not None:
             a = a * masks
         y = self.out(a)

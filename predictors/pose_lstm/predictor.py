@@ -20,14 +20,16 @@ recorded in the model file, so a model transfers between image sizes.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors.lstm_cell import LSTMCellWeights
+from predictors.lstm_cell import FusedLSTMCell, LSTMCellWeights
+from predictors.ordered_product import masked_rows_product, ordered_product
+from predictors.pose_lstm.prefix_tree import PrefixTree
 from predictors.training.model_file import ModelFile, load_model, require_shapes
 
 KIND = "pose-lstm"
@@ -64,6 +66,12 @@ def window_features(
     return inputs, np.where(has[..., None], anchor, 0.0), has
 
 
+#: The negative slope of the FC block's leaky ReLU (torch's default).
+LEAKY_SLOPE = 0.01
+#: Bounds of the predicted ``log σ`` (scaled units), for a finite loss.
+LOG_SIGMA_RANGE = (-6.0, 4.0)
+
+
 @dataclass(frozen=True)
 class PoseStats:
     """The normalisation and the homoscedastic σ of a pose model."""
@@ -78,17 +86,18 @@ class PosePredictor:
     The LSTM runs through the inference cell of every learned family,
     :class:`predictors.lstm_cell.FusedLSTMCell` (float32, built from the model file's ``lstm.*``
     tensors; :meth:`~predictors.lstm_cell.FusedLSTMCell.sequence` over the windows, blocks of rows),
-    its products by ``torch.matmul`` (``matmul="torch"``): torch's GEMM follows
-    ``torch.set_num_threads`` and gives the same bits at any thread count, which numpy's BLAS does
-    not. At one thread this encodes a pose-smc frame's windows ≈1.2x faster than torch's
-    ``nn.LSTM``. The fully-connected head is the network's
-    (:meth:`PosePredictorNet.head <predictors.pose_lstm.network.PosePredictorNet.head>`).
+    and the fully-connected head runs in numpy; every product of both sums each element in a fixed
+    order (:mod:`predictors.ordered_product`, on ``torch.get_num_threads()`` threads), so a window's
+    result has the same bits whichever other windows are computed with it. That makes
+    :meth:`encode_shared` (one LSTM step per distinct window prefix) and ``head_of(..., rows=...)``
+    (the head's first layer once per distinct window) exact shortcuts of :meth:`encode` and the
+    head over every row.
 
-    Tolerance: the LSTM outputs equal ``PosePredictorNet.lstm`` (torch's oneDNN kernel) to 1e-6
-    (tested on the shipped weights), not bit for bit: the two float32 GEMMs sum in different
-    orders. This moves the pose-smc tracker's mean OKS by < 1e-9 on the quick suite and by
-    < 5e-9 on the okada2020 scene (8 variants, seeds 0 and 1, 100 frames), and leaves every other
-    metric there equal (MOTA, ID switches, misses, false positives, OKS recall and precision).
+    Tolerance: the outputs equal the network's (``PosePredictorNet``, torch's oneDNN LSTM and its
+    GEMMs) to 1e-6 (tested on the shipped weights), not bit for bit: torch sums in other orders.
+    Against the earlier inference (torch's GEMM in the cell, the network's head) the pose-smc
+    reports keep every id and move positions by at most 6.1e-5 px (one float32 ulp at 500 px) on
+    the pinned scene of ``tests/agents/test_pose_smc.py``.
 
     Args:
         model: A ``pose-lstm`` model file (path or loaded).
@@ -117,8 +126,23 @@ class PosePredictor:
         )
         self.hidden = net.hidden
         self.dropout = net.dropout
-        #: The LSTM layer as the shared float32 cell.
-        self.cell = LSTMCellWeights.from_tensors(m.tensors, "lstm.", "_l0").fused(matmul="torch")
+        #: The LSTM layer as the shared float32 cell, its products in a fixed order.
+        self._cell = LSTMCellWeights.from_tensors(m.tensors, "lstm.", "_l0").fused(matmul="ordered")
+        self.fc_units = net.fc_units
+        t = {k: np.asarray(v, dtype=np.float32) for k, v in m.tensors.items()}
+        self._w1, self._b1 = np.ascontiguousarray(t["fc.weight"].T), t["fc.bias"]
+        self._w2, self._b2 = np.ascontiguousarray(t["out.weight"].T), t["out.bias"]
+
+    @property
+    def cell(self) -> FusedLSTMCell:
+        """The LSTM layer as the shared float32 cell, its products summed in a fixed order
+        (:mod:`predictors.ordered_product`) on ``torch.get_num_threads()`` threads."""
+        import torch
+
+        threads = torch.get_num_threads()
+        if self._cell.threads != threads:
+            self._cell = dataclasses.replace(self._cell, threads=threads)
+        return self._cell
 
     def scale_for(self, region_height: float) -> float:
         """px per network unit in a sensor region ``region_height`` px high."""
@@ -137,30 +161,51 @@ class PosePredictor:
         """The LSTM's last output ``h`` (M, H) of the windows ``inputs`` (M, L, 3) (deterministic)."""
         return self.cell.sequence(np.asarray(inputs, dtype=np.float32))[0]
 
-    def _head(
-        self, h: Any, rng: np.random.Generator | None, epistemic: bool
-    ) -> tuple[FloatArray, FloatArray]:
-        import torch
+    def encode_shared(self, inputs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """:meth:`encode` with one LSTM step per distinct input prefix
+        (:class:`~predictors.pose_lstm.prefix_tree.PrefixTree`): the same bits, fewer steps."""
+        x = np.ascontiguousarray(inputs, dtype=np.float32)
+        return PrefixTree.of(x).encode(self.cell, x)
 
-        masks = None
+    def head_of(
+        self,
+        h: NDArray[np.float32],
+        rng: np.random.Generator | None,
+        epistemic: bool = True,
+        rows: NDArray[np.intp] | None = None,
+    ) -> tuple[FloatArray, FloatArray]:
+        """``μ, σ`` (M, 2) of LSTM outputs: row ``r`` of the result reads ``h[rows[r]]`` (``h`` (U, H),
+        ``rows`` (M,); every row of ``h`` once if None), as :meth:`distribution`.
+
+        The FC block ``y = W₂ (m ⊙ leaky(W₁ h + b₁)) + b₂`` with one dropout mask ``m`` per result
+        row (``epistemic``; inverted, ``keep / (1 − p)``; drawn from ``rng`` as a (M, fc) block):
+        ``leaky(W₁ h + b₁)`` is computed once per row of ``h`` and shared by the result rows that
+        read it. Products by :func:`~predictors.lstm_cell.ordered_product`, so a result row's bits
+        do not depend on which other rows are computed with it.
+
+        Raises:
+            ValueError: ``epistemic`` sampling without ``rng``.
+        """
+        h = np.ascontiguousarray(h, dtype=np.float32)
+        m = len(h) if rows is None else len(rows)
+        a = np.empty((len(h), self.fc_units), np.float32)
+        threads = self.cell.threads
+        ordered_product(h, self._w1, a, threads)
+        a += self._b1
+        np.maximum(a, a * np.float32(LEAKY_SLOPE), out=a)  # leaky ReLU
+        if rows is None:
+            rows = np.arange(len(h))
+        mask = np.ones((0, self.fc_units), np.float32)  # none: every unit kept
         if epistemic and self.dropout > 0:
             if rng is None:
                 raise ValueError("epistemic sampling needs a random generator")
-            keep = 1.0 - self.dropout
-            masks = torch.from_numpy(
-                (rng.random((h.shape[0], self.net.fc_units), dtype=np.float32) < keep) / np.float32(keep)
-            )
-        with torch.inference_mode():
-            mu, log_sigma = self.net.head(h, masks)
-        return mu.numpy().astype(np.float64), np.exp(log_sigma.numpy().astype(np.float64))
-
-    def head_of(
-        self, h: NDArray[np.float32], rng: np.random.Generator | None, epistemic: bool = True
-    ) -> tuple[FloatArray, FloatArray]:
-        """``μ, σ`` (M, 2) of LSTM outputs ``h`` (M, H) (a carried state), as :meth:`distribution`."""
-        import torch
-
-        return self._head(torch.from_numpy(np.ascontiguousarray(h, dtype=np.float32)), rng, epistemic)
+            keep = np.float32(1.0 - self.dropout)
+            mask = ((rng.random((m, self.fc_units), dtype=np.float32) < keep) / keep).astype(np.float32, copy=False)
+        y = np.empty((m, 4), np.float32)
+        masked_rows_product(a, np.asarray(rows, dtype=np.intp), mask, self._w2, y, threads)
+        y += self._b2
+        log_sigma = np.clip(y[:, 2:], *LOG_SIGMA_RANGE)
+        return y[:, :2].astype(np.float64), np.exp(log_sigma.astype(np.float64))
 
     def step(
         self, x: NDArray[np.float32], state: tuple[NDArray[np.float32], NDArray[np.float32]] | None

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -212,7 +214,7 @@ def test_pose_network_numpy_equals_torch() -> None:
         np.testing.assert_allclose(c, c_t[0].numpy(), rtol=0, atol=1e-6)
 
 
-@pytest.mark.parametrize("matmul", ["numpy", "torch"])
+@pytest.mark.parametrize("matmul", ["numpy", "torch", "ordered"])
 def test_the_blocked_sequence_equals_the_steps_and_torch(matmul: str) -> None:
     """:meth:`FusedLSTMCell.sequence` (blocks of rows, transposed layout) equals :meth:`step` run
     L times and torch's LSTM to float32 rounding, from the zero state and from a given one, for
@@ -234,6 +236,9 @@ def test_the_blocked_sequence_equals_the_steps_and_torch(matmul: str) -> None:
             assert h_s.dtype == c_s.dtype == np.float32 and h_s.shape == c_s.shape == (70, 20)
             np.testing.assert_allclose(h_s, h, rtol=0, atol=1e-6, err_msg=f"block {block}")
             np.testing.assert_allclose(c_s, c, rtol=0, atol=1e-6, err_msg=f"block {block}")
+            if matmul == "ordered":  # a fixed summation order: the same bits in either layout
+                np.testing.assert_array_equal(h_s, h, err_msg=f"block {block}")
+                np.testing.assert_array_equal(c_s, c, err_msg=f"block {block}")
             np.testing.assert_allclose(h_s, h_t[0].numpy(), rtol=0, atol=1e-6, err_msg=f"block {block}")
             np.testing.assert_allclose(c_s, c_t[0].numpy(), rtol=0, atol=1e-6, err_msg=f"block {block}")
     empty = cell.sequence(np.zeros((0, 4, 3), np.float32))
@@ -246,8 +251,12 @@ def test_the_matmuls_agree_and_bad_arguments_are_named() -> None:
     zero = np.zeros((9, 8), np.float32)
     for a, b in zip(cell.fused().step(x, zero, zero), cell.fused("torch").step(x, zero, zero), strict=True):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-6)
-    with pytest.raises(ValueError, match=r"matmul must be one of \('numpy', 'torch'\), got 'blas'"):
+    with pytest.raises(
+        ValueError, match=r"matmul must be one of \('numpy', 'torch', 'ordered'\), got 'blas'"
+    ):
         cell.fused("blas")
+    with pytest.raises(ValueError, match=r"threads must be an integer >= 1, got 0"):
+        dataclasses.replace(cell.fused("ordered"), threads=0)
     fused = cell.fused()
     with pytest.raises(ValueError, match=r"\(n, L, 3\).*\(9, 3\)"):
         fused.sequence(x)
