@@ -143,7 +143,7 @@ class PoseTracker:
         usable = (count >= o.min_keypoints) & (mean_score >= o.min_pose_score)
         rows, xy, found = rows[usable], z[usable, :, :2], found[usable]
         self.motion.predict()
-        sim = self.motion.score(xy, found, self._areas(xy, found))
+        sim = self.motion.score(xy, found, self._areas(xy, found), floor=o.oks_threshold)
         ti, di = self.assign(1.0 - sim, 1.0 - o.oks_threshold)
         self.motion.update(ti, di, xy, found)
         matched = np.zeros(len(self.ids), dtype=bool)

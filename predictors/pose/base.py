@@ -44,9 +44,10 @@ class PoseMotion(Protocol):
     def predict(self) -> None:
         """Predict every track's pose at the current frame."""
 
-    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
+    def score(self, xy: NDArray, found: NDArray, area: NDArray, floor: float = 0.0) -> NDArray[np.float64]:
         """(n, m) similarity in [0, 1] of the predictions to the detections ``xy`` (m, 17, 2)
-        with detected keypoints ``found`` (m, 17) and areas ``area`` (m,)."""
+        with detected keypoints ``found`` (m, 17) and areas ``area`` (m,). A pair whose similarity
+        is below ``floor`` may score anything below it (the loop matches no such pair)."""
         ...
 
     def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:

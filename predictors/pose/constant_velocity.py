@@ -48,8 +48,9 @@ class ConstantVelocityPose:
         """``ŷ = y + v`` for every track."""
         self.predicted = self.pose + self.velocity
 
-    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
-        """OKS (n, m) of the predictions over keypoints detected now and seen before."""
+    def score(self, xy: NDArray, found: NDArray, area: NDArray, floor: float = 0.0) -> NDArray[np.float64]:
+        """OKS (n, m) of the predictions over keypoints detected now and seen before (every pair,
+        whatever ``floor``)."""
         return pairwise_oks(self.predicted, xy, found, area, a_valid=self.known)
 
     def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:

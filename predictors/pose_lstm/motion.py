@@ -61,7 +61,7 @@ from numpy.typing import NDArray
 
 from predictors.pose.base import centroid_fill
 from predictors.pose_lstm.predictor import window_features
-from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
+from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_oks
 from track_envs.registry import takes_keywords_of
 from track_envs.types import SensorSpec
 
@@ -226,18 +226,34 @@ class SmcPoseMotion:
         self.pred = np.where(has[:, None], z, 0.0).reshape(n, P, K, 2)
         self.has = has.reshape(n, P, K)
 
-    def score(self, xy: NDArray, found: NDArray, area: NDArray) -> NDArray[np.float64]:
-        """Elite-weighted mean OKS (n, m) of each filter's particles against each detection."""
+    def score(self, xy: NDArray, found: NDArray, area: NDArray, floor: float = 0.0) -> NDArray[np.float64]:
+        """Elite-weighted mean OKS (n, m) of each filter's particles against each detection.
+
+        With ``floor > 0`` only the pairs that could reach it are scored (the others score 0): a
+        filter's particles lie in a box per keypoint, and
+        :func:`~track_envs.metrics.keypoints.oks_upper_bound` of that box below ``floor`` bounds
+        every particle's OKS, hence the elite mean, below it. The loop matches no pair under its
+        threshold, so passing the threshold as ``floor`` changes no match and no estimate.
+        """
         n, P, m = len(self.queue), self.P, len(xy)
+        self._oks = np.zeros((n, P, m))
+        self._elite = np.zeros((n, P, m), dtype=bool)
         if n == 0 or m == 0:
-            self._oks = np.zeros((n, P, m))
             return np.zeros((n, m))
-        oks = pairwise_oks(
-            self.pred.reshape(n * P, K, 2), xy, found, area, a_valid=self.has.reshape(n * P, K)
-        )
-        self._oks = oks.reshape(n, P, m)
-        self._elite = elite_mask(self._oks, self.n_elite)
-        return np.sum(self._oks * self._elite, axis=1) / self.n_elite
+        if floor > 0:
+            inside = self.has[..., None]
+            low = np.min(np.where(inside, self.pred, np.inf), axis=1)  # (n, K, 2)
+            high = np.max(np.where(inside, self.pred, -np.inf), axis=1)
+            bound = oks_upper_bound(low, high, self.has.any(axis=1), xy, found, area)
+            ki, di = np.nonzero(bound >= floor * (1 - 1e-9))
+        else:
+            ki, di = np.divmod(np.arange(n * m), m)
+        oks = paired_oks(self.pred[ki], self.has[ki], xy[di], found[di], area[di])  # (c, P)
+        elite = elite_mask(oks[..., None], self.n_elite)[..., 0]
+        self._oks[ki, :, di], self._elite[ki, :, di] = oks, elite
+        sim = np.zeros((n, m))
+        sim[ki, di] = np.sum(oks * elite, axis=1) / self.n_elite
+        return sim
 
     def update(self, ti: NDArray, di: NDArray, xy: NDArray, found: NDArray) -> None:
         """Push ``z_t`` (all filters), resample and select the matched ones (Algorithm 1, ℓ19–21).

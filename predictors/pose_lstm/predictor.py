@@ -200,7 +200,9 @@ class PosePredictor:
             if rng is None:
                 raise ValueError("epistemic sampling needs a random generator")
             keep = np.float32(1.0 - self.dropout)
-            mask = ((rng.random((m, self.fc_units), dtype=np.float32) < keep) / keep).astype(np.float32, copy=False)
+            mask = ((rng.random((m, self.fc_units), dtype=np.float32) < keep) / keep).astype(
+                np.float32, copy=False
+            )
         y = np.empty((m, 4), np.float32)
         masked_rows_product(a, np.asarray(rows, dtype=np.intp), mask, self._w2, y, threads)
         y += self._b2

@@ -61,7 +61,7 @@ class WindowMean:
         self.z = (anchor + self.scale * mu).reshape(-1, 17, 2) * self.has.reshape(-1, 17, 1)
         self.has = self.has.reshape(-1, 17)
 
-    def score(self, xy, found, area):
+    def score(self, xy, found, area, floor=0.0):
         return pairwise_oks(self.z, xy, found, area, a_valid=self.has)
 
     def update(self, ti, di, xy, found):
@@ -195,3 +195,29 @@ def test_the_shipped_tracker_reports_what_it_reported_before_the_prefix_tree():
         positions = np.array([r["positions"] for r in reports])
         np.testing.assert_array_equal(ids, pinned[f"reference_ids_{seed}"])
         np.testing.assert_allclose(positions, pinned[f"reference_positions_{seed}"], rtol=0, atol=1e-4)
+
+
+def test_a_floor_scores_only_the_pairs_that_can_reach_it(model):
+    """``score(..., floor)`` skips pairs whose OKS bound is below the floor: every pair at or above
+    it scores exactly as without a floor, every other pair scores below it (0)."""
+    agent = PoseSmcAgent(model, particles=50)
+    env = gym.make("KeypointWalkers-v0", num_people=6, initial_people=6)
+    obs, _ = env.reset(seed=4)
+    agent.reset(env.unwrapped.sensor_spec, seed=4)
+    for _ in range(6):
+        obs, *_ = env.step(agent.act(obs))
+    m = agent.motion
+    m.predict()
+    rows = np.flatnonzero(obs["mask"] == 1)
+    xy, found = obs["detections"][rows, :, :2].astype(float), obs["detections"][rows, :, 2] > 0
+    area = detection_areas(xy, found, 0.25)
+    full = m.score(xy, found, area)
+    full_elite = m._elite.copy()
+    floored = m.score(xy, found, area, floor=0.3)
+    reach = full >= 0.3
+    assert reach.any() and (~reach).any()
+    np.testing.assert_array_equal(floored[reach], full[reach])
+    ki, di = np.nonzero(reach)
+    np.testing.assert_array_equal(m._elite[ki, :, di], full_elite[ki, :, di])
+    assert np.all(floored[~reach] < 0.3)
+    assert np.count_nonzero(floored) < floored.size  # pairs were skipped

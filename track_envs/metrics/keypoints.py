@@ -171,6 +171,66 @@ def pairwise_oks(
     return np.sum(np.exp(-e) * valid, axis=2) / count
 
 
+def paired_oks(
+    a: NDArray[np.floating],
+    a_valid: NDArray[np.bool_],
+    b: NDArray[np.floating],
+    b_valid: NDArray[np.bool_],
+    area: NDArray[np.floating],
+    sigmas: ArrayLike = COCO_SIGMAS,
+) -> NDArray[np.float64]:
+    """OKS of the poses ``a`` (c, P, K, 2) of row ``r`` against the one pose ``b[r]`` (c, K, 2):
+    :func:`pairwise_oks` for chosen pairs only, with the same arithmetic (the same bits).
+
+    Args:
+        a: (c, P, K, 2) poses, ``P`` per row (e.g. the particles of one filter).
+        a_valid: (c, P, K) keypoints of ``a`` that count.
+        b: (c, K, 2) one pose per row (e.g. a detection).
+        b_valid: (c, K) keypoints of ``b`` that count.
+        area: (c,) object areas of ``b`` (px²).
+
+    Returns:
+        (c, P) OKS.
+    """
+    x = np.asarray(a, dtype=np.float64)
+    y = np.asarray(b, dtype=np.float64)
+    valid = np.asarray(b_valid, dtype=bool)[:, None] & np.asarray(a_valid, dtype=bool)  # (c, P, K)
+    var = (2 * np.asarray(sigmas, dtype=np.float64)) ** 2
+    d2 = np.sum((x - y[:, None]) ** 2, axis=-1)  # (c, P, K)
+    e = d2 / (var * 2 * (np.asarray(area, dtype=np.float64)[:, None] + _EPS))[:, None]
+    count = np.maximum(valid.sum(axis=2), 1)
+    return np.sum(np.exp(-e) * valid, axis=2) / count
+
+
+def oks_upper_bound(
+    low: NDArray[np.floating],
+    high: NDArray[np.floating],
+    box_valid: NDArray[np.bool_],
+    b: NDArray[np.floating],
+    b_valid: NDArray[np.bool_],
+    area: NDArray[np.floating],
+    sigmas: ArrayLike = COCO_SIGMAS,
+) -> NDArray[np.float64]:
+    """(n, m) upper bound of the OKS of any pose whose keypoints lie in boxes against poses ``b``.
+
+    Row ``i`` stands for a set of poses (the particles of one filter) whose keypoint ``k`` lies in
+    the box ``low[i, k] … high[i, k]`` (n, K, 2) wherever it is valid (``box_valid`` (n, K): some
+    pose of the set has it). An OKS is the mean of ``exp(−e_k)`` over the keypoints both poses
+    hold, so it is at most the largest ``exp(−e_k)``, and ``e_k`` is at least that of the point
+    of the box nearest to ``b``'s keypoint: the bound is ``max_k exp(−d²_k / (2 A (2σ_k)²))`` over
+    the keypoints valid in both, ``d_k`` the distance from ``b``'s keypoint to the box (0 inside),
+    and 0 for a pair with no such keypoint.
+    """
+    y = np.asarray(b, dtype=np.float64)[None]  # (1, m, K, 2)
+    lo, hi = np.asarray(low, dtype=np.float64)[:, None], np.asarray(high, dtype=np.float64)[:, None]
+    gap = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)  # (n, m, K, 2)
+    d2 = np.sum(gap**2, axis=-1)
+    var = (2 * np.asarray(sigmas, dtype=np.float64)) ** 2
+    e = d2 / (var * 2 * (np.asarray(area, dtype=np.float64)[:, None] + _EPS))[None]
+    valid = np.asarray(box_valid, dtype=bool)[:, None] & np.asarray(b_valid, dtype=bool)[None]
+    return np.max(np.where(valid, np.exp(-e), 0.0), axis=2, initial=0.0)
+
+
 def _truth_poses(truth: Mapping[str, NDArray]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Ids (m,), keypoints (m, 17, 2), keypoint visibility (m, 17), scale (m,) of the visible truths."""
     ids = np.asarray(truth["ids"], dtype=np.int64)

@@ -165,3 +165,27 @@ def test_tracking_metrics_reports_keypoint_mota_at_episode_end():
             break
     out = info["episode_metrics"]
     assert out["mota"] == 1.0 and out["id_switches_nose"] == 0 and out["oks_mean"] == pytest.approx(1.0)
+
+
+def test_paired_oks_is_pairwise_oks_of_chosen_pairs_and_the_box_bound_holds():
+    from track_envs.metrics.keypoints import oks_upper_bound, paired_oks, pairwise_oks
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(300, 40, (4, 30, 17, 2))  # 4 sets of 30 poses
+    a_valid = rng.random((4, 30, 17)) < 0.8
+    b = rng.normal(300, 40, (5, 17, 2))
+    b_valid = rng.random((5, 17)) < 0.8
+    area = rng.uniform(500, 5000, 5)
+    full = pairwise_oks(a.reshape(-1, 17, 2), b, b_valid, area, a_valid=a_valid.reshape(-1, 17)).reshape(
+        4, 30, 5
+    )
+    ki, di = np.array([0, 3, 3, 1]), np.array([4, 0, 2, 2])
+    np.testing.assert_array_equal(
+        paired_oks(a[ki], a_valid[ki], b[di], b_valid[di], area[di]), full[ki, :, di]
+    )
+    inside = a_valid[..., None]
+    low, high = np.min(np.where(inside, a, np.inf), axis=1), np.max(np.where(inside, a, -np.inf), axis=1)
+    bound = oks_upper_bound(low, high, a_valid.any(axis=1), b, b_valid, area)
+    assert bound.shape == (4, 5) and np.all(full.max(axis=1) <= bound + 1e-15)
+    one = oks_upper_bound(b[:1], b[:1], b_valid[:1], b[:1], b_valid[:1], area[:1])  # a pose in its own box
+    np.testing.assert_allclose(one, 1.0)
