@@ -244,7 +244,8 @@ class SmcPoseMotion:
             inside = self.has[..., None]
             low = np.min(np.where(inside, self.pred, np.inf), axis=1)  # (n, K, 2)
             high = np.max(np.where(inside, self.pred, -np.inf), axis=1)
-            bound = oks_upper_bound(low, high, self.has.any(axis=1), xy, found, area)
+            valid = np.asarray(self.has.any(axis=1), dtype=bool)
+            bound = oks_upper_bound(low, high, valid, xy, found, area)
             ki, di = np.nonzero(bound >= floor * (1 - 1e-9))
         else:
             ki, di = np.divmod(np.arange(n * m), m)
