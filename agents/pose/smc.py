@@ -28,13 +28,14 @@ class PoseSmcAgent(PoseTracker):
         model: A ``pose-lstm`` model file (default: the shipped ``pose-lstm-walkers``).
         max_filters: ``F_max``, the most active filters (the loop's ``max_active``).
         options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
-            ``window``, ``alpha``, ``elite``, …) and of
+            ``window``, ``alpha``, ``elite``, ``device``, …) and of
             :class:`~agents.pose.baseline.PoseTrackingOptions` but ``max_active``;
             the signature lists them with their defaults.
     """
 
     @takes_keywords_of(SmcSettings, PoseTrackingOptions, exclude=("max_active",))
     def __init__(self, model: str | Path | None = None, *, max_filters: int = 100, **options: Any) -> None:
+        from predictors.pose_lstm.device import TorchPosePredictor
         from predictors.pose_lstm.predictor import PosePredictor
 
         if not (isinstance(max_filters, int) and max_filters >= 1):
@@ -42,4 +43,6 @@ class PoseSmcAgent(PoseTracker):
         settings, loop = split_keywords(SmcSettings, options)
         motion = SmcPoseMotion(None, **settings)
         super().__init__(motion, max_active=max_filters, **loop)
-        motion.predictor = PosePredictor(DEFAULT_MODEL if model is None else model)
+        path = DEFAULT_MODEL if model is None else model
+        device = motion.settings.device
+        motion.predictor = PosePredictor(path) if device is None else TorchPosePredictor(path, device)

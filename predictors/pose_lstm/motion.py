@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.pose.base import centroid_fill
+from predictors.pose_lstm.device import paired_oks_torch, torch_device
 from predictors.pose_lstm.predictor import window_features
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_oks
 from track_envs.registry import takes_keywords_of
@@ -120,6 +121,10 @@ class SmcSettings:
             made by resampling and by selecting the observation history share their queue,
             descendants of one particle their older poses); the result is bit for bit that of
             re-running every particle's window, which ``False`` does.
+        device: ``None`` (the CPU path: compiled products, the prefix tree) or a torch device
+            (``"cuda"``; ``"cpu"`` to check the path without a GPU): the predictor and the
+            particles' OKS in torch there (:mod:`predictors.pose_lstm.device`), the same tracks to
+            float tolerance.
     """
 
     particles: int = 300
@@ -131,6 +136,7 @@ class SmcSettings:
     fixed_sigma: float | None = None
     recurrence: str = "window"
     share_windows: bool = True
+    device: str | None = None
 
     def __post_init__(self) -> None:
         particles, window, alpha, elite = self.particles, self.window, self.alpha, self.elite
@@ -146,6 +152,8 @@ class SmcSettings:
             raise ValueError(f"fixed_sigma must be None or a number >= 0, got {self.fixed_sigma!r}")
         if self.recurrence not in ("window", "carried"):
             raise ValueError(f"recurrence must be 'window' or 'carried', got {self.recurrence!r}")
+        if self.device is not None:
+            torch_device(self.device)  # a name torch knows, a GPU torch sees
 
 
 class SmcPoseMotion:
@@ -168,6 +176,7 @@ class SmcPoseMotion:
         self.fixed_sigma = s.fixed_sigma
         self.recurrence = s.recurrence
         self.share_windows = bool(s.share_windows)
+        self.device = s.device
 
     # -- episode state -------------------------------------------------------------------------
     def reset(self, spec: SensorSpec, rng: np.random.Generator) -> None:
@@ -249,7 +258,11 @@ class SmcPoseMotion:
             ki, di = np.nonzero(bound >= floor * (1 - 1e-9))
         else:
             ki, di = np.divmod(np.arange(n * m), m)
-        oks = paired_oks(self.pred[ki], self.has[ki], xy[di], found[di], area[di])  # (c, P)
+        pairs = (self.pred[ki], self.has[ki], xy[di], found[di], area[di])
+        if self.device is None:
+            oks = paired_oks(*pairs)  # (c, P)
+        else:
+            oks = paired_oks_torch(*pairs, device=self.predictor.device)
         elite = elite_mask(oks[..., None], self.n_elite)[..., 0]
         self._oks[ki, :, di], self._elite[ki, :, di] = oks, elite
         sim = np.zeros((n, m))

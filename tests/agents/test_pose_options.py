@@ -24,7 +24,7 @@ LOOP_VALUES = {"oks_threshold": 0.4, "assignment": "greedy", "keypoint_threshold
                "max_active": 7}  # fmt: skip
 SMC_VALUES = {"particles": 12, "window": 4, "alpha": 0.3, "elite": 0.25, "epistemic": False,
               "aleatoric": False, "fixed_sigma": 0.5, "recurrence": "carried",
-              "share_windows": False}  # fmt: skip
+              "share_windows": False, "device": "cpu"}  # fmt: skip
 
 
 def test_the_values_cover_every_keyword_with_a_value_other_than_the_default():
@@ -96,7 +96,7 @@ def test_the_loop_and_the_motion_refuse_unknown_keywords_too():
         TypeError, match=r"^PoseTracker has no argument 'max_filters'; its arguments are \['motion'"
     ):
         PoseTracker(ConstantVelocityPose(), max_filters=3)
-    with pytest.raises(ValueError, match=r"^SmcPoseMotion has no argument 'particle'; .*'share_windows'\]$"):
+    with pytest.raises(ValueError, match=r"^SmcPoseMotion has no argument 'particle'; .*'share_windows', 'device'\]$"):
         SmcPoseMotion(None, particle=3)
     with pytest.raises(ValueError, match="particles"):
         SmcSettings(particles=0)
