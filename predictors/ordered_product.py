@@ -34,15 +34,25 @@ MIN_MACS_PER_THREAD = 200_000
 
 @njit(cache=True, nogil=True)
 def _product_rows(a: np.ndarray, b: np.ndarray, out: np.ndarray, start: int, stop: int) -> None:
-    """Rows ``start … stop − 1`` of ``out = a b``, each element summed in the order of ``k``."""
+    """Rows ``start … stop − 1`` of ``out = a b``, each element summed in the order of ``k``.
+
+    Four terms per pass over a row of ``out`` (``o_j ← (((o_j + a_k b_kj) + a_k+1 b_k+1,j) + …)``,
+    the same order as one term per pass, a quarter of the loads and stores of ``out``)."""
     k_dim, n = a.shape[1], b.shape[1]
+    k4 = k_dim - k_dim % 4
     for i in range(start, stop):
+        o = out[i]
         for j in range(n):
-            out[i, j] = 0.0
-        for k in range(k_dim):
-            v = a[i, k]
+            o[j] = 0.0
+        for k in range(0, k4, 4):
+            v0, v1, v2, v3 = a[i, k], a[i, k + 1], a[i, k + 2], a[i, k + 3]
+            b0, b1, b2, b3 = b[k], b[k + 1], b[k + 2], b[k + 3]
             for j in range(n):
-                out[i, j] += v * b[k, j]
+                o[j] = (((o[j] + v0 * b0[j]) + v1 * b1[j]) + v2 * b2[j]) + v3 * b3[j]
+        for k in range(k4, k_dim):
+            v, bk = a[i, k], b[k]
+            for j in range(n):
+                o[j] += v * bk[j]
 
 
 @njit(cache=True, nogil=True)
