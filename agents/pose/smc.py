@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.pose.baseline import PoseTracker, PoseTrackingOptions
-from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings
+from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings, pose_model_path
 from track_envs.registry import split_keywords, takes_keywords_of
 
 __all__ = ["DEFAULT_MODEL", "PoseSmcAgent"]
@@ -25,7 +25,9 @@ class PoseSmcAgent(PoseTracker):
     """The SMC pose tracker of Okada et al. (2020) (``make_agent("pose-smc")``).
 
     Args:
-        model: A ``pose-lstm`` model file (default: the shipped ``pose-lstm-walkers``).
+        model: A ``pose-lstm`` model file, or the name of a shipped one (``predictors/weights``:
+            ``pose-lstm-walkers``, the default, and the ablation's retrained
+            ``pose-lstm-walkers-no-dropout``, ``-mse`` and ``-no-dropout-mse``).
         max_filters: ``F_max``, the most active filters (the loop's ``max_active``).
         options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
             ``window``, ``alpha``, ``elite``, ``device``, …) and of
@@ -43,6 +45,6 @@ class PoseSmcAgent(PoseTracker):
         settings, loop = split_keywords(SmcSettings, options)
         motion = SmcPoseMotion(None, **settings)
         super().__init__(motion, max_active=max_filters, **loop)
-        path = DEFAULT_MODEL if model is None else model
+        path = pose_model_path(model)
         device = motion.settings.device
         motion.predictor = PosePredictor(path) if device is None else TorchPosePredictor(path, device)

@@ -66,8 +66,28 @@ from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_
 from track_envs.registry import takes_keywords_of
 from track_envs.types import SensorSpec
 
+#: The folder of the shipped models.
+WEIGHTS = Path(__file__).resolve().parents[1] / "weights"
 #: The shipped pose predictor (trained by the command in its sidecar).
-DEFAULT_MODEL = Path(__file__).resolve().parents[1] / "weights" / "pose-lstm-walkers"
+DEFAULT_MODEL = WEIGHTS / "pose-lstm-walkers"
+
+
+def pose_model_path(model: str | Path | None) -> Path | str:
+    """The model file ``model`` names: ``None`` is the shipped :data:`DEFAULT_MODEL`; a bare name
+    that is no file here but a shipped model (``"pose-lstm-walkers-mse"``) is that shipped model;
+    anything else is a path, as given."""
+    if model is None:
+        return DEFAULT_MODEL
+    name = str(model)
+    here = Path(name)
+    if (
+        here.name == name
+        and not here.with_name(name + ".json").exists()
+        and (WEIGHTS / (name + ".json")).is_file()
+    ):
+        return WEIGHTS / name
+    return model
+
 
 K = NUM_KEYPOINTS
 

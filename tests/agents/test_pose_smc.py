@@ -221,3 +221,15 @@ def test_a_floor_scores_only_the_pairs_that_can_reach_it(model):
     np.testing.assert_array_equal(m._elite[ki, :, di], full_elite[ki, :, di])
     assert np.all(floored[~reach] < 0.3)
     assert np.count_nonzero(floored) < floored.size  # pairs were skipped
+
+
+def test_a_shipped_model_is_named_by_its_name():
+    from predictors.pose_lstm.motion import DEFAULT_MODEL, pose_model_path
+    from predictors.training.model_file import ModelFileError
+
+    assert pose_model_path("pose-lstm-walkers") == DEFAULT_MODEL == pose_model_path(None)
+    assert str(pose_model_path("models/mine")) == "models/mine"  # a path stays a path
+    agent = PoseSmcAgent("pose-lstm-walkers", particles=2)
+    assert agent.motion.predictor.model.kind == "pose-lstm"
+    with pytest.raises(ModelFileError, match=r"no-such-model\.json does not exist"):
+        PoseSmcAgent("no-such-model", particles=2)
