@@ -49,11 +49,44 @@ def collect(directory: Path) -> dict[tuple[str, int | None], dict[str, list[floa
         record = json.loads(path.read_text())
         if "cell" not in record or record["cell"]["env_id"] != "KeypointWalkers-v0":
             continue
-        row = out.setdefault(variant(record["cell"]), {"switches": [], "mota": [], "fps": []})
+        row = out.setdefault(variant(record["cell"]), {"switches": [], "mota": [], "fps": [], "seed": []})
+        row["model"] = record["cell"]["agent_kwargs"].get("model", "pose-lstm-walkers")  # type: ignore[assignment]
+        row["seed"].append(record["cell"]["seed"])
         row["switches"].append(record["metrics"]["id_switches_nose"])
         row["mota"].append(100 * record["metrics"]["mota"])
         row["fps"].append(record["timing"]["frames_per_s"])
     return out
+
+
+def paired(rows: dict, shown: list) -> None:
+    """Per-seed nose switches of every variant, and its paired difference to "both, L = 10" with a
+    95 % t-interval of the mean difference (the seeds' scenes differ far more than the variants)."""
+    from scipy import stats
+
+    both = ("both", 10)
+    if both not in rows:
+        return
+    ref = dict(zip(rows[both]["seed"], rows[both]["switches"], strict=True))
+    print(
+        "\n| variant | model | frames / s | switches per seed | total | minus both, L = 10: mean [95 % CI] |"
+    )
+    print("|---|---|---|---|---|---|")
+    for key in shown:
+        r = rows[key]
+        by_seed = dict(zip(r["seed"], r["switches"], strict=True))
+        seeds = sorted(by_seed)
+        per = " ".join(f"{by_seed[k]:.0f}" for k in seeds)
+        diff = np.array([by_seed[k] - ref[k] for k in seeds if k in ref], dtype=float)
+        ci = "–"
+        if key != both and len(diff) > 1:
+            half = stats.t.ppf(0.975, len(diff) - 1) * diff.std(ddof=1) / np.sqrt(len(diff))
+            worse, better = int(np.sum(diff > 0)), int(np.sum(diff < 0))
+            mean = diff.mean()
+            ci = f"{mean:+.1f} [{mean - half:+.1f}, {mean + half:+.1f}]; worse on {worse}, better on {better}"
+        model = r.get("model", "-") if key[0] != "baseline" else "-"
+        total = sum(by_seed.values())
+        fps = np.mean(r["fps"])
+        print(f"| {key[0]}, L = {key[1] or '-'} | {model} | {fps:.2f} | {per} | {total:.0f} | {ci} |")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -75,6 +108,7 @@ def main(argv: list[str] | None = None) -> None:
             f"| {key[0]} | {key[1] or '-'} | {pm} | {ps} ({ps / 407:.2f}) | {m.mean():.1f} ± {m.std():.1f} | "
             f"{s.mean():.1f} ± {s.std():.1f} | {s.mean() / base:.2f} | {len(s)} |"
         )
+    paired(rows, shown)
     if args.plot:
         import matplotlib
 
