@@ -40,6 +40,7 @@ from agents.cli import arguments
 from predictors.belt_lstm.network import HEAD_OUTPUTS
 from predictors.displacement_lstm.inference import KIND as DISPLACEMENT_KIND
 from predictors.pose_lstm.predictor import KIND as POSE_KIND
+from predictors.pose_lstm.training import LOSSES as POSE_LOSSES
 from predictors.training.model_file import ModelFile
 
 if TYPE_CHECKING:
@@ -176,7 +177,16 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     data, training = _data_parser(), _training_parser()
     for kind in [*sorted(HEAD_OUTPUTS), DISPLACEMENT_KIND, POSE_KIND]:
-        sub.add_parser(kind, parents=[data, training], help=KINDS[kind], description=KINDS[kind])
+        k = sub.add_parser(kind, parents=[data, training], help=KINDS[kind], description=KINDS[kind])
+        if kind == POSE_KIND:
+            k.add_argument(
+                "--loss",
+                choices=POSE_LOSSES,
+                default="nll",
+                help="nll: the Gaussian negative log-likelihood of eq. (8), mu and sigma learnt "
+                "(default); mse: the squared error of mu alone (sigma is then the model file's "
+                "fixed_sigma, the validation RMS residual)",
+            )
     p = sub.add_parser(
         "calibrate",
         parents=[data],
@@ -377,10 +387,16 @@ def _train_pose(args: argparse.Namespace, argv: list[str]) -> int:
     config = _train_config(args)
     dropout = 0.3 if args.dropout is None else args.dropout
     net, history = train_pose_model(
-        train, validation, config, dropout=dropout, min_window=args.min_window, progress=not args.no_progress
+        train,
+        validation,
+        config,
+        dropout=dropout,
+        min_window=args.min_window,
+        loss=args.loss,
+        progress=not args.no_progress,
     )
     metrics = pose_metrics(net, validation, test, min(10, window))
-    training = _training_record(args, argv, config, history, min_window=args.min_window)
+    training = _training_record(args, argv, config, history, min_window=args.min_window, loss=args.loss)
     training["wall_time_s"] = round(time.perf_counter() - start, 1)
     model = to_model_file(
         net, SCALE_PER_HEIGHT, training=training, data={**data.description, **s}, metrics=metrics

@@ -11,14 +11,20 @@ mini-batch of 30 holds 510 sequences.
 Loss (eq. 8): the Gaussian negative log-likelihood of the residual ``r = (y_t − a) / scale`` from
 the last visible coordinate ``a``, ``Σ_d ((μ_d − r_d)² / σ_d² + 2 log σ_d) / 2`` (eq. 8 with σ read
 as the diagonal covariance σ²), averaged over the keypoints that are visible in the truth at ``t``
-and have an anchor; the L2 term ``λ‖θ‖²`` is the training loop's. Dropout 0.3 is active in
-training. One model serves every window length: each training batch is cut to its last ``ℓ``
-steps, ``ℓ`` drawn uniformly from ``{min_window … L}`` by the loop's seeded generator (the paper
-trains one model per ``L``).
+and have an anchor; the L2 term ``λ‖θ‖²`` is the training loop's. ``loss="mse"`` (the
+ablation's "epistemic only" and "none" models, whose σ is not learnt) replaces it by the mean
+squared error of ``μ`` alone, ``Σ_d (μ_d − r_d)² / 2`` over the two axes, with the same weights: eq.
+(8) with σ fixed to 1 less its constant, so the ``log σ`` outputs get no gradient from the loss
+(only the L2 term's decay) and the tracker uses ``fixed_sigma`` for them. Dropout 0.3 is active in
+training (``dropout=0`` for the models without epistemic uncertainty). One model serves every
+window length: each training batch is cut to its last ``ℓ`` steps, ``ℓ`` drawn uniformly from
+``{min_window … L}`` by the loop's seeded generator (the paper trains one model per ``L``).
 
 Metrics (test split, deterministic mean): mean error (px) of ``a + scale · μ`` against the truth,
 the same for the last visible coordinate alone, the NLL, and the homoscedastic ``fixed_sigma``
 (the RMS residual per axis on the validation split) that the ``aleatoric=False`` ablation uses.
+After ``loss="mse"`` the NLL and mean σ are those of the untrained ``log σ`` outputs (no meaning);
+``fixed_sigma`` is the σ of such a model.
 """
 
 from __future__ import annotations
@@ -209,19 +215,42 @@ def gaussian_nll(
     return (per * weight).sum() / weight.sum().clamp(min=1.0)
 
 
-def pose_loss(scale: float, window: int, min_window: int) -> LossFn:
-    """Eq. (8) on batches cut to a random length in ``[min_window, window]`` (training mode only)."""
+def mean_squared_error(mu: torch.Tensor, r: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
+    """Weighted mean over sequences of ``Σ_d (μ_d − r_d)² / 2``: the mean over both axes of the squared
+    error of ``μ``, i.e. :func:`gaussian_nll` with ``log σ = 0`` (σ plays no part)."""
+    per = (mu - r).pow(2).sum(dim=-1) / 2
+    return (per * weight).sum() / weight.sum().clamp(min=1.0)
 
-    def loss(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
+
+#: The training losses of the pose predictor: eq. (8) and the squared error of μ alone.
+LOSSES = ("nll", "mse")
+
+
+def check_loss(loss: str) -> str:
+    """``loss`` if it names a training loss (:data:`LOSSES`), else a ValueError naming the valid ones."""
+    if loss not in LOSSES:
+        raise ValueError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
+    return loss
+
+
+def pose_loss(scale: float, window: int, min_window: int, loss: str = "nll") -> LossFn:
+    """``loss`` (eq. (8) ``"nll"`` or :func:`mean_squared_error` ``"mse"``) on batches cut to a random
+    length in ``[min_window, window]`` (training mode only)."""
+    mse = check_loss(loss) == "mse"
+
+    def loss_fn(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
         assert isinstance(model, PosePredictorNet)
         length = window
         masks = None
         if model.training:
             length = int(torch.randint(min_window, window + 1, (1,), generator=generator))
             masks = model.draw_masks(batch[0].shape[0] * 17, generator)
-        return gaussian_nll(*_batch_terms(model, batch, scale, length, masks))
+        mu, log_sigma, r, weight = _batch_terms(model, batch, scale, length, masks)
+        if mse:
+            return mean_squared_error(mu, r, weight)
+        return gaussian_nll(mu, log_sigma, r, weight)
 
-    return loss
+    return loss_fn
 
 
 def train_pose_model(
@@ -231,9 +260,13 @@ def train_pose_model(
     *,
     dropout: float = 0.3,
     min_window: int = 3,
+    loss: str = "nll",
     progress: bool = True,
 ) -> tuple[PosePredictorNet, History]:
-    """Train a pose predictor with :func:`~predictors.training.loop.fit`."""
+    """Train a pose predictor with :func:`~predictors.training.loop.fit` on ``loss`` (:data:`LOSSES`:
+    ``"nll"`` eq. (8), ``"mse"`` the squared error of μ alone); the validation loss, which picks the
+    kept epoch, is the same loss."""
+    check_loss(loss)
     window = train.windows.shape[2]
     if not 1 <= min_window <= window:
         raise ValueError(f"min_window must be in [1, {window}] (the window length), got {min_window!r}")
@@ -241,7 +274,7 @@ def train_pose_model(
     assert isinstance(net, PosePredictorNet)
     history = fit(
         net,
-        pose_loss(train.scale, window, min_window),
+        pose_loss(train.scale, window, min_window, loss),
         pose_tensors(train),
         pose_tensors(validation) if validation is not None and len(validation) else None,
         config,

@@ -88,6 +88,7 @@ def test_the_training_command_writes_a_model_file_the_predictor_loads(tmp_path):
     assert sidecar["training"]["command"].startswith("track-train pose-lstm --env KeypointWalkers-v0")
     assert sidecar["architecture"]["hidden"] == 64 and sidecar["architecture"]["fc"] == 40
     assert sidecar["architecture"]["dropout"] == 0.3 and len(sidecar["metrics"]["fixed_sigma"]) == 2
+    assert sidecar["training"]["loss"] == "nll"  # the default: eq. (8)
     predictor = PosePredictor(model)
     assert predictor.scale_for(720.0) == pytest.approx(10.0)
     assert train_main(["pose-lstm", "--sine", "--out", str(out)]) == 2  # needs a keypoint env
