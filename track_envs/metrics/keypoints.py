@@ -160,15 +160,11 @@ def pairwise_oks(
         none. All pairs are one batched numpy expression (no Python loop over pairs or keypoints).
     """
     x = np.asarray(a, dtype=np.float64)
-    y = np.asarray(b, dtype=np.float64)
-    valid = np.asarray(b_valid, dtype=bool)[None]  # (1, m, K)
-    if a_valid is not None:
-        valid = valid & np.asarray(a_valid, dtype=bool)[:, None]  # (n, m, K)
-    var = (2 * np.asarray(sigmas, dtype=np.float64)) ** 2
-    d2 = np.sum((x[:, None] - y[None]) ** 2, axis=-1)  # (n, m, K)
-    e = d2 / (var * 2 * (np.asarray(area, dtype=np.float64)[:, None] + _EPS))[None]
-    count = np.maximum(valid.sum(axis=2), 1)
-    return np.sum(np.exp(-e) * valid, axis=2) / count
+    m = len(np.asarray(b))
+    x_valid = np.ones(x.shape[:2], dtype=bool) if a_valid is None else np.asarray(a_valid, dtype=bool)
+    every = (m, *x.shape)  # each detection against every pose of ``a``: the pairs of paired_oks
+    oks = paired_oks(np.broadcast_to(x, every), np.broadcast_to(x_valid, every[:3]), b, b_valid, area, sigmas)
+    return np.ascontiguousarray(oks.T)
 
 
 def paired_oks(
