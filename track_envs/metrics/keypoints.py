@@ -157,7 +157,8 @@ def pairwise_oks(
 
     Returns:
         (n, m) OKS, the mean over the keypoints valid in both poses of a pair, 0 for a pair with
-        none. All pairs are one batched numpy expression (no Python loop over pairs or keypoints).
+        none: :func:`paired_oks` of every detection against every pose of ``a`` (broadcast views,
+        one batched expression, no Python loop over pairs or keypoints).
     """
     x = np.asarray(a, dtype=np.float64)
     m = len(np.asarray(b))
@@ -168,15 +169,15 @@ def pairwise_oks(
 
 
 def paired_oks(
-    a: NDArray[np.floating],
-    a_valid: NDArray[np.bool_],
-    b: NDArray[np.floating],
-    b_valid: NDArray[np.bool_],
-    area: NDArray[np.floating],
+    a: ArrayLike,
+    a_valid: ArrayLike,
+    b: ArrayLike,
+    b_valid: ArrayLike,
+    area: ArrayLike,
     sigmas: ArrayLike = COCO_SIGMAS,
 ) -> NDArray[np.float64]:
-    """OKS of the poses ``a`` (c, P, K, 2) of row ``r`` against the one pose ``b[r]`` (c, K, 2):
-    :func:`pairwise_oks` for chosen pairs only, with the same arithmetic (the same bits).
+    """OKS of the poses ``a`` (c, P, K, 2) of row ``r`` against the one pose ``b[r]`` (c, K, 2): the
+    pairs one chooses (:func:`pairwise_oks` is this over every pair), one batched expression.
 
     Args:
         a: (c, P, K, 2) poses, ``P`` per row (e.g. the particles of one filter).
