@@ -86,7 +86,8 @@ def paired(rows: dict, shown: list) -> None:
         model = r.get("model", "-") if key[0] != "baseline" else "-"
         total = sum(by_seed.values())
         fps = np.mean(r["fps"])
-        print(f"| {key[0]}, L = {key[1] or '-'} | {model} | {fps:.2f} | {per} | {total:.0f} | {ci} |")
+        label = f"{key[0]}, L = {key[1]}" if key[1] else key[0]
+        print(f"| {label} | {model} | {fps:.2f} | {per} | {total:.0f} | {ci} |")
 
 
 def main(argv: list[str] | None = None) -> None:
