@@ -24,10 +24,10 @@ def _same_tracks(a: list[dict], b: list[dict], atol: float) -> None:
 def test_the_torch_path_tracks_as_the_cpu_path(model, device, recurrence):  # noqa: F811
     """The network's own LSTM and head in torch (and the OKS) on ``device`` against the compiled CPU
     path: the same ids, positions to 1e-3 px (the GEMMs sum in other orders, ~1e-6 in h)."""
-    cpu = rollout(PoseSmcAgent(model, particles=40, recurrence=recurrence), 2, steps=25)
+    cpu = rollout(PoseSmcAgent(model, particles=40, recurrence=recurrence), 2, steps=15)
     agent = PoseSmcAgent(model, particles=40, recurrence=recurrence, device=device)
     assert isinstance(agent.motion.predictor, TorchPosePredictor)
-    _same_tracks(rollout(agent, 2, steps=25), cpu, atol=1e-3)
+    _same_tracks(rollout(agent, 2, steps=15), cpu, atol=1e-3)
 
 
 def test_a_device_torch_cannot_use_is_named(model):  # noqa: F811
