@@ -54,7 +54,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
-from predictors.ordered_product import ordered_product
+from predictors.ordered_product import ordered_product, thread_pool
 from track_envs.compiled import njit
 
 FloatArray = NDArray[np.floating]
@@ -255,13 +255,17 @@ class FusedLSTMCell:
         return np.ascontiguousarray(self.w.T)
 
     def _product(
-        self, a: NDArray[np.float32], b: NDArray[np.float32], out: NDArray[np.float32]
+        self,
+        a: NDArray[np.float32],
+        b: NDArray[np.float32],
+        out: NDArray[np.float32],
+        threads: int | None = None,
     ) -> NDArray[np.float32]:
-        """``out = a b`` on :attr:`matmul`."""
+        """``out = a b`` on :attr:`matmul` (``"ordered"`` on ``threads``, default :attr:`threads`)."""
         if self.matmul == "torch":
             _torch_matmul(a, b, out)
         elif self.matmul == "ordered":
-            ordered_product(a, b, out, self.threads)
+            ordered_product(a, b, out, self.threads if threads is None else threads)
         else:
             np.matmul(a, b, out=out)
         return out
@@ -313,14 +317,18 @@ class FusedLSTMCell:
         w_t = self.w_t
         w0_t = np.ascontiguousarray(w_t[:, [*range(k), k + H]])  # the input and bias rows
         h_out, c_out = np.empty((n, H), np.float32), np.empty((n, H), np.float32)
-        width = 0
-        for s in range(0, n, block):
+        starts = range(0, n, block)
+        # "ordered" on several threads: whole blocks in parallel (their numpy gates release the
+        # GIL too), each block's products on its own thread; the same bits as one thread
+        parallel = self.matmul == "ordered" and self.threads > 1 and len(starts) > 1
+        inner = 1 if parallel else self.threads
+
+        def run(s: int) -> None:
             e = min(s + block, n)
-            if e - s != width:  # buffers (transposed: one column per sequence)
-                width = e - s
-                xh, a, c, tmp = (np.empty((r, width), np.float32) for r in (k + H + 1, 4 * H, H, H))
-                x0 = np.ones((k + 1, width), np.float32)
-                xh[k + H] = 1.0
+            width = e - s  # buffers, transposed: one column per sequence
+            xh, a, c, tmp = (np.empty((r, width), np.float32) for r in (k + H + 1, 4 * H, H, H))
+            x0 = np.ones((k + 1, width), np.float32)
+            xh[k + H] = 1.0
             h = xh[k : k + H]  # written where the next product reads it
             if state is None:
                 c[:] = 0.0
@@ -331,14 +339,21 @@ class FusedLSTMCell:
             for t in range(L):
                 if t == 0 and state is None:
                     x0[:k] = x[s:e, 0].T
-                    self._product(w0_t, x0, a)
+                    self._product(w0_t, x0, a, inner)
                 else:
                     xh[:k] = x[s:e, t].T
-                    self._product(w_t, xh, a)
+                    self._product(w_t, xh, a, inner)
                 np.tanh(a, out=a)
                 _gates(a, c, c, h, tmp, axis=0)
             h_out[s:e] = h.T
             c_out[s:e] = c.T
+
+        if parallel:
+            for future in [thread_pool(self.threads).submit(run, s) for s in starts]:
+                future.result()
+        else:
+            for s in starts:
+                run(s)
         return h_out, c_out
 
 

@@ -74,7 +74,8 @@ def _masked_rows(
 
 
 @functools.cache
-def _pool(threads: int) -> ThreadPoolExecutor:
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """The shared pool of ``threads`` threads (one per thread count, made on first use)."""
     return ThreadPoolExecutor(threads, thread_name_prefix="ordered-product")
 
 
@@ -85,7 +86,7 @@ def _split(kernel: Callable[..., None], rows: int, macs: int, threads: int, *arg
         kernel(*args, 0, rows)
         return
     edges = np.linspace(0, rows, threads + 1).astype(int)
-    pool = _pool(threads)
+    pool = thread_pool(threads)
     futures = [pool.submit(kernel, *args, s, e) for s, e in itertools.pairwise(edges)]
     for f in futures:
         f.result()

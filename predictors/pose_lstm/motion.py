@@ -72,12 +72,14 @@ WEIGHTS = Path(__file__).resolve().parents[1] / "weights"
 DEFAULT_MODEL = WEIGHTS / "pose-lstm-walkers"
 
 
-def pose_model_path(model: str | Path | None) -> Path | str:
+def pose_model_path(model: Any) -> Any:
     """The model file ``model`` names: ``None`` is the shipped :data:`DEFAULT_MODEL`; a bare name
     that is no file here but a shipped model (``"pose-lstm-walkers-mse"``) is that shipped model;
-    anything else is a path, as given."""
+    any other path, or a loaded model file, is returned as given."""
     if model is None:
         return DEFAULT_MODEL
+    if not isinstance(model, str | Path):
+        return model
     name = str(model)
     here = Path(name)
     if (
