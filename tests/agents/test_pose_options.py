@@ -96,7 +96,7 @@ def test_the_loop_and_the_motion_refuse_unknown_keywords_too():
         TypeError, match=r"^PoseTracker has no argument 'max_filters'; its arguments are \['motion'"
     ):
         PoseTracker(ConstantVelocityPose(), max_filters=3)
-    with pytest.raises(ValueError, match=r"^SmcPoseMotion has no argument 'particle'; .*'share_windows', 'device'\]$"):
+    with pytest.raises(ValueError, match=r"^SmcPoseMotion has no argument 'particle'; .*'device'\]$"):
         SmcPoseMotion(None, particle=3)
     with pytest.raises(ValueError, match="particles"):
         SmcSettings(particles=0)
