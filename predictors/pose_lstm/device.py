@@ -122,12 +122,6 @@ class TorchPosePredictor(PosePredictor):
             _, (h, c) = self.net.lstm(xt, hc)
         return h[0].cpu().numpy(), c[0].cpu().numpy()
 
-    def paired_oks(
-        self, a: NDArray, a_valid: NDArray, b: NDArray, b_valid: NDArray, area: NDArray
-    ) -> FloatArray:
-        """:func:`paired_oks_torch` on this predictor's device."""
-        return paired_oks_torch(a, a_valid, b, b_valid, area, self.device)
-
 
 def paired_oks_torch(
     a: NDArray, a_valid: NDArray, b: NDArray, b_valid: NDArray, area: NDArray, device: Any

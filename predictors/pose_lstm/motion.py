@@ -267,7 +267,6 @@ class SmcPoseMotion:
         threshold, so passing the threshold as ``floor`` changes no match and no estimate.
         """
         n, P, m = len(self.queue), self.P, len(xy)
-        self._oks = np.zeros((n, P, m))
         self._elite = np.zeros((n, P, m), dtype=bool)
         if n == 0 or m == 0:
             return np.zeros((n, m))
@@ -286,7 +285,7 @@ class SmcPoseMotion:
         else:
             oks = paired_oks_torch(*pairs, device=self.predictor.device)
         elite = elite_mask(oks[..., None], self.n_elite)[..., 0]
-        self._oks[ki, :, di], self._elite[ki, :, di] = oks, elite
+        self._elite[ki, :, di] = elite
         sim = np.zeros((n, m))
         sim[ki, di] = np.sum(oks * elite, axis=1) / self.n_elite
         return sim
