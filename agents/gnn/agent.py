@@ -367,7 +367,7 @@ class GnnAgent:
         kwargs = dict(self._init_kwargs)
         if not isinstance(kwargs["predictor"], str):
             kwargs["predictor"] = copy.deepcopy(kwargs["predictor"])
-        twin = GnnAgent(**kwargs)
+        twin = type(self)(**kwargs)
         dim = self._spec.dim if self._spec is not None else 2
         spec, frames = _warm_up_stream(dim, sorting=self.predict_sorting)
         twin.reset(spec)
@@ -389,11 +389,8 @@ class GnnAgent:
             return self._report()
         self._state, prediction = self.predictor.predict(self._state)
         self.last_prediction = prediction
-        det_of_track = self.associate(prediction, z)
         predicted = np.ascontiguousarray(prediction.mean, dtype=np.float64)
-        shared = None
-        if self.blob_extent > 0 and m:
-            det_of_track, shared = share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
+        det_of_track, z_tracks = self._associate_frame(prediction, predicted, z)
         upkeep = _kernels.frame_upkeep(
             det_of_track,
             self._misses,
@@ -406,9 +403,7 @@ class GnnAgent:
             m,
         )
         self._misses, self._streak = upkeep.misses, upkeep.streak
-        # rows of coasting tracks (detection −1) are never read by the update
-        z_tracks = shared if shared is not None else z[det_of_track] if m else np.zeros((n, spec.dim))
-        self._state = self.predictor.update(self._state, z_tracks, upkeep.seen)
+        self._state = self._update_tracks(self._state, z_tracks, upkeep.seen)
         if self._no_sorting is not None:
             self._sorting = self._predict_sorting(upkeep.keep, upkeep.n_keep)
         # for tracker-side metrics (prediction error, NEES): what was predicted for which track,
@@ -423,6 +418,29 @@ class GnnAgent:
             z[born], rows[born], upkeep.keep, upkeep.n_keep, self.last_prediction_detection, estimate
         )
         return self._report()
+
+    def _associate_frame(
+        self, prediction: Gaussian, predicted: NDArray[np.float64], z: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The association of one frame: the detection index of every track (−1: none; what the
+        bookkeeping counts as seen and what is left for births) and the (n, D) measurement each
+        track is updated with (rows of tracks without a detection are never read).
+
+        gnn: :meth:`associate`, then the shared blobs of :mod:`agents.tracking.merges` when
+        ``blob_extent > 0``. A tracker with another association overrides this (and
+        :meth:`_update_tracks`); everything else of a frame is shared.
+        """
+        det_of_track = self.associate(prediction, z)
+        m = len(z)
+        if self.blob_extent > 0 and m:
+            return share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
+        # rows of coasting tracks (detection −1) are never read by the update
+        return det_of_track, z[det_of_track] if m else np.zeros_like(predicted)
+
+    def _update_tracks(self, state: Any, z_tracks: NDArray[np.float64], seen: NDArray[np.bool_]) -> Any:
+        """Correct the predicted ``state`` with the frame's association (gnn: the predictor's
+        ``update`` of the seen tracks by their rows of ``z_tracks``)."""
+        return self.predictor.update(state, z_tracks, seen)
 
     def _report(self) -> dict[str, NDArray]:
         """The report of the live tracks, with the sorting channel when the sensor has a nozzle bar."""
