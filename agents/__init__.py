@@ -37,6 +37,7 @@ __all__ = [
 def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
     from agents.gnn.agent import GnnAgent
+    from agents.jpda.agent import JpdaAgent
     from agents.one_step import OneStepAgent
     from agents.particle.agent import ParticleFilterAgent
     from agents.pose.baseline import PoseBaselineAgent
@@ -44,6 +45,7 @@ def _register_builtin() -> None:
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
+    register_agent("jpda", JpdaAgent)
     register_agent("pose-baseline", PoseBaselineAgent)
     register_agent("pose-smc", PoseSmcAgent)
     register_agent("pf", ParticleFilterAgent)

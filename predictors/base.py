@@ -51,6 +51,12 @@ concrete class. The declaration is read from the class, so a wrapper object decl
 * ``CALIBRATION`` (:class:`Calibrated`) — ``calibration_scale: float``: the factor ``r`` the
   predicted covariances were calibrated by (1: uncalibrated). Used by one-step, whose raw
   reliability curve divides it out. Belt LSTMs.
+* ``MIXTURE_UPDATE`` (:class:`MixtureUpdate`) — ``update_mixture(state, z_mean, z_spread,
+  p_seen) -> state``: the moment-matched update by a mixture of measurements (probabilistic data
+  association): with probability ``1 − p`` the track was not detected (it coasts), else it was
+  detected with a measurement of mean ``z̄`` and spread ``Σ``; the state is the single Gaussian
+  that matches the mixture's first two moments. Used by jpda. Kalman filters (Bar-Shalom's PDA
+  update, exact); without it jpda falls back to ``update`` by the mixture's mean.
 * ``RANDOM_STREAM`` (:class:`RandomStream`) — ``reset(spec, *, rng=None)``: the random stream
   the predictor draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the
   same seed gives the same report. Used by every tracker's reset (:func:`reset_predictor`). Belt
@@ -210,6 +216,7 @@ class Capability(StrEnum):
     COAST = "coast"
     CALIBRATION = "calibration"
     RANDOM_STREAM = "random-stream"
+    MIXTURE_UPDATE = "mixture-update"
 
 
 class Crossings(NamedTuple):
@@ -305,6 +312,23 @@ class Calibrated(Predictor, Protocol):
     calibration_scale: float
 
 
+class MixtureUpdate(Predictor, Protocol):
+    """``MIXTURE_UPDATE``: the moment-matched update by a mixture of measurements (PDA)."""
+
+    def update_mixture(
+        self,
+        state: Any,
+        z_mean: NDArray[np.floating],
+        z_spread: NDArray[np.floating],
+        p_seen: NDArray[np.floating],
+    ) -> Any:
+        """Correct every track by its measurement mixture: detected with probability ``p_seen``
+        (n,) in [0, 1], then by a measurement of mean ``z_mean`` (n, D) and spread ``z_spread``
+        (n, D, D); ``p_seen = 0`` coasts exactly and ``p_seen = 1`` with zero spread equals
+        ``update``."""
+        ...
+
+
 class RandomStream(Predictor, Protocol):
     """``RANDOM_STREAM``: ``reset`` takes the random stream the predictor draws from."""
 
@@ -323,6 +347,7 @@ PROTOCOLS: dict[Capability, type] = {
     Capability.COAST: Coast,
     Capability.CALIBRATION: Calibrated,
     Capability.RANDOM_STREAM: RandomStream,
+    Capability.MIXTURE_UPDATE: MixtureUpdate,
 }
 
 
@@ -364,6 +389,8 @@ def capability(predictor: object, which: Literal[Capability.COAST]) -> Coast | N
 def capability(predictor: object, which: Literal[Capability.CALIBRATION]) -> Calibrated | None: ...
 @overload
 def capability(predictor: object, which: Literal[Capability.RANDOM_STREAM]) -> RandomStream | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.MIXTURE_UPDATE]) -> MixtureUpdate | None: ...
 def capability(predictor: object, which: Capability) -> Any:
     """``predictor``, typed as the protocol of capability ``which``, when its class declares it;
     else ``None``. The one way a tracker asks for an optional capability (module docstring).

@@ -30,6 +30,7 @@ Soup 1.9.1's ``JPDA`` / ``JPDAwithEHM`` to 4.4e-16 on the same Gaussians.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -233,3 +234,72 @@ def cluster_marginals(log_pair: NDArray[np.floating], log_miss: NDArray[np.float
     if not np.isfinite(log_z[0]):
         raise _no_event(np.arange(lp.shape[0]))
     return Marginals(P[0], Pu[0], Pv[0], np.ones(lp.shape[0], dtype=bool))
+
+
+@dataclass(frozen=True)
+class MergedMarginals:
+    """Marginals of one cluster whose joint events include merged blobs.
+
+    Attributes:
+        pairs: (n_tracks, n_detections) ``β_ij``, track ``i`` alone takes detection ``j``.
+        miss: (n_tracks,) ``β_i∅``.
+        clutter: (n_detections,) ``β_∅j``.
+        merged: (n_merges,) ``β_e``, the pair of hypothesis ``e`` takes its detection as one blob.
+    """
+
+    pairs: FloatArray
+    miss: FloatArray
+    clutter: FloatArray
+    merged: FloatArray
+
+
+def merged_cluster_marginals(
+    log_pair: NDArray[np.floating],
+    log_miss: float,
+    merges: NDArray[np.integer],
+    log_merged: NDArray[np.floating],
+) -> MergedMarginals:
+    """Exact marginals of one cluster with merged-blob hypotheses (:mod:`agents.jpda._kernels`).
+
+    A joint event gives every track a detection of its gate, a merged blob (hypothesis
+    ``e = (a, b, j)``: tracks ``a`` and ``b`` both take detection ``j``) or a miss, no detection
+    twice; its weight is the product of the ``exp(log_pair)``, ``exp(log_merged)`` and
+    ``exp(log_miss)`` factors it uses.
+
+    Args:
+        log_pair: (n, m) ``log w_ij`` (``-inf`` outside the gate), ``n <= 20``.
+        log_miss: ``log w_∅`` of every track (``-inf`` allowed).
+        merges: (e, 3) integer rows ``(a, b, j)``, ``a != b``.
+        log_merged: (e,) their log weights.
+
+    Raises:
+        ValueError: naming a bad shape, index or value, or when no event has positive weight.
+    """
+    from agents.jpda._kernels import _cluster_marginals
+
+    lp = np.ascontiguousarray(log_pair, dtype=np.float64)
+    if lp.ndim != 2 or lp.shape[0] > 20:
+        raise ValueError(f"log_pair must be (n, m) with n <= 20 tracks, got shape {lp.shape}")
+    n, m = lp.shape
+    mg = np.asarray(merges, dtype=np.int64).reshape(-1, 3)
+    lw = np.ascontiguousarray(log_merged, dtype=np.float64).reshape(-1)
+    if len(lw) != len(mg):
+        raise ValueError(f"log_merged must have one weight per merge row ({len(mg)}), got {len(lw)}")
+    bad = (
+        (mg[:, 0] < 0) | (mg[:, 0] >= n) | (mg[:, 1] < 0) | (mg[:, 1] >= n) | (mg[:, 2] < 0) | (mg[:, 2] >= m)
+    )
+    if bad.any() or np.any(mg[:, 0] == mg[:, 1]):
+        raise ValueError(
+            f"merges must be rows (a, b, j) of distinct tracks < {n} and a detection < {m}, got {mg.tolist()}"
+        )
+    if np.isnan(lp).any() or np.isnan(lw).any() or math.isnan(log_miss) or (lp == np.inf).any():
+        raise ValueError("log weights must be numbers or -inf")
+    P, PM, PC = np.zeros((n, m)), np.zeros(len(mg)), np.zeros(m)
+    a, b, j = (np.ascontiguousarray(mg[:, k]) for k in range(3))
+    if not _cluster_marginals(lp, float(log_miss), a, b, j, lw, P, PM, PC):
+        raise _no_event(np.arange(n))
+    miss = 1.0 - P.sum(axis=1)
+    for k in range(len(mg)):
+        miss[a[k]] -= PM[k]
+        miss[b[k]] -= PM[k]
+    return MergedMarginals(P, np.clip(miss, 0.0, 1.0), PC, PM)

@@ -318,6 +318,7 @@ class KalmanPredictor:
             Capability.MEAN_ONLY_ESTIMATE,
             Capability.FUSED_SURVIVORS_BIRTHS,
             Capability.LINE_ROLLOUT,
+            Capability.MIXTURE_UPDATE,
         }
     )
     #: ``estimate`` after coasting is the propagated state: its covariance is the multi-step one.
@@ -554,6 +555,68 @@ class KalmanPredictor:
         if mask.shape != (n,) or mask.dtype != np.bool_:
             raise ValueError(f"seen must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
         return KalmanState(*_checked_update(mean, cov, zz, mask, self.H, self.R))
+
+    def update_mixture(
+        self,
+        state: KalmanState,
+        z_mean: NDArray[np.floating],
+        z_spread: NDArray[np.floating],
+        p_seen: NDArray[np.floating],
+    ) -> KalmanState:
+        """The PDA update (Bar-Shalom and Tse: Tracking in a cluttered environment with
+        probabilistic data association, 1975): moment-matched by a mixture of measurements.
+
+        Track ``i`` was detected with probability ``p`` (``p_seen``), then by a measurement of mean
+        ``z̄`` and spread ``Σ`` (the probability-weighted detections of its gate, normalised by
+        ``p``); otherwise it was missed. With the predicted ``x⁻, P⁻``, ``S = H P⁻ Hᵀ + R``,
+        ``K = P⁻ Hᵀ S⁻¹`` and ``δ = z̄ − H x⁻``, the mixture of the coasting state and the Kalman
+        updates by each detection has mean and covariance
+
+        .. math::
+
+            x^+ = x^- + p K δ, \\qquad
+            P^+ = P^- - p K S K^\\top + p K (Σ + (1 - p) δ δ^\\top) K^\\top .
+
+        ``p = 0`` leaves the track exactly as predicted; ``p = 1`` and ``Σ = 0`` is :meth:`update`.
+
+        Args:
+            state: Predicted state of ``n`` tracks.
+            z_mean: (n, D) ``z̄``; finite where ``p > 0``.
+            z_spread: (n, D, D) ``Σ``, symmetric positive semi-definite.
+            p_seen: (n,) ``p`` in [0, 1].
+
+        Raises:
+            ValueError: naming the argument with a wrong shape or value.
+        """
+        self._need_reset()
+        mean, cov = self._check_state(state)
+        n, D = mean.shape[0], self.dim
+        zz = _f64(z_mean)
+        if zz.shape != (n, D):
+            raise ValueError(f"z_mean must have shape ({n}, D={D}), got {zz.shape}")
+        spread = _f64(z_spread)
+        if spread.shape != (n, D, D):
+            raise ValueError(f"z_spread must have shape ({n}, {D}, {D}), got {spread.shape}")
+        p = _f64(p_seen)
+        if p.shape != (n,) or not np.all((p >= 0.0) & (p <= 1.0)):
+            raise ValueError(f"p_seen must be (n={n},) probabilities in [0, 1], got {p!r}")
+        live = np.flatnonzero(p > 0.0)
+        if len(live) == 0:
+            return KalmanState(mean.copy(), cov.copy())
+        if not np.all(np.isfinite(zz[live])) or not np.all(np.isfinite(spread[live])):
+            raise ValueError("z_mean and z_spread must be finite where p_seen > 0")
+        x, P, pl = mean[live], cov[live], p[live]
+        PHt = P @ self.H.T  # (k, S, D)
+        S = self.H @ PHt + self.R  # (k, D, D)
+        K = np.linalg.solve(S, PHt.transpose(0, 2, 1)).transpose(0, 2, 1)  # P Hᵀ S⁻¹, S symmetric
+        delta = zz[live] - x @ self.H.T
+        x_new = x + pl[:, None] * np.einsum("ksd,kd->ks", K, delta)
+        inner = spread[live] + (1.0 - pl)[:, None, None] * (delta[:, :, None] * delta[:, None, :]) - S
+        P_new = P + pl[:, None, None] * (K @ inner @ K.transpose(0, 2, 1))
+        out_mean, out_cov = mean.copy(), cov.copy()
+        out_mean[live] = x_new
+        out_cov[live] = 0.5 * (P_new + P_new.transpose(0, 2, 1))
+        return KalmanState(out_mean, out_cov)
 
     def rollout_crossings(
         self, state: KalmanState, line: float, frame: int, dt: float, max_steps: int

@@ -238,6 +238,7 @@ def test_the_kalman_filters_and_belt_lstms_declare_their_capabilities():
         Capability.MEAN_ONLY_ESTIMATE,
         Capability.FUSED_SURVIVORS_BIRTHS,
         Capability.LINE_ROLLOUT,
+        Capability.MIXTURE_UPDATE,
     }
     lstm = make_predictor("nll-lstm")
     assert declared_capabilities(lstm) == {
@@ -295,7 +296,7 @@ def test_agents_are_typed_and_declare_their_traits():
     assert agent_traits(AGENTS.factory("pf")).max_targets == 1
     assert agent_traits(AGENTS.factory("pose-smc")).position_rank == 2
     takers = [a for a in available_agents() if agent_traits(AGENTS.factory(a)).takes_predictor]
-    assert takers == ["gnn", "one-step"]
+    assert takers == ["gnn", "jpda", "one-step"]
     assert agent_applies_to("gnn", (2,)) and not agent_applies_to("gnn", (17, 2))
     assert "gnn" in available_agents() and callable(register_agent)
 

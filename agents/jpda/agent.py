@@ -1,0 +1,253 @@
+r"""Joint probabilistic data association (JPDA) tracker, with touching particles as merged blobs.
+
+Every frame, for the ``n`` live tracks and the ``m`` detections:
+
+1. **predict** as gnn: ``N(ŷ_i, S_i)`` from the predictor;
+2. **associate probabilistically** (Fortmann, Bar-Shalom and Scheffe: Sonar tracking of multiple
+   targets using joint probabilistic data association, 1983): every joint event — each track
+   missed, taking one detection of its gate, or, with the merge model, taking together with a
+   neighbour one detection as their *merged blob* — is weighed by its likelihood against Poisson
+   clutter of density ``λ`` and the detection probability ``p_D``; the marginal probabilities of
+   the events are exact per gating cluster (:mod:`agents.jpda._kernels`, one compiled pass;
+   clusters of more than ``max_exact`` tracks fall back to loopy belief propagation without merged
+   blobs, :mod:`agents.jpda.lbp`, and their tracks are counted in :attr:`JpdaAgent.approximate_tracks`);
+3. **update** every track by the moment-matched mixture of its hypotheses (the PDA update):
+   exactly for predictors that declare ``MIXTURE_UPDATE`` (the Kalman filters,
+   :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`); any other Gaussian
+   predictor (the belt LSTMs) is updated through the core ``update`` by the mixture's mean
+   ``ŷ + p (z̄ − ŷ)`` when the track was more likely detected than not (``p ≥ ½``) and coasts
+   otherwise — for a predictor that reports its input, the moment-matched position;
+4. **bookkeeping as gnn** (:class:`agents.gnn.agent.GnnAgent`, shared code): a track counts as seen
+   when ``p ≥ ½`` and reports the detection of its most probable hypothesis; the capped second
+   chance for tracks and detections left over, deletions after ``max_misses`` misses or on
+   leaving the region, births from the detections no track claims, the learnt velocity prior and
+   the nozzle-bar roll-out are gnn's.
+
+**Merged blobs.** Touching particles reach the camera as one detection at their area-weighted
+centroid (:mod:`track_envs.envs.blobs`). A plain GNN gives that detection to one of the two tracks,
+whose filter takes the jump of ≈ half the pair's distance as real motion, or starves the other.
+Here a pair of tracks predicted within ``merge_extent`` may jointly take one detection near their
+midpoint (covariance in :mod:`agents.jpda._kernels`); each is then updated as a rigid group
+member, keeping its predicted offset from the pair's centre, so a join is explained by both tracks
+and on separation each piece is closest to its own track's prediction. The env's merge truth
+(``info``) is never read.
+
+**Sensor model.** ``p_D`` and ``λ`` come from the sensor spec: ``p_detect`` and
+``clutter_rate / area of the observed region``. A sensor that declares no clutter still gets the
+floor ``min_clutter_rate`` (detections per frame), so a stray detection is never forced onto a
+track; the gate probability ``P_G`` is gnn's ``p_gate``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.gnn.agent import GnnAgent
+from agents.jpda import _kernels
+from agents.jpda.lbp import lbp_marginals
+from agents.jpda.marginals import MAX_EXACT
+from agents.jpda.weights import gaussian_log_likelihood, jpda_log_weights
+from predictors.base import Capability, Predictor, capability
+from track_envs.types import Gaussian, SensorSpec
+
+#: Default floor of the clutter rate (detections per frame) for sensors that declare none.
+MIN_CLUTTER_RATE = 0.01
+#: Default largest distance of two predictions that may be one merged blob (sensor units; metres
+#: on the belt: about a particle's length).
+MERGE_EXTENT = 0.006
+#: Default std of a blob member's area fraction around ½ (equal particles: 0).
+MERGE_AREA_STD = 0.1
+
+
+def _positive(name: str, value: object, *, allow_zero: bool = False) -> float:
+    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+    v = float(value) if ok else math.nan  # type: ignore[arg-type]
+    if not (ok and math.isfinite(v) and (v >= 0 if allow_zero else v > 0)):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
+    return v
+
+
+class JpdaAgent(GnnAgent):
+    """JPDA multi-target tracker with merged-blob events and the PDA update (module docstring).
+
+    Args:
+        predictor: A Gaussian predictor's registered name or object, as for gnn.
+        p_detect: ``p_D`` in (0, 1]; None: the sensor spec's ``p_detect`` (at least 0.01).
+        clutter_density: ``λ``, clutter detections per unit area (volume) of measurement space,
+            > 0; None: ``max(clutter_rate, min_clutter_rate)`` over the region's area.
+        min_clutter_rate: Floor of the spec's clutter rate (detections per frame), > 0.
+        merge_model: Whether two tracks may take one detection as their merged blob.
+        merge_extent: Largest distance of two tracks' predictions that may be one blob (sensor
+            units), > 0.
+        merge_area_std: Std of a blob member's area fraction around ½, >= 0.
+        merge_odds: Prior odds of a merged blob against two separate particles for a pair within
+            ``merge_extent``, > 0.
+        max_exact: Clusters of at most this many tracks are exact; larger ones use loopy belief
+            propagation without merged blobs.
+        **gnn_kwargs: Every other argument of :class:`~agents.gnn.agent.GnnAgent` (``p_gate``,
+            ``max_misses``, ``region_margin``, ``velocity_prior``, ``recovery_inflation``, ...,
+            and the predictor's keywords), except ``blob_extent`` and ``assignment`` (the merged
+            blobs and the association are this tracker's own).
+    """
+
+    def __init__(
+        self,
+        predictor: str | Predictor = "kf-ca",
+        *,
+        p_detect: float | None = None,
+        clutter_density: float | None = None,
+        min_clutter_rate: float = MIN_CLUTTER_RATE,
+        merge_model: bool = True,
+        merge_extent: float = MERGE_EXTENT,
+        merge_area_std: float = MERGE_AREA_STD,
+        merge_odds: float = 1.0,
+        max_exact: int = MAX_EXACT,
+        **gnn_kwargs: Any,
+    ):
+        for name in ("blob_extent", "assignment"):
+            if name in gnn_kwargs:
+                raise ValueError(
+                    f"jpda has no argument {name!r}: its association is probabilistic and merged "
+                    "blobs are its merge_model (merge_extent, merge_area_std, merge_odds)"
+                )
+        super().__init__(predictor, **gnn_kwargs)
+        for name in ("blob_extent", "assignment"):  # gnn's, not taken here (warm_up rebuilds from these)
+            del self._init_kwargs[name]
+        self._init_kwargs.update(
+            p_detect=p_detect,
+            clutter_density=clutter_density,
+            min_clutter_rate=min_clutter_rate,
+            merge_model=merge_model,
+            merge_extent=merge_extent,
+            merge_area_std=merge_area_std,
+            merge_odds=merge_odds,
+            max_exact=max_exact,
+        )
+        if p_detect is not None and not (
+            isinstance(p_detect, int | float | np.floating) and 0.0 < float(p_detect) <= 1.0
+        ):
+            raise ValueError(f"p_detect must be None or a probability in (0, 1], got {p_detect!r}")
+        self.p_detect_arg = None if p_detect is None else float(p_detect)
+        self.clutter_density_arg = (
+            None if clutter_density is None else _positive("clutter_density", clutter_density)
+        )
+        self.min_clutter_rate = _positive("min_clutter_rate", min_clutter_rate)
+        if not isinstance(merge_model, bool | np.bool_):
+            raise ValueError(f"merge_model must be True or False, got {merge_model!r}")
+        self.merge_model = bool(merge_model)
+        self.merge_extent = _positive("merge_extent", merge_extent)
+        self.merge_area_std = _positive("merge_area_std", merge_area_std, allow_zero=True)
+        self.merge_odds = _positive("merge_odds", merge_odds)
+        if not (
+            isinstance(max_exact, int | np.integer) and not isinstance(max_exact, bool) and max_exact >= 1
+        ):
+            raise ValueError(f"max_exact must be an integer >= 1, got {max_exact!r}")
+        self.max_exact = int(max_exact)
+        self._mixture_update = capability(self.predictor, Capability.MIXTURE_UPDATE)
+
+    def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
+        """Start an episode with sensor ``spec`` (gnn's reset), and fix ``p_D`` and ``λ`` from it."""
+        super().reset(spec, seed=seed)
+        self.p_detect = (
+            self.p_detect_arg if self.p_detect_arg is not None else max(float(spec.p_detect), 0.01)
+        )
+        if self.clutter_density_arg is not None:
+            self.clutter_density = self.clutter_density_arg
+        else:
+            extent = np.asarray(spec.region_high, np.float64) - np.asarray(spec.region_low, np.float64)
+            area = float(np.prod(extent))
+            if not (math.isfinite(area) and area > 0):
+                raise ValueError(
+                    f"the sensor's region {spec.region_low}..{spec.region_high} has no finite positive "
+                    "area; give jpda clutter_density"
+                )
+            self.clutter_density = max(float(spec.clutter_rate), self.min_clutter_rate) / area
+        self.approximate_tracks = 0
+        self.last_cluster_tracks = np.zeros(0, dtype=np.int64)
+        self.last_p_seen = np.zeros(0)
+        self._mixture: tuple[NDArray, NDArray, NDArray] | None = None
+
+    def _noise_cov(self) -> NDArray[np.float64]:
+        assert self._spec is not None
+        return np.eye(self._spec.dim) * max((self.noise_scale * self._spec.noise_std) ** 2, 1e-12)
+
+    def _associate_frame(
+        self, prediction: Gaussian, predicted: NDArray[np.float64], z: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """JPDA marginals and each track's mixture (module docstring, steps 2–4)."""
+        cov = np.ascontiguousarray(prediction.cov, dtype=np.float64)
+        log_miss_p = 1.0 - self.p_detect * self.p_gate
+        frame = _kernels.jpda_frame(
+            predicted,
+            cov,
+            np.ascontiguousarray(z, dtype=np.float64),
+            self._gate,
+            math.log(self.p_detect) - math.log(self.clutter_density),
+            math.log(log_miss_p) if log_miss_p > 0 else -math.inf,
+            self.merge_extent if self.merge_model else 0.0,
+            self._noise_cov(),
+            self.merge_area_std**2,
+            math.log(self.merge_odds),
+            self.max_exact,
+        )
+        if frame.status != _kernels.FRAME_OK:
+            raise np.linalg.LinAlgError(
+                f"predicted covariance S of track {frame.bad} is not positive definite"
+            )
+        p_seen, z_mean, z_spread, best = frame.p_seen, frame.z_mean, frame.z_spread, frame.best
+        if len(frame.big):
+            self._approximate(frame, prediction, z)
+        np.clip(p_seen, 0.0, 1.0, out=p_seen)  # sums of marginals may pass 1 by an ulp
+        self.approximate_tracks += len(frame.big)
+        self.last_cluster_tracks = frame.cluster_tracks
+        det_of_track = np.where(p_seen >= 0.5, best, -1)
+        if self.recovery_inflation > 1.0 and len(z):
+            unseen = det_of_track < 0
+            if unseen.any():
+                before = det_of_track.copy()
+                self._recover(prediction, z, det_of_track)
+                recovered = np.flatnonzero(before != det_of_track)
+                if len(recovered):  # the second chance is a hard assignment
+                    p_seen[recovered] = 1.0
+                    z_mean[recovered] = z[det_of_track[recovered]]
+                    z_spread[recovered] = 0.0
+        self.last_p_seen = p_seen
+        self._mixture = (z_mean, z_spread, p_seen)
+        seen = det_of_track >= 0
+        z_tracks = predicted + p_seen[:, None] * (z_mean - predicted)
+        z_tracks[~seen] = 0.0
+        return det_of_track, z_tracks
+
+    def _approximate(self, frame: _kernels.JpdaFrame, prediction: Gaussian, z: NDArray[np.float64]) -> None:
+        """Marginals of the clusters above ``max_exact`` by loopy belief propagation (no merged
+        blobs), written into ``frame``'s per-track arrays."""
+        tracks = frame.big
+        sub = Gaussian(prediction.mean[tracks], prediction.cov[tracks])
+        loglik, d2 = gaussian_log_likelihood(sub, z)
+        weights = jpda_log_weights(loglik, d2 <= self._gate, self.p_detect, self.clutter_density, self.p_gate)
+        dets = np.flatnonzero((d2 <= self._gate).any(axis=0))
+        pairs, _, clutter = lbp_marginals(weights.log_pair[:, dets], weights.log_miss)
+        zd = z[dets]
+        p = pairs.sum(axis=1)
+        safe = np.where(p > 0, p, 1.0)
+        z_mean = np.where(p[:, None] > 0, pairs @ zd / safe[:, None], prediction.mean[tracks])
+        diff = zd[None, :, :] - z_mean[:, None, :]
+        spread = np.einsum("tj,tjd,tje->tde", pairs / safe[:, None], diff, diff)
+        frame.p_seen[tracks] = p
+        frame.z_mean[tracks] = z_mean
+        frame.z_spread[tracks] = spread
+        best = np.argmax(pairs, axis=1)
+        frame.best[tracks] = np.where(pairs.max(axis=1) > 0, dets[best], -1)
+        frame.clutter[dets] = np.minimum(frame.clutter[dets], clutter)
+
+    def _update_tracks(self, state: Any, z_tracks: NDArray[np.float64], seen: NDArray[np.bool_]) -> Any:
+        """The PDA update (``update_mixture``), or the core update by the mixture's mean."""
+        assert self._mixture is not None
+        if self._mixture_update is not None:
+            return self._mixture_update.update_mixture(state, *self._mixture)
+        return self.predictor.update(state, z_tracks, seen)
