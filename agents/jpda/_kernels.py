@@ -183,7 +183,7 @@ def _union(parent: IntArray, a: int, b: int) -> None:
 
 
 @njit(cache=True)
-def _cluster_marginals(
+def _cluster_marginals_log(
     L: FloatArray,
     log_miss: float,
     m_a: IntArray,
@@ -194,7 +194,8 @@ def _cluster_marginals(
     PM: FloatArray,
     PC: FloatArray,
 ) -> bool:
-    """Exact marginals of one cluster (module docstring, step 4), local indices.
+    """Exact marginals of one cluster (module docstring, step 4), local indices, in log space
+    (the fallback of :func:`_cluster_marginals` for weights beyond the float range).
 
     Args:
         L: (nc, mc) log pair weights (−inf outside the gate).
@@ -266,6 +267,172 @@ def _cluster_marginals(
 
 
 @njit(cache=True)
+def _dp_linear(
+    W: FloatArray,
+    step_free: FloatArray,
+    item_free: FloatArray,
+    m_a: IntArray,
+    m_b: IntArray,
+    m_step: IntArray,
+    m_w: FloatArray,
+    P: FloatArray,
+    PM: FloatArray,
+    PS: FloatArray,
+) -> bool:
+    """The recursion of step 4 in linear space: ``K`` steps (``W`` rows) over a bitmask of ``C``
+    items (``W`` columns). Step ``s`` takes item ``c`` (factor ``W[s, c]``), two items of a merged
+    hypothesis ``e`` with ``m_step[e] = s`` (factor ``m_w[e]``), or nothing (``step_free[s]``);
+    an item never taken closes with ``item_free[c]``. Adds the marginals to ``P`` (K, C), ``PM``
+    (e,) and ``PS`` (K,); False when ``Z`` is not a positive finite number (the caller then
+    uses the log-space recursion)."""
+    K, C = W.shape
+    ne = len(m_a)
+    nm = 1 << C
+    full = nm - 1
+    F = np.zeros((K + 1, nm))
+    G = np.zeros((K + 1, nm))
+    F[0, 0] = 1.0
+    for s in range(K):
+        sf = step_free[s]
+        for A in range(nm):
+            acc = F[s, A] * sf
+            for c in range(C):
+                if (A >> c) & 1:
+                    acc += F[s, A ^ (1 << c)] * W[s, c]
+            for e in range(ne):
+                if m_step[e] == s:
+                    bits = (1 << m_a[e]) | (1 << m_b[e])
+                    if A & bits == bits:
+                        acc += F[s, A ^ bits] * m_w[e]
+            F[s + 1, A] = acc
+    for A in range(nm):
+        g = 1.0
+        for c in range(C):
+            if not (A >> c) & 1:
+                g *= item_free[c]
+        G[K, A] = g
+    for s in range(K - 1, -1, -1):
+        sf = step_free[s]
+        for A in range(nm):
+            acc = G[s + 1, A] * sf
+            for c in range(C):
+                if not (A >> c) & 1:
+                    acc += W[s, c] * G[s + 1, A | (1 << c)]
+            for e in range(ne):
+                if m_step[e] == s:
+                    bits = (1 << m_a[e]) | (1 << m_b[e])
+                    if A & bits == 0:
+                        acc += m_w[e] * G[s + 1, A | bits]
+            G[s, A] = acc
+    Z = G[0, 0]
+    if not 0.0 < Z < np.inf:
+        return False
+    inv = 1.0 / Z
+    for s in range(K):
+        ps = 0.0
+        sf = step_free[s]
+        for A in range(nm):
+            f = F[s, A]
+            if f == 0.0:
+                continue
+            ps += f * sf * G[s + 1, A]
+            rest = full ^ A
+            for c in range(C):
+                if (rest >> c) & 1:
+                    P[s, c] += f * W[s, c] * G[s + 1, A | (1 << c)] * inv
+            for e in range(ne):
+                if m_step[e] == s:
+                    bits = (1 << m_a[e]) | (1 << m_b[e])
+                    if A & bits == 0:
+                        PM[e] += f * m_w[e] * G[s + 1, A | bits] * inv
+        PS[s] = ps * inv
+    return True
+
+
+@njit(cache=True)
+def _cluster_marginals(
+    L: FloatArray,
+    log_miss: float,
+    m_a: IntArray,
+    m_b: IntArray,
+    m_det: IntArray,
+    m_w: FloatArray,
+    P: FloatArray,
+    PM: FloatArray,
+    PC: FloatArray,
+) -> bool:
+    """Exact marginals of one cluster (module docstring, step 4), local indices.
+
+    In linear space with every factor scaled so that the largest of its row of steps is 1 (a
+    constant per step multiplies every joint event once, so the marginals do not change): the
+    bitmask runs over the tracks with the detections as steps, or, without merged hypotheses
+    and with fewer detections than tracks, over the detections with the tracks as steps
+    (``O(K · C · 2^C)`` for the smaller side ``C``). Falls back to the log-space recursion
+    (:func:`_cluster_marginals_log`) when the scaled weights leave the float range.
+
+    Args and return as :func:`_cluster_marginals_log`.
+    """
+    nc, mc = L.shape
+    ne = len(m_a)
+    miss = math.exp(log_miss) if log_miss > -np.inf else 0.0
+    if ne == 0 and mc < nc:
+        # steps: tracks (free: missed); items: detections (free: clutter)
+        W = np.zeros((nc, mc))
+        step_free = np.empty(nc)
+        for t in range(nc):
+            top = log_miss
+            for j in range(mc):
+                if L[t, j] > top:
+                    top = L[t, j]
+            step_free[t] = math.exp(log_miss - top) if log_miss > -np.inf else 0.0
+            for j in range(mc):
+                if L[t, j] > -np.inf:
+                    W[t, j] = math.exp(L[t, j] - top)
+        PT = np.zeros((nc, mc))
+        PS = np.zeros(nc)
+        if _dp_linear(W, step_free, np.ones(mc), m_a, m_b, m_det, m_w, PT, PM, PS):
+            for t in range(nc):
+                for j in range(mc):
+                    P[t, j] += PT[t, j]
+            for j in range(mc):
+                c = 1.0
+                for t in range(nc):
+                    c -= PT[t, j]
+                PC[j] = max(c, 0.0)
+            return True
+    else:
+        # steps: detections (free: clutter); items: tracks (free: missed)
+        W = np.zeros((mc, nc))
+        step_free = np.empty(mc)
+        mw = np.empty(ne)
+        for j in range(mc):
+            top = 0.0
+            for t in range(nc):
+                if L[t, j] > top:
+                    top = L[t, j]
+            for e in range(ne):
+                if m_det[e] == j and m_w[e] > top:
+                    top = m_w[e]
+            step_free[j] = math.exp(-top)
+            for t in range(nc):
+                if L[t, j] > -np.inf:
+                    W[j, t] = math.exp(L[t, j] - top)
+            for e in range(ne):
+                if m_det[e] == j:
+                    mw[e] = math.exp(m_w[e] - top)
+        PT = np.zeros((mc, nc))
+        if _dp_linear(W, step_free, np.full(nc, miss), m_a, m_b, m_det, mw, PT, PM, PC):
+            for t in range(nc):
+                for j in range(mc):
+                    P[t, j] += PT[j, t]
+            return True
+    P[:] = 0.0
+    PM[:] = 0.0
+    PC[:] = 0.0
+    return _cluster_marginals_log(L, log_miss, m_a, m_b, m_det, m_w, P, PM, PC)
+
+
+@njit(cache=True)
 def jpda_frame(
     mean: FloatArray,
     cov: FloatArray,
@@ -319,8 +486,19 @@ def jpda_frame(
     e_d = np.empty(cap, np.int64)
     e_w = np.empty(cap)
     ne = 0
+    # a pair farther along the first axis than sqrt(γ S_00) is outside the gate (d² >= Δ₀² / S_00)
+    reach = np.empty(n)
     for i in range(n):
-        for j in range(m):
+        reach[i] = math.sqrt(gate * cov[i, 0, 0])
+    z_order = np.argsort(z[:, 0])
+    zx = np.empty(m)
+    for q in range(m):
+        zx[q] = z[z_order[q], 0]
+    for i in range(n):
+        lo = np.searchsorted(zx, mean[i, 0] - reach[i])
+        hi = np.searchsorted(zx, mean[i, 0] + reach[i], side="right")
+        for q in range(lo, hi):
+            j = z_order[q]
             for d in range(D):
                 diff[d] = z[j, d] - mean[i, d]
             d2 = _mahalanobis(chol[i], diff, work)
@@ -367,7 +545,11 @@ def jpda_frame(
                     continue
                 ln = _log_norm(cl)
                 lo, hi = (a, b) if a < b else (b, a)
-                for j in range(m):
+                r0 = math.sqrt(gate * cm[0, 0])
+                q0 = np.searchsorted(zx, mu[0] - r0)
+                q1 = np.searchsorted(zx, mu[0] + r0, side="right")
+                for q in range(q0, q1):
+                    j = z_order[q]
                     for d in range(D):
                         diff[d] = z[j, d] - mu[d]
                     d2 = _mahalanobis(cl, diff, work)
@@ -465,6 +647,12 @@ def jpda_frame(
             continue
         if mc == 0:
             continue
+        if nc == 1 and g_start[c + 1] == g_start[c]:
+            _single_track(
+                t_of[t_start[c]], e_ord[e_start[c] : e_start[c + 1]], e_d, e_w, log_miss, z,
+                p_seen, z_mean, z_spread, best, best_prob, clutter, diff,
+            )  # fmt: skip
+            continue
         L = np.full((nc, mc), -np.inf)
         for q in range(e_start[c], e_start[c + 1]):
             k = e_ord[q]
@@ -529,6 +717,64 @@ def jpda_frame(
     return JpdaFrame(
         p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, c_nt, c_nd, big, FRAME_OK, -1
     )
+
+
+@njit(cache=True)
+def _single_track(
+    i: int,
+    edges: IntArray,
+    e_d: IntArray,
+    e_w: FloatArray,
+    log_miss: float,
+    z: FloatArray,
+    p_seen: FloatArray,
+    z_mean: FloatArray,
+    z_spread: FloatArray,
+    best: IntArray,
+    best_prob: FloatArray,
+    clutter: FloatArray,
+    diff: FloatArray,
+) -> None:
+    """A cluster of one track and no merged blob (Bar-Shalom's PDA in closed form):
+    ``β_j = w_j / (w_∅ + Σ_k w_k)``, each detection clutter with ``1 − β_j``; the mixture
+    of step 5 written for track ``i``."""
+    D = z.shape[1]
+    top = log_miss
+    for q in range(len(edges)):
+        if e_w[edges[q]] > top:
+            top = e_w[edges[q]]
+    total = math.exp(log_miss - top) if log_miss > -np.inf else 0.0
+    for q in range(len(edges)):
+        total += math.exp(e_w[edges[q]] - top)
+    p = 0.0
+    for d in range(D):
+        z_mean[i, d] = 0.0
+    for q in range(len(edges)):
+        k = edges[q]
+        w = math.exp(e_w[k] - top) / total
+        j = e_d[k]
+        clutter[j] = 1.0 - w
+        p += w
+        for d in range(D):
+            z_mean[i, d] += w * z[j, d]
+        if w > best_prob[i]:
+            best_prob[i], best[i] = w, j
+    p_seen[i] = p
+    if not p > 0.0:  # every detection e^-700 below the miss: coasts
+        for d in range(D):
+            z_mean[i, d] = z[e_d[edges[0]], d]
+        return
+    for d in range(D):
+        z_mean[i, d] /= p
+    for q in range(len(edges)):
+        k = edges[q]
+        w = math.exp(e_w[k] - top) / total / p
+        j = e_d[k]
+        for d in range(D):
+            diff[d] = z[j, d] - z_mean[i, d]
+        for r in range(D):
+            for t in range(D):
+                z_spread[i, r, t] += w * diff[r] * diff[t]
 
 
 @njit(cache=True)

@@ -24,6 +24,8 @@ Kernels and their results (``n`` tracks, ``S`` state entries, ``D`` measured one
   both of the above in one call.
 * :func:`update_tracks` → :class:`UpdatedTracks` ``(mean, cov, status, row)``: the Joseph-form
   update of the seen tracks.
+* :func:`mixture_update_tracks` → :class:`UpdatedTracks`: the PDA update by each track's
+  measurement mixture.
 * :func:`start_tracks` → ``(mean (n, S), cov (n, S, S))``: the states of new tracks.
 * :func:`keep_and_start_tracks` → :class:`KeptAndStarted` ``(mean, cov, status)``: the survivors
   followed by new tracks.
@@ -338,6 +340,119 @@ def update_tracks(
         bad = _update_rows(mean, cov, z, seen, H, R, mean_u, cov_u, S, D)
     if bad >= 0:
         return UpdatedTracks(mean_u, cov_u, UPDATE_NOT_PD, bad)
+    return UpdatedTracks(mean_u, cov_u, UPDATE_OK, -1)
+
+
+@njit(cache=True)
+def mixture_update_tracks(
+    mean: FloatArray, cov: FloatArray, z_mean: FloatArray, z_spread: FloatArray, p_seen: FloatArray,
+    H: FloatArray, R: FloatArray,
+) -> UpdatedTracks:  # fmt: skip
+    """PDA update of every track with ``p_seen > 0`` (see
+    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`):
+
+    .. math::
+
+        S = H P Hᵀ + R = L Lᵀ, \\quad K = P Hᵀ S^{-1}, \\quad δ = \\bar z - H x,
+
+        x^+ = x + p K δ, \\qquad P^+ = P + p K (Σ + (1 - p) δ δ^\\top - S) K^\\top,
+
+    on the upper triangle and mirrored. Tracks with ``p_seen = 0`` are copied unchanged.
+
+    Returns:
+        :class:`UpdatedTracks`: status :data:`UPDATE_NOT_PD` and the row of the first track whose
+        ``S`` is not positive definite, or :data:`UPDATE_NONFINITE_Z` for a non-finite ``z̄`` or
+        ``Σ`` where ``p > 0``.
+    """
+    n, S = mean.shape
+    D = H.shape[0]
+    mean_u = mean.copy()
+    cov_u = cov.copy()
+    PHt = np.empty((S, D))
+    Sm = np.empty((D, D))
+    L = np.zeros((D, D))
+    K = np.empty((S, D))
+    M = np.empty((D, D))
+    KM = np.empty((S, D))
+    y = np.empty(D)
+    for t in range(n):
+        p = p_seen[t]
+        if p <= 0.0:
+            continue
+        for d in range(D):
+            if not np.isfinite(z_mean[t, d]):
+                return UpdatedTracks(mean_u, cov_u, UPDATE_NONFINITE_Z, t)
+            for e in range(D):
+                if not np.isfinite(z_spread[t, d, e]):
+                    return UpdatedTracks(mean_u, cov_u, UPDATE_NONFINITE_Z, t)
+        for a in range(S):
+            for d in range(D):
+                acc = 0.0
+                for k in range(S):
+                    h = H[d, k]
+                    if h != 0.0:
+                        acc += cov[t, a, k] * h
+                PHt[a, d] = acc
+        for d in range(D):
+            hx = 0.0
+            for k in range(S):
+                h = H[d, k]
+                if h != 0.0:
+                    hx += h * mean[t, k]
+            y[d] = z_mean[t, d] - hx
+            for e in range(D):
+                acc = R[d, e]
+                for k in range(S):
+                    h = H[d, k]
+                    if h != 0.0:
+                        acc += h * PHt[k, e]
+                Sm[d, e] = acc
+        # Cholesky of S (symmetrised)
+        for r in range(D):
+            for c in range(r + 1):
+                acc = 0.5 * (Sm[r, c] + Sm[c, r])
+                for k in range(c):
+                    acc -= L[r, k] * L[c, k]
+                if r == c:
+                    if not acc > 0.0:
+                        return UpdatedTracks(mean_u, cov_u, UPDATE_NOT_PD, t)
+                    L[r, r] = np.sqrt(acc)
+                else:
+                    L[r, c] = acc / L[c, c]
+        # K = P Hᵀ S⁻¹ row by row: solve L Lᵀ kᵀ = (P Hᵀ)ᵀ_a
+        for a in range(S):
+            for r in range(D):
+                acc = PHt[a, r]
+                for k in range(r):
+                    acc -= L[r, k] * K[a, k]
+                K[a, r] = acc / L[r, r]
+            for r in range(D - 1, -1, -1):
+                acc = K[a, r]
+                for k in range(r + 1, D):
+                    acc -= L[k, r] * K[a, k]
+                K[a, r] = acc / L[r, r]
+        for a in range(S):
+            acc = 0.0
+            for d in range(D):
+                acc += K[a, d] * y[d]
+            mean_u[t, a] = mean[t, a] + p * acc
+        for d in range(D):
+            for e in range(D):
+                M[d, e] = z_spread[t, d, e] + (1.0 - p) * y[d] * y[e] - 0.5 * (Sm[d, e] + Sm[e, d])
+        for a in range(S):
+            for e in range(D):
+                acc = 0.0
+                for d in range(D):
+                    acc += K[a, d] * M[d, e]
+                KM[a, e] = acc
+        for a in range(S):
+            for b in range(a, S):
+                acc = 0.0
+                for e in range(D):
+                    acc += KM[a, e] * K[b, e]
+                v = 0.5 * (cov[t, a, b] + cov[t, b, a]) + p * acc
+                cov_u[t, a, b] = v
+                cov_u[t, b, a] = v
     return UpdatedTracks(mean_u, cov_u, UPDATE_OK, -1)
 
 

@@ -600,23 +600,14 @@ class KalmanPredictor:
         p = _f64(p_seen)
         if p.shape != (n,) or not np.all((p >= 0.0) & (p <= 1.0)):
             raise ValueError(f"p_seen must be (n={n},) probabilities in [0, 1], got {p!r}")
-        live = np.flatnonzero(p > 0.0)
-        if len(live) == 0:
-            return KalmanState(mean.copy(), cov.copy())
-        if not np.all(np.isfinite(zz[live])) or not np.all(np.isfinite(spread[live])):
-            raise ValueError("z_mean and z_spread must be finite where p_seen > 0")
-        x, P, pl = mean[live], cov[live], p[live]
-        PHt = P @ self.H.T  # (k, S, D)
-        S = self.H @ PHt + self.R  # (k, D, D)
-        K = np.linalg.solve(S, PHt.transpose(0, 2, 1)).transpose(0, 2, 1)  # P Hᵀ S⁻¹, S symmetric
-        delta = zz[live] - x @ self.H.T
-        x_new = x + pl[:, None] * np.einsum("ksd,kd->ks", K, delta)
-        inner = spread[live] + (1.0 - pl)[:, None, None] * (delta[:, :, None] * delta[:, None, :]) - S
-        P_new = P + pl[:, None, None] * (K @ inner @ K.transpose(0, 2, 1))
-        out_mean, out_cov = mean.copy(), cov.copy()
-        out_mean[live] = x_new
-        out_cov[live] = 0.5 * (P_new + P_new.transpose(0, 2, 1))
-        return KalmanState(out_mean, out_cov)
+        out = _kernels.mixture_update_tracks(mean, cov, zz, spread, p, self.H, self.R)
+        if out.status == _kernels.UPDATE_NONFINITE_Z:
+            raise ValueError(f"z_mean and z_spread must be finite where p_seen > 0 (track {out.row})")
+        if out.status == _kernels.UPDATE_NOT_PD:
+            raise np.linalg.LinAlgError(
+                f"innovation covariance S of track {out.row} is not positive definite"
+            )
+        return KalmanState(out.mean, out.cov)
 
     def rollout_crossings(
         self, state: KalmanState, line: float, frame: int, dt: float, max_steps: int
