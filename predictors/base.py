@@ -57,6 +57,9 @@ concrete class. The declaration is read from the class, so a wrapper object decl
   detected with a measurement of mean ``z̄`` and spread ``Σ``; the state is the single Gaussian
   that matches the mixture's first two moments. Used by jpda. Kalman filters (Bar-Shalom's PDA
   update, exact); without it jpda falls back to ``update`` by the mixture's mean.
+* ``TRANSLATE`` (:class:`Translate`) — ``translate(state, offset) -> state``: every track moved
+  by ``offset`` (n, D) in measurement space, its motion unchanged (a blob that fell apart hands its
+  track to one piece without a velocity jump). Used by jpda. Kalman filters, belt LSTMs.
 * ``RANDOM_STREAM`` (:class:`RandomStream`) — ``reset(spec, *, rng=None)``: the random stream
   the predictor draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the
   same seed gives the same report. Used by every tracker's reset (:func:`reset_predictor`). Belt
@@ -217,6 +220,7 @@ class Capability(StrEnum):
     CALIBRATION = "calibration"
     RANDOM_STREAM = "random-stream"
     MIXTURE_UPDATE = "mixture-update"
+    TRANSLATE = "translate"
 
 
 class Crossings(NamedTuple):
@@ -329,6 +333,15 @@ class MixtureUpdate(Predictor, Protocol):
         ...
 
 
+class Translate(Predictor, Protocol):
+    """``TRANSLATE``: move tracks without changing their motion."""
+
+    def translate(self, state: Any, offset: NDArray[np.floating]) -> Any:
+        """Every track moved by ``offset`` (n, D) in measurement space: its estimate and its next
+        prediction shift by that much, its velocity (and what else it knows of its motion) stays."""
+        ...
+
+
 class RandomStream(Predictor, Protocol):
     """``RANDOM_STREAM``: ``reset`` takes the random stream the predictor draws from."""
 
@@ -348,6 +361,7 @@ PROTOCOLS: dict[Capability, type] = {
     Capability.CALIBRATION: Calibrated,
     Capability.RANDOM_STREAM: RandomStream,
     Capability.MIXTURE_UPDATE: MixtureUpdate,
+    Capability.TRANSLATE: Translate,
 }
 
 
@@ -391,6 +405,8 @@ def capability(predictor: object, which: Literal[Capability.CALIBRATION]) -> Cal
 def capability(predictor: object, which: Literal[Capability.RANDOM_STREAM]) -> RandomStream | None: ...
 @overload
 def capability(predictor: object, which: Literal[Capability.MIXTURE_UPDATE]) -> MixtureUpdate | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.TRANSLATE]) -> Translate | None: ...
 def capability(predictor: object, which: Capability) -> Any:
     """``predictor``, typed as the protocol of capability ``which``, when its class declares it;
     else ``None``. The one way a tracker asks for an optional capability (module docstring).

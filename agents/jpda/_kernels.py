@@ -445,6 +445,7 @@ def jpda_frame(
     area_var: float,
     log_merge_odds: float,
     max_exact: int,
+    mergeable: NDArray[np.bool_],
 ) -> JpdaFrame:
     """The JPDA association of one frame (module docstring).
 
@@ -459,6 +460,7 @@ def jpda_frame(
         area_var: ``σ_w²``, the variance of a blob member's area fraction around ½.
         log_merge_odds: log prior odds of a merged blob against two separate particles.
         max_exact: clusters of more tracks are left to the caller (``big``).
+        mergeable: (n,) the tracks that may form a merged blob.
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -524,10 +526,14 @@ def jpda_frame(
         order = np.argsort(mean[:, 0])
         for oa in range(n):
             a = order[oa]
+            if not mergeable[a]:
+                continue
             for ob in range(oa + 1, n):
                 b = order[ob]
                 if mean[b, 0] - mean[a, 0] > extent:
                     break
+                if not mergeable[b]:
+                    continue
                 dist2 = 0.0
                 for d in range(D):
                     dist2 += (mean[a, d] - mean[b, d]) ** 2
@@ -801,3 +807,129 @@ def _accumulate(
         for r in range(D):
             for s in range(D):
                 z_spread[i, r, s] += w * diff[r] * diff[s]
+
+
+class BlobSplits(NamedTuple):
+    """Result of :func:`split_blobs`: one row per split (ascending track).
+
+    Attributes:
+        track: the track whose blob fell apart.
+        keep: the piece it follows (the nearer one to its prediction).
+        other: the piece left for a new track.
+        midpoint: (k, D) the pieces' midpoint, the blob's centroid the track is updated with.
+    """
+
+    track: IntArray
+    keep: IntArray
+    other: IntArray
+    midpoint: FloatArray
+
+
+@njit(cache=True)
+def split_blobs(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    unseen: NDArray[np.bool_],
+    free: NDArray[np.bool_],
+    gate: float,
+    noise_cov: FloatArray,
+    area_var: float,
+    extent: float,
+) -> BlobSplits:
+    r"""Blobs that fell apart: a track that took no detection, and two free detections whose
+    midpoint its prediction explains.
+
+    A track may have followed a blob of touching particles; when they separate, its detection
+    becomes two pieces whose area-weighted centroid is where the blob would have been. For an
+    unseen track ``i`` and free detections ``j, k`` at most ``extent`` apart, with ``Δ = z_j − z_k``
+    and midpoint ``c = ½ (z_j + z_k)``, the hypothesis is admissible when
+
+    .. math::
+
+        (c - ŷ_i)^\top C^{-1} (c - ŷ_i) \le γ, \qquad
+        C = S_i - \tfrac12 R + σ_w^2 Δ Δ^\top
+
+    (``S_i − R`` the position's uncertainty, ``R/2`` the midpoint's noise, ``σ_w²`` the area
+    split). Admissible hypotheses are taken greedily by that distance, each track and detection
+    once.
+    """
+    n, D = mean.shape
+    m = z.shape[0]
+    cand_t = np.empty(0, np.int64)
+    cand_j = np.empty(0, np.int64)
+    cand_k = np.empty(0, np.int64)
+    cand_d = np.empty(0)
+    C = np.zeros((D, D))
+    Lc = np.zeros((D, D))
+    diff = np.zeros(D)
+    work = np.zeros(D)
+    free_idx = np.flatnonzero(free)
+    ts = []
+    js = []
+    ks = []
+    ds = []
+    for i in range(n):
+        if not unseen[i]:
+            continue
+        for a in range(len(free_idx)):
+            j = free_idx[a]
+            if abs(z[j, 0] - mean[i, 0]) > extent:
+                continue
+            for b in range(a + 1, len(free_idx)):
+                k = free_idx[b]
+                sep2 = 0.0
+                for d in range(D):
+                    sep2 += (z[j, d] - z[k, d]) ** 2
+                if sep2 > extent * extent:
+                    continue
+                for r in range(D):
+                    diff[r] = 0.5 * (z[j, r] + z[k, r]) - mean[i, r]
+                    for c in range(D):
+                        C[r, c] = (
+                            cov[i, r, c]
+                            - 0.5 * noise_cov[r, c]
+                            + area_var * (z[j, r] - z[k, r]) * (z[j, c] - z[k, c])
+                        )
+                if not _cholesky(C, Lc):
+                    continue
+                d2 = _mahalanobis(Lc, diff, work)
+                if d2 <= gate:
+                    ts.append(i)
+                    js.append(j)
+                    ks.append(k)
+                    ds.append(d2)
+    if len(ts):
+        cand_t, cand_j, cand_k, cand_d = np.array(ts), np.array(js), np.array(ks), np.array(ds)
+    order = np.argsort(cand_d, kind="mergesort")
+    used_t = np.zeros(n, np.bool_)
+    used_d = np.zeros(m, np.bool_)
+    out_t = []
+    out_keep = []
+    out_other = []
+    for q in order:
+        i, j, k = cand_t[q], cand_j[q], cand_k[q]
+        if used_t[i] or used_d[j] or used_d[k]:
+            continue
+        used_t[i] = used_d[j] = used_d[k] = True
+        dj = 0.0
+        dk = 0.0
+        for d in range(D):
+            dj += (z[j, d] - mean[i, d]) ** 2
+            dk += (z[k, d] - mean[i, d]) ** 2
+        out_t.append(i)
+        out_keep.append(j if dj <= dk else k)
+        out_other.append(k if dj <= dk else j)
+    ns = len(out_t)
+    track = np.empty(ns, np.int64)
+    keep = np.empty(ns, np.int64)
+    other = np.empty(ns, np.int64)
+    for q in range(ns):
+        track[q], keep[q], other[q] = out_t[q], out_keep[q], out_other[q]
+    order2 = np.argsort(track)
+    track, keep, other = track[order2], keep[order2], other[order2]
+    midpoint = np.empty((ns, D))
+    for q in range(ns):
+        for d in range(D):
+            midpoint[q, d] = 0.5 * (z[keep[q], d] + z[other[q], d])
+    return BlobSplits(track, keep, other, midpoint)

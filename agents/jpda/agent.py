@@ -59,8 +59,12 @@ MIN_CLUTTER_RATE = 0.01
 #: Default largest distance of two predictions that may be one merged blob (sensor units; metres
 #: on the belt: about a particle's length).
 MERGE_EXTENT = 0.006
-#: Default std of a blob member's area fraction around ½ (equal particles: 0).
-MERGE_AREA_STD = 0.1
+#: Updates in a row before a track may form or split a merged blob: a new track's prediction is
+#: too wide to tell a blob from its own particle (its velocity is barely known).
+MERGE_STREAK = 3
+#: Default std of a blob member's area fraction around ½: 0, the blob of two equal particles is
+#: centred between them (particles of unequal sizes: their spread of area fractions).
+MERGE_AREA_STD = 0.0
 
 
 def _positive(name: str, value: object, *, allow_zero: bool = False) -> float:
@@ -149,6 +153,7 @@ class JpdaAgent(GnnAgent):
             raise ValueError(f"max_exact must be an integer >= 1, got {max_exact!r}")
         self.max_exact = int(max_exact)
         self._mixture_update = capability(self.predictor, Capability.MIXTURE_UPDATE)
+        self._translate = capability(self.predictor, Capability.TRANSLATE)
 
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
         """Start an episode with sensor ``spec`` (gnn's reset), and fix ``p_D`` and ``λ`` from it."""
@@ -168,6 +173,8 @@ class JpdaAgent(GnnAgent):
                 )
             self.clutter_density = max(float(spec.clutter_rate), self.min_clutter_rate) / area
         self.approximate_tracks = 0
+        self.blob_splits = 0
+        self._shift = None
         self.last_cluster_tracks = np.zeros(0, dtype=np.int64)
         self.last_p_seen = np.zeros(0)
         self._mixture: tuple[NDArray, NDArray, NDArray] | None = None
@@ -194,6 +201,7 @@ class JpdaAgent(GnnAgent):
             self.merge_area_std**2,
             math.log(self.merge_odds),
             self.max_exact,
+            self._streak >= MERGE_STREAK,
         )
         if frame.status != _kernels.FRAME_OK:
             raise np.linalg.LinAlgError(
@@ -206,6 +214,9 @@ class JpdaAgent(GnnAgent):
         self.approximate_tracks += len(frame.big)
         self.last_cluster_tracks = frame.cluster_tracks
         det_of_track = np.where(p_seen >= 0.5, best, -1)
+        self._shift: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        if self.merge_model and len(z) > 1:
+            self._split_blobs(predicted, cov, z, det_of_track, p_seen, z_mean, z_spread)
         if self.recovery_inflation > 1.0 and len(z):
             unseen = det_of_track < 0
             if unseen.any():
@@ -222,6 +233,47 @@ class JpdaAgent(GnnAgent):
         z_tracks = predicted + p_seen[:, None] * (z_mean - predicted)
         z_tracks[~seen] = 0.0
         return det_of_track, z_tracks
+
+    def _split_blobs(
+        self,
+        predicted: NDArray[np.float64],
+        cov: NDArray[np.float64],
+        z: NDArray[np.float64],
+        det_of_track: NDArray[np.int64],
+        p_seen: NDArray[np.float64],
+        z_mean: NDArray[np.float64],
+        z_spread: NDArray[np.float64],
+    ) -> None:
+        """Blobs that fell apart (:func:`agents.jpda._kernels.split_blobs`), in place: the track is
+        updated with the pieces' midpoint (where its blob is, so no jump goes into its motion),
+        then moved onto the nearer piece (``TRANSLATE``; without it the track stays at the
+        midpoint this frame); the other piece is left for a new track."""
+        free = np.ones(len(z), dtype=np.bool_)
+        free[det_of_track[det_of_track >= 0]] = False
+        unseen = (det_of_track < 0) & (self._streak >= MERGE_STREAK)
+        if not unseen.any() or free.sum() < 2:
+            return
+        splits = _kernels.split_blobs(
+            predicted,
+            cov,
+            z,
+            unseen,
+            free,
+            self._gate,
+            self._noise_cov(),
+            self.merge_area_std**2,
+            self.merge_extent,
+        )
+        if not len(splits.track):
+            return
+        t = splits.track
+        det_of_track[t] = splits.keep
+        p_seen[t] = 1.0
+        z_mean[t] = splits.midpoint
+        z_spread[t] = 0.0
+        self.blob_splits += len(t)
+        if self._translate is not None:
+            self._shift = (t, z[splits.keep] - splits.midpoint)
 
     def _approximate(self, frame: _kernels.JpdaFrame, prediction: Gaussian, z: NDArray[np.float64]) -> None:
         """Marginals of the clusters above ``max_exact`` by loopy belief propagation (no merged
@@ -249,5 +301,12 @@ class JpdaAgent(GnnAgent):
         """The PDA update (``update_mixture``), or the core update by the mixture's mean."""
         assert self._mixture is not None
         if self._mixture_update is not None:
-            return self._mixture_update.update_mixture(state, *self._mixture)
-        return self.predictor.update(state, z_tracks, seen)
+            state = self._mixture_update.update_mixture(state, *self._mixture)
+        else:
+            state = self.predictor.update(state, z_tracks, seen)
+        if self._shift is not None and self._translate is not None:
+            rows, offset = self._shift
+            full = np.zeros((len(state), offset.shape[1]))
+            full[rows] = offset
+            state = self._translate.translate(state, full)
+        return state

@@ -100,6 +100,7 @@ class LSTMPredictor:
             Capability.COAST,
             Capability.LINE_ROLLOUT,
             Capability.FUSED_SURVIVORS_BIRTHS,
+            Capability.TRANSLATE,
         }
     )
     #: A coasting track's estimate is the one-step prediction from its fed-back input, not a
@@ -275,6 +276,19 @@ class LSTMPredictor:
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z_in, z_cov, z_in.copy(), state.masks)
+
+    def translate(self, state: Any, offset: NDArray[np.floating]) -> Any:
+        """Every track moved by ``offset`` (n, D): its estimate ``z`` and its last input ``z_prev``
+        shift together, so the next prediction (``z_prev`` plus the network's displacement) moves
+        by ``offset`` and the next input's difference is unchanged; the recurrent state stays.
+
+        Raises:
+            ValueError: if ``offset`` is not a finite (n, D) array.
+        """
+        off = np.asarray(offset, dtype=np.float64)
+        if off.shape != state.z.shape or not np.all(np.isfinite(off)):
+            raise ValueError(f"offset must be finite with shape {state.z.shape}, got {off.shape}")
+        return dataclasses.replace(state, z=state.z + off, z_prev=state.z_prev + off)
 
     def coast(self, state: Any) -> tuple[Any, Gaussian]:
         """:meth:`predict` then :meth:`update` with nothing seen, in one pass: every track is fed

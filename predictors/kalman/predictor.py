@@ -319,6 +319,7 @@ class KalmanPredictor:
             Capability.FUSED_SURVIVORS_BIRTHS,
             Capability.LINE_ROLLOUT,
             Capability.MIXTURE_UPDATE,
+            Capability.TRANSLATE,
         }
     )
     #: ``estimate`` after coasting is the propagated state: its covariance is the multi-step one.
@@ -555,6 +556,22 @@ class KalmanPredictor:
         if mask.shape != (n,) or mask.dtype != np.bool_:
             raise ValueError(f"seen must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
         return KalmanState(*_checked_update(mean, cov, zz, mask, self.H, self.R))
+
+    def translate(self, state: KalmanState, offset: NDArray[np.floating]) -> KalmanState:
+        """Every track's position block moved by ``offset`` (n, D); velocity, acceleration and the
+        covariance unchanged (``x ← x + Hᵀ offset``, ``H = [I_D, 0]``).
+
+        Raises:
+            ValueError: if ``offset`` is not a finite (n, D) array.
+        """
+        self._need_reset()
+        mean, cov = self._check_state(state)
+        off = _f64(offset)
+        if off.shape != (len(mean), self.dim) or not np.all(np.isfinite(off)):
+            raise ValueError(f"offset must be finite with shape ({len(mean)}, D={self.dim}), got {off.shape}")
+        moved = mean.copy()
+        moved[:, : self.dim] += off
+        return KalmanState(moved, cov.copy())
 
     def update_mixture(
         self,

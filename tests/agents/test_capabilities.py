@@ -239,6 +239,7 @@ def test_the_kalman_filters_and_belt_lstms_declare_their_capabilities():
         Capability.FUSED_SURVIVORS_BIRTHS,
         Capability.LINE_ROLLOUT,
         Capability.MIXTURE_UPDATE,
+        Capability.TRANSLATE,
     }
     lstm = make_predictor("nll-lstm")
     assert declared_capabilities(lstm) == {
@@ -247,6 +248,7 @@ def test_the_kalman_filters_and_belt_lstms_declare_their_capabilities():
         Capability.COAST,
         Capability.LINE_ROLLOUT,
         Capability.FUSED_SURVIVORS_BIRTHS,
+        Capability.TRANSLATE,
     }
     for predictor in (kf, lstm):
         for which in declared_capabilities(predictor):

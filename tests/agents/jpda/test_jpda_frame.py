@@ -127,7 +127,18 @@ def test_frame_without_merges_equals_the_batched_marginals() -> None:
         loglik, d2 = gaussian_log_likelihood(Gaussian(mean, cov), z)
         mg = association_marginals(jpda_log_weights(loglik, d2 <= gate, p_d, lam, 0.99))
         got = _kernels.jpda_frame(
-            mean, cov, z, gate, math.log(p_d / lam), math.log(1 - p_d * 0.99), 0.0, np.eye(2), 0.0, 0.0, 12
+            mean,
+            cov,
+            z,
+            gate,
+            math.log(p_d / lam),
+            math.log(1 - p_d * 0.99),
+            0.0,
+            np.eye(2),
+            0.0,
+            0.0,
+            12,
+            np.ones(n, np.bool_),
         )
         assert got.status == _kernels.FRAME_OK and len(got.big) == 0
         p = mg.pairs.sum(axis=1)
@@ -159,7 +170,7 @@ def test_a_joined_pair_is_explained_by_its_merged_blob() -> None:
     neighbour = mean[2:] + 1e-5
     z = np.concatenate([blob, neighbour])
     gate = chi2_gate(0.999, 2)
-    args = (gate, math.log(1.0 / 0.25), math.log(1 - 0.999), 0.006, R, 0.01, 0.0, 12)
+    args = (gate, math.log(1.0 / 0.25), math.log(1 - 0.999), 0.006, R, 0.01, 0.0, 12, np.ones(3, np.bool_))
     got = _kernels.jpda_frame(mean, cov, z, *args)
     assert got.p_seen[:2].min() > 0.99
     assert got.merged_with[:2].tolist() == [1, 0] and got.best[:2].tolist() == [0, 0]
@@ -173,6 +184,17 @@ def test_a_joined_pair_is_explained_by_its_merged_blob() -> None:
 def test_a_non_positive_definite_covariance_is_reported() -> None:
     cov = np.array([[[1.0, 0.0], [0.0, 1.0]], [[1.0, 2.0], [2.0, 1.0]]])
     got = _kernels.jpda_frame(
-        np.zeros((2, 2)), cov, np.zeros((1, 2)), 9.0, 0.0, -1.0, 0.0, np.eye(2), 0.0, 0.0, 12
+        np.zeros((2, 2)),
+        cov,
+        np.zeros((1, 2)),
+        9.0,
+        0.0,
+        -1.0,
+        0.0,
+        np.eye(2),
+        0.0,
+        0.0,
+        12,
+        np.ones(2, np.bool_),
     )
     assert got.status == _kernels.FRAME_NOT_PD and got.bad == 1
