@@ -59,6 +59,8 @@ MIN_CLUTTER_RATE = 0.01
 #: Default largest distance of two predictions that may be one merged blob (sensor units; metres
 #: on the belt: about a particle's length).
 MERGE_EXTENT = 0.006
+#: Updates in a row before a track's hypotheses are mixed (before, it takes gnn's assignment).
+SETTLED_STREAK = 3
 #: Updates in a row before a track may form or split a merged blob: a new track's prediction is
 #: too wide to tell a blob from its own particle (its velocity is barely known).
 MERGE_STREAK = 3
@@ -214,6 +216,9 @@ class JpdaAgent(GnnAgent):
         self.approximate_tracks += len(frame.big)
         self.last_cluster_tracks = frame.cluster_tracks
         det_of_track = np.where(p_seen >= 0.5, best, -1)
+        young = self._streak < SETTLED_STREAK
+        if young.any() and len(z):
+            self._hard_for_young(prediction, z, young, det_of_track, p_seen, z_mean, z_spread)
         self._shift: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
         if self.merge_model and len(z) > 1:
             self._split_blobs(predicted, cov, z, det_of_track, p_seen, z_mean, z_spread)
@@ -233,6 +238,34 @@ class JpdaAgent(GnnAgent):
         z_tracks = predicted + p_seen[:, None] * (z_mean - predicted)
         z_tracks[~seen] = 0.0
         return det_of_track, z_tracks
+
+    def _hard_for_young(
+        self,
+        prediction: Gaussian,
+        z: NDArray[np.float64],
+        young: NDArray[np.bool_],
+        det_of_track: NDArray[np.int64],
+        p_seen: NDArray[np.float64],
+        z_mean: NDArray[np.float64],
+        z_spread: NDArray[np.float64],
+    ) -> None:
+        """Tracks not yet settled take gnn's assignment instead of their mixture, in place.
+
+        A new track's velocity is barely known, so its gate spans the neighbouring particles;
+        mixing them would pull it between particles (the coalescence of JPDA with wide gates) and
+        its neighbours' marginals with it. Its detection is the one the joint optimal assignment
+        of the frame gives it (gnn's gated Hungarian over all tracks), or none.
+        """
+        rows, cols = self._associate(prediction, z, self._gate)
+        hard = np.full(len(young), -1, dtype=np.int64)
+        hard[rows] = cols
+        t = np.flatnonzero(young)
+        det = hard[t]
+        det_of_track[t] = det
+        hit = det >= 0
+        p_seen[t] = hit.astype(np.float64)
+        z_mean[t[hit]] = z[det[hit]]
+        z_spread[t] = 0.0
 
     def _split_blobs(
         self,
