@@ -296,6 +296,7 @@ def recovery_costs(
     flow_step: float,
     cap_motion: float,
     cap_noise: float,
+    clutter_log_odds: float = np.inf,
 ) -> RecoveryCosts:
     """Costs of the second-chance association of the tracks and detections left over.
 
@@ -312,6 +313,17 @@ def recovery_costs(
     flow's motion per frame; the median runs over all live tracks ``t``, ``last`` holding their
     previous estimates ``x̂_t``; ``k_u = cap_motion``, ``r_σ = cap_noise``). The cap is only
     computed when some pair passes the inflated gate.
+
+    With clutter (``clutter_log_odds = κ`` finite, :func:`clutter_log_odds`), a pair is also
+    refused (``+inf``) unless the track's target, detected outside its gate and spread by the
+    inflated covariance, explains the detection better than a miss and a clutter detection do:
+
+    .. math::
+
+        c_{ij} \\le 2κ - \\ln\\lvert f S_i \\rvert
+        \\iff (p_D - a) \\, N(z_j; ŷ_i, f S_i) \\ge (1 - p_D) \\, λ ;
+
+    ``κ = +inf`` (no clutter, or ``p_D = 1``) skips the test.
 
     Returns:
         :class:`RecoveryCosts` ``(tracks, dets, cost (k, l), n_admissible, bad, cap)``: the
@@ -359,16 +371,73 @@ def recovery_costs(
     cap2 = cap * cap
     n_admissible = 0
     for a in range(n_tracks):
+        # the largest inflated cost at which the track beats clutter (inf: no clutter)
+        bound = np.inf
+        if clutter_log_odds < np.inf:
+            bound = 2.0 * clutter_log_odds - log_det(loose_cov[a])
         for b in range(dets.shape[0]):
             dist2 = 0.0
             for d in range(dim):
                 diff = loose_z[b, d] - loose_mean[a, d]
                 dist2 += diff * diff
-            if dist2 > cap2:
+            if dist2 > cap2 or cost[a, b] > bound:
                 cost[a, b] = np.inf
             elif cost[a, b] <= gate:
                 n_admissible += 1
     return RecoveryCosts(tracks, dets, cost, n_admissible, -1, cap)
+
+
+def clutter_log_odds(
+    p_detect: float, clutter_density: float, hit_rate: float, p_gate: float, dim: int
+) -> float:
+    """``κ``, the log odds of the second chance's clutter test (:func:`recovery_costs`).
+
+    A track left without a detection in its χ² gate has either not been detected, or been
+    detected outside its gate (a kick, a velocity that was off: what the second chance is for).
+    With ``a`` the probability that a track finds its detection in its gate (``hit_rate``, the
+    rate measured on established tracks), the two have the odds ``(p_D − a) : (1 − p_D)``.
+    A leftover detection ``z`` is either the target's, spread as the inflated prediction
+    ``N(ŷ, f S)``, or clutter of density ``λ``; the second chance takes the pair when
+
+    .. math::
+
+        (p_D - a) \\, N(z; ŷ, f S) \\ge (1 - p_D) \\, λ
+        \\iff (z - ŷ)^\\top (f S)^{-1} (z - ŷ) \\le 2κ - \\ln\\lvert f S \\rvert,
+        \\qquad κ = \\ln \\frac{p_D - a}{(1 - p_D) \\, λ} - \\frac{D}{2} \\ln 2π .
+
+    ``p_D − a`` is kept at least ``p_D (1 − P_G)``, the share of detections the gate misses
+    when the motion model holds. ``+inf`` (every pair passes) without clutter (``λ = 0``) or
+    without misses (``p_D = 1``: a leftover track's target was detected elsewhere); ``−inf``
+    (none passes) with ``p_D = 0``.
+    """
+    if clutter_density <= 0.0 or p_detect >= 1.0:
+        return np.inf
+    if p_detect <= 0.0:
+        return -np.inf
+    outside = max(p_detect - hit_rate, p_detect * (1.0 - p_gate))
+    return float(np.log(outside / ((1.0 - p_detect) * clutter_density)) - 0.5 * dim * np.log(2.0 * np.pi))
+
+
+@njit(cache=True)
+def log_det(cov: FloatArray) -> float:
+    """``ln |S|`` of a symmetric positive definite ``S`` (D, D), by its Cholesky factor; ``+inf``
+    when it is not positive definite (so that the clutter bound refuses the track's pairs)."""
+    dim = cov.shape[0]
+    low = np.zeros((dim, dim))
+    total = 0.0
+    for i in range(dim):
+        for j in range(i + 1):
+            s = cov[i, j]
+            for k in range(j):
+                s -= low[i, k] * low[j, k]
+            if i == j:
+                if not s > 0.0:
+                    return np.inf
+                low[i, i] = np.sqrt(s)
+                total += np.log(s)
+            else:
+                low[i, j] = s / low[j, j]
+    return total
 
 
 @njit(cache=True)

@@ -18,7 +18,19 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
    prior ``v̄``, or the median predicted displacement of the live tracks when larger), ``σ`` the
    sensor's noise std and ``k_u = recovery_cap_motion``, ``k_σ = recovery_cap_noise``: an inflated
    gate of a coasting track grows with every miss, and without the cap it reaches far past the
-   particles next to it;
+   particles next to it.
+   With clutter declared (``SensorSpec.clutter_rate > 0``, density ``λ`` = rate / region volume)
+   and misses (``p_D = SensorSpec.p_detect < 1``), a leftover track has either not been detected
+   or been detected outside its gate, with odds ``(1 − p_D) : (p_D − a)``, where ``a`` is the rate
+   at which established tracks (updated the last two frames, predicted inside the region) find a
+   detection in their gate (measured over the last ≈100 frames; ``p_D − a`` at least
+   ``p_D (1 − p_gate)``). The second chance then takes a pair only when the kicked-target
+   hypothesis beats a miss plus a clutter detection,
+   ``(p_D − a) N(z; ŷ, f S) ≥ (1 − p_D) λ`` (:func:`agents.gnn._kernels.clutter_log_odds`):
+   on a stream whose motion model holds (``a ≈ p_D``) a coasting track no longer takes the clutter
+   detection or another target's first detection in its inflated gate, while on a belt whose
+   collisions knock particles out of their gates (``a < p_D``) it still recovers them. Without
+   clutter, or with ``p_D = 1``, the second chance is as above;
 3. **update / coast**: assigned tracks are corrected with their detection, the others coast;
 4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks that were not
    updated and whose predicted measurement has left the observed region (grown by ``region_margin``);
@@ -79,6 +91,13 @@ YOUNG_STREAK = (3, 6)
 FLOW_WINDOW = 128
 #: Fewest samples for the learnt prior to be used.
 MIN_FLOW_SAMPLES = 3
+#: With clutter, the gate's hit rate (the second chance's clutter test) is measured on the tracks
+#: updated in each of the last ``HIT_STREAK`` frames, ...
+HIT_STREAK = 2
+#: ... over sums that forget this factor per frame (a memory of ≈100 frames), ...
+HIT_MEMORY = 0.99
+#: ... starting from this many track-frames at the declared rate ``p_D P_G``.
+HIT_PRIOR = 50.0
 
 
 @dataclass(frozen=True)
@@ -110,7 +129,8 @@ class GnnAgent:
         assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
         max_misses: A track is deleted after more than this many consecutive misses.
         region_margin: Tracks are deleted when their prediction leaves the observed region grown
-            by this much (sensor units) on every side.
+            by this much (sensor units) on every side; ``math.inf`` turns this deletion off (tracks
+            are then deleted after ``max_misses`` misses only).
         velocity_prior: ``"auto"`` (learnt online, see the module docstring), ``None`` (the
             predictor's own default) or a fixed velocity (D,).
         recovery_inflation: Covariance scale of the second-chance association of leftover tracks
@@ -189,8 +209,12 @@ class GnnAgent:
             raise ValueError(f"assignment must be one of {sorted(ASSOCIATORS)}, got {assignment!r}")
         if not (isinstance(max_misses, int) and max_misses >= 0):
             raise ValueError(f"max_misses must be an integer >= 0, got {max_misses!r}")
-        if not (np.isfinite(region_margin) and region_margin >= 0):
-            raise ValueError(f"region_margin must be a finite number >= 0, got {region_margin!r}")
+        if isinstance(region_margin, bool) or not (
+            isinstance(region_margin, int | float | np.integer | np.floating) and region_margin >= 0
+        ):
+            raise ValueError(
+                f"region_margin must be a number >= 0 (inf: no region deletion), got {region_margin!r}"
+            )
         if isinstance(velocity_prior, str) and velocity_prior != "auto":
             raise ValueError(
                 f"velocity_prior must be 'auto', None or a velocity vector, got {velocity_prior!r}"
@@ -309,6 +333,10 @@ class GnnAgent:
                     f"got {self.velocity_fallback.tolist()}"
                 )
             self._set_flow(self.velocity_fallback.copy(), None)
+        # λ, the declared clutter density (detections per unit volume of the region and frame)
+        self._clutter_density = float(spec.clutter_rate) / float(np.prod(spec.region_size))
+        self._gate_hits = 0.0  # forgetting sums of the gate's hit rate (_gate_hit_rate)
+        self._gate_tries = 0.0
         # the cap's noise std, with the predictors' floor R >= (1 µm)²
         self._noise = max(float(spec.noise_std) * self.noise_scale, 1e-6)
         lo = np.asarray(spec.region_low, dtype=np.float64) - self.region_margin
@@ -513,6 +541,33 @@ class GnnAgent:
             self._recover(prediction, z, det_of_track)
         return det_of_track
 
+    def _count_gate_hits(self, det_of_track: NDArray[np.int64], predicted: NDArray[np.floating]) -> None:
+        """Add this frame's established tracks (updated in each of the last ``HIT_STREAK`` frames,
+        predicted inside the observed region: a target that left gives no detection) and those of
+        them that found a detection in their gate (``det_of_track`` after the gated assignment) to
+        the forgetting sums of :meth:`_gate_hit_rate`. Counted in every frame with a second chance,
+        which with clutter is nearly every frame (a clutter detection is left over)."""
+        assert self._spec is not None
+        inside = np.all(
+            (predicted >= np.asarray(self._spec.region_low))
+            & (predicted <= np.asarray(self._spec.region_high)),
+            axis=1,
+        )
+        established = (self._streak >= HIT_STREAK) & inside
+        tries = int(np.count_nonzero(established))
+        hits = int(np.count_nonzero(det_of_track[established] >= 0))
+        self._gate_tries = HIT_MEMORY * self._gate_tries + tries
+        self._gate_hits = HIT_MEMORY * self._gate_hits + hits
+
+    def _gate_hit_rate(self) -> float:
+        """``a``, the probability that a track finds its detection in its gate: the rate of the
+        established tracks over the last frames (sums forgetting ``HIT_MEMORY`` per frame), with
+        ``HIT_PRIOR`` track-frames at the declared model's ``p_D P_G`` (the rate when the motion
+        model holds)."""
+        assert self._spec is not None
+        declared = self._spec.p_detect * self.p_gate
+        return (self._gate_hits + HIT_PRIOR * declared) / (self._gate_tries + HIT_PRIOR)
+
     def _recover(self, prediction: Gaussian, z: NDArray[np.float64], det_of_track: NDArray[np.int64]) -> None:
         """Second-chance association of the tracks and detections left over, with inflated gates.
 
@@ -520,9 +575,13 @@ class GnnAgent:
         starts a new track, the leftovers are matched once more with every predicted covariance
         scaled by ``recovery_inflation``, among the pairs within the distance cap ``r`` of each
         other (module docstring; :func:`agents.gnn._kernels.recovery_costs`), in place on
-        ``det_of_track``. Called when there are leftovers on both sides.
+        ``det_of_track``. Called when there are leftovers on both sides. With clutter declared,
+        a pair must also beat a miss plus a clutter detection (the module docstring's clutter
+        test, whose hit rate ``a`` this counts from ``det_of_track`` as it comes in).
         """
         assert self._spec is not None
+        if self._clutter_density > 0 and len(self._streak) == len(det_of_track):
+            self._count_gate_hits(det_of_track, prediction.mean)
         leftovers = _kernels.recovery_costs(
             np.ascontiguousarray(prediction.mean, dtype=np.float64),
             np.ascontiguousarray(prediction.cov, dtype=np.float64),
@@ -534,6 +593,9 @@ class GnnAgent:
             self._flow_speed * self._spec.dt if self._flow_mean is not None else 0.0,
             self.recovery_cap_motion,
             self.recovery_cap_noise * self._noise,
+            _kernels.clutter_log_odds(
+                self._spec.p_detect, self._clutter_density, self._gate_hit_rate(), self.p_gate, self._spec.dim
+            ),
         )
         if leftovers.bad >= 0:
             raise np.linalg.LinAlgError(
