@@ -18,6 +18,7 @@ import math
 import numpy as np
 import pytest
 
+from agents import make_agent
 from agents.gnn import _kernels
 from agents.gnn.agent import GnnAgent
 from track_envs.streams.constant_velocity import (
@@ -43,11 +44,13 @@ def clutter_streams() -> dict[int, ConstantVelocityStream]:
     }
 
 
+@pytest.mark.parametrize("agent", ["gnn", "jpda"])
 @pytest.mark.parametrize("predictor", ["kf-cv", "kf-ca"])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_defaults_are_no_worse_than_plain_gnn_under_clutter(clutter_streams, predictor, seed):
+def test_defaults_are_no_worse_than_plain_gnn_under_clutter(clutter_streams, agent, predictor, seed):
+    """gnn's and jpda's defaults (jpda shares the second chance, the prior and the deletions)."""
     stream = clutter_streams[seed]
-    defaults = score_tracker(GnnAgent(predictor), stream)
+    defaults = score_tracker(make_agent(agent, predictor=predictor), stream)
     base = score_tracker(plain(predictor), stream)
     for key in MEASURES:
         assert defaults[key] >= base[key], (key, defaults[key], base[key])
