@@ -441,7 +441,7 @@ class GnnAgent:
         estimate = self._estimate_mean(self._state)
         if upkeep.n_young and self._learning:
             self._learn_flow(estimate, upkeep.young)
-        born = upkeep.unused
+        born = self._births(upkeep.unused)
         self._initiate(
             z[born], rows[born], upkeep.keep, upkeep.n_keep, self.last_prediction_detection, estimate
         )
@@ -464,6 +464,10 @@ class GnnAgent:
             return share_blobs(predicted, z, det_of_track, self.blob_extent, *self._region)
         # rows of coasting tracks (detection −1) are never read by the update
         return det_of_track, z[det_of_track] if m else np.zeros_like(predicted)
+
+    def _births(self, unused: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The detections that start new tracks, of those no track took (gnn: all of them)."""
+        return unused
 
     def _update_tracks(self, state: Any, z_tracks: NDArray[np.float64], seen: NDArray[np.bool_]) -> Any:
         """Correct the predicted ``state`` with the frame's association (gnn: the predictor's

@@ -176,10 +176,27 @@ class JpdaAgent(GnnAgent):
             self.clutter_density = max(float(spec.clutter_rate), self.min_clutter_rate) / area
         self.approximate_tracks = 0
         self.blob_splits = 0
+        self._settled_share = np.zeros(0)
         self._shift = None
         self.last_cluster_tracks = np.zeros(0, dtype=np.int64)
         self.last_p_seen = np.zeros(0)
         self._mixture: tuple[NDArray, NDArray, NDArray] | None = None
+
+    def warm_up(self) -> None:
+        """gnn's warm-up (:meth:`agents.gnn.agent.GnnAgent.warm_up`) on a throwaway jpda, and the
+        kernels its stream does not reach: a blob split, the fallback's likelihoods and gnn's
+        second chance between competing tracks."""
+        super().warm_up()
+        GnnAgent(predictor="kf-cv").warm_up()
+        dim = self._spec.dim if self._spec is not None else 2
+        mean = np.zeros((1, dim))
+        cov = np.eye(dim)[None]
+        z = np.zeros((2, dim))
+        z[:, 0] = [-0.5, 0.5]
+        _kernels.split_blobs(
+            mean, cov, z, np.ones(1, np.bool_), np.ones(2, np.bool_), 9.0, 0.1 * np.eye(dim), 0.0, 2.0
+        )
+        gaussian_log_likelihood(Gaussian(mean, cov), z)
 
     def _noise_cov(self) -> NDArray[np.float64]:
         assert self._spec is not None
@@ -210,10 +227,12 @@ class JpdaAgent(GnnAgent):
                 f"predicted covariance S of track {frame.bad} is not positive definite"
             )
         p_seen, z_mean, z_spread, best = frame.p_seen, frame.z_mean, frame.z_spread, frame.best
-        if len(frame.big):
+        settled_big = frame.big[self._streak[frame.big] >= SETTLED_STREAK]
+        if len(settled_big):  # (clusters of new tracks only: they take gnn's assignment below)
             self._approximate(frame, prediction, z)
+            self.approximate_tracks += len(frame.big)
+        self._settled_share = frame.settled
         np.clip(p_seen, 0.0, 1.0, out=p_seen)  # sums of marginals may pass 1 by an ulp
-        self.approximate_tracks += len(frame.big)
         self.last_cluster_tracks = frame.cluster_tracks
         det_of_track = np.where(p_seen >= 0.5, best, -1)
         young = self._streak < SETTLED_STREAK
@@ -305,6 +324,7 @@ class JpdaAgent(GnnAgent):
         z_mean[t] = splits.midpoint
         z_spread[t] = 0.0
         self.blob_splits += len(t)
+        self._settled_share[splits.other] = 0.0  # the second piece is a new track's
         if self._translate is not None:
             self._shift = (t, z[splits.keep] - splits.midpoint)
 
@@ -329,6 +349,14 @@ class JpdaAgent(GnnAgent):
         best = np.argmax(pairs, axis=1)
         frame.best[tracks] = np.where(pairs.max(axis=1) > 0, dets[best], -1)
         frame.clutter[dets] = np.minimum(frame.clutter[dets], clutter)
+        settled = self._streak[tracks] >= SETTLED_STREAK
+        frame.settled[dets] += pairs[settled].sum(axis=0)
+
+    def _births(self, unused: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The detections no track took, less those more likely than not a settled track's: when
+        two settled tracks share the probability of two detections, each reports its most probable
+        one, and the other is still theirs, not a new particle's."""
+        return unused[self._settled_share[unused] < 0.5]
 
     def _update_tracks(self, state: Any, z_tracks: NDArray[np.float64], seen: NDArray[np.bool_]) -> Any:
         """The PDA update (``update_mixture``), or the core update by the mixture's mean."""
