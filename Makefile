@@ -47,6 +47,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_hota.py
 	$(PY) benchmarks/bench_self_calibration.py
 	$(PY) benchmarks/bench_jpda_marginals.py
+	$(PY) benchmarks/bench_jpda.py
 	$(PY) benchmarks/bench_pose_smc.py --threads 2
 
 clean:
