@@ -191,6 +191,16 @@ def run_agent(
             spec = dataclasses.replace(spec, max_tracks=rows)
 
 
+def takes_calibration(name: str) -> bool:
+    """Whether agent ``name`` takes the keywords of a self-calibration (``agent_kwargs()`` of
+    :func:`agents.self_calibration.calibrate`): gnn and the trackers built on it (jpda)."""
+    from agents import AGENTS
+    from agents.gnn.agent import GnnAgent
+
+    factory = AGENTS.factory(name)
+    return isinstance(factory, type) and issubclass(factory, GnnAgent)
+
+
 def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
     """The agent ``name`` built with the settings :func:`agents.self_calibration.calibrate`
     estimates from ``stream``, and ``spec`` with the estimated noise and a report that holds every
@@ -206,7 +216,7 @@ def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[A
             "build the agent with its agent_kwargs()"
         )
     estimate = calibrate(stream, spec)
-    kwargs = estimate.agent_kwargs() if name == "gnn" else {}
+    kwargs = estimate.agent_kwargs() if takes_calibration(name) else {}
     spec = estimate.sensor_spec(spec)
     rows = live_track_bound(stream, estimate.max_misses)
     return make_agent(name, **kwargs), dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))

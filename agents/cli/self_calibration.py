@@ -76,6 +76,7 @@ def calibrated(
     args: argparse.Namespace, detections: Detections, spec: SensorSpec, agent_kwargs: dict[str, Any]
 ) -> tuple[SensorSpec, dict[str, Any], Any]:
     """The spec and agent keywords of a self-calibrated run, and the calibration."""
+    from agents.run import takes_calibration
     from agents.self_calibration import calibrate
     from agents.self_calibration.calibrate import PREDICTOR_MODELS
 
@@ -94,6 +95,6 @@ def calibrated(
         agent_kwargs=gnn_kwargs,
     )
     kwargs = dict(agent_kwargs)
-    if args.agent == "gnn" and predictor in PREDICTOR_MODELS:
+    if takes_calibration(args.agent) and predictor in PREDICTOR_MODELS:
         kwargs = cal.agent_kwargs() | kwargs
     return cal.sensor_spec(spec), kwargs, cal

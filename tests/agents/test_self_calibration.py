@@ -330,3 +330,17 @@ def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, caps
     np.testing.assert_array_equal(tracks.detection, written.detection)
     with pytest.raises(ValueError, match="needs the agent by name"):
         run_agent(make_agent("gnn"), detections, detection_sensor_spec(detections, dt=0.005), calibrate=True)
+
+
+def test_jpda_takes_the_calibrated_settings_as_gnn_does(pixel_file):
+    """A tracker built on gnn (jpda) is given the calibration's keywords too: in pixels, the
+    default metre-scale process noise would start a track at nearly every detection."""
+    from track_envs.detection_files import read_wide_detections
+
+    detections = read_wide_detections(pixel_file)
+    spec = detection_sensor_spec(detections, dt=0.005)
+    gnn = run_agent("gnn", detections, spec, calibrate=True)
+    jpda = run_agent("jpda", detections, spec, calibrate=True)
+    n_ids = len(np.unique(jpda.ids))
+    assert n_ids <= 1.1 * len(np.unique(gnn.ids))
+    assert n_ids < 0.2 * len(jpda.ids)  # tracks, not one id per detection
