@@ -177,7 +177,7 @@ class JpdaAgent(GnnAgent):
         self.approximate_tracks = 0
         self.blob_splits = 0
         self._settled_share = np.zeros(0)
-        self._shift = None
+        self._shift: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
         self.last_cluster_tracks = np.zeros(0, dtype=np.int64)
         self.last_p_seen = np.zeros(0)
         self._mixture: tuple[NDArray, NDArray, NDArray] | None = None
@@ -238,7 +238,7 @@ class JpdaAgent(GnnAgent):
         young = self._streak < SETTLED_STREAK
         if young.any() and len(z):
             self._hard_for_young(prediction, z, young, det_of_track, p_seen, z_mean, z_spread)
-        self._shift: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._shift = None
         if self.merge_model and len(z) > 1:
             self._split_blobs(predicted, cov, z, det_of_track, p_seen, z_mean, z_spread)
         if self.recovery_inflation > 1.0 and len(z):
