@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tracking._kernels import mahalanobis_costs
+from agents.tracking._kernels import cholesky_lower, mahalanobis_costs
 from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
@@ -424,19 +424,11 @@ def log_det(cov: FloatArray) -> float:
     when it is not positive definite (so that the clutter bound refuses the track's pairs)."""
     dim = cov.shape[0]
     low = np.zeros((dim, dim))
+    if not cholesky_lower(cov, low):
+        return np.inf
     total = 0.0
     for i in range(dim):
-        for j in range(i + 1):
-            s = cov[i, j]
-            for k in range(j):
-                s -= low[i, k] * low[j, k]
-            if i == j:
-                if not s > 0.0:
-                    return np.inf
-                low[i, i] = np.sqrt(s)
-                total += np.log(s)
-            else:
-                low[i, j] = s / low[j, j]
+        total += 2.0 * np.log(low[i, i])
     return total
 
 

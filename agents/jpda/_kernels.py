@@ -69,6 +69,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.tracking._kernels import cholesky_lower
 from track_envs.compiled import njit
 from track_envs.types import FloatArray
 
@@ -116,26 +117,6 @@ class JpdaFrame(NamedTuple):
     big: IntArray
     status: int
     bad: int
-
-
-@njit(cache=True)
-def _cholesky(a: FloatArray, out: FloatArray) -> bool:
-    """Lower Cholesky factor of the small SPD matrix ``a`` into ``out``; False if not PD."""
-    d = a.shape[0]
-    for r in range(d):
-        for c in range(r + 1):
-            s = a[r, c]
-            for k in range(c):
-                s -= out[r, k] * out[c, k]
-            if r == c:
-                if not s > 0.0:
-                    return False
-                out[r, r] = math.sqrt(s)
-            else:
-                out[r, c] = s / out[c, c]
-        for c in range(r + 1, d):
-            out[r, c] = 0.0
-    return True
 
 
 @njit(cache=True)
@@ -485,7 +466,7 @@ def jpda_frame(
     clutter = np.ones(m)
     settled = np.zeros(m)
     for i in range(n):
-        if not _cholesky(cov[i], chol[i]):
+        if not cholesky_lower(cov[i], chol[i]):
             return JpdaFrame(
                 p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, np.zeros(m),
                 np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), FRAME_NOT_PD, i,
@@ -556,7 +537,7 @@ def jpda_frame(
                         cm[r, c] = (
                             0.25 * (cov[a, r, c] + cov[b, r, c]) + 0.5 * noise_cov[r, c] + area_var * dr * dc
                         )
-                if not _cholesky(cm, cl):
+                if not cholesky_lower(cm, cl):
                     continue
                 ln = _log_norm(cl)
                 lo, hi = (a, b) if a < b else (b, a)
@@ -623,28 +604,8 @@ def jpda_frame(
             t_of[t_start[lab] + local[v]] = v
         else:
             d_of[d_start[lab] + local[v]] = v - n
-    e_start = np.zeros(n_cl + 1, np.int64)
-    for k in range(ne):
-        e_start[label[root[e_t[k]]] + 1] += 1
-    for c in range(n_cl):
-        e_start[c + 1] += e_start[c]
-    e_ord = np.empty(ne, np.int64)
-    fill = e_start[:-1].copy()
-    for k in range(ne):
-        c = label[root[e_t[k]]]
-        e_ord[fill[c]] = k
-        fill[c] += 1
-    g_start = np.zeros(n_cl + 1, np.int64)
-    for k in range(ng):
-        g_start[label[root[g_a[k]]] + 1] += 1
-    for c in range(n_cl):
-        g_start[c + 1] += g_start[c]
-    g_ord = np.empty(ng, np.int64)
-    fill = g_start[:-1].copy()
-    for k in range(ng):
-        c = label[root[g_a[k]]]
-        g_ord[fill[c]] = k
-        fill[c] += 1
+    e_start, e_ord = _by_cluster(label, root, e_t[:ne], n_cl)
+    g_start, g_ord = _by_cluster(label, root, g_a[:ng], n_cl)
     n_big = 0
     for c in range(n_cl):
         if c_nt[c] > max_exact:
@@ -751,6 +712,24 @@ def jpda_frame(
         FRAME_OK,
         -1,
     )
+
+
+@njit(cache=True)
+def _by_cluster(label: IntArray, root: IntArray, owner: IntArray, n_cl: int) -> tuple[IntArray, IntArray]:
+    """Hypotheses grouped by the cluster of their track ``owner`` (a counting sort): the start of
+    every cluster's run (n_cl + 1,) and the hypotheses in cluster order (stable)."""
+    start = np.zeros(n_cl + 1, np.int64)
+    for k in range(len(owner)):
+        start[label[root[owner[k]]] + 1] += 1
+    for c in range(n_cl):
+        start[c + 1] += start[c]
+    order = np.empty(len(owner), np.int64)
+    fill = start[:-1].copy()
+    for k in range(len(owner)):
+        c = label[root[owner[k]]]
+        order[fill[c]] = k
+        fill[c] += 1
+    return start, order
 
 
 @njit(cache=True)
@@ -923,7 +902,7 @@ def split_blobs(
                             - 0.5 * noise_cov[r, c]
                             + area_var * (z[j, r] - z[k, r]) * (z[j, c] - z[k, c])
                         )
-                if not _cholesky(C, Lc):
+                if not cholesky_lower(C, Lc):
                     continue
                 d2 = _mahalanobis(Lc, diff, work)
                 if d2 <= gate:

@@ -46,6 +46,7 @@ IntArray = NDArray[np.int64]
 __all__ = [
     "GatedCosts",
     "blob_measurements",
+    "cholesky_lower",
     "gated_costs",
     "mahalanobis_costs",
     "merge_solution",
@@ -72,6 +73,27 @@ class GatedCosts(NamedTuple):
     rest_rows: IntArray
     rest_cols: IntArray
     bad: int
+
+
+@njit(cache=True)
+def cholesky_lower(a: FloatArray, out: FloatArray) -> bool:
+    """Lower Cholesky factor ``L`` (``a = L Lᵀ``) of the small symmetric matrix ``a`` (D, D) into
+    ``out``, row by row; False (``out`` then partial) when ``a`` is not positive definite."""
+    d = a.shape[0]
+    for r in range(d):
+        for c in range(r + 1):
+            s = a[r, c]
+            for k in range(c):
+                s -= out[r, k] * out[c, k]
+            if r == c:
+                if not s > 0.0:
+                    return False
+                out[r, r] = np.sqrt(s)
+            else:
+                out[r, c] = s / out[c, c]
+        for c in range(r + 1, d):
+            out[r, c] = 0.0
+    return True
 
 
 @njit(cache=True)
