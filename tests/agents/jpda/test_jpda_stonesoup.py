@@ -111,3 +111,31 @@ def test_lbp_equals_stone_soup_lbp() -> None:
         pairs, miss, _ = lbp_marginals(log_pair, log_miss)
         np.testing.assert_allclose(pairs, ref[:, 1:], rtol=0, atol=1e-6)
         np.testing.assert_allclose(miss, ref[:, 0], rtol=0, atol=1e-6)
+
+
+def test_the_compiled_frame_equals_stone_soup() -> None:
+    """The jpda tracker's own pass (agents.jpda._kernels.jpda_frame, merge model off): every
+    track's detection probability 1 − β_i∅ and its mixture's mean Σ_j β_ij z_j / (1 − β_i∅)."""
+    import math
+
+    from agents.jpda._kernels import jpda_frame
+
+    rng = np.random.default_rng(5)
+    worst = 0.0
+    for _ in range(30):
+        n = int(rng.integers(1, 8))
+        x, P, z = frame(rng, n, side=8.0)
+        p_d, lam, p_g = rng.uniform(0.5, 0.99), rng.uniform(0.005, 0.2), rng.uniform(0.9, 0.999)
+        S = H @ (F @ P @ F.T + QQ) @ H.T + R * np.eye(2)
+        y = np.ascontiguousarray((x @ F.T) @ H.T)
+        got = jpda_frame(
+            y, np.ascontiguousarray(S), np.ascontiguousarray(z), float(chi2.ppf(p_g, 2)), math.log(p_d / lam),
+            math.log(1 - p_d * p_g), 0.0, R * np.eye(2), 0.0, 0.0, 12, np.ones(n, np.bool_),
+        )  # fmt: skip
+        want = stone_soup(x, P, z, p_d, lam, p_g, JPDAwithEHM)
+        p = 1.0 - want[:, -1]
+        worst = max(worst, float(np.abs(got.p_seen - p).max()))
+        seen = p > 1e-9
+        zbar = want[seen, :-1] @ z / p[seen, None]
+        np.testing.assert_allclose(got.z_mean[seen], zbar, rtol=0, atol=1e-9)
+    assert worst < 1e-12
