@@ -613,6 +613,21 @@ def jpda_frame(
     big = np.empty(n_big, np.int64)
     nb = 0
     hyp_w = np.zeros(n)
+    # scratch of the multi-track clusters, sized once per frame (views per cluster, no allocation)
+    nc_max, mc_max, ge_max = 1, 1, 1
+    for c in range(n_cl):
+        if c_nt[c] <= max_exact:
+            nc_max = max(nc_max, c_nt[c])
+            mc_max = max(mc_max, c_nd[c])
+            ge_max = max(ge_max, g_start[c + 1] - g_start[c])
+    L_buf = np.empty((nc_max, mc_max))
+    P_buf = np.empty((nc_max, mc_max))
+    PC_buf = np.empty(mc_max)
+    ma_buf = np.empty(ge_max, np.int64)
+    mb_buf = np.empty(ge_max, np.int64)
+    md_buf = np.empty(ge_max, np.int64)
+    mw_buf = np.empty(ge_max)
+    PM_buf = np.empty(ge_max)
     # 4. per cluster: marginals; 5. per track: the mixture
     for c in range(n_cl):
         nc, mc = c_nt[c], c_nd[c]
@@ -630,23 +645,22 @@ def jpda_frame(
                 settled, mergeable[t_of[t_start[c]]],
             )  # fmt: skip
             continue
-        L = np.full((nc, mc), -np.inf)
+        L = L_buf[:nc, :mc]
+        L[:] = -np.inf
         for q in range(e_start[c], e_start[c + 1]):
             k = e_ord[q]
             L[local[e_t[k]], local[n + e_d[k]]] = e_w[k]
         ge = g_start[c + 1] - g_start[c]
         if nc > MAX_MERGE_CLUSTER:
             ge = 0  # the 2^nc masks of every detection's merged blobs: drop them (module docstring)
-        ma = np.empty(ge, np.int64)
-        mb = np.empty(ge, np.int64)
-        md = np.empty(ge, np.int64)
-        mw = np.empty(ge)
+        ma, mb, md, mw = ma_buf[:ge], mb_buf[:ge], md_buf[:ge], mw_buf[:ge]
         for q in range(ge):
             k = g_ord[g_start[c] + q]
             ma[q], mb[q], md[q], mw[q] = local[g_a[k]], local[g_b[k]], local[n + g_d[k]], g_w[k]
-        P = np.zeros((nc, mc))
-        PM = np.zeros(ge)
-        PC = np.zeros(mc)
+        P, PM, PC = P_buf[:nc, :mc], PM_buf[:ge], PC_buf[:mc]
+        P[:] = 0.0
+        PM[:] = 0.0
+        PC[:] = 0.0
         if not _cluster_marginals(L, log_miss, ma, mb, md, mw, P, PM, PC):
             # p_D P_G = 1 and the tracks cannot all take a detection: leave them undetected
             continue

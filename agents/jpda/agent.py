@@ -253,9 +253,10 @@ class JpdaAgent(GnnAgent):
                     z_spread[recovered] = 0.0
         self.last_p_seen = p_seen
         self._mixture = (z_mean, z_spread, p_seen)
-        seen = det_of_track >= 0
+        if self._mixture_update is not None:
+            return det_of_track, z_mean  # (the mixture update reads self._mixture)
         z_tracks = predicted + p_seen[:, None] * (z_mean - predicted)
-        z_tracks[~seen] = 0.0
+        z_tracks[det_of_track < 0] = 0.0
         return det_of_track, z_tracks
 
     def _hard_for_young(

@@ -343,31 +343,14 @@ def update_tracks(
     return UpdatedTracks(mean_u, cov_u, UPDATE_OK, -1)
 
 
-@njit(cache=True)
-def mixture_update_tracks(
+@njit(inline="always")
+def _mixture_rows(
     mean: FloatArray, cov: FloatArray, z_mean: FloatArray, z_spread: FloatArray, p_seen: FloatArray,
-    H: FloatArray, R: FloatArray,
-) -> UpdatedTracks:  # fmt: skip
-    """PDA update of every track with ``p_seen > 0`` (see
-    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`):
-
-    .. math::
-
-        S = H P Hᵀ + R = L Lᵀ, \\quad K = P Hᵀ S^{-1}, \\quad δ = \\bar z - H x,
-
-        x^+ = x + p K δ, \\qquad P^+ = P + p K (Σ + (1 - p) δ δ^\\top - S) K^\\top,
-
-    on the upper triangle and mirrored. Tracks with ``p_seen = 0`` are copied unchanged.
-
-    Returns:
-        :class:`UpdatedTracks`: status :data:`UPDATE_NOT_PD` and the row of the first track whose
-        ``S`` is not positive definite, or :data:`UPDATE_NONFINITE_Z` for a non-finite ``z̄`` or
-        ``Σ`` where ``p > 0``.
-    """
-    n, S = mean.shape
-    D = H.shape[0]
-    mean_u = mean.copy()
-    cov_u = cov.copy()
+    H: FloatArray, R: FloatArray, mean_u: FloatArray, cov_u: FloatArray, S: int, D: int,
+) -> tuple[int, int]:  # fmt: skip
+    """The PDA update of :func:`mixture_update_tracks` into ``mean_u``, ``cov_u``; returns the
+    status and the offending row (−1)."""
+    n = mean.shape[0]
     PHt = np.empty((S, D))
     Sm = np.empty((D, D))
     L = np.zeros((D, D))
@@ -381,10 +364,10 @@ def mixture_update_tracks(
             continue
         for d in range(D):
             if not np.isfinite(z_mean[t, d]):
-                return UpdatedTracks(mean_u, cov_u, UPDATE_NONFINITE_Z, t)
+                return UPDATE_NONFINITE_Z, t
             for e in range(D):
                 if not np.isfinite(z_spread[t, d, e]):
-                    return UpdatedTracks(mean_u, cov_u, UPDATE_NONFINITE_Z, t)
+                    return UPDATE_NONFINITE_Z, t
         for a in range(S):
             for d in range(D):
                 acc = 0.0
@@ -415,7 +398,7 @@ def mixture_update_tracks(
                     acc -= L[r, k] * L[c, k]
                 if r == c:
                     if not acc > 0.0:
-                        return UpdatedTracks(mean_u, cov_u, UPDATE_NOT_PD, t)
+                        return UPDATE_NOT_PD, t
                     L[r, r] = np.sqrt(acc)
                 else:
                     L[r, c] = acc / L[c, c]
@@ -453,7 +436,41 @@ def mixture_update_tracks(
                 v = 0.5 * (cov[t, a, b] + cov[t, b, a]) + p * acc
                 cov_u[t, a, b] = v
                 cov_u[t, b, a] = v
-    return UpdatedTracks(mean_u, cov_u, UPDATE_OK, -1)
+    return UPDATE_OK, -1
+
+
+@njit(cache=True)
+def mixture_update_tracks(
+    mean: FloatArray, cov: FloatArray, z_mean: FloatArray, z_spread: FloatArray, p_seen: FloatArray,
+    H: FloatArray, R: FloatArray,
+) -> UpdatedTracks:  # fmt: skip
+    """PDA update of every track with ``p_seen > 0`` (see
+    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`):
+
+    .. math::
+
+        S = H P Hᵀ + R = L Lᵀ, \\quad K = P Hᵀ S^{-1}, \\quad δ = \\bar z - H x,
+
+        x^+ = x + p K δ, \\qquad P^+ = P + p K (Σ + (1 - p) δ δ^\\top - S) K^\\top,
+
+    on the upper triangle and mirrored. Tracks with ``p_seen = 0`` are copied unchanged.
+
+    Returns:
+        :class:`UpdatedTracks`: status :data:`UPDATE_NOT_PD` and the row of the first track whose
+        ``S`` is not positive definite, or :data:`UPDATE_NONFINITE_Z` for a non-finite ``z̄`` or
+        ``Σ`` where ``p > 0``.
+    """
+    S = mean.shape[1]
+    D = H.shape[0]
+    mean_u = mean.copy()
+    cov_u = cov.copy()
+    if D == 2 and S == 4:
+        status, row = _mixture_rows(mean, cov, z_mean, z_spread, p_seen, H, R, mean_u, cov_u, 4, 2)
+    elif D == 2 and S == 6:
+        status, row = _mixture_rows(mean, cov, z_mean, z_spread, p_seen, H, R, mean_u, cov_u, 6, 2)
+    else:
+        status, row = _mixture_rows(mean, cov, z_mean, z_spread, p_seen, H, R, mean_u, cov_u, S, D)
+    return UpdatedTracks(mean_u, cov_u, status, row)
 
 
 @njit(cache=True)
