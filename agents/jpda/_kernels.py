@@ -98,6 +98,7 @@ class JpdaFrame(NamedTuple):
         settled: (m,) the probability that a mergeable (settled) track took detection ``j``, alone
             or in a merged blob.
         cluster_tracks: (n_clusters,) tracks per cluster that holds a track, in label order.
+        cluster_of: (n,) each track's cluster (an index into ``cluster_tracks``).
         cluster_detections: (n_clusters,) detections of those clusters.
         big: tracks of the clusters with more than ``max_exact`` tracks (not computed here), ascending.
         status: :data:`FRAME_OK` or :data:`FRAME_NOT_PD`.
@@ -113,6 +114,7 @@ class JpdaFrame(NamedTuple):
     clutter: FloatArray
     settled: FloatArray
     cluster_tracks: IntArray
+    cluster_of: IntArray
     cluster_detections: IntArray
     big: IntArray
     status: int
@@ -469,7 +471,8 @@ def jpda_frame(
         if not cholesky_lower(cov[i], chol[i]):
             return JpdaFrame(
                 p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, np.zeros(m),
-                np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), FRAME_NOT_PD, i,
+                np.zeros(0, np.int64), np.zeros(n, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
+                FRAME_NOT_PD, i,
             )  # fmt: skip
         lnorm[i] = _log_norm(chol[i])
     # 1. gated pairs (edge lists)
@@ -606,6 +609,9 @@ def jpda_frame(
             d_of[d_start[lab] + local[v]] = v - n
     e_start, e_ord = _by_cluster(label, root, e_t[:ne], n_cl)
     g_start, g_ord = _by_cluster(label, root, g_a[:ng], n_cl)
+    cluster_of = np.empty(n, np.int64)
+    for i in range(n):
+        cluster_of[i] = label[root[i]]
     n_big = 0
     for c in range(n_cl):
         if c_nt[c] > max_exact:
@@ -721,6 +727,7 @@ def jpda_frame(
         clutter,
         settled,
         c_nt,
+        cluster_of,
         c_nd,
         big,
         FRAME_OK,

@@ -16,7 +16,13 @@ Every frame, for the ``n`` live tracks and the ``m`` detections:
    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`); any other Gaussian
    predictor (the belt LSTMs) is updated through the core ``update`` by the mixture's mean
    ``ŷ + p (z̄ − ŷ)`` when the track was more likely detected than not (``p ≥ ½``) and coasts
-   otherwise — for a predictor that reports its input, the moment-matched position;
+   otherwise — for a predictor that reports its input, the moment-matched position. Two kinds
+   of track take the frame's optimal assignment (gnn's gated Hungarian) instead: tracks not yet
+   settled (fewer than 3 updates in a row: their gates span the neighbours), and, with the
+   *coalescence guard* (default), tracks that share their gating cluster with other tracks and
+   whose most probable hypothesis is not a merged blob — the mixtures of competing tracks pull
+   them onto each other (JPDA's coalescence; Blom and Bloem 2000 prune the joint events
+   instead). On the belt ≈99 % of the tracks are alone in their cluster;
 4. **bookkeeping as gnn** (:class:`agents.gnn.agent.GnnAgent`, shared code): a track counts as seen
    when ``p ≥ ½`` and reports the detection of its most probable hypothesis; the capped second
    chance for tracks and detections left over, deletions after ``max_misses`` misses or on
@@ -95,6 +101,10 @@ class JpdaAgent(GnnAgent):
             ``merge_extent``, > 0.
         max_exact: Clusters of at most this many tracks are exact; larger ones use loopy belief
             propagation without merged blobs.
+        coalescence_guard: A track that shares its cluster with other tracks takes the frame's
+            optimal assignment instead of its mixture (unless a merged blob is its most probable
+            hypothesis): the mixtures of competing tracks pull them together (module docstring).
+            False: every settled track's PDA update.
         **gnn_kwargs: Every other argument of :class:`~agents.gnn.agent.GnnAgent` (``p_gate``,
             ``max_misses``, ``region_margin``, ``velocity_prior``, ``recovery_inflation``, ...,
             and the predictor's keywords), except ``blob_extent`` and ``assignment`` (the merged
@@ -113,6 +123,7 @@ class JpdaAgent(GnnAgent):
         merge_area_std: float = MERGE_AREA_STD,
         merge_odds: float = 1.0,
         max_exact: int = MAX_EXACT,
+        coalescence_guard: bool = True,
         **gnn_kwargs: Any,
     ):
         for name in ("blob_extent", "assignment"):
@@ -133,7 +144,11 @@ class JpdaAgent(GnnAgent):
             merge_area_std=merge_area_std,
             merge_odds=merge_odds,
             max_exact=max_exact,
+            coalescence_guard=coalescence_guard,
         )
+        if not isinstance(coalescence_guard, bool | np.bool_):
+            raise ValueError(f"coalescence_guard must be True or False, got {coalescence_guard!r}")
+        self.coalescence_guard = bool(coalescence_guard)
         if p_detect is not None and not (
             isinstance(p_detect, int | float | np.floating) and 0.0 < float(p_detect) <= 1.0
         ):
@@ -235,9 +250,12 @@ class JpdaAgent(GnnAgent):
         np.clip(p_seen, 0.0, 1.0, out=p_seen)  # sums of marginals may pass 1 by an ulp
         self.last_cluster_tracks = frame.cluster_tracks
         det_of_track = np.where(p_seen >= 0.5, best, -1)
-        young = self._streak < SETTLED_STREAK
-        if young.any() and len(z):
-            self._hard_for_young(prediction, z, young, det_of_track, p_seen, z_mean, z_spread)
+        hard = self._streak < SETTLED_STREAK
+        if self.coalescence_guard:
+            shared = frame.cluster_tracks[frame.cluster_of] > 1
+            hard |= shared & (frame.merged_with < 0)
+        if hard.any() and len(z):
+            self._hard_for(prediction, z, hard, det_of_track, p_seen, z_mean, z_spread)
         self._shift = None
         if self.merge_model and len(z) > 1:
             self._split_blobs(predicted, cov, z, det_of_track, p_seen, z_mean, z_spread)
@@ -259,7 +277,7 @@ class JpdaAgent(GnnAgent):
         z_tracks[det_of_track < 0] = 0.0
         return det_of_track, z_tracks
 
-    def _hard_for_young(
+    def _hard_for(
         self,
         prediction: Gaussian,
         z: NDArray[np.float64],
@@ -269,12 +287,17 @@ class JpdaAgent(GnnAgent):
         z_mean: NDArray[np.float64],
         z_spread: NDArray[np.float64],
     ) -> None:
-        """Tracks not yet settled take gnn's assignment instead of their mixture, in place.
+        """Tracks ``young`` take gnn's assignment instead of their mixture, in place: those not
+        yet settled, and (the coalescence guard) those whose cluster holds other tracks, unless
+        their most probable hypothesis is a merged blob.
 
-        A new track's velocity is barely known, so its gate spans the neighbouring particles;
-        mixing them would pull it between particles (the coalescence of JPDA with wide gates) and
-        its neighbours' marginals with it. Its detection is the one the joint optimal assignment
-        of the frame gives it (gnn's gated Hungarian over all tracks), or none.
+        A new track's velocity is barely known, so its gate spans the neighbouring particles, and
+        tracks whose gates share detections pull each other's mixtures together: the coalescence
+        of JPDA (Blom and Bloem: Probabilistic data association avoiding track coalescence, 2000,
+        prune the joint events instead — JPDA*). Such a track's detection is the one the joint
+        optimal assignment of the frame gives it (gnn's gated Hungarian over all tracks), or none;
+        the marginals still decide the merged blobs, the blob splits, the births and, for every
+        track alone in its cluster (on the belt ≈99 % of them), the PDA update.
         """
         rows, cols = self._associate(prediction, z, self._gate)
         hard = np.full(len(young), -1, dtype=np.int64)
