@@ -19,7 +19,8 @@ JPDA tracker on the same stream, the gating-cluster sizes, and where a frame's t
    no clustering: ≥ 2^150 joint events here) and ``PDAHypothesiser`` on the synthetic stream:
    constant-velocity model with kf-cv's ``q``, ``LinearGaussian`` measurement with the same R,
    jpda's ``p_D``, clutter density ``λ`` and ``P_G``. Both trackers hold the same 150 tracks: Stone
-   Soup starts from the state of a jpda + kf-cv (``merge_model=False``) tracker after frame
+   Soup starts from the state of a plain-JPDA jpda + kf-cv tracker (``merge_model=False,
+   coalescence_guard=False``: the same association as Stone Soup's) after frame
    ``--warm`` (means and covariances), no initiator (every target stays in view) and an
    ``UpdateTimeStepsDeleter(3)``. ``--ss-frames`` frames are timed one repetition each (seconds
    per frame); jpda on the same frames, best of ``--repeat``. The detections are converted to
@@ -60,6 +61,8 @@ from track_envs.envs.belt_physics import BeltParams
 from track_envs.types import SensorSpec
 
 Obs = dict[str, NDArray]
+#: jpda as plain JPDA (no merged blobs, every settled track by its mixture): Stone Soup's association.
+PLAIN_JPDA = {"predictor": "kf-cv", "merge_model": False, "coalescence_guard": False}
 #: The trackers of part 2: (label, agent name, keywords).
 TRACKERS: list[tuple[str, str, dict[str, Any]]] = [
     ("gnn + kf-cv", "gnn", {"predictor": "kf-cv"}),
@@ -205,8 +208,9 @@ def stone_soup_compare(observations: list[Obs], warm: int, frames: int, repeat: 
         def initiate(self, detections: Any, timestamp: Any, **kwargs: Any) -> set:
             return set()
 
-    # the reference state: a jpda + kf-cv tracker without merged blobs, after frame `warm`
-    ref = make("jpda", {"predictor": "kf-cv", "merge_model": False}, SPEC)
+    # the reference state: jpda + kf-cv as plain JPDA (no merged blobs, no coalescence guard),
+    # after frame `warm`
+    ref = make("jpda", PLAIN_JPDA, SPEC)
     for obs in observations[: warm + 1]:
         ref.act(obs)
     q = float(ref.predictor.q)
@@ -266,7 +270,7 @@ def stone_soup_compare(observations: list[Obs], warm: int, frames: int, repeat: 
     ours: dict[str, NDArray] = {}
     for label, kwargs in (
         ("jpda + kf-cv", {"predictor": "kf-cv"}),
-        ("jpda + kf-cv, merge_model=False", {"predictor": "kf-cv", "merge_model": False}),
+        ("jpda + kf-cv, plain JPDA (merge_model=False, coalescence_guard=False)", PLAIN_JPDA),
     ):
         make("jpda", kwargs, SPEC).warm_up()
         for _ in range(repeat):
@@ -288,7 +292,7 @@ def stone_soup_compare(observations: list[Obs], warm: int, frames: int, repeat: 
             gap = max(float(np.linalg.norm(pos[i] - last_ss[i])) for i in common)
             print(
                 f"after frame {frame_range.stop - 1}: {len(common)} common track ids; largest distance "
-                "between Stone Soup JPDAwithEHM2's and jpda (merge_model=False)'s estimate "
+                "between Stone Soup JPDAwithEHM2's and plain jpda's estimate "
                 f"{gap * 1e6:.3g} µm"
             )
     ref_mean = ours["jpda + kf-cv"].mean()
