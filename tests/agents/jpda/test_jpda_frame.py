@@ -198,3 +198,45 @@ def test_a_non_positive_definite_covariance_is_reported() -> None:
         np.ones(2, np.bool_),
     )
     assert got.status == _kernels.FRAME_NOT_PD and got.bad == 1
+
+
+def test_the_log_space_recursion_equals_brute_force_and_takes_over_beyond_the_float_range() -> None:
+    """_cluster_marginals_log (the fallback) against the oracle, and a cluster whose weights span
+    e^±800 (the linear recursion cannot hold them) still sums to one and matches the scaled case."""
+    rng = np.random.default_rng(9)
+    for _ in range(60):
+        n, m = int(rng.integers(2, 5)), int(rng.integers(1, 5))
+        L = np.where(rng.random((n, m)) < 0.6, rng.normal(0, 2, (n, m)), -np.inf)
+        merges = [
+            (a, b, int(rng.integers(m))) for a in range(n) for b in range(a + 1, n) if rng.random() < 0.5
+        ]
+        mg = np.array(merges, dtype=np.int64).reshape(-1, 3)
+        lw = rng.normal(0, 2, len(merges))
+        log_miss = math.log(rng.uniform(0.01, 0.5))
+        want = brute_force_merged(L, log_miss, merges, lw)
+        P, PM, PC = np.zeros((n, m)), np.zeros(len(merges)), np.zeros(m)
+        a, b, j = (np.ascontiguousarray(mg[:, k]) for k in range(3))
+        assert _kernels._cluster_marginals_log(L, log_miss, a, b, j, lw, P, PM, PC)
+        np.testing.assert_allclose(P, want[0], atol=1e-12)
+        np.testing.assert_allclose(PC, want[2], atol=1e-12)
+        np.testing.assert_allclose(PM, want[3], atol=1e-12)
+    # two tracks, one detection, a miss weight of e^-800: every event holds one miss, which the
+    # linear recursion's scaled weights underflow (Z = 0); the log-space recursion answers
+    L = np.zeros((2, 1))
+    P, PM, PC = np.zeros((2, 1)), np.zeros(0), np.zeros(1)
+    empty = np.zeros(0, np.int64)
+    assert not _kernels._dp_linear(
+        np.exp(L.T),
+        np.ones(1),
+        np.full(2, math.exp(-800.0)),
+        empty,
+        empty,
+        empty,
+        np.zeros(0),
+        P.T.copy(),
+        PM,
+        PC,
+    )
+    got = merged_cluster_marginals(L, -800.0, np.zeros((0, 3), np.int64), np.zeros(0))
+    np.testing.assert_allclose(got.pairs, [[0.5], [0.5]], atol=1e-12)
+    np.testing.assert_allclose(got.clutter, [0.0], atol=1e-12)
