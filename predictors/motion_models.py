@@ -32,7 +32,7 @@ KINDS: dict[str, str] = {
 
 #: The agents that take a Gaussian predictor (``predictor=``); the agents declare it too
 #: (``takes_predictor``), and a test keeps the two equal.
-GAUSSIAN_AGENTS = ("gnn", "one-step")
+GAUSSIAN_AGENTS = ("gnn", "jpda", "one-step")
 
 
 @dataclass(frozen=True)
