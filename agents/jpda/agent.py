@@ -10,7 +10,8 @@ Every frame, for the ``n`` live tracks and the ``m`` detections:
    clutter of density ``λ`` and the detection probability ``p_D``; the marginal probabilities of
    the events are exact per gating cluster (:mod:`agents.jpda._kernels`, one compiled pass;
    clusters of more than ``max_exact`` tracks fall back to loopy belief propagation without merged
-   blobs, :mod:`agents.jpda.lbp`, and their tracks are counted in :attr:`JpdaAgent.approximate_tracks`);
+   blobs, :mod:`agents.jpda.lbp`, and their tracks are counted in :attr:`JpdaAgent.approximate_tracks`
+   — with the coalescence guard (step 3) such tracks take gnn's assignment instead);
 3. **update** every track by the moment-matched mixture of its hypotheses (the PDA update):
    exactly for predictors that declare ``MIXTURE_UPDATE`` (the Kalman filters,
    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`); any other Gaussian
@@ -243,7 +244,9 @@ class JpdaAgent(GnnAgent):
             )
         p_seen, z_mean, z_spread, best = frame.p_seen, frame.z_mean, frame.z_spread, frame.best
         settled_big = frame.big[self._streak[frame.big] >= SETTLED_STREAK]
-        if len(settled_big):  # (clusters of new tracks only: they take gnn's assignment below)
+        # the tracks of a cluster above max_exact share it: with the coalescence guard they take
+        # gnn's assignment below, as new tracks do, and their marginals would go unused
+        if len(settled_big) and not self.coalescence_guard:
             self._approximate(frame, prediction, z)
             self.approximate_tracks += len(frame.big)
         self._settled_share = frame.settled

@@ -97,13 +97,19 @@ def test_on_the_belt_without_merges_jpda_keeps_identities_as_well_as_gnn():
 
 
 def test_clusters_above_max_exact_fall_back_and_are_counted():
-    agent = make_agent("jpda", predictor="kf-cv", max_exact=1, velocity_prior=None)
-    agent.reset(SPEC)
+    """Without the coalescence guard a cluster above max_exact goes to loopy belief propagation;
+    with it (default) its tracks take gnn's assignment and no marginals are computed for them
+    (random-walk's gates span the belt: 0.2 s per frame of loopy BP otherwise)."""
     pair = np.array([[1.0, 0.25], [1.0, 0.2504]])
-    for _ in range(4):
-        report = agent.act(observation(pair))
-    assert agent.approximate_tracks > 0
-    assert (report["mask"] == 1).sum() == 2
+    for guard, approximated in ((False, True), (True, False)):
+        agent = make_agent(
+            "jpda", predictor="kf-cv", max_exact=1, velocity_prior=None, coalescence_guard=guard
+        )
+        agent.reset(SPEC)
+        for _ in range(5):
+            report = agent.act(observation(pair))
+        assert (agent.approximate_tracks > 0) == approximated
+        assert (report["mask"] == 1).sum() == 2
 
 
 def test_warm_up_leaves_the_tracker_untouched():
