@@ -59,6 +59,7 @@ from agents.jpda.lbp import lbp_marginals
 from agents.jpda.marginals import MAX_EXACT
 from agents.jpda.weights import gaussian_log_likelihood, jpda_log_weights
 from predictors.base import Capability, Predictor, capability
+from track_envs.arguments import check_int, check_non_negative, check_positive
 from track_envs.types import Gaussian, SensorSpec
 
 #: Default floor of the clutter rate (detections per frame) for sensors that declare none.
@@ -74,15 +75,6 @@ MERGE_STREAK = 3
 #: Default std of a blob member's area fraction around ½: 0, the blob of two equal particles is
 #: centred between them (particles of unequal sizes: their spread of area fractions).
 MERGE_AREA_STD = 0.0
-
-
-def _positive(name: str, value: object, *, allow_zero: bool = False) -> float:
-    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
-    v = float(value) if ok else math.nan  # type: ignore[arg-type]
-    if not (ok and math.isfinite(v) and (v >= 0 if allow_zero else v > 0)):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name} must be a finite number {bound}, got {value!r}")
-    return v
 
 
 class JpdaAgent(GnnAgent):
@@ -156,20 +148,16 @@ class JpdaAgent(GnnAgent):
             raise ValueError(f"p_detect must be None or a probability in (0, 1], got {p_detect!r}")
         self.p_detect_arg = None if p_detect is None else float(p_detect)
         self.clutter_density_arg = (
-            None if clutter_density is None else _positive("clutter_density", clutter_density)
+            None if clutter_density is None else check_positive("clutter_density", clutter_density)
         )
-        self.min_clutter_rate = _positive("min_clutter_rate", min_clutter_rate)
+        self.min_clutter_rate = check_positive("min_clutter_rate", min_clutter_rate)
         if not isinstance(merge_model, bool | np.bool_):
             raise ValueError(f"merge_model must be True or False, got {merge_model!r}")
         self.merge_model = bool(merge_model)
-        self.merge_extent = _positive("merge_extent", merge_extent)
-        self.merge_area_std = _positive("merge_area_std", merge_area_std, allow_zero=True)
-        self.merge_odds = _positive("merge_odds", merge_odds)
-        if not (
-            isinstance(max_exact, int | np.integer) and not isinstance(max_exact, bool) and max_exact >= 1
-        ):
-            raise ValueError(f"max_exact must be an integer >= 1, got {max_exact!r}")
-        self.max_exact = int(max_exact)
+        self.merge_extent = check_positive("merge_extent", merge_extent)
+        self.merge_area_std = check_non_negative("merge_area_std", merge_area_std)
+        self.merge_odds = check_positive("merge_odds", merge_odds)
+        self.max_exact = check_int("max_exact", max_exact, 1)
         self._mixture_update = capability(self.predictor, Capability.MIXTURE_UPDATE)
         self._translate = capability(self.predictor, Capability.TRANSLATE)
 
