@@ -39,8 +39,8 @@ from typing import Any, Protocol, runtime_checkable
 
 from numpy.typing import NDArray
 
-from track_envs.registry import Registry
-from track_envs.types import SensorSpec
+from track_envs.infra.registry import Registry
+from track_envs.values.types import SensorSpec
 
 
 @runtime_checkable

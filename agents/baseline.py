@@ -7,9 +7,9 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.observation import check_observation
-from track_envs.report import pack_report
-from track_envs.types import SensorSpec
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import pack_report
+from track_envs.values.types import SensorSpec
 
 
 class DetectionsAgent:
@@ -34,7 +34,7 @@ class DetectionsAgent:
 
         Raises:
             ValueError: for an observation that breaks the contract (see
-                :func:`~track_envs.observation.check_observation`).
+                :func:`~track_envs.contracts.observation.check_observation`).
         """
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")

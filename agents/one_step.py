@@ -38,12 +38,12 @@ from numpy.typing import NDArray
 
 from predictors.base import Capability, Predictor, capability, reset_predictor
 from predictors.registry import resolve_predictor
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import pack_report
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.prediction import Reliability
 from track_envs.metrics.track_error import TrackErrorDistribution
-from track_envs.observation import check_observation
-from track_envs.report import pack_report
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 #: Confidence levels of the reliability curves (the 0.05 grid of the cumulative histogram, its
 #: ends, and the gate level 0.999 of the calibration).

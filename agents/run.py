@@ -1,16 +1,16 @@
 """Run any agent over recorded detections, outside a gym loop, and get its tracks.
 
 :func:`run_agent` is the loop of the tracking contract without an environment: it packs each
-frame's detections into an observation (:func:`track_envs.observation.pack_observation`, rows in
+frame's detections into an observation (:func:`track_envs.contracts.observation.pack_observation`, rows in
 the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
 block of frames at a time into one array (no per-frame allocation), and the reports' arrays
 (not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
-10 µs a frame) are turned into :class:`~track_envs.tracks.Tracks` a block at a time (one
+10 µs a frame) are turned into :class:`~track_envs.values.tracks.Tracks` a block at a time (one
 vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
 
-Where the detections are boxes (:attr:`~track_envs.detections.Detections.boxes`), every row of
+Where the detections are boxes (:attr:`~track_envs.values.detections.Detections.boxes`), every row of
 the tracks carries the box of the detection its track was updated with that frame, and while it
-coasts the last box it had (:func:`track_envs.tracks.carried_boxes`, one vectorised pass after
+coasts the last box it had (:func:`track_envs.values.tracks.carried_boxes`, one vectorised pass after
 the loop).
 
 An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
@@ -32,11 +32,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from agents.file_kinds import check_file_agent
 from agents.sorting_collect import SortingCollector, sorting_spec
-from track_envs.crossing_predictions import PredictedCrossings
-from track_envs.detections import Detections
-from track_envs.report import ReportOverflowError
-from track_envs.tracks import Tracks, carried_boxes
-from track_envs.types import SensorSpec
+from track_envs.contracts.report import ReportOverflowError
+from track_envs.io.crossings import PredictedCrossings
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks, carried_boxes
+from track_envs.values.types import SensorSpec
 
 #: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
 #: per-block costs are spread over many frames of small reports, and large reports stay in cache.
@@ -109,10 +109,10 @@ def run_agent(
     Args:
         agent: An object with ``reset(spec, *, seed)`` and ``act(obs) -> report`` (the Agent
             protocol), or a registered agent name (``"gnn"``, ...) built with default arguments.
-        detections: The stream: :class:`~track_envs.detections.Detections` or one (m_t, D)
+        detections: The stream: :class:`~track_envs.values.detections.Detections` or one (m_t, D)
             array per frame.
         spec: The sensor spec the agent is told (see
-            :func:`~track_envs.detections.detection_sensor_spec`); ``max_detections`` must hold
+            :func:`~track_envs.values.detections.detection_sensor_spec`); ``max_detections`` must hold
             the fullest frame.
         seed: Passed to ``agent.reset`` (the same seed gives the same tracks).
         covariance: Collect the covariance of every reported position from the agent's
@@ -120,7 +120,7 @@ def run_agent(
         progress: Show a tqdm progress bar (frames) on stderr.
         reset: Call ``agent.reset(spec, seed=seed)`` first (False: the caller has).
         grow: When the agent has more live tracks than ``spec.max_tracks`` report rows (a
-            :class:`~track_envs.report.ReportOverflowError`), warn and run the stream again from
+            :class:`~track_envs.contracts.report.ReportOverflowError`), warn and run the stream again from
             the start with ``max_tracks`` doubled (at least twice the tracks that overflowed),
             so that a report size never makes a valid stream fail. The rows of a report do not
             change the tracks of a deterministic agent, so the result is the run a large enough
@@ -139,13 +139,13 @@ def run_agent(
             given, tracks only.
 
     Returns:
-        :class:`~track_envs.tracks.Tracks`: frame (from 0), id, position (the report's float32
+        :class:`~track_envs.values.tracks.Tracks`: frame (from 0), id, position (the report's float32
         values as float64), the detection row each track was updated with (−1: coasted),
         with box detections the box of each row (``Tracks.boxes``) and, with ``covariance``,
         the covariances. A report's arrays are kept by reference until their
         block is gathered, so an agent must return fresh arrays each frame (``pack_report`` does).
         With ``sorting_line``: ``(tracks, crossings)``, ``crossings`` the
-        :class:`~track_envs.crossing_predictions.PredictedCrossings` of every report, with the
+        :class:`~track_envs.io.crossings.PredictedCrossings` of every report, with the
         frame each was reported in (``crossings.last()``: the one per track that counts).
 
     Raises:

@@ -6,14 +6,14 @@ camera window, put a virtual line ``x = L`` and a cut-off ``x_cut < L``.
 
 1. **Reference run**: the tracker over the whole recording; where each of its tracks crossed
    ``L`` (interpolated between the two detections around it:
-   :func:`track_envs.crossing_check.observed_crossings`) stands in for the truth.
+   :func:`track_envs.metrics.crossing_check.observed_crossings`) stands in for the truth.
 2. **Cut run**: the same tracker over the detections at ``x <= x_cut`` only, told that its camera
    window ends at ``x_cut`` and that the sorting line is ``L``; it predicts each track's crossing
    when it lets the track go, from the track's state at its last detection before the cut-off
    (the gnn agent's sorting channel, collected by :func:`agents.run.run_agent`).
 3. **Matching**: a cut-run track is the reference track that was updated with the same detection
    as the cut-run track's last one (the detection the prediction starts from).
-4. **Score** (:func:`track_envs.crossing_check.score_crossings`): hit rate within ``±w_y`` and
+4. **Score** (:func:`track_envs.metrics.crossing_check.score_crossings`): hit rate within ``±w_y`` and
    ``±w_t``, percentiles of the temporal and lateral errors, predictions of tracks that never
    crossed.
 
@@ -32,7 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.run import run_agent
-from track_envs.crossing_check import (
+from track_envs.io.crossings import PredictedCrossings
+from track_envs.metrics.crossing_check import (
     LATERAL_TOLERANCE,
     MIN_SEEN,
     TIME_TOLERANCE,
@@ -44,10 +45,9 @@ from track_envs.crossing_check import (
     seen_upstream,
     updated_detections,
 )
-from track_envs.crossing_predictions import PredictedCrossings
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
-from track_envs.types import SensorSpec
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
+from track_envs.values.types import SensorSpec
 
 
 @dataclass(frozen=True)

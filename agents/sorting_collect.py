@@ -1,9 +1,9 @@
 """Collect the sorting channel of an agent's reports over a stream (for :func:`agents.run.run_agent`).
 
 An agent told of a sorting line (``SensorSpec.sorting_line``) adds to each report the predicted
-crossings of the tracks it let go in that frame (:mod:`track_envs.sorting_channel`). The collector
+crossings of the tracks it let go in that frame (:mod:`track_envs.contracts.sorting_channel`). The collector
 keeps each report's four sorting arrays by reference (no per-track work per frame) and gathers the
-live rows of a block of frames at once into :class:`~track_envs.crossing_predictions.PredictedCrossings`.
+live rows of a block of frames at once into :class:`~track_envs.io.crossings.PredictedCrossings`.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.crossing_predictions import PredictedCrossings
-from track_envs.sorting_channel import SORTING_KEYS
-from track_envs.types import SensorSpec
+from track_envs.contracts.sorting_channel import SORTING_KEYS
+from track_envs.io.crossings import PredictedCrossings
+from track_envs.values.types import SensorSpec
 
 
 def sorting_spec(spec: SensorSpec, sorting_line: float | None) -> SensorSpec:

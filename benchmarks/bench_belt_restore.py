@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import gymnasium as gym
 
 import track_envs  # noqa: F401
-from track_envs.report import empty_report
+from track_envs.contracts.report import empty_report
 
 
 def best_of_3(fn) -> float:

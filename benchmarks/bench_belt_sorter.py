@@ -30,8 +30,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from naive_belt import NaiveBelt
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report
 from track_envs.envs.belt_physics import BeltParams
-from track_envs.report import empty_report
 
 # feed rates (particles/s) that keep ≈150 and ≈500 cylinders in the window with a steady feed
 LOADS = {150: 470.0, 500: 1560.0}

@@ -58,7 +58,7 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from agents.jpda import _kernels as jpda_kernels
 from track_envs.envs.belt_physics import BeltParams
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 Obs = dict[str, NDArray]
 #: jpda as plain JPDA (no merged blobs, every settled track by its mixture): Stone Soup's association.

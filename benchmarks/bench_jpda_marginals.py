@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from agents.jpda.clusters import gate_clusters
 from agents.jpda.marginals import jpda_marginals
 from agents.jpda.weights import gaussian_log_likelihood
-from track_envs.types import Gaussian
+from track_envs.values.types import Gaussian
 
 P_D, P_G, R, Q = 0.9, 0.99, 0.5, 0.1
 

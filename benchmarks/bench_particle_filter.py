@@ -34,10 +34,10 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from agents.particle.agent import BatchParticleFilter
 from predictors.displacement import make_displacement_model
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import empty_report
 from track_envs.envs.single_target import STEP, draw_detections, sine_trajectory
-from track_envs.observation import check_observation
-from track_envs.report import empty_report
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 SIGMA_M = 0.5 * STEP
 SIGMA_P = 1.0

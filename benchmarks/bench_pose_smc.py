@@ -57,7 +57,7 @@ from predictors.pose_lstm import motion as motion_module
 from predictors.pose_lstm import prefix_tree
 from predictors.pose_lstm.motion import DEFAULT_MODEL
 from predictors.pose_lstm.predictor import PosePredictor
-from track_envs.report import empty_report
+from track_envs.contracts.report import empty_report
 
 #: Multiply-adds of one LSTM step of one sequence: 4 gates × 64 units × (3 inputs + 64 + bias).
 MACS_PER_STEP = 4 * 64 * (3 + 64 + 1)

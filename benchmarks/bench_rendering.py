@@ -40,7 +40,7 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from track_envs.envs.belt_physics import BeltParams
 from track_envs.envs.belt_sorter import _BELT_GREY, _WALL, _WINDOW, _box_corners
-from track_envs.rendering import footer_height, identity_colors
+from track_envs.envs.rendering import footer_height, identity_colors
 
 FEED_RATE = 470.0  # particles/s that keep ≈150 cylinders in the window with a steady feed
 

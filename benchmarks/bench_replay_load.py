@@ -1,4 +1,4 @@
-"""Benchmark: loading a recorded belt-sorter track file with :func:`track_envs.track_csv.load_track_csv`.
+"""Benchmark: loading a recorded belt-sorter track file with :func:`track_envs.io.wide_tracks.load_track_csv`.
 
 Generates a realistic file in a temporary directory (each particle visible for about 30 consecutive
 frames, NaN elsewhere, positions in metres at full float precision), then times ``load_track_csv``
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from track_envs.track_csv import load_track_csv, write_track_csv
+from track_envs.io.wide_tracks import load_track_csv, write_track_csv
 
 GENFROMTXT_LIMIT_S = 120.0
 GENFROMTXT_SAMPLE_ROWS = 200

@@ -27,13 +27,13 @@ import numpy as np
 from agents import make_agent
 from agents.run import run_agent
 from agents.self_calibration import calibrate
-from track_envs.detection_files import read_detections
-from track_envs.detections import Detections, detection_sensor_spec
 from track_envs.envs.belt_replay import sample_recording_path
-from track_envs.track_csv import load_track_csv
-from track_envs.track_files import read_tracks
-from track_envs.track_scoring import score_tracks
-from track_envs.tracks import Tracks
+from track_envs.io.detections import read_detections
+from track_envs.io.tracks import read_tracks
+from track_envs.io.wide_tracks import load_track_csv
+from track_envs.metrics.track_scoring import score_tracks
+from track_envs.values.detections import Detections, detection_sensor_spec
+from track_envs.values.tracks import Tracks
 
 
 def belt_sample(noise: float) -> tuple[Detections, Tracks]:

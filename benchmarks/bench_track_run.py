@@ -32,13 +32,13 @@ import numpy as np
 from agents import make_agent
 from agents.cli.run import main as track_run
 from agents.run import packed_block, run_agent
-from track_envs.detection_files import (
+from track_envs.io.detections import (
     read_mot_detections,
     read_wide_detections,
     write_mot_detections,
     write_wide_detections,
 )
-from track_envs.detections import Detections, detection_sensor_spec
+from track_envs.values.detections import Detections, detection_sensor_spec
 
 #: Interleaved repetitions of each variant of the overhead measurement (the least CPU time counts).
 REPEATS = 7

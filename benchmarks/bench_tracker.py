@@ -43,10 +43,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import track_envs  # noqa: F401
 from agents import make_agent
 from predictors.kalman.predictor import cv_model
+from track_envs.contracts.report import empty_report, pack_report
 from track_envs.envs.belt_physics import BeltParams
-from track_envs.recording import record_belt_sorter
-from track_envs.report import empty_report, pack_report
-from track_envs.types import SensorSpec
+from track_envs.envs.recording import record_belt_sorter
+from track_envs.values.types import SensorSpec
 from track_envs.wrappers import TrackingMetrics
 
 N_TARGETS = 150

@@ -3,13 +3,13 @@
 One module and a ``register_agent`` call. An agent (the :class:`agents.base.Agent` protocol) has
 two calls:
 
-* ``reset(spec, *, seed=None)`` binds it to the env's :class:`~track_envs.types.SensorSpec` and
+* ``reset(spec, *, seed=None)`` binds it to the env's :class:`~track_envs.values.types.SensorSpec` and
   starts an episode with no tracks (``seed`` seeds whatever random stream it draws from);
 * ``act(obs) -> report``: the observation (``"detections"``, ``"mask"``) in, the report of its
   live tracks out (ids, positions, the detection row each was updated with, mask), built with
-  :func:`track_envs.report.pack_report`. The report is the env's action.
+  :func:`track_envs.contracts.report.pack_report`. The report is the env's action.
 
-It validates the observation with :func:`track_envs.observation.check_observation` (a
+It validates the observation with :func:`track_envs.contracts.observation.check_observation` (a
 ``ValueError`` naming what is wrong) and declares what it is as class attributes (the traits of
 :mod:`agents.base`: ``position_rank``, ``max_targets``, ``needs_truth``, ``takes_predictor``),
 which the bench and ``track run`` read to decide where it applies. Run it::
@@ -29,9 +29,9 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from agents import register_agent
-from track_envs.observation import check_observation
-from track_envs.report import pack_report
-from track_envs.types import SensorSpec
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import pack_report
+from track_envs.values.types import SensorSpec
 
 NAME = "nearest"
 #: The default gate in multiples of the sensor's noise std.

@@ -9,7 +9,7 @@ puts the truth into ``info``, scores the reward and renders. The hooks:
 * ``_truth`` returns the targets of the frame;
 * ``_canvas`` / ``_draw`` draw it (``render_mode="rgb_array"``).
 
-The default ``_sense`` is the point sensor of the :class:`~track_envs.types.SensorSpec`
+The default ``_sense`` is the point sensor of the :class:`~track_envs.values.types.SensorSpec`
 (noise, p_detect, clutter). Run it::
 
     python examples/extend_env.py --steps 50
@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 ENV_ID = "CirclingTargets-v0"
 
@@ -77,7 +77,7 @@ class CirclingTargetsEnv(TrackingEnv):
         return Truth.all_in_view(np.arange(self.num_targets, dtype=np.int64), xy)
 
     def _canvas(self) -> Any:
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         return Canvas.for_region(self.sensor_spec, width=500)
 

@@ -39,7 +39,7 @@ from predictors import Predictor, register_predictor
 from predictors.base import BatchState
 from predictors.lstm_cell import LSTMCellWeights
 from predictors.training.model_file import ModelFile, load_model, require_shapes
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 #: The registered predictor name, and the stem of its model file.
 NAME = "learned-step"

@@ -3,7 +3,7 @@
 One module and a ``register_predictor`` call. A predictor is a motion model with uncertainty,
 batched over the ``n`` tracks of a tracker (the :class:`predictors.base.Predictor` protocol):
 
-* ``reset(spec)`` binds it to the env's :class:`~track_envs.types.SensorSpec` (``dt``, noise);
+* ``reset(spec)`` binds it to the env's :class:`~track_envs.values.types.SensorSpec` (``dt``, noise);
 * ``start(z)`` makes the states of new tracks from their first measurements ``z`` (n, D);
 * ``predict(state) -> (state, Gaussian)`` moves every track one frame on and gives its predicted
   measurement ``N(mean (n, D), cov (n, D, D))``, which the tracker gates and associates with;
@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from predictors import Capability, register_predictor
 from predictors.base import BatchState
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 NAME = "alpha-beta"
 FloatArray = NDArray[np.float64]

@@ -11,7 +11,7 @@ state (an immutable value) and calls, each frame,
 4. ``start(z) -> state`` for new tracks, ``state.take(rows)`` for survivors and
    ``type(state).concat([a, b])`` to append births.
 
-``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.types.SensorSpec`
+``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.values.types.SensorSpec`
 (frame period, measurement noise, dimension) before the first ``start``. These five methods are
 the core (:class:`Predictor`): a predictor with only them works in every Gaussian tracker (gnn,
 one-step, the sorting roll-out).
@@ -87,7 +87,7 @@ from typing import Any, Literal, NamedTuple, Protocol, Self, overload, runtime_c
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 
 @dataclass(frozen=True)

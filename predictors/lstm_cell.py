@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
 from predictors.ordered_product import ordered_product, thread_pool
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 FloatArray = NDArray[np.floating]
 #: float32 or float64: a step returns arrays of its inputs' dtype.

@@ -26,7 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 #: Multiply-adds below which a product stays on the calling thread.
 MIN_MACS_PER_THREAD = 200_000

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from predictors.base import Predictor
-from track_envs.registry import (
+from track_envs.infra.registry import (
     Registry,
     UnknownArgumentError,
     check_keywords,

@@ -25,8 +25,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from track_envs.report import empty_report, validate_report
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.contracts.report import empty_report, validate_report
+from track_envs.values.types import Gaussian, SensorSpec
 
 #: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
 PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
@@ -73,7 +73,9 @@ def check_tracking_env(env: gym.Env, steps: int = 20, seed: int = 0) -> None:
     """
     base: Any = env.unwrapped
     spec = base.sensor_spec
-    assert isinstance(spec, SensorSpec), "env.unwrapped.sensor_spec must be a track_envs.types.SensorSpec"
+    assert isinstance(spec, SensorSpec), (
+        "env.unwrapped.sensor_spec must be a track_envs.values.types.SensorSpec"
+    )
     report = empty_report(spec.max_tracks, tuple(base.position_shape))
     assert env.action_space.contains(report), "the empty report must lie in the action space"
 
@@ -147,7 +149,7 @@ def _check_report_contract(env: gym.Env, seed: int) -> None:
 
 def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
     """Check an agent on an environment: valid reports (unique track ids, in the action space,
-    accepted by :func:`~track_envs.report.validate_report`), detection rows, determinism under a
+    accepted by :func:`~track_envs.contracts.report.validate_report`), detection rows, determinism under a
     seed, and that it rejects (``ValueError``) observations that break the contract: mask values
     other than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation.
 
@@ -246,7 +248,7 @@ def check_predictor(predictor: Any, spec: SensorSpec, n: int = 5, seed: int = 0)
     state = predictor.start(z)
     assert len(state) == n, f"start(z) with {n} rows must give a state of {n} tracks, got {len(state)}"
     state, prediction = predictor.predict(state)
-    assert isinstance(prediction, Gaussian), "predict must return (state, track_envs.types.Gaussian)"
+    assert isinstance(prediction, Gaussian), "predict must return (state, track_envs.values.types.Gaussian)"
     assert prediction.mean.shape == (n, d) and prediction.cov.shape == (n, d, d), "prediction shapes"
     assert np.all(np.linalg.eigvalsh(prediction.cov) > 0), "predicted covariances must be positive definite"
     seen = np.arange(n) % 2 == 0

@@ -249,11 +249,11 @@ def run(args: argparse.Namespace) -> int:
     from agents.self_calibration.diagnostics import run_figures, run_warnings
     from agents.self_calibration.report import calibration_lines, write_sidecar
     from agents.self_calibration.scales import default_threshold
-    from track_envs.detection_files import CONSIDERED, detection_format, read_detections
-    from track_envs.detections import detection_sensor_spec
-    from track_envs.pose_files import is_pose_file
-    from track_envs.track_files import read_tracks, write_tracks
-    from track_envs.track_scoring import match_kind, match_line, score_tracks
+    from track_envs.io.detections import CONSIDERED, detection_format, read_detections
+    from track_envs.io.poses import is_pose_file
+    from track_envs.io.tracks import read_tracks, write_tracks
+    from track_envs.metrics.track_scoring import match_kind, match_line, score_tracks
+    from track_envs.values.detections import detection_sensor_spec
 
     if is_pose_file(args.detections, args.input_format):
         return run_pose.run_poses(args)
@@ -380,7 +380,7 @@ SPEC_FLAGS = {
 
 class FlagNames:
     """A context that re-raises a ``ValueError`` whose message names an argument of
-    :func:`~track_envs.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
+    :func:`~track_envs.values.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
     naming the flag instead — the one the user typed, where an old alias was used (``--noise-std``)."""
 
     def __init__(self, argv: Sequence[str] | None) -> None:
@@ -424,7 +424,7 @@ def coasting_rows(args: argparse.Namespace, detections: Any) -> str:
 
 
 def _is_mot(args: argparse.Namespace) -> bool:
-    from track_envs.track_files import track_format
+    from track_envs.io.tracks import track_format
 
     return track_format(args.gt, args.gt_format) == "mot"
 

@@ -1,6 +1,6 @@
-"""``track run`` on pose files (COCO keypoint results, PoseTrack JSON: :mod:`track_envs.pose_files`).
+"""``track run`` on pose files (COCO keypoint results, PoseTrack JSON: :mod:`track_envs.io.poses`).
 
-The file is read into a :class:`~track_envs.poses.PoseStream`, tracked with a pose agent
+The file is read into a :class:`~track_envs.values.poses.PoseStream`, tracked with a pose agent
 (:func:`agents.pose.run.run_pose_agent`), written as PoseTrack results and, with ``--gt`` and
 ``--metrics``, scored with per-joint MOTA and HOTA
 (:func:`track_envs.metrics.pose_scoring.score_poses`). Which agents run on which kind of file:
@@ -39,9 +39,9 @@ def run_poses(args: argparse.Namespace) -> int:
     """Read a pose file, track it with a pose agent, write PoseTrack results, score against --gt."""
     from agents.cli.run import build_agent, format_metrics
     from agents.pose.run import run_pose_agent
+    from track_envs.io.poses import image_list, json_pose_format, load_json, read_pose_file, write_posetrack
     from track_envs.metrics.pose_scoring import score_poses
-    from track_envs.pose_files import image_list, json_pose_format, load_json, read_pose_file, write_posetrack
-    from track_envs.poses import pose_sensor_spec
+    from track_envs.values.poses import pose_sensor_spec
 
     name = args.agent or "pose-baseline"
     check_file_agent(name, "pose")

@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from track_envs.detections import Detections
-from track_envs.types import SensorSpec
+from track_envs.values.detections import Detections
+from track_envs.values.types import SensorSpec
 
 
 def _vector(text: str) -> tuple[float, ...]:

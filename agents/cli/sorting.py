@@ -4,7 +4,7 @@
     The tracker is told of a sorting line (the nozzle bar) at ``x = X``, downstream of the
     camera window (the region's ``x_high``), and predicts each track's crossing of it when it
     lets the track go (the gnn agent). The predictions go to a CSV
-    (:mod:`track_envs.crossing_predictions`: ``id,frame,t_cross,y_cross,var_t,cov_ty,var_y``),
+    (:mod:`track_envs.io.crossings`: ``id,frame,t_cross,y_cross,var_t,cov_ty,var_y``),
     by default ``OUT.sorting.csv`` beside ``--out`` (``OUT`` its path without suffix). Tracks still
     alive at the recording's end get none.
 ``--sorting-check line=L,cut=C[,lateral_tolerance=W,time_tolerance=T,min_seen=N]``
@@ -27,11 +27,11 @@ from typing import Any
 import numpy as np
 
 from agents.cli import arguments
-from track_envs.crossing_check import LATERAL_TOLERANCE, MIN_SEEN, TIME_TOLERANCE
-from track_envs.crossing_predictions import PredictedCrossings, write_crossings
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
-from track_envs.types import SensorSpec
+from track_envs.io.crossings import PredictedCrossings, write_crossings
+from track_envs.metrics.crossing_check import LATERAL_TOLERANCE, MIN_SEEN, TIME_TOLERANCE
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
+from track_envs.values.types import SensorSpec
 
 #: The names ``--sorting-check`` takes, and their defaults (None: required).
 CHECK_NAMES: dict[str, float | int | None] = {
@@ -75,7 +75,7 @@ def check_arguments(args: argparse.Namespace, spec: SensorSpec) -> dict[str, Any
         ValueError: naming the flag, the value and what it must be.
     """
     from agents.sorting_check import check_line_and_cut
-    from track_envs.crossing_check import check_tolerances
+    from track_envs.metrics.crossing_check import check_tolerances
 
     if args.sorting_out is not None and (args.sorting_line is None) == (args.sorting_check is None):
         raise ValueError(

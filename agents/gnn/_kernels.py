@@ -40,8 +40,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking._kernels import cholesky_lower, mahalanobis_costs
-from track_envs.compiled import njit
-from track_envs.types import FloatArray
+from track_envs.infra.compiled import njit
+from track_envs.values.types import FloatArray
 
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]

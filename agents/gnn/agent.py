@@ -49,7 +49,7 @@ Every frame, for the ``n`` live tracks and the ``m`` detections of the observati
 The report holds every live track at its current (posterior) estimate, and the detection row it
 was updated with (−1 when it coasted). When the sensor has a nozzle bar downstream
 (``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
-crossing of the bar in the report's sorting channel (:mod:`track_envs.sorting_channel`): its
+crossing of the bar in the report's sorting channel (:mod:`track_envs.contracts.sorting_channel`): its
 predictor rolled forward from the track's state without further measurements
 (:func:`agents.tracking.sorting.predict_crossings`; a track slower than a sixth of the flow is given
 up, see :meth:`GnnAgent._rollout_steps`). A deleted track has coasted since its last update,
@@ -80,10 +80,10 @@ from agents.tracking.merges import share_blobs
 from agents.tracking.sorting import MAX_STEPS, predict_crossings
 from predictors.base import Capability, Predictor, capability, reset_predictor
 from predictors.registry import resolve_predictor
-from track_envs.observation import check_observation
-from track_envs.report import pack_report
-from track_envs.sorting_channel import empty_sorting, pack_sorting
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import pack_report
+from track_envs.contracts.sorting_channel import empty_sorting, pack_sorting
+from track_envs.values.types import Gaussian, SensorSpec
 
 #: Update streaks (consecutive updates) of the young tracks the velocity prior is learnt from.
 YOUNG_STREAK = (3, 6)
@@ -157,7 +157,7 @@ class GnnAgent:
             no sorting channel, for throughput when no valve is driven.
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
-            :class:`~track_envs.registry.UnknownArgumentError` listing the arguments of both.
+            :class:`~track_envs.infra.registry.UnknownArgumentError` listing the arguments of both.
 
     Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
     between frames of a running episode (each is checked, and the next frame uses it); this is

@@ -59,8 +59,8 @@ from agents.jpda.lbp import lbp_marginals
 from agents.jpda.marginals import MAX_EXACT
 from agents.jpda.weights import gaussian_log_likelihood, jpda_log_weights
 from predictors.base import Capability, Predictor, capability
-from track_envs.arguments import check_int, check_non_negative, check_positive
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.infra.arguments import check_int, check_non_negative, check_positive
+from track_envs.values.types import Gaussian, SensorSpec
 
 #: Default floor of the clutter rate (detections per frame) for sensors that declare none.
 MIN_CLUTTER_RATE = 0.01

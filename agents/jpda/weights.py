@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking.assign import mahalanobis_cost
-from track_envs.types import Gaussian
+from track_envs.values.types import Gaussian
 
 FloatArray = NDArray[np.float64]
 

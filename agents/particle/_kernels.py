@@ -36,7 +36,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 
 @njit(cache=True)

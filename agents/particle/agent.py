@@ -63,9 +63,9 @@ from predictors.displacement import (
     check_sigma,
     make_displacement_model,
 )
-from track_envs.observation import check_observation
-from track_envs.report import empty_report
-from track_envs.types import SensorSpec
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import empty_report
+from track_envs.values.types import SensorSpec
 
 #: Particles (T·N) from which the compiled prediction draws its noise inside the kernel, below
 #: which numpy draws it (see ``BatchParticleFilter.predict``).

@@ -38,11 +38,11 @@ from numpy.typing import NDArray
 
 from agents.tracking.assign import assign_greedy, assign_hungarian
 from predictors.pose import ConstantVelocityPose, PoseMotion
+from track_envs.contracts.observation import check_observation
+from track_envs.contracts.report import pack_report
+from track_envs.infra.registry import split_keywords, takes_keywords_of
 from track_envs.metrics.keypoints import NUM_KEYPOINTS
-from track_envs.observation import check_observation
-from track_envs.registry import split_keywords, takes_keywords_of
-from track_envs.report import pack_report
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 MAX_LIFETIME = 30
 

@@ -1,9 +1,9 @@
 """Run a pose agent over a recorded pose stream (a pose file), outside a gym loop.
 
 :func:`run_pose_agent` is :func:`agents.run.run_agent` for poses: each frame of a
-:class:`~track_envs.poses.PoseStream` is packed as KeypointWalkers-v0 observes it
-(:func:`~track_envs.poses.pose_observation`), handed to ``agent.act``, and the report's live rows
-become the frame's tracked poses, a :class:`~track_envs.poses.PoseStream` with track ids:
+:class:`~track_envs.values.poses.PoseStream` is packed as KeypointWalkers-v0 observes it
+(:func:`~track_envs.values.poses.pose_observation`), handed to ``agent.act``, and the report's live rows
+become the frame's tracked poses, a :class:`~track_envs.values.poses.PoseStream` with track ids:
 
 * a track updated with detection ``d`` keeps ``d``'s labelled keypoints (their visibility and
   confidence, at the tracker's positions) and ``d``'s pose score; the keypoints ``d`` lacks are
@@ -20,8 +20,8 @@ import numpy as np
 
 from agents.file_kinds import check_file_agent
 from track_envs.metrics.keypoints import NUM_KEYPOINTS
-from track_envs.poses import PoseStream, pose_observation
-from track_envs.types import SensorSpec
+from track_envs.values.poses import PoseStream, pose_observation
+from track_envs.values.types import SensorSpec
 
 
 def run_pose_agent(agent: Any, stream: PoseStream, spec: SensorSpec, *, seed: int | None = 0) -> PoseStream:

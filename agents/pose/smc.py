@@ -16,7 +16,7 @@ from typing import Any
 
 from agents.pose.baseline import PoseTracker, PoseTrackingOptions
 from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings, pose_model_path
-from track_envs.registry import split_keywords, takes_keywords_of
+from track_envs.infra.registry import split_keywords, takes_keywords_of
 
 __all__ = ["DEFAULT_MODEL", "PoseSmcAgent"]
 

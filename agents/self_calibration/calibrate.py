@@ -39,9 +39,9 @@ from numpy.typing import NDArray
 from agents.self_calibration.coasting import coasting_radii, reappearance_gaps
 from agents.self_calibration.noise import NoiseEstimate, estimate_noise
 from agents.self_calibration.scales import DataScales, data_scales
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
-from track_envs.types import SensorSpec
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
+from track_envs.values.types import SensorSpec
 
 #: Kalman model of each predictor the calibration knows; any other predictor is calibrated with
 #: the constant-velocity model, and only its measurement noise (the sensor spec's) is used.

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from track_envs.tracks import Tracks
+from track_envs.values.tracks import Tracks
 
 #: Ids per detection above which a run warns.
 MAX_ID_RATIO = 0.5

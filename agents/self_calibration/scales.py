@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from track_envs.detections import Detections
+from track_envs.values.detections import Detections
 
 #: Nearest detections of the previous frame each detection is paired with for the flow.
 NEIGHBOURS = 4

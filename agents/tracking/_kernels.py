@@ -10,10 +10,10 @@ For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (
 one Cholesky factor and its triangular inverse per track, then for every pair ``D`` rows of
 ``L⁻¹`` times the difference. :func:`gated_costs` also splits the admissible pairs
 (``d² <= γ``) into lone pairs and the rest in the same call
-(:func:`track_envs.assignment.split_dense`), so the assignment only sees the rows and columns
-that compete: :func:`track_envs.assignment.rest_problem` builds their ``[C | M]`` problem for
-the solver and :func:`track_envs.assignment.merge_solution` joins its answer to the lone pairs
-(both also importable from here, for compiled callers).
+(:func:`track_envs.infra.assignment.lone_pairs.split_dense`), so the assignment only sees the rows and columns
+that compete: :func:`track_envs.infra.assignment.lone_pairs.rest_problem` builds their ``[C | M]`` problem for
+the solver and :func:`track_envs.infra.assignment.lone_pairs.merge_solution` joins its answer to
+the lone pairs (both also importable from here, for compiled callers).
 
 The planar case ``D = 2`` has its own closed-form row (its loop over detections vectorises);
 other dimensions run a generic Cholesky and triangular inverse.
@@ -37,9 +37,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.assignment import merge_solution, partner_pairs, rest_problem, split_dense
-from track_envs.compiled import njit
-from track_envs.types import FloatArray
+from track_envs.infra.assignment.lone_pairs import merge_solution, partner_pairs, rest_problem, split_dense
+from track_envs.infra.compiled import njit
+from track_envs.values.types import FloatArray
 
 IntArray = NDArray[np.int64]
 
@@ -209,7 +209,7 @@ def gated_costs(mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float) -
 
     A *lone pair* is an admissible pair alone in both its row and its column; it belongs to an
     optimal assignment. The rest are the rows and columns with admissible pairs that are not in a
-    lone pair (:func:`track_envs.assignment.split_dense`).
+    lone pair (:func:`track_envs.infra.assignment.lone_pairs.split_dense`).
 
     Returns:
         :class:`GatedCosts` ``(cost (n, m), lone_rows, lone_cols, rest_rows, rest_cols, bad)``,

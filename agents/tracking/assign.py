@@ -12,7 +12,8 @@ admissible when ``d_{ij}^2 \\le γ = F^{-1}_{χ^2_D}(p_{gate})`` (``p_gate = 0.9
 000). The global nearest neighbour assignment minimises the summed cost over admissible pairs,
 where leaving a track unassigned costs ``γ``.
 
-Hungarian assignment is :mod:`track_envs.assignment`: lone pairs (alone in their row and column)
+Hungarian assignment is :mod:`track_envs.infra.assignment.lone_pairs`: lone pairs (alone in their row
+and column)
 directly, the rest as the rectangular problem ``[C | M]`` with per-track miss columns (``γ`` on
 the diagonal of ``M``, one finite stand-in for every inadmissible entry), so it stays feasible
 when a row or the whole frame is gated out and ``linear_sum_assignment`` never sees ``inf`` (the
@@ -30,8 +31,8 @@ from numpy.typing import NDArray
 from scipy.stats import chi2
 
 from agents.tracking import _kernels
-from track_envs.assignment import EMPTY_PAIRS, Pairs, min_cost_with_misses, solve_split
-from track_envs.types import FloatArray, Gaussian
+from track_envs.infra.assignment.lone_pairs import EMPTY_PAIRS, Pairs, min_cost_with_misses, solve_split
+from track_envs.values.types import FloatArray, Gaussian
 
 _EMPTY: Pairs = EMPTY_PAIRS
 
@@ -85,7 +86,8 @@ def mahalanobis_cost(prediction: Gaussian, z: NDArray[np.floating]) -> NDArray[n
 def assign_hungarian(cost: NDArray[np.floating], gate: float) -> Pairs:
     """Optimal assignment of tracks (rows) to detections (columns) with a per-track miss cost ``gate``.
 
-    See :func:`track_envs.assignment.min_cost_with_misses` (lone pairs first, then Hungarian on
+    See :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses` (lone pairs first, then
+    Hungarian on
     ``[C | M]`` with finite stand-ins for gated pairs).
 
     Returns:
@@ -137,8 +139,8 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
     The costs and the lone-pair split of the admissible pairs come from one compiled kernel
     (:func:`agents.tracking._kernels.gated_costs`); only the rows and columns that compete go
     to ``scipy.optimize.linear_sum_assignment``, as the problem ``[C | M]``
-    (:func:`track_envs.assignment.solve_split`, the path of
-    :func:`track_envs.assignment.min_cost_with_misses`).
+    (:func:`track_envs.infra.assignment.lone_pairs.solve_split`, the path of
+    :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`).
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs, sorted by row.

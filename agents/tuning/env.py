@@ -15,7 +15,7 @@ from agents.bench.cells import env_kwarg_names
 from agents.gnn.agent import GnnAgent
 from agents.tuning.diagnostics import FEATURE_BOUND, FEATURES, N_FEATURES, WindowDiagnostics
 from agents.tuning.knobs import check_action, make_knobs
-from track_envs.arguments import check_int
+from track_envs.infra.arguments import check_int
 from track_envs.metrics.belt import AssociationErrors
 
 #: Report rows of the base env unless ``base_kwargs`` sets ``max_tracks``: with clutter and a tight
@@ -44,7 +44,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Description
     Each step runs ``frames_per_step`` (K) frames of a point env (``base_env``, default
-    BeltSorter-v0 with the ``"belt"`` drift of :mod:`track_envs.drift`: noise std, detection
+    BeltSorter-v0 with the ``"belt"`` drift of :mod:`track_envs.envs.drift`: noise std, detection
     probability and clutter rate drift over the episode while ``sensor_spec`` stays nominal)
     tracked by a :class:`~agents.gnn.agent.GnnAgent`; before the K frames the action sets the
     tracker's knobs. A policy sees only what the tracker can compute itself and must keep the

@@ -22,7 +22,7 @@ import numpy as np
 
 from agents.tuning.env import BASE_MAX_TARGETS, BASE_MAX_TRACKS, HELD_OUT_SEEDS
 from agents.tuning.knobs import knob_ranges
-from track_envs.arguments import check_int
+from track_envs.infra.arguments import check_int
 
 #: The grid of the fixed-setting baseline (values of each knob).
 GRID: dict[str, tuple[float, ...]] = {

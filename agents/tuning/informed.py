@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tuning.policy import FixedPolicy, SettingChooser
-from track_envs.drift import DRIFT_PRESETS, SensorValues
+from track_envs.envs.drift import DRIFT_PRESETS, SensorValues
 
 #: The sensor parameters of a state, in the table's axis order.
 SENSOR_AXES = SensorValues._fields  # ("noise_std", "p_detect", "clutter_rate")

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tuning.policy import SettingChooser
-from track_envs.arguments import check_int
+from track_envs.infra.arguments import check_int
 
 #: The default candidate settings: 3 gate probabilities × second chance off / default × 3 scales,
 #: around the best fixed settings of the belt with drift.

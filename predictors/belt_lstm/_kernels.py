@@ -23,7 +23,7 @@ import numpy as np
 
 from predictors.base import Crossings
 from predictors.lstm_cell import cell_step
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 
 @njit(cache=True)

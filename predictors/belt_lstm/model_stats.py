@@ -23,7 +23,7 @@ from predictors.training.calibration import P_DES, coverage, fit_recalibration
 from predictors.training.data import TrackSet, TrackSplit
 from predictors.training.evaluate import OneStepResult, one_step_predictions
 from predictors.training.model_file import ModelFile
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 #: Prior length scale ``l`` of the MC-dropout precision (Pollithy et al. 2020, Sec. IV-C).
 LENGTH_SCALE = 1e-2

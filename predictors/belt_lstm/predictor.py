@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from predictors.base import BatchState, Capability, Crossings
 from predictors.belt_lstm.inference import FastLSTMWeights, LSTMWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 FloatArray = NDArray[np.float64]
 #: The belt LSTM kinds.

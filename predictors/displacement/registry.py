@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from predictors.displacement.base import DisplacementModel
 from predictors.displacement.models import Brownian, ConstantVelocityDisplacement
-from track_envs.registry import Registry
+from track_envs.infra.registry import Registry
 
 #: The kind of model this registry holds (one of the three kinds of motion model).
 KIND = "displacement"

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from predictors.lstm_cell import cell_step_rows
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 _TWO_PI = 2.0 * math.pi
 

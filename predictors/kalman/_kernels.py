@@ -39,8 +39,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.base import Crossings
-from track_envs.compiled import njit
-from track_envs.types import FloatArray
+from track_envs.infra.compiled import njit
+from track_envs.values.types import FloatArray
 
 #: Status codes of :func:`update_tracks`.
 UPDATE_OK = 0

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from predictors.base import BatchState, Capability, Crossings
 from predictors.kalman import _kernels
 from predictors.kalman.rollout import kalman_crossings
-from track_envs.types import FloatArray, Gaussian, SensorSpec
+from track_envs.values.types import FloatArray, Gaussian, SensorSpec
 
 ModelName = Literal["cv", "ca", "random-walk"]
 
@@ -154,7 +154,7 @@ def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: 
         R: Measurement-noise covariance, shape (D, D).
 
     Returns:
-        A :class:`~track_envs.types.Gaussian` with mean (n, D) and cov (n, D, D) (exactly symmetric).
+        A :class:`~track_envs.values.types.Gaussian` with mean (n, D) and cov (n, D, D) (exactly symmetric).
 
     Raises:
         ValueError: if the shapes disagree.

@@ -5,7 +5,7 @@
 * :mod:`~predictors.pose.constant_velocity`: :class:`ConstantVelocityPose`;
 * :mod:`~predictors.pose.registry`: :data:`POSE_MOTIONS` (the SMC motion of the pose LSTM lives in
   :mod:`predictors.pose_lstm.motion`). The pose trackers take the keywords of the settings they
-  forward (each declared once) with :func:`track_envs.registry.takes_keywords_of`.
+  forward (each declared once) with :func:`track_envs.infra.registry.takes_keywords_of`.
 """
 
 from predictors.pose.base import PoseMotion, centroid_fill

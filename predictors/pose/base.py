@@ -27,7 +27,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 
 class PoseMotion(Protocol):

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from predictors.pose.base import centroid_fill
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, pairwise_oks
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 
 class ConstantVelocityPose:

@@ -13,7 +13,7 @@ import os
 from typing import Any
 
 from predictors.pose.constant_velocity import ConstantVelocityPose
-from track_envs.registry import Registry, check_keywords, named_arguments
+from track_envs.infra.registry import Registry, check_keywords, named_arguments
 
 #: The kind of model this registry holds (one of the three kinds of motion model).
 KIND = "pose"

@@ -62,9 +62,9 @@ from numpy.typing import NDArray
 from predictors.pose.base import centroid_fill
 from predictors.pose_lstm.device import paired_oks_torch, torch_device
 from predictors.pose_lstm.predictor import window_features
+from track_envs.infra.registry import takes_keywords_of
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_oks
-from track_envs.registry import takes_keywords_of
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 #: The folder of the shipped models.
 WEIGHTS = Path(__file__).resolve().parents[1] / "weights"

@@ -101,7 +101,7 @@ def pose_windows_from_env(
     import gymnasium as gym
 
     import track_envs  # noqa: F401  (registers the envs)
-    from track_envs.report import empty_report
+    from track_envs.contracts.report import empty_report
 
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")

@@ -88,7 +88,7 @@ def tracks_from_file(path: str | os.PathLike[str], *, dt: float, region: Any = N
         region: ``(low, high)`` corners of the observed region; ``None`` takes the bounding box of
             the recorded positions.
     """
-    from track_envs.track_csv import load_track_csv
+    from track_envs.io.wide_tracks import load_track_csv
 
     if not (np.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
@@ -125,7 +125,7 @@ def tracks_from_env(
     import gymnasium as gym
 
     import track_envs  # noqa: F401  (registers the envs)
-    from track_envs.report import empty_report
+    from track_envs.contracts.report import empty_report
 
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")

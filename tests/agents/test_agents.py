@@ -8,7 +8,7 @@ import pytest
 
 import track_envs
 from agents import AGENTS, agent_applies_to, available_agents, make_agent
-from track_envs.registry import UnknownArgumentError
+from track_envs.infra.registry import UnknownArgumentError
 from track_envs.testing import check_agent
 
 # oracles that read the truth (needs_truth, e.g. one-step) cannot act without it: their

@@ -20,8 +20,8 @@ from agents.tracking.assign import (
     chi2_gate,
     mahalanobis_cost,
 )
-from track_envs.assignment import partner_pairs, split_dense
-from track_envs.types import Gaussian
+from track_envs.infra.assignment.lone_pairs import partner_pairs, split_dense
+from track_envs.values.types import Gaussian
 
 
 def random_gaussians(rng, n, d=2):

@@ -21,8 +21,8 @@ from agents.tracking.sorting import predict_crossings
 from predictors import make_predictor, resolve_predictor
 from predictors.base import BatchState, Capability, capability, declared_capabilities, has_capability
 from predictors.kalman.predictor import KalmanPredictor
-from track_envs.registry import UnknownArgumentError
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.infra.registry import UnknownArgumentError
+from track_envs.values.types import Gaussian, SensorSpec
 
 #: The belt's sensor, with its nozzle bar at ``x = LINE``.
 SPEC: SensorSpec = gym.make("BeltSorter-v0").unwrapped.sensor_spec  # type: ignore[attr-defined]

@@ -17,9 +17,9 @@ from agents.gnn.agent import YOUNG_STREAK
 from predictors import available_predictors
 from predictors.base import Capability
 from predictors.kalman.predictor import KalmanPredictor
+from track_envs.infra.registry import UnknownArgumentError
 from track_envs.metrics.belt import AssociationErrors
-from track_envs.registry import UnknownArgumentError
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 
 def run(env, agent, frames, seed=0):
@@ -343,7 +343,7 @@ def sparse_stream_positions(
 
 @pytest.fixture(scope="module")
 def sparse_env(tmp_path_factory):
-    from track_envs.track_csv import write_track_csv
+    from track_envs.io.wide_tracks import write_track_csv
 
     path = tmp_path_factory.mktemp("sparse") / "sparse.csv"
     positions = sparse_stream_positions()

@@ -67,7 +67,7 @@ def _touching_pair_stream(rng: np.random.Generator) -> list[tuple[np.ndarray, fl
 def _track_pair(blob_extent: float) -> tuple[dict[int, float], dict[int, float], int]:
     """Ids → x of the reported tracks before the merge (frame 20) and after it (last frame)."""
     from agents.gnn.agent import GnnAgent
-    from track_envs.types import SensorSpec
+    from track_envs.values.types import SensorSpec
 
     spec = SensorSpec(
         dt=0.005, dim=2, noise_std=3e-5, p_detect=1.0, clutter_rate=0.0,

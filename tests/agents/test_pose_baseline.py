@@ -10,7 +10,7 @@ import track_envs  # noqa: F401
 from agents import agent_applies_to, make_agent
 from agents.pose.baseline import PoseBaselineAgent
 from track_envs.metrics.keypoints import COCO_SIGMAS, pairwise_oks
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 from track_envs.wrappers import TrackingMetrics
 
 EASY = {"num_people": 3, "occlusion": False, "num_occluders": 0, "vanish_rate": 0.0, "clutter_rate": 0.0,

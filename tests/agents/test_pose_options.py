@@ -14,7 +14,12 @@ from agents.pose.baseline import PoseBaselineAgent, PoseTracker, PoseTrackingOpt
 from agents.pose.smc import PoseSmcAgent
 from predictors.pose import ConstantVelocityPose
 from predictors.pose_lstm.motion import SmcPoseMotion, SmcSettings
-from track_envs.registry import UnknownArgumentError, keyword_parameters, split_keywords, takes_keywords_of
+from track_envs.infra.registry import (
+    UnknownArgumentError,
+    keyword_parameters,
+    split_keywords,
+    takes_keywords_of,
+)
 
 LOOP = [f.name for f in dataclasses.fields(PoseTrackingOptions)]
 SMC = [f.name for f in dataclasses.fields(SmcSettings)]

@@ -12,7 +12,7 @@ import torch
 import track_envs  # noqa: F401
 from agents.gnn.agent import GnnAgent
 from predictors.base import BatchState, Capability, has_capability
-from track_envs.types import Gaussian, SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 
 @dataclass(frozen=True)

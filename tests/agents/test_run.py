@@ -13,10 +13,10 @@ import track_envs  # noqa: F401  (registers the envs)
 from agents import make_agent
 from agents.cli.run import format_metrics, main
 from agents.run import run_agent
-from track_envs.detections import Detections
-from track_envs.observation import check_observation, pack_observation
-from track_envs.track_files import read_tracks
-from track_envs.types import SensorSpec
+from track_envs.contracts.observation import check_observation, pack_observation
+from track_envs.io.tracks import read_tracks
+from track_envs.values.detections import Detections
+from track_envs.values.types import SensorSpec
 from track_envs.wrappers import RecordTracking, TrackingMetrics
 
 STEPS = 120

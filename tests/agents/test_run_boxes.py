@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from agents.cli.run import main
-from track_envs.track_files import read_tracks
+from track_envs.io.tracks import read_tracks
 
 mm = pytest.importorskip("motmetrics")
 DATA = Path(mm.__file__).parent / "data"

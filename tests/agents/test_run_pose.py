@@ -14,11 +14,11 @@ from agents.cli.run import main
 from agents.file_kinds import file_agents, why_not
 from agents.pose.run import run_pose_agent
 from agents.run import run_agent
+from track_envs.envs.pose_recording import record_keypoint_walkers
+from track_envs.io.poses import posetrack_track_ids, read_pose_file, write_coco_results, write_posetrack
 from track_envs.metrics.pose_scoring import score_poses
-from track_envs.pose_files import posetrack_track_ids, read_pose_file, write_coco_results, write_posetrack
-from track_envs.pose_recording import record_keypoint_walkers
-from track_envs.poses import pose_sensor_spec
-from track_envs.types import SensorSpec
+from track_envs.values.poses import pose_sensor_spec
+from track_envs.values.types import SensorSpec
 
 FRAMES = 15
 README = Path(__file__).resolve().parents[2] / "README.md"

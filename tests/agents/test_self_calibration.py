@@ -17,9 +17,9 @@ from agents.self_calibration import calibrate, run_warnings
 from agents.self_calibration.calibrate import detection_labels, live_track_bound
 from agents.self_calibration.noise import design_matrix, estimate_noise
 from predictors.kalman.predictor import _kinematic_model
-from track_envs.detection_files import write_wide_detections
-from track_envs.detections import Detections, detection_sensor_spec
-from track_envs.track_scoring import score_tracks
+from track_envs.io.detections import write_wide_detections
+from track_envs.metrics.track_scoring import score_tracks
+from track_envs.values.detections import Detections, detection_sensor_spec
 
 #: Pixels per metre of the pixel versions (a 56 µm pixel, as on a sorter camera).
 PIXELS = 1 / 5.6e-5
@@ -314,8 +314,8 @@ def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
 
 def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, capsys):
     """``run_agent("gnn", ..., calibrate=True)`` gives the tracks of ``track run`` with only --dt."""
-    from track_envs.detection_files import read_wide_detections
-    from track_envs.track_files import read_tracks
+    from track_envs.io.detections import read_wide_detections
+    from track_envs.io.tracks import read_tracks
 
     out = tmp_path / "t.csv"
     code, _, err = run_cli(
@@ -335,7 +335,7 @@ def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, caps
 def test_jpda_takes_the_calibrated_settings_as_gnn_does(pixel_file):
     """A tracker built on gnn (jpda) is given the calibration's keywords too: in pixels, the
     default metre-scale process noise would start a track at nearly every detection."""
-    from track_envs.detection_files import read_wide_detections
+    from track_envs.io.detections import read_wide_detections
 
     detections = read_wide_detections(pixel_file)
     spec = detection_sensor_spec(detections, dt=0.005)

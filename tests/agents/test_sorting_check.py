@@ -16,10 +16,10 @@ from agents import make_agent
 from agents.cli.run import main
 from agents.run import run_agent
 from agents.sorting_check import check_sorting, cut_stream
-from track_envs.crossing_predictions import read_crossings
-from track_envs.detection_files import write_wide_detections
-from track_envs.detections import Detections, detection_sensor_spec
 from track_envs.envs.detection_replay import sample_detections_path
+from track_envs.io.crossings import read_crossings
+from track_envs.io.detections import write_wide_detections
+from track_envs.values.detections import Detections, detection_sensor_spec
 
 DT = 0.01
 VX = 1.0  # m/s: 1 cm per frame

@@ -13,7 +13,7 @@ from agents.tracking.sorting import predict_crossings
 from predictors import available_predictors, make_predictor, predictor_applies_to
 from predictors.base import Capability, Crossings
 from track_envs.metrics import SortingPrediction
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 from track_envs.wrappers import TrackingMetrics
 
 LINE = 0.45

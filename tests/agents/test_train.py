@@ -13,7 +13,7 @@ import track_envs  # noqa: F401
 from agents.cli.train import main
 from agents.gnn.agent import GnnAgent
 from predictors.belt_lstm.predictor import LSTMPredictor
-from track_envs.recording import record_belt_sorter
+from track_envs.envs.recording import record_belt_sorter
 
 
 @pytest.fixture(scope="module")

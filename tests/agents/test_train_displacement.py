@@ -10,7 +10,7 @@ import numpy as np
 from agents.cli.train import main
 from predictors.displacement_lstm.inference import DisplacementLSTM
 from track_envs.envs.single_target import sine_trajectory, to_world
-from track_envs.track_csv import write_track_csv
+from track_envs.io.wide_tracks import write_track_csv
 
 FAST = ["--epochs", "3", "--batch-size", "8", "--no-progress"]
 

@@ -27,7 +27,7 @@ from predictors.kalman.predictor import (
     kf_update,
     random_walk_model,
 )
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 TOL = 1e-9
 

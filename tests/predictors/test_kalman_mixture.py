@@ -9,7 +9,7 @@ from filterpy.kalman import KalmanFilter
 
 from predictors import make_predictor
 from predictors.kalman.predictor import KalmanPredictor
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 SPEC = SensorSpec(
     dt=0.01, dim=2, noise_std=1e-3, p_detect=0.9, clutter_rate=1.0,

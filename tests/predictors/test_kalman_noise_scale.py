@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from predictors.kalman.predictor import R_FLOOR, KalmanPredictor
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 SPEC = SensorSpec(
     dt=0.01,

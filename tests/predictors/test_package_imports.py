@@ -9,14 +9,19 @@ import predictors
 
 #: track_envs modules every predictor may use: the value types, the registry helper, the
 #: compiled-kernel decorator and the keypoint similarity (OKS) the pose motions weigh by.
-RUNTIME = {"track_envs.types", "track_envs.registry", "track_envs.compiled", "track_envs.metrics.keypoints"}
+RUNTIME = {
+    "track_envs.values.types",
+    "track_envs.infra.registry",
+    "track_envs.infra.compiled",
+    "track_envs.metrics.keypoints",
+}
 #: and those the training recipes (``training`` modules) use besides: the envs (data from their
 #: truth), the empty report, track files and the reliability metric (calibration).
 TRAINING = {
     "track_envs",
     "track_envs.envs.single_target",
-    "track_envs.report",
-    "track_envs.track_csv",
+    "track_envs.contracts.report",
+    "track_envs.io.wide_tracks",
     "track_envs.metrics.prediction",
 }
 

@@ -12,7 +12,7 @@ from agents import make_agent
 from agents.pose.baseline import PoseTracker
 from predictors.pose import POSE_MOTIONS, ConstantVelocityPose, centroid_fill, motion_models
 from predictors.pose_lstm.motion import SmcPoseMotion, elite_mask, resample_indices
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 SPEC = SensorSpec(1 / 30, 2, 1.0, 1.0, 0.0, (0.0, 0.0), (1280.0, 720.0), 4, 4, "px")
 POSE = np.stack([100 + np.arange(17) * 5.0, 200 + np.arange(17) * 10.0], axis=1)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from predictors import available_predictors, make_predictor
-from track_envs.registry import UnknownArgumentError
+from track_envs.infra.registry import UnknownArgumentError
 
 FIRST_ARGUMENT = {"lstm": "weights", "nll-lstm": "weights", "mc-lstm": "weights"}
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import track_envs
-from track_envs.arguments import (
+from track_envs.envs.belt_physics import BeltParams
+from track_envs.infra.arguments import (
     check_int,
     check_non_negative,
     check_number,
@@ -17,7 +18,6 @@ from track_envs.arguments import (
     check_probability,
     check_vector,
 )
-from track_envs.envs.belt_physics import BeltParams
 
 
 def numeric_arguments(env_id: str) -> list[str]:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.assignment import min_cost_with_misses, split_dense, split_sparse
+from track_envs.infra.assignment.lone_pairs import min_cost_with_misses, split_dense, split_sparse
 
 
 def lone_pairs_by_definition(admissible: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report
 from track_envs.envs.belt_kernels import (
     NOT_PARTICLE,
     PARKED,
@@ -17,7 +18,6 @@ from track_envs.envs.belt_kernels import (
     window_rows,
     window_state,
 )
-from track_envs.report import empty_report
 
 
 def _random_rows(rng: np.random.Generator, m: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

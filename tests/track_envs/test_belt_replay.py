@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
-from track_envs.report import empty_report
-from track_envs.track_csv import TrackFileError, write_track_csv
+from track_envs.contracts.report import empty_report
+from track_envs.io.csv_parser import TrackFileError
+from track_envs.io.wide_tracks import write_track_csv
 
 
 @pytest.fixture

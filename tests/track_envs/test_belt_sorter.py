@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report
 from track_envs.envs.belt_physics import BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.belt_statistics import DEM_FIGURES, belt_statistics
-from track_envs.report import empty_report
 from track_envs.testing import assert_equal_trees as assert_tree_equal
 
 # DEM figures per data set (the three belts of Pollithy et al. 2020): entry speed, exit speed.
@@ -195,7 +195,7 @@ def test_a_pickle_continues_the_episode_bit_for_bit_in_another_process(tmp_path)
     (tmp_path / "env.pkl").write_bytes(pickle.dumps(env))
     code = (
         "import pickle, sys\n"
-        "from track_envs.report import empty_report\n"
+        "from track_envs.contracts.report import empty_report\n"
         "env = pickle.loads(open(sys.argv[1], 'rb').read())\n"
         "frames = [env.step(empty_report(256, (2,))) for _ in range(100)]\n"
         "open(sys.argv[2], 'wb').write(pickle.dumps(frames))\n"

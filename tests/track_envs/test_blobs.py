@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report
 from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS
 from track_envs.envs.blobs import (
     MAX_MERGED,
@@ -23,7 +24,6 @@ from track_envs.envs.blobs import (
     merged_rows,
     silhouette_table,
 )
-from track_envs.report import empty_report
 
 KINDS = ["sphere", "cylinder", "cuboid"]
 TABLE = silhouette_table(

@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 
 from agents.run import run_agent
-from track_envs.detection_files import (
+from track_envs.io.detections import (
     CONSIDERED,
     DetectionFileError,
     read_mot_detections,
     read_mot_rows,
     write_mot_detections,
 )
-from track_envs.detections import Detections, detection_sensor_spec
+from track_envs.io.tracks import read_tracks, write_tracks
 from track_envs.metrics import BoxClearMot, box_iou, iou_distances
-from track_envs.track_files import read_tracks, write_tracks
-from track_envs.track_scoring import match_kind, score_tracks
-from track_envs.tracks import Tracks, carried_boxes
+from track_envs.metrics.track_scoring import match_kind, score_tracks
+from track_envs.values.detections import Detections, detection_sensor_spec
+from track_envs.values.tracks import Tracks, carried_boxes
 
 BOXES = "1,-1,10,20,4,6,0.9\n1,-1,0,0,2,2,-1\n2,-1,11,21,4,6,0.3\n"
 

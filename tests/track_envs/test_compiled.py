@@ -1,4 +1,4 @@
-"""track_envs.compiled: every project kernel carries the project-wide cache stamp, so a cached
+"""track_envs.infra.compiled: every project kernel carries the project-wide cache stamp, so a cached
 kernel never outlives a change to a compiled function it calls in another module."""
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from pathlib import Path
 import numba
 import pytest
 
-import track_envs.compiled as compiled
+import track_envs.infra.compiled as compiled
 
 CALLEE = """
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 
 @njit(cache=True)
@@ -24,7 +24,7 @@ def value():
     return {value}
 """
 CALLER = """
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 from callee import value
 
 
@@ -35,7 +35,7 @@ def twice():
 RUN = """
 import sys
 from pathlib import Path
-import track_envs.compiled as compiled
+import track_envs.infra.compiled as compiled
 compiled.PACKAGE_ROOTS = (*compiled.PACKAGE_ROOTS, Path(sys.argv[1]))
 sys.path.insert(0, sys.argv[1])
 from caller import twice
@@ -48,8 +48,8 @@ def _kernel_modules() -> list[str]:
     for root in compiled.PACKAGE_ROOTS:
         for info in pkgutil.walk_packages([str(root)], prefix=f"{root.name}."):
             path = Path(root.parent, *info.name.split(".")).with_suffix(".py")
-            marked = path.is_file() and b"from track_envs.compiled import njit" in path.read_bytes()
-            if marked and info.name != "track_envs.compiled":
+            marked = path.is_file() and b"from track_envs.infra.compiled import njit" in path.read_bytes()
+            if marked and info.name != "track_envs.infra.compiled":
                 names.append(info.name)
     return names
 
@@ -73,7 +73,7 @@ def test_every_cached_project_kernel_uses_the_project_stamp(module: str) -> None
 def test_the_digest_follows_every_compiled_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     package = tmp_path / "pkg"
     package.mkdir()
-    (package / "a.py").write_text("from track_envs.compiled import njit\nA = 1\n")
+    (package / "a.py").write_text("from track_envs.infra.compiled import njit\nA = 1\n")
     (package / "plain.py").write_text("B = 1\n")
     monkeypatch.setattr(compiled, "PACKAGE_ROOTS", (package,))
     compiled.project_kernel_digest.cache_clear()
@@ -82,7 +82,7 @@ def test_the_digest_follows_every_compiled_module(tmp_path: Path, monkeypatch: p
         (package / "plain.py").write_text("B = 2\n")  # no kernel: not part of the stamp
         compiled.project_kernel_digest.cache_clear()
         assert compiled.project_kernel_digest() == first
-        (package / "a.py").write_text("from track_envs.compiled import njit\nA = 2\n")
+        (package / "a.py").write_text("from track_envs.infra.compiled import njit\nA = 2\n")
         compiled.project_kernel_digest.cache_clear()
         assert compiled.project_kernel_digest() != first
     finally:

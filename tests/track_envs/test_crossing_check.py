@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from track_envs.crossing_check import (
+from track_envs.io.crossings import PredictedCrossings, read_crossings, write_crossings
+from track_envs.io.csv_parser import DetectionFileError
+from track_envs.metrics.crossing_check import (
     check_tolerances,
     observed_crossings,
     score_crossings,
     seen_upstream,
 )
-from track_envs.crossing_predictions import PredictedCrossings, read_crossings, write_crossings
-from track_envs.csv_table import DetectionFileError
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
 
 DT = 0.01
 
@@ -197,9 +197,9 @@ def test_bad_tolerances_are_named(kwargs, message):
 
 
 def test_files_without_the_required_columns_are_named(tmp_path):
-    from track_envs.crossing_predictions import read_crossings
-    from track_envs.csv_table import DetectionFileError
-    from track_envs.track_files import read_tracks
+    from track_envs.io.crossings import read_crossings
+    from track_envs.io.csv_parser import DetectionFileError
+    from track_envs.io.tracks import read_tracks
 
     path = tmp_path / "c.csv"
     path.write_text("id,frame,t_cross\n1,2,0.5\n")

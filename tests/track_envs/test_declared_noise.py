@@ -13,8 +13,8 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from track_envs.report import empty_report
-from track_envs.track_csv import write_track_csv
+from track_envs.contracts.report import empty_report
+from track_envs.io.wide_tracks import write_track_csv
 from track_envs.wrappers import TrackingMetrics
 
 DT = 0.005  # a 200 Hz camera

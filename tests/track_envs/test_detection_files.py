@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from track_envs.detection_files import (
+from track_envs.io.detections import (
     DetectionFileError,
     read_detections,
     read_mot_detections,
@@ -18,7 +18,7 @@ from track_envs.detection_files import (
     write_mot_detections,
     write_wide_detections,
 )
-from track_envs.detections import Detections, detection_sensor_spec
+from track_envs.values.detections import Detections, detection_sensor_spec
 
 SPECIAL = [5e-324, -0.0, 0.1, 1e-5, 1e16, 1 / 3, -2.5e-300]
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401  (registers the envs)
-from track_envs.detection_files import read_wide_detections, write_mot_detections, write_wide_detections
-from track_envs.detections import Detections
+from track_envs.contracts.report import empty_report
 from track_envs.envs.detection_replay import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
-from track_envs.report import empty_report
+from track_envs.io.detections import read_wide_detections, write_mot_detections, write_wide_detections
+from track_envs.values.detections import Detections
 from track_envs.wrappers import TrackingMetrics
 
 

@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import track_envs  # noqa: F401
-from track_envs.drift import (
+from track_envs.contracts.report import empty_report
+from track_envs.envs.drift import (
     BLOCK,
     DRIFT_PRESETS,
     DriftProcess,
@@ -21,7 +22,6 @@ from track_envs.drift import (
     Steps,
     resolve_drift,
 )
-from track_envs.report import empty_report
 
 NOMINAL = SensorValues(1e-4, 1.0, 0.0)
 POINT_ENVS = ("BeltSorter-v0", "BeltReplay-v0", "SineTarget-v0", "PiecewiseTarget-v0")

@@ -12,7 +12,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import track_envs
-from track_envs.report import empty_report
+from track_envs.contracts.report import empty_report
 from track_envs.testing import assert_equal_trees as assert_tree_equal
 
 ENV_IDS = list(track_envs.ENV_IDS)
@@ -247,7 +247,7 @@ def test_track_envs_imports_neither_predictors_nor_agents():
 
 def test_padding_fits_the_spaces_when_the_region_excludes_the_origin(tmp_path):
     """Regression: a replay whose region starts above 0 put zero padding outside the Box bounds."""
-    from track_envs.track_csv import write_track_csv
+    from track_envs.io.wide_tracks import write_track_csv
 
     tracks = np.full((5, 3, 2), np.nan)
     tracks[:, :2] = 10.0 + np.arange(10, dtype=float).reshape(5, 2, 1)

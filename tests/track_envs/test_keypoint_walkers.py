@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report, pack_report
 from track_envs.envs.skeleton import FLIP_INDEX, LIMBS, WalkerParams
-from track_envs.report import empty_report, pack_report
 
 CLEAN = {"clutter_rate": 0.0, "swap_prob": 0.0, "p_detect": 1.0, "p_keypoint": 1.0}
 

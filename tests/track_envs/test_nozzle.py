@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import empty_report
 from track_envs.envs import belt_physics
 from track_envs.envs.belt_physics import PARTICLE_KINDS, BeltParams, BeltWorld
 from track_envs.envs.nozzle import recorded_crossings
-from track_envs.report import empty_report
-from track_envs.track_csv import write_track_csv
+from track_envs.io.wide_tracks import write_track_csv
 
 
 @pytest.fixture

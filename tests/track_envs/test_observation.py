@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from track_envs.observation import check_observation
-from track_envs.types import SensorSpec
+from track_envs.contracts.observation import check_observation
+from track_envs.values.types import SensorSpec
 
 SPEC = SensorSpec(
     dt=1.0,

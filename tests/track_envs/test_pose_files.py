@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from track_envs.pose_files import (
+from track_envs.envs.pose_recording import record_keypoint_walkers
+from track_envs.io.poses import (
     coco_results_json,
     image_list,
     json_pose_format,
@@ -17,8 +18,7 @@ from track_envs.pose_files import (
     write_coco_results,
     write_posetrack,
 )
-from track_envs.pose_recording import record_keypoint_walkers
-from track_envs.poses import PoseStream, pose_observation, pose_sensor_spec
+from track_envs.values.poses import PoseStream, pose_observation, pose_sensor_spec
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ from typing import Any, Protocol
 
 import pytest
 
-from track_envs.registry import (
+from track_envs.infra.registry import (
     Registry,
     UnknownArgumentError,
     keyword_arguments,

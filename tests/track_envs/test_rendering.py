@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import track_envs
-from track_envs.rendering import Canvas, LegendEntry, WorldToPixel, footer_height, identity_colors
-from track_envs.report import empty_report, pack_report
-from track_envs.track_csv import write_track_csv
+from track_envs.contracts.report import empty_report, pack_report
+from track_envs.envs.rendering import Canvas, LegendEntry, WorldToPixel, footer_height, identity_colors
+from track_envs.io.wide_tracks import write_track_csv
 
 RED = (255, 0, 0)
 WHITE = (255, 255, 255)
@@ -273,7 +273,7 @@ def test_human_window_without_pygame_names_the_install(monkeypatch: pytest.Monke
 
     from gymnasium.error import DependencyNotInstalled
 
-    from track_envs.render_window import HumanWindow
+    from track_envs.envs.render_window import HumanWindow
 
     real_import = builtins.__import__
 

@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 
 import track_envs
-from track_envs.report import ID_LIMIT, ReportSpace, empty_report, pack_report, report_space, validate_report
+from track_envs.contracts.report import (
+    ID_LIMIT,
+    ReportSpace,
+    empty_report,
+    pack_report,
+    report_space,
+    validate_report,
+)
 
 
 def test_pack_report_pads_and_refuses_overflow():

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401  (registers the ids)
+from track_envs.contracts.report import empty_report
 from track_envs.envs.single_target import n_frames_for
-from track_envs.report import empty_report
 from track_envs.wrappers import TrackingMetrics
 
 

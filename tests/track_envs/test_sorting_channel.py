@@ -8,8 +8,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import track_envs  # noqa: F401
-from track_envs.report import REPORT_KEYS, empty_report, validate_report
-from track_envs.sorting_channel import SORTING_KEYS, empty_sorting, pack_sorting
+from track_envs.contracts.report import REPORT_KEYS, empty_report, validate_report
+from track_envs.contracts.sorting_channel import SORTING_KEYS, empty_sorting, pack_sorting
 
 ROWS = 4
 MASK = np.ones(8, dtype=np.int8)

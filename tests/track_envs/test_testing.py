@@ -31,7 +31,7 @@ class LeakyAgent:
         self.spec = spec
 
     def act(self, obs):
-        from track_envs.report import pack_report
+        from track_envs.contracts.report import pack_report
 
         last_row = self.spec.max_detections - 1
         return pack_report(np.array([0]), np.zeros((1, 2)), np.array([last_row]), self.spec.max_tracks)
@@ -50,7 +50,7 @@ class TwinAgent:
         self.spec = spec
 
     def act(self, obs):
-        from track_envs.report import pack_report
+        from track_envs.contracts.report import pack_report
 
         return pack_report(np.array([5, 5]), np.zeros((2, 2)), np.array([-1, -1]), self.spec.max_tracks)
 
@@ -68,7 +68,7 @@ class TrustingAgent:
         self.spec = spec
 
     def act(self, obs):
-        from track_envs.report import pack_report
+        from track_envs.contracts.report import pack_report
 
         rows = np.flatnonzero(obs["mask"])[: self.spec.max_tracks]
         return pack_report(rows, obs["detections"][rows], rows, self.spec.max_tracks)
@@ -83,7 +83,7 @@ class ForgivingEnv(gym.Wrapper):
     """Scores every report as the empty one, so that no report is ever rejected: must be caught."""
 
     def step(self, action):
-        from track_envs.report import empty_report
+        from track_envs.contracts.report import empty_report
 
         base = self.env.unwrapped
         return self.env.step(empty_report(base.sensor_spec.max_tracks, base.position_shape))

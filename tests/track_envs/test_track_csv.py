@@ -1,4 +1,4 @@
-"""Tests for ``track_envs.track_csv``: bit-exact round trips, frame ranges and precise file errors."""
+"""Tests for ``track_envs.io.wide_tracks``: bit-exact round trips, frame ranges and precise file errors."""
 
 from __future__ import annotations
 
@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.typing import NDArray
 
-from track_envs.track_csv import TrackFileError, load_track_csv, write_track_csv
+from track_envs.io.csv_parser import TrackFileError
+from track_envs.io.wide_tracks import load_track_csv, write_track_csv
 
 # Awkward doubles: subnormals, extremes, negative zero, values whose shortest repr uses an exponent.
 SPECIAL = [5e-324, 2.2250738585072014e-308, 1.7976931348623157e308, -0.0, 0.0, 0.1, 1e-5, 1e16, 1 / 3]

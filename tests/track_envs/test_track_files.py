@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401  (registers the envs)
-from track_envs.csv_table import DetectionFileError
-from track_envs.report import empty_report
-from track_envs.track_files import read_tracks, track_format, write_tracks
-from track_envs.track_scoring import NO_DETECTION_IDS, score_tracks
-from track_envs.tracks import Tracks
+from track_envs.contracts.report import empty_report
+from track_envs.io.csv_parser import DetectionFileError
+from track_envs.io.tracks import read_tracks, track_format, write_tracks
+from track_envs.metrics.track_scoring import NO_DETECTION_IDS, score_tracks
+from track_envs.values.tracks import Tracks
 
 
 def random_tracks(seed: int = 0, n_frames: int = 40, n_ids: int = 9, cov: bool = False) -> Tracks:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from track_envs.envs.base import Truth
-from track_envs.sensors import sense_points
+from track_envs.envs.sensors import sense_points
 
 
 def test_visible_part_masks_unless_everything_is_in_view() -> None:

@@ -6,7 +6,7 @@ that lacks one cannot be instantiated: ``TypeError`` names it)
 * :meth:`TrackingEnv._reset_scene` — build the scene from ``self.np_random``;
 * :meth:`TrackingEnv._advance` — move the scene one frame on, return ``True`` when it has ended;
 * :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
-* :meth:`TrackingEnv._canvas` — the :class:`~track_envs.rendering.Canvas` a frame is drawn on;
+* :meth:`TrackingEnv._canvas` — the :class:`~track_envs.envs.rendering.Canvas` a frame is drawn on;
 * :meth:`TrackingEnv._draw` — a snapshot onto that canvas;
 
 and may override
@@ -39,12 +39,12 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from track_envs.arguments import check_int
-from track_envs.compiled import njit
-from track_envs.drift import DriftProcess, SensorDrift, SensorValues, resolve_drift
+from track_envs.contracts.report import Report, report_space, validate_report
+from track_envs.envs.drift import DriftProcess, SensorDrift, SensorValues, resolve_drift
+from track_envs.infra.arguments import check_int
+from track_envs.infra.compiled import njit
 from track_envs.metrics.gospa import gospa
-from track_envs.report import Report, report_space, validate_report
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     gospa_c: float
     #: Shuffle the detection rows every frame (a replay may keep its file's order).
     shuffle_rows: bool = True
-    #: The sensor's drift over an episode (:mod:`track_envs.drift`); None: it stays nominal.
+    #: The sensor's drift over an episode (:mod:`track_envs.envs.drift`); None: it stays nominal.
     drift: SensorDrift | None = None
     _drift_process: DriftProcess | None = None
 
@@ -167,7 +167,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         self._render_frame: tuple[Any, NDArray, Report | None, int] | None = None
 
     def _set_drift(self, drift: SensorDrift | Any) -> None:
-        """Let the sensor drift (:func:`track_envs.drift.resolve_drift` checks ``drift``)."""
+        """Let the sensor drift (:func:`track_envs.envs.drift.resolve_drift` checks ``drift``)."""
         self.drift = resolve_drift(drift)
 
     def _nominal_sensor(self) -> SensorValues:
@@ -205,7 +205,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         spec's ``noise_std``; with a drift, the noise, detection probability and clutter rate of
         the frame's drift (:meth:`_sensor_now`).
 
-        Point environments use this as it is; others override it (see :mod:`track_envs.sensors`).
+        Point environments use this as it is; others override it (see :mod:`track_envs.envs.sensors`).
         """
         ids, positions = truth.visible_part()
         return self._sense_points(positions, ids)
@@ -214,7 +214,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         self, positions: NDArray[np.float64], ids: NDArray[np.int64]
     ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """The point sensor (noise, misses, clutter) over sources at ``positions`` with ``ids``."""
-        from track_envs.sensors import sense_points
+        from track_envs.envs.sensors import sense_points
 
         now = self._sensor_now()
         return sense_points(
@@ -252,12 +252,12 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
 
     @abc.abstractmethod
     def _canvas(self) -> Any:
-        """A fresh :class:`~track_envs.rendering.Canvas` of the scene's region to draw a frame on."""
+        """A fresh :class:`~track_envs.envs.rendering.Canvas` of the scene's region to draw a frame on."""
 
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detections as black crosses, the report's tracks as rings in their id colours (see
         :meth:`_legend`)."""
-        from track_envs.rendering import identity_colors
+        from track_envs.envs.rendering import identity_colors
 
         if len(detections):
             canvas.crosses(detections, 4, (0, 0, 0))
@@ -266,7 +266,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
 
     def _legend(self) -> list[Any]:
         """The footer's legend: how :meth:`_draw` and :meth:`_draw_overlay` show each thing."""
-        from track_envs.rendering import LegendEntry
+        from track_envs.envs.rendering import LegendEntry
 
         return [
             LegendEntry("truth", "disc"),
@@ -428,7 +428,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         frame = canvas.to_array()
         if self.render_mode == "human":
             if self._window is None:
-                from track_envs.render_window import HumanWindow
+                from track_envs.envs.render_window import HumanWindow
 
                 self._window = HumanWindow(type(self).__name__, int(self.metadata["render_fps"]))
             self._window.show(frame)

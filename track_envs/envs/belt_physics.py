@@ -49,7 +49,6 @@ import pymunk
 import pymunk.batch as pb
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_non_negative, check_number, check_positive
 from track_envs.envs.belt_kernels import (
     NOT_PARTICLE,
     PARK_ORIGIN,
@@ -61,6 +60,7 @@ from track_envs.envs.belt_kernels import (
     park_row,
     window_state,
 )
+from track_envs.infra.arguments import check_int, check_non_negative, check_number, check_positive
 
 GRAVITY = 9.81
 #: Rounding radius (m) of the box collision shapes (cylinders, cuboids): contact happens at this

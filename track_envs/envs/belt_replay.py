@@ -10,23 +10,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import (
-    check_int,
-    check_non_negative,
-    check_positive,
-    check_probability,
-    check_vector,
-)
-from track_envs.drift import SensorDrift
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.envs.drift import SensorDrift
 from track_envs.envs.nozzle import (
     check_nozzle_offset,
     pack_crossings,
     recorded_crossings,
     warn_dropped_crossings,
 )
-from track_envs.track_csv import load_track_csv
-from track_envs.types import SensorSpec
+from track_envs.infra.arguments import (
+    check_int,
+    check_non_negative,
+    check_positive,
+    check_probability,
+    check_vector,
+)
+from track_envs.io.wide_tracks import load_track_csv
+from track_envs.values.types import SensorSpec
 
 
 def sample_recording_path() -> str:
@@ -39,7 +39,7 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Description
     Reads a track file in the layout of published belt-sorting data sets (see
-    :mod:`track_envs.track_csv`): no header, one row per frame, one ``(x, y)`` column pair per
+    :mod:`track_envs.io.wide_tracks`): no header, one row per frame, one ``(x, y)`` column pair per
     particle, NaN where the particle is not visible; the pair index is the truth id. Each frame the
     visible particles are the truth, and the sensor model of BeltSorter-v0 turns them into
     detections: Gaussian noise ``noise_std``, detection probability ``p_detect`` and uniform clutter
@@ -50,7 +50,7 @@ class BeltReplayEnv(TrackingEnv):
     ``Dict(detections=Box(max_detections, 2) float32, mask=Box(max_detections,) int8)``, shuffled rows.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.report`).
+    The tracker's report (see :mod:`track_envs.contracts.report`).
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c``, p = 2, α = 2) against the visible recorded positions.
@@ -81,7 +81,7 @@ class BeltReplayEnv(TrackingEnv):
     - ``measurement_noise_std``: the measurement noise std the sensor spec declares
       (``sensor_spec.noise_std``, what a tracker is told), in the file's units; default
       ``noise_std``. Give the recording's own noise here when replaying real centroids.
-    - ``drift``: the sensor's drift over an episode, as in BeltSorter-v0 (:mod:`track_envs.drift`;
+    - ``drift``: the sensor's drift over an episode, as in BeltSorter-v0 (:mod:`track_envs.envs.drift`;
       default None).
     - ``frames``: ``(start, stop)`` half-open frame range; default the whole file.
     - ``dt``: frame period in seconds (default 0.01, a 100 Hz camera).
@@ -264,12 +264,12 @@ class BeltReplayEnv(TrackingEnv):
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         return Canvas.for_region(self.sensor_spec)
 
     def _draw(self, canvas: Any, snapshot: Any) -> None:
-        from track_envs.rendering import identity_colors
+        from track_envs.envs.rendering import identity_colors
 
         if snapshot is not None:
             canvas.discs(snapshot.positions, 4, identity_colors(snapshot.ids))

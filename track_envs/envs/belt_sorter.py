@@ -10,19 +10,19 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
-from track_envs.drift import SensorDrift
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
 from track_envs.envs.blobs import MAX_MERGED, MERGE_TOLERANCE, merge_blobs, merged_rows, silhouette_table
+from track_envs.envs.drift import SensorDrift
 from track_envs.envs.nozzle import (
     DEFAULT_NOZZLE_OFFSET,
     check_nozzle_offset,
     pack_crossings,
     warn_dropped_crossings,
 )
-from track_envs.types import SensorSpec
+from track_envs.infra.arguments import check_int, check_non_negative, check_positive, check_probability
+from track_envs.values.types import SensorSpec
 
 _BELT_GREY = (150, 150, 150)
 _WALL = (60, 60, 60)
@@ -53,7 +53,7 @@ class BeltSorterEnv(TrackingEnv):
     of the group (see :mod:`track_envs.envs.blobs` for the silhouettes and the touching test).
 
     ## Action
-    The tracker's report (see :mod:`track_envs.report`): ``ids``, ``positions`` (max_tracks, 2),
+    The tracker's report (see :mod:`track_envs.contracts.report`): ``ids``, ``positions`` (max_tracks, 2),
     ``detection``, ``mask``.
 
     ## Reward
@@ -86,7 +86,7 @@ class BeltSorterEnv(TrackingEnv):
     seconds on the clock of ``t``, interpolated within the physics substep in which the centroid
     reached ``L`` (exact: within a substep a body moves on a straight line); ``nozzle_lateral``,
     its ``y`` there. ``sensor_spec.sorting_line`` is ``L``, so a tracker can predict the crossing
-    (the report's optional sorting channel, :mod:`track_envs.report`), scored by
+    (the report's optional sorting channel, :mod:`track_envs.contracts.report`), scored by
     :class:`~track_envs.metrics.sorting.SortingPrediction` (``sorting_*`` metrics).
 
     ## Arguments
@@ -99,8 +99,8 @@ class BeltSorterEnv(TrackingEnv):
       that is told the wrong noise.
     - ``p_detect``: detection probability (default 1.0).
     - ``clutter_rate``: mean clutter detections per frame (default 0.0).
-    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.drift`): a
-      :class:`~track_envs.drift.SensorDrift`, a mapping or a preset name (``"belt"``); its noise
+    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.envs.drift`): a
+      :class:`~track_envs.envs.drift.SensorDrift`, a mapping or a preset name (``"belt"``); its noise
       std replaces ``noise_std`` as the noise added, and ``sensor_spec`` keeps the nominal values.
       ``info["sensor"]`` holds each frame's true ``noise_std``, ``p_detect``, ``clutter_rate``.
       Default None (no drift).
@@ -383,7 +383,7 @@ class BeltSorterEnv(TrackingEnv):
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         p = self.physics
         low = (p.drop_x - p.drop_spread - 0.02, -0.02)
@@ -398,7 +398,7 @@ class BeltSorterEnv(TrackingEnv):
 
     def _legend(self) -> list[Any]:
         from track_envs.envs.belt_physics import PARTICLE_KINDS
-        from track_envs.rendering import LegendEntry
+        from track_envs.envs.rendering import LegendEntry
 
         boxes = any(PARTICLE_KINDS[name].shape != "circle" for name in self.kind_names)
         return [
@@ -409,7 +409,7 @@ class BeltSorterEnv(TrackingEnv):
         ]
 
     def _draw(self, canvas: Any, snapshot: Any) -> None:
-        from track_envs.rendering import identity_colors
+        from track_envs.envs.rendering import identity_colors
 
         p = self.physics
         x0 = p.drop_x - p.drop_spread - 0.05

@@ -48,7 +48,7 @@ def belt_statistics(env: Any, n_frames: int = 1500, seed: int = 0) -> dict[str, 
     Returns:
         The statistics of the module docstring table.
     """
-    from track_envs.report import empty_report
+    from track_envs.contracts.report import empty_report
 
     spec = env.get_wrapper_attr("sensor_spec")
     report = empty_report(spec.max_tracks, (spec.dim,))

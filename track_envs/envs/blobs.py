@@ -43,7 +43,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 #: Truth ids listed per merged detection in ``info["detection_ids_merged"]``.
 MAX_MERGED = 8

@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from track_envs.detections import Detections, detection_sensor_spec
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.values.detections import Detections, detection_sensor_spec
 
 #: What ``info["truth_note"]`` and the metrics note say.
 NO_TRUTH = "DetectionReplay-v0 replays detections without ground truth: no truth, reward 0"
@@ -38,13 +38,13 @@ class DetectionReplayEnv(TrackingEnv):
     ``info["has_truth"]`` is False and ``info["truth_note"]`` says so, every
     ``info["detection_ids"]`` is −1. :class:`~track_envs.wrappers.TrackingMetrics` skips the
     metrics that need truth (all of the point metrics) and says so in
-    ``info["episode_metrics_note"]``. File formats: :mod:`track_envs.detection_files`.
+    ``info["episode_metrics_note"]``. File formats: :mod:`track_envs.io.detections`.
 
     ## Observation
     ``Dict(detections=Box(max_detections, 2) float32, mask=Box(max_detections,) int8)``.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.report`).
+    The tracker's report (see :mod:`track_envs.contracts.report`).
 
     ## Reward
     0 every frame (there is no truth to score against).
@@ -58,7 +58,7 @@ class DetectionReplayEnv(TrackingEnv):
     ## Arguments
     - ``path``: the detection file; default the sample shipped with the package
       (:func:`sample_detections_path`).
-    - ``detections``: a :class:`~track_envs.detections.Detections` stream instead of a file.
+    - ``detections``: a :class:`~track_envs.values.detections.Detections` stream instead of a file.
     - ``format``: ``"auto"`` (``.txt``: MOTChallenge, else wide), ``"mot"`` or ``"wide"``.
     - ``read_options``: keyword arguments of the reader (``read_mot_detections`` /
       ``read_wide_detections``: ``frame_column``, ``count_column``, ``time_column``,
@@ -111,8 +111,8 @@ class DetectionReplayEnv(TrackingEnv):
     ):
         import dataclasses
 
-        from track_envs.detection_files import read_detections
         from track_envs.envs.nozzle import check_nozzle_offset
+        from track_envs.io.detections import read_detections
 
         if detections is not None and path is not None:
             raise ValueError("give either path or detections, not both")
@@ -125,7 +125,8 @@ class DetectionReplayEnv(TrackingEnv):
             self.path = None
         if not isinstance(detections, Detections):
             raise ValueError(
-                f"detections must be a track_envs.detections.Detections, got {type(detections).__name__}"
+                "detections must be a track_envs.values.detections.Detections, "
+                f"got {type(detections).__name__}"
             )
         if detections.dim != 2:
             raise ValueError(f"DetectionReplay-v0 replays 2-d points; the detections are {detections.dim}-d")
@@ -200,7 +201,7 @@ class DetectionReplayEnv(TrackingEnv):
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         return Canvas.for_region(self.sensor_spec)
 
@@ -208,7 +209,7 @@ class DetectionReplayEnv(TrackingEnv):
         """Nothing of a scene: there is no truth to draw (detections and tracks come on top)."""
 
     def _legend(self) -> list[Any]:
-        from track_envs.rendering import LegendEntry
+        from track_envs.envs.rendering import LegendEntry
 
         return [LegendEntry("detection", "cross", (0, 0, 0)), LegendEntry("track", "ring")]
 
@@ -222,8 +223,8 @@ def make_sample(path: str | os.PathLike[str], n_frames: int = 200, seed: int = 0
 
     import gymnasium as gym
 
-    from track_envs.detection_files import write_wide_detections
-    from track_envs.report import empty_report
+    from track_envs.contracts.report import empty_report
+    from track_envs.io.detections import write_wide_detections
 
     env = gym.make("BeltSorter-v0")
     obs, info = env.reset(seed=seed)

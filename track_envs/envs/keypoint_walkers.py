@@ -9,8 +9,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
+from track_envs.contracts.report import Report
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.envs.sensors import CLUTTER_ID
 from track_envs.envs.skeleton import (
     FLIP_INDEX,
     PROPORTIONS,
@@ -19,10 +20,9 @@ from track_envs.envs.skeleton import (
     WalkerParams,
     pose_keypoints,
 )
+from track_envs.infra.arguments import check_int, check_non_negative, check_positive, check_probability
 from track_envs.metrics.keypoints import COCO_SIGMAS, oks
-from track_envs.report import Report
-from track_envs.sensors import CLUTTER_ID
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 __all__ = ["KeypointWalkersEnv", "WalkerParams"]
 
@@ -76,7 +76,7 @@ class KeypointWalkersEnv(TrackingEnv):
     of keypoints, large noise and low scores.
 
     ## Action
-    The report (:mod:`track_envs.report`): ``ids``, ``positions`` (max_tracks, 17, 2) px,
+    The report (:mod:`track_envs.contracts.report`): ``ids``, ``positions`` (max_tracks, 17, 2) px,
     ``detection``, ``mask``.
 
     ## Reward
@@ -316,7 +316,7 @@ class KeypointWalkersEnv(TrackingEnv):
 
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         p = self.params
         return Canvas(p.width, p.height, (0.0, 0.0), (float(p.width), float(p.height)), (205, 215, 225))
@@ -331,7 +331,7 @@ class KeypointWalkersEnv(TrackingEnv):
         return np.stack([xy[..., 0], self.params.height - xy[..., 1]], axis=-1)
 
     def _draw(self, canvas: Any, snapshot: Any) -> None:
-        from track_envs.rendering import identity_colors
+        from track_envs.envs.rendering import identity_colors
 
         p = self.params
         if snapshot is None:
@@ -354,7 +354,7 @@ class KeypointWalkersEnv(TrackingEnv):
             canvas.fill_rect((x0, 0.0), (x1, p.height), (120, 100, 85))
 
     def _legend(self) -> list[Any]:
-        from track_envs.rendering import LegendEntry
+        from track_envs.envs.rendering import LegendEntry
 
         return [
             LegendEntry("person (truth)", "line"),
@@ -365,7 +365,7 @@ class KeypointWalkersEnv(TrackingEnv):
 
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detected keypoints as black crosses; reported poses as thin skeletons in id colours."""
-        from track_envs.rendering import identity_colors
+        from track_envs.envs.rendering import identity_colors
 
         if len(detections):
             found = detections[..., 2] > 0

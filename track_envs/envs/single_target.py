@@ -20,7 +20,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from track_envs.arguments import (
+from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.envs.drift import SensorDrift
+from track_envs.envs.sensors import CLUTTER_ID
+from track_envs.infra.arguments import (
     check_int,
     check_non_negative,
     check_number,
@@ -28,10 +31,7 @@ from track_envs.arguments import (
     check_probability,
     check_vector,
 )
-from track_envs.drift import SensorDrift
-from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.sensors import CLUTTER_ID
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 #: Step length ``Δ`` of Jung et al. (2019) (x-advance per frame of the sine curve).
 STEP = 0.2
@@ -239,7 +239,7 @@ class SingleTargetEnv(TrackingEnv):
         sensor reports nothing at all, clutter included (the draws are still made, so the random
         stream does not depend on the occlusion).
         """
-        now = self._sensor_now()  # the spec's values, or the drift's (track_envs.drift)
+        now = self._sensor_now()  # the spec's values, or the drift's (track_envs.envs.drift)
         rng = self.np_random
         here = self._local[self._index : self._index + 1]
         z, detected = draw_detections(
@@ -269,7 +269,7 @@ class SingleTargetEnv(TrackingEnv):
     # -- rendering ----------------------------------------------------------------------------
     def _canvas(self) -> Any:
         """A 16 × 10 window (trajectory units) centred on the target of the frame drawn."""
-        from track_envs.rendering import Canvas
+        from track_envs.envs.rendering import Canvas
 
         frame = self._render_frame
         snapshot = frame[0] if frame is not None else None
@@ -289,7 +289,7 @@ class SingleTargetEnv(TrackingEnv):
             canvas.discs(snapshot.positions, 6, (30, 120, 40))
 
     def _legend(self) -> list[Any]:
-        from track_envs.rendering import LegendEntry
+        from track_envs.envs.rendering import LegendEntry
 
         return [
             LegendEntry("truth", "disc", (30, 120, 40)),
@@ -318,7 +318,7 @@ class SineTargetEnv(SingleTargetEnv):
     shuffled, padding zero. ``info["detection_ids"]`` is 0 for the target's detection, -1 for clutter.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.report`); a single-target tracker reports one row.
+    The tracker's report (see :mod:`track_envs.contracts.report`); a single-target tracker reports one row.
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c``, p = 2, α = 2) of the report against the target, which counts as
@@ -341,7 +341,7 @@ class SineTargetEnv(SingleTargetEnv):
     - ``p_detect``: detection probability outside the occlusion (default 0.9).
     - ``occlusion_start``, ``occlusion_length``: the occlusion interval in frames (default 100, 0).
     - ``clutter_rate``: mean clutter points per frame (default 0); ``clutter_half_width`` (default 2).
-    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.drift`): noise std, detection
+    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.envs.drift`): noise std, detection
       probability and clutter rate on a schedule, ``sensor_spec`` nominal, the true values in
       ``info["sensor"]``; default None.
     - ``max_detections`` (default ``max(8, 1 + clutter room)``, room for the drift's highest

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_non_negative, check_number, check_positive
+from track_envs.infra.arguments import check_int, check_non_negative, check_number, check_positive
 
 #: Limb edges of the COCO skeleton (0-based keypoint indices), as drawn by COCO tools.
 SKELETON_EDGES: NDArray[np.int64] = np.array(

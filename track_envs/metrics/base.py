@@ -13,7 +13,7 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
   :mod:`track_envs.metrics.merged`).
 * ``report`` — the action: ``"ids"`` (max_tracks,) int64, ``"positions"`` (max_tracks, D),
   ``"detection"`` (max_tracks,) int64 (detection row used this frame or −1), ``"mask"``
-  (max_tracks,) int8. By the report contract (:func:`track_envs.report.validate_report`, which
+  (max_tracks,) int8. By the report contract (:func:`track_envs.contracts.report.validate_report`, which
   every environment applies in ``step``) the ids of the rows with mask 1 are unique within the
   frame and non-negative; a metric fed reports directly may assume it.
 

@@ -38,7 +38,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 from track_envs.metrics.base import report_mask
 from track_envs.metrics.key_table import KeyTable, add_entry
 from track_envs.metrics.merged import as_merged, resolve_merged, set_key
@@ -107,7 +107,7 @@ class AssociationErrors:
     kernel per frame, so memory grows with the number of distinct pairs, not frames.
 
     Track ids in a frame are unique and non-negative by the report contract
-    (:func:`track_envs.report.validate_report`); a track is its id, so a track id reused in a
+    (:func:`track_envs.contracts.report.validate_report`); a track is its id, so a track id reused in a
     later frame for another particle counts as one track holding two particles. (Fed a report
     that breaks the contract directly, rows sharing an id are merged into one track.)
 

@@ -40,7 +40,7 @@ class BoxClearMot(ClearMot):
     ``IoU >= min_iou`` (default 0.5, the MOTChallenge rule), at distance ``1 − IoU``.
 
     Frames carry their boxes as ``truth["boxes"]`` and ``report["boxes"]`` (rows, 4), padded like
-    the positions (:meth:`track_envs.tracks.Tracks.padded_frame`); a row whose box is not finite
+    the positions (:meth:`track_envs.values.tracks.Tracks.padded_frame`); a row whose box is not finite
     matches nothing. ``detection_ids`` are not needed (merged detections are a point-env notion).
 
     Args:

@@ -9,7 +9,8 @@ MOT Metrics", EURASIP JIVP 2008; with the event rules of py-motmetrics' ``MOTAcc
 2. the remaining truths and tracks are matched by a min-cost assignment (scipy
    ``linear_sum_assignment``, impossible pairs priced as motmetrics' ``add_expensive_edges``
    prices them, then dropped); a match whose track differs from the truth's last match is an
-   ID switch (lone pairs, :func:`track_envs.assignment.split_lone_pairs`, are taken directly and
+   ID switch (lone pairs, :func:`track_envs.infra.assignment.lone_pairs.split_lone_pairs`, are taken
+   directly and
    the other components of the possible pairs solved one by one where their optimum is unique;
    :mod:`track_envs.metrics.clear_mot_events` runs these rules per frame as one compiled kernel);
 3. unmatched truths are misses, unmatched tracks false positives.
@@ -55,7 +56,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 from track_envs.metrics.base import report_arrays, truth_arrays
 from track_envs.metrics.clear_mot_events import COUNTERS, TRUTH_VALUES, frame_events
 from track_envs.metrics.close_pairs import close_pairs, finite_entries
@@ -170,7 +171,7 @@ class ClearMot:
     ``motmetrics.MOTAccumulator.update``.
 
     Track ids in a frame are unique and non-negative by the report contract
-    (:func:`track_envs.report.validate_report`: a repeated id would let one identity claim
+    (:func:`track_envs.contracts.report.validate_report`: a repeated id would let one identity claim
     several truths and inflate MOTA, so environments reject it). Fed a report that breaks the
     contract directly, rows sharing an id are scored as motmetrics scores them: separate
     hypotheses sharing the id's history.

@@ -11,12 +11,12 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
    m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
    column belongs to every such optimum and is taken directly
-   (:func:`track_envs.assignment.split_lone_pairs` of the free pairs). The other connected
+   (:func:`track_envs.infra.assignment.lone_pairs.split_lone_pairs` of the free pairs). The other connected
    components of the free pairs are independent: each is solved on its own by enumerating its
    matchings, and where every component's optimum is unique (no other matching with as many
    pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
    Otherwise (a tie, or a component with more than 4,096 matchings) the matrix motmetrics
-   builds is solved by the same algorithm (:mod:`~track_envs.metrics.shortest_augmenting_path`),
+   builds is solved by the same algorithm (:mod:`~track_envs.infra.assignment.shortest_augmenting_path`),
    so ties are broken as motmetrics breaks them. In row order, a match whose truth was last
    matched to another id is an ID switch.
 3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
@@ -33,10 +33,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.assignment import split_lone_pairs
-from track_envs.compiled import njit
+from track_envs.infra.assignment.lone_pairs import split_lone_pairs
+from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
+from track_envs.infra.compiled import njit
 from track_envs.metrics.key_table import add_entry, free_entries, hash_slot
-from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
 
 COUNTERS = (
     "frames",
@@ -155,7 +155,7 @@ def _free_pair_counts(
     col_taken: NDArray[np.bool_],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
     """Possible pairs of each free row and free column among the free ones, and the column of a
-    row's last free pair, for :func:`~track_envs.assignment.split_lone_pairs`."""
+    row's last free pair, for :func:`~track_envs.infra.assignment.lone_pairs.split_lone_pairs`."""
     m, n = len(row_taken), len(col_taken)
     counts = np.zeros(2 * m + n, dtype=np.int64)  # one allocation, three views
     row_count, only_col, col_count = counts[:m], counts[m : 2 * m], counts[2 * m :]

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 # cells are widened by this relative margin so that rounding in d or in the cell index can never
 # drop a pair that the exact test d <= radius keeps (|x₀ − y₀| <= d up to a few ulps)

@@ -19,14 +19,15 @@ with ``γ`` ranging over matchings of the admissible pairs (``d^p <= c^p``; a pa
         \\big(c^p - d(x_i, y_j)^p\\big).
 
 Computed sparsely (:mod:`track_envs.metrics.close_pairs`): only pairs within ``c`` exist, and
-they are assigned by :mod:`track_envs.assignment` with miss cost ``γ = c^p``: a pair alone in its
+they are assigned by :mod:`track_envs.infra.assignment.lone_pairs` with miss cost ``γ = c^p``: a
+pair alone in its
 row and its column (a *lone pair*) gains ``c^p − d^p >= 0`` and blocks nothing, so it is taken as
 it is; only the rows and columns left with several admissible partners go to a dense min-cost
 assignment with one miss column per row (``[C | diag(c^p)]``,
-:func:`track_envs.assignment.rest_problem`), solved by the compiled
-:func:`~track_envs.metrics.shortest_augmenting_path.linear_sum_assignment`. Track
+:func:`track_envs.infra.assignment.lone_pairs.rest_problem`), solved by the compiled
+:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`. Track
 identities play no part (in a report they are unique and non-negative within a frame by the
-report contract, :func:`track_envs.report.validate_report`).
+report contract, :func:`track_envs.contracts.report.validate_report`).
 """
 
 from __future__ import annotations
@@ -36,11 +37,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.assignment import merge_solution, rest_problem, split_sparse
-from track_envs.compiled import njit
+from track_envs.infra.assignment.lone_pairs import merge_solution, rest_problem, split_sparse
+from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
+from track_envs.infra.compiled import njit
 from track_envs.metrics.close_pairs import close_pairs
 from track_envs.metrics.live_rows import live_report_rows, live_truth_rows
-from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
 
 # pairs are searched slightly beyond c, then kept by the exact test d^p <= c^p
 _SEARCH_MARGIN = 1e-9

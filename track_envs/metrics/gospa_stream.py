@@ -28,7 +28,7 @@ class GospaMetric:
     """Streaming mean per-frame GOSPA of reports (mask 1 rows) against the visible truth.
 
     Track identities play no part (in a report they are unique and non-negative within a frame
-    by the report contract, :func:`track_envs.report.validate_report`). Nor do associations:
+    by the report contract, :func:`track_envs.contracts.report.validate_report`). Nor do associations:
     GOSPA compares positions only, so it has no notion of a merged detection (touching particles
     seen as one blob). A track following a blob sits at its area-weighted centroid, within half
     the centres' distance of either particle for equal areas, and is scored by that distance like

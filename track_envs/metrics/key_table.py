@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 # 64-bit odd multipliers as int64: the golden ratio 0x9E3779B97F4A7C15 and splitmix64's
 # 0xBF58476D1CE4E5B9 and 0x94D049BB133111EB

@@ -261,7 +261,7 @@ class KeypointMota:
     poseval assigns people); a reported keypoint whose assigned person has that keypoint hidden
     is left out of that keypoint's hypotheses ("don't care"). Reported poses assigned to no one
     count with all 17 keypoints. Track ids in a frame are unique and non-negative by the report
-    contract (:func:`track_envs.report.validate_report`); rows that share an id anyway are
+    contract (:func:`track_envs.contracts.report.validate_report`); rows that share an id anyway are
     scored as :class:`ClearMot` scores them (distinct hypotheses sharing the id's history).
 
     Args:
@@ -350,7 +350,7 @@ class PoseOks:
     Per frame, truths and tracks are matched one-to-one by maximum total OKS (Hungarian); pairs
     below ``threshold`` do not count as matches. The truth area is ``area_factor · scale²``.
     Track ids play no part (they are unique and non-negative in a frame by the report
-    contract, :func:`track_envs.report.validate_report`).
+    contract, :func:`track_envs.contracts.report.validate_report`).
 
     Returns from :meth:`compute`: ``oks_mean`` (mean OKS over matched pairs), ``oks_recall``
     (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.

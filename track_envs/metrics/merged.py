@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 from track_envs.metrics.key_table import find_entry, hash_slot
 
 

@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.keypoints import oks
-from track_envs.poses import PoseStream
+from track_envs.values.poses import PoseStream
 
 
 def scored_frames(tracks: PoseStream, truth: PoseStream) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -10,7 +10,7 @@ scores the prediction itself.
 
 Inputs per frame: the truth's nozzle crossings (``nozzle_ids``, ``nozzle_times``,
 ``nozzle_lateral``, :mod:`track_envs.envs.nozzle`) and the report's optional sorting channel
-(``sorting_*``, :mod:`track_envs.sorting_channel`). A prediction belongs to the particle of the
+(``sorting_*``, :mod:`track_envs.contracts.sorting_channel`). A prediction belongs to the particle of the
 detection its track was last updated with (``detection_ids`` of that frame; with merged blobs,
 the blob's primary particle), and each particle is scored on the **last** prediction made for
 it. With the true crossing ``(t_c, y_c)`` and the predicted Gaussian ``N((t̂, ŷ), Σ)``:

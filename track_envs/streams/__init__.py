@@ -1,3 +1,3 @@
 """Synthetic detection streams with known truth, for checks that no env scene isolates: each module
-builds a :class:`~track_envs.types.SensorSpec`, the observations a tracker consumes and the truth
+builds a :class:`~track_envs.values.types.SensorSpec`, the observations a tracker consumes and the truth
 to score it by."""

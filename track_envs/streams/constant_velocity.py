@@ -18,7 +18,7 @@ the frame; a target that leaves the window never returns. The field therefore st
 density ``ρ``: ``v̄ = (1, 0)`` with a small ``s`` is a belt's flow (entries upstream, exits
 downstream), ``v̄ = 0`` with ``s > 0`` targets in every direction.
 
-Every frame, the point sensor of the environments (:func:`track_envs.sensors.sense_points`)
+Every frame, the point sensor of the environments (:func:`track_envs.envs.sensors.sense_points`)
 sees the targets inside the window: each is detected with probability ``p_D``, with Gaussian
 noise ``σ`` per axis, and ``Poisson(λ)`` clutter detections fall uniformly over the window; the
 rows are shuffled and padded. The defaults are the belt's scale — ``dt = 0.01`` s, ``v̄ = (1, 0)``
@@ -41,12 +41,12 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_non_negative, check_positive, check_probability
+from track_envs.envs.sensors import sense_points
+from track_envs.infra.arguments import check_int, check_non_negative, check_positive, check_probability
 from track_envs.metrics.base import Metric
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.hota_stream import Hota
-from track_envs.sensors import sense_points
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 #: Velocities are drawn from a Gaussian cut at this many standard deviations of the mean.
 TAIL_SIGMAS = 6.0

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_positive
-from track_envs.types import SensorSpec
+from track_envs.infra.arguments import check_int, check_positive
+from track_envs.values.types import SensorSpec
 
 DT = 0.005  # s (200 Hz)
 NOISE_STD = 3e-5  # m, declared and added

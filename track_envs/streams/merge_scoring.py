@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_int, check_positive
+from track_envs.infra.arguments import check_int, check_positive
 from track_envs.metrics import ClearMot
 from track_envs.streams.merge_events import MergeEventStream
 

@@ -16,10 +16,10 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.detection_files import write_mot_detections, write_wide_detections
-from track_envs.detections import Detections
-from track_envs.track_files import write_tracks
-from track_envs.tracks import Tracks
+from track_envs.io.detections import write_mot_detections, write_wide_detections
+from track_envs.io.tracks import write_tracks
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
 
 FORMATS = ("mot", "wide")
 #: File names per format: (truth, tracks, detections).
@@ -45,7 +45,7 @@ class RecordTracking(gym.Wrapper):
     wide     ``gt.csv``      ``tracks.csv``      ``det.csv`` (``frame,count,time,x0,y0,...``)
     ======== =============== =================== ===============================================
 
-    (layouts: :mod:`track_envs.track_files`, :mod:`track_envs.detection_files`; MOT frames
+    (layouts: :mod:`track_envs.io.tracks`, :mod:`track_envs.io.detections`; MOT frames
     count from 1, wide rows from frame 0). A wide file needs at least one track, so an episode
     without any report row (or truth) writes no wide ``tracks.csv`` (``gt.csv``) and warns. The
     recorded arrays stay available as :attr:`last_episode` (``truth``, ``tracks``, ``detections``).

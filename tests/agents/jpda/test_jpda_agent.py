@@ -11,7 +11,7 @@ import track_envs  # noqa: F401
 from agents import make_agent
 from agents.jpda.agent import MIN_CLUTTER_RATE, JpdaAgent
 from track_envs.metrics.belt import AssociationErrors
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 SPEC = SensorSpec(
     dt=0.01, dim=2, noise_std=1e-3, p_detect=0.9, clutter_rate=5.0,

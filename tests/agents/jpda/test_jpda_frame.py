@@ -14,7 +14,7 @@ from agents.jpda import _kernels
 from agents.jpda.marginals import association_marginals, merged_cluster_marginals
 from agents.jpda.weights import gaussian_log_likelihood, jpda_log_weights
 from agents.tracking.assign import chi2_gate
-from track_envs.types import Gaussian
+from track_envs.values.types import Gaussian
 
 
 def brute_force_merged(

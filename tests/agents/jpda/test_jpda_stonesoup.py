@@ -12,7 +12,7 @@ from scipy.stats import chi2
 from agents.jpda.lbp import lbp_marginals
 from agents.jpda.marginals import jpda_marginals
 from agents.jpda.weights import gaussian_log_likelihood
-from track_envs.types import Gaussian
+from track_envs.values.types import Gaussian
 
 stonesoup = pytest.importorskip("stonesoup")
 

@@ -18,7 +18,7 @@ from agents.tuning.informed import (
     default_states,
     sensor_table,
 )
-from track_envs.drift import DRIFT_PRESETS
+from track_envs.envs.drift import DRIFT_PRESETS
 
 SHORT = {"frames_per_step": 3}
 STEPS = 3

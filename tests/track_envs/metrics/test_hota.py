@@ -254,9 +254,9 @@ def test_tud_sequences_match_trackeval_motchallenge_evaluation(tmp_path):
 def test_score_tracks_scores_boxes_with_iou_hota(name):
     """``score_tracks`` (track run --metrics) on boxed MOT files uses IoU as HOTA's similarity, so
     the shipped test.txt scores TrackEval's MOTChallenge HOTA against its gt."""
-    from track_envs.detection_files import CONSIDERED
-    from track_envs.track_files import read_tracks
-    from track_envs.track_scoring import score_tracks
+    from track_envs.io.detections import CONSIDERED
+    from track_envs.io.tracks import read_tracks
+    from track_envs.metrics.track_scoring import score_tracks
 
     tracks = read_tracks(TUD_DATA / name / "test.txt", "mot")
     truth = read_tracks(TUD_DATA / name / "gt.txt", "mot", min_confidence=CONSIDERED)

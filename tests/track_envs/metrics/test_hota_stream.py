@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401  (registers the environments)
+from track_envs.contracts.report import pack_report
 from track_envs.metrics import Hota, Metric, PoseHota
 from track_envs.metrics.hota import HOTA_FIELDS
 from track_envs.metrics.hota_stream import HOTA_KEYS
 from track_envs.metrics.keypoints import oks
-from track_envs.report import pack_report
-from track_envs.track_scoring import score_tracks
-from track_envs.tracks import Tracks
+from track_envs.metrics.track_scoring import score_tracks
+from track_envs.values.tracks import Tracks
 from track_envs.wrappers import TrackingMetrics
 from track_envs.wrappers.tracking_metrics import point_metrics
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401
+from track_envs.contracts.report import pack_report
 from track_envs.metrics.keypoints import COCO_SIGMAS, KeypointMota, PoseOks, oks, pairwise_oks
-from track_envs.report import pack_report
 from track_envs.wrappers import TrackingMetrics
 
 

@@ -162,7 +162,7 @@ def test_wrapper_hands_merged_ids_only_to_metrics_that_accept_them():
     import gymnasium as gym
 
     import track_envs  # noqa: F401
-    from track_envs.report import empty_report
+    from track_envs.contracts.report import empty_report
 
     plain, merged = Recorder(), MergedRecorder()
     env = TrackingMetrics(gym.make("BeltSorter-v0", max_detections=64, max_tracks=8), [plain, merged])

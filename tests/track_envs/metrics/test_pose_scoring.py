@@ -6,10 +6,10 @@ import motmetrics as mm
 import numpy as np
 import pytest
 
+from track_envs.envs.pose_recording import record_keypoint_walkers
 from track_envs.metrics.keypoints import KEYPOINT_NAMES
 from track_envs.metrics.pose_scoring import per_joint_mota, pose_hota, score_poses
-from track_envs.pose_recording import record_keypoint_walkers
-from track_envs.poses import PoseStream
+from track_envs.values.poses import PoseStream
 
 HEAD = 10 / 0.6 / np.sqrt(2)  # a square head box of head size 0.6 · diagonal = 10 px
 
@@ -121,7 +121,7 @@ def reference_mota(tracks: PoseStream, truth: PoseStream, pckh: float = 0.5) -> 
 def test_per_joint_mota_matches_motmetrics_on_a_walkers_episode(episode, agent):
     from agents import make_agent
     from agents.pose.run import run_pose_agent
-    from track_envs.poses import pose_sensor_spec
+    from track_envs.values.poses import pose_sensor_spec
 
     det, gt = episode
     if agent == "detections-as-tracks":  # every detection its own track: many switches

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment as scipy_lsa
 
-from track_envs.metrics.shortest_augmenting_path import linear_sum_assignment
+from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
 
 
 def cost_matrix(rng: np.random.Generator, kind: int) -> np.ndarray:

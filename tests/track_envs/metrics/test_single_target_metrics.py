@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from track_envs.contracts.report import empty_report
 from track_envs.metrics import Metric
 from track_envs.metrics.single_target import SingleTargetError
-from track_envs.report import empty_report
 
 
 def truth_at(x, y):

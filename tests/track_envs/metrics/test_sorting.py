@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from track_envs.contracts.report import empty_report
+from track_envs.contracts.sorting_channel import empty_sorting, pack_sorting
 from track_envs.metrics import SortingPrediction
-from track_envs.report import empty_report
-from track_envs.sorting_channel import empty_sorting, pack_sorting
 
 ROWS = 8
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from track_envs.report import pack_report
+from track_envs.contracts.report import pack_report
 from track_envs.streams.constant_velocity import (
     ConstantVelocityStream,
     constant_velocity_stream,

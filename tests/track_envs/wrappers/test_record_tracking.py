@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import track_envs  # noqa: F401  (registers the envs)
-from track_envs.detection_files import read_mot_detections, read_wide_detections
-from track_envs.track_files import read_tracks
+from track_envs.io.detections import read_mot_detections, read_wide_detections
+from track_envs.io.tracks import read_tracks
 from track_envs.wrappers import RecordTracking
 
 

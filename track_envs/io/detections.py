@@ -34,7 +34,7 @@ Frame numbers must increase; a gap is a run of empty frames. The count must equa
 pairs that hold numbers. ``swap_xy`` swaps the two coordinates (many sorters write the belt
 direction as y), ``scale`` multiplies them (pixels to metres: the pixel size).
 
-Both readers raise :class:`~track_envs.csv_table.DetectionFileError` (a ``ValueError``) naming the
+Both readers raise :class:`~track_envs.io.csv_parser.DetectionFileError` (a ``ValueError``) naming the
 file, row and column of the first bad cell: text, an infinity, a half-empty pair, a frame that is
 not an integer or goes backwards, a count that disagrees with the pairs. Writers use ``repr`` of
 each float, so a file written and read back gives the same detections bit for bit.
@@ -50,9 +50,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.csv_table import DetectionFileError, Table, first_bad, read_table
-from track_envs.detections import Detections
-from track_envs.track_csv import _format_rows
+from track_envs.io.csv_parser import DetectionFileError, Table, first_bad, read_table
+from track_envs.io.wide_tracks import _format_rows
+from track_envs.values.detections import Detections
 
 __all__ = [
     "CONSIDERED",

@@ -28,9 +28,9 @@ from numba.core import caching
 
 #: The package folders whose compiled modules share one freshness stamp.
 PACKAGE_ROOTS: tuple[Path, ...] = tuple(
-    Path(__file__).resolve().parent.parent / name for name in ("track_envs", "predictors", "agents")
+    Path(__file__).resolve().parents[2] / name for name in ("track_envs", "predictors", "agents")
 )
-_MARKER = b"from track_envs.compiled import njit"
+_MARKER = b"from track_envs.infra.compiled import njit"
 
 
 @functools.cache

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
 
 #: How CLEAR MOT and IDF1 match tracks to truths: ``auto`` (IoU where both have boxes).
 MATCHES = ("auto", "iou", "distance")

@@ -5,7 +5,7 @@ scene of ``width × height`` pixels, above a footer strip that carries the capti
 time) and the legend (:class:`LegendEntry`). :class:`WorldToPixel` is the map between the two
 coordinate systems; :meth:`Canvas.to_array` gives the ``uint8`` frame of shape
 ``(height + footer_height, width, 3)``. No display is needed (``render_mode="human"`` shows the
-frames with :class:`track_envs.render_window.HumanWindow`).
+frames with :class:`track_envs.envs.render_window.HumanWindow`).
 
 Drawing methods take ``n`` world points (or segments, polygons) and one colour or ``n`` colours.
 Items with a non-finite coordinate, or farther than a million pixels off the scene, are skipped;

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 
 @njit(cache=True)

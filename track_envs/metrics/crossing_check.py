@@ -41,9 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.crossing_predictions import PredictedCrossings
-from track_envs.detections import Detections
-from track_envs.tracks import Tracks
+from track_envs.io.crossings import PredictedCrossings
+from track_envs.values.detections import Detections
+from track_envs.values.tracks import Tracks
 
 #: Default lateral half-width ``w_y`` of a nozzle (detection units; 1.5 mm when they are metres)
 #: and half-width ``w_t`` of the valve's timing window (s): SortingPrediction's defaults.

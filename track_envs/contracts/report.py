@@ -13,7 +13,7 @@ mask       (max_tracks,)         int8    1 for a real track row
 
 A report may also carry the optional sorting channel (``sorting_ids``, ``sorting_mask``,
 ``sorting_mean``, ``sorting_cov``: predicted nozzle-bar crossings, see
-:mod:`track_envs.sorting_channel`); a report without it is valid as before.
+:mod:`track_envs.contracts.sorting_channel`); a report without it is valid as before.
 
 An all-zero mask (the empty report) is valid. The ids of the live rows (mask 1) must be
 non-negative, at most :data:`ID_LIMIT` and distinct within the report: a repeated id would let
@@ -35,8 +35,13 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
-from track_envs.sorting_channel import SORTING_KEY_SET, SORTING_KEYS, SortingPredictions, validate_sorting
+from track_envs.contracts.sorting_channel import (
+    SORTING_KEY_SET,
+    SORTING_KEYS,
+    SortingPredictions,
+    validate_sorting,
+)
+from track_envs.infra.compiled import njit
 
 REPORT_KEYS = ("ids", "positions", "detection", "mask")
 _REPORT_KEY_SET = frozenset(REPORT_KEYS)
@@ -58,7 +63,7 @@ class ReportSpace(spaces.Dict):
     passes them (boxes accept ``None`` per key only).
 
     :meth:`contains` also requires the ids of the live rows (mask 1) to be distinct, and accepts
-    a report that carries a valid optional sorting channel (:mod:`track_envs.sorting_channel`),
+    a report that carries a valid optional sorting channel (:mod:`track_envs.contracts.sorting_channel`),
     which the space does not sample.
     """
 
@@ -220,7 +225,7 @@ def validate_report(
         ValueError: naming the key, the expected shape or dtype, or the offending rows: a mask
             value other than 0/1; a live row (mask 1) with a non-finite position, an id outside
             ``[0, ID_LIMIT]``, or an id another live row also carries; a bad optional sorting
-            channel (:func:`track_envs.sorting_channel.validate_sorting`).
+            channel (:func:`track_envs.contracts.sorting_channel.validate_sorting`).
     """
     if type(report) is not dict and not isinstance(report, Mapping):
         raise ValueError(

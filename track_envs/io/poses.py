@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 
 from track_envs.envs.skeleton import SKELETON_EDGES
 from track_envs.metrics.keypoints import KEYPOINT_NAMES
-from track_envs.poses import PoseStream
+from track_envs.values.poses import PoseStream
 
 #: Pose file formats.
 POSE_FORMATS = ("coco", "posetrack")

@@ -1,9 +1,9 @@
 """A numeric table from a delimited text file, with errors that name the file, row and column.
 
-The shared core of the detection and track file readers (:mod:`track_envs.detection_files`,
-:mod:`track_envs.track_files`): the file is read as bytes (a ``.zip`` holding one ``.csv`` member
+The shared core of the detection and track file readers (:mod:`track_envs.io.detections`,
+:mod:`track_envs.io.tracks`): the file is read as bytes (a ``.zip`` holding one ``.csv`` member
 is read as that member; a UTF-8 byte-order mark, CRLF / CR line ends and trailing blank lines are
-handled as in :mod:`track_envs.track_csv`), an optional header line is split off, the fields per
+handled as in :mod:`track_envs.io.wide_tracks`), an optional header line is split off, the fields per
 line are counted on the raw bytes (vectorised, so ragged rows are allowed: missing trailing cells
 read as NaN), and pandas' C parser reads every cell as a float. Only on a parse error is the text
 scanned again, with :mod:`csv`, to name the first cell that is not a number.
@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from track_envs.track_csv import (
+from track_envs.io.wide_tracks import (
     TrackFileError,
     _is_number_or_missing,
     _normalise,

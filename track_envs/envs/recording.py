@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from track_envs.track_csv import write_track_csv
+from track_envs.io.wide_tracks import write_track_csv
 
 
 def record_belt_sorter(
@@ -27,8 +27,8 @@ def record_belt_sorter(
     Returns:
         The recorded positions, (n_frames, n_particles, 2) with NaN where not visible.
     """
+    from track_envs.contracts.report import empty_report
     from track_envs.envs.belt_sorter import BeltSorterEnv
-    from track_envs.report import empty_report
 
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames!r}")

@@ -162,7 +162,7 @@ def takes_keywords_of(*sources: Callable[..., Any], exclude: Iterable[str] = ())
 
     The decorated function's signature becomes its own parameters (less ``**options``) followed by
     the keywords of every source (:func:`keyword_parameters`) except those named in ``exclude``;
-    a call with any other keyword raises :class:`~track_envs.registry.UnknownArgumentError`
+    a call with any other keyword raises :class:`~track_envs.infra.registry.UnknownArgumentError`
     naming it and listing the accepted keywords.
 
     Args:

@@ -2,7 +2,7 @@
 
 :class:`Detections` holds every frame's detections in one flat array (CSR layout: frame ``t``
 owns rows ``offsets[t]:offsets[t + 1]`` of ``points``), so that a stream of 50,000 frames is a
-few arrays, not 50,000 small ones. The file readers of :mod:`track_envs.detection_files` return
+few arrays, not 50,000 small ones. The file readers of :mod:`track_envs.io.detections` return
 it; :class:`~track_envs.envs.detection_replay.DetectionReplayEnv` replays it and
 ``agents.run.run_agent`` tracks it.
 """
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,7 +217,7 @@ def detection_sensor_spec(
     Raises:
         ValueError: naming the argument that is missing or out of range.
     """
-    from track_envs.arguments import (
+    from track_envs.infra.arguments import (
         check_int,
         check_non_negative,
         check_positive,

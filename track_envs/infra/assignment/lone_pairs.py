@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.compiled import njit
+from track_envs.infra.compiled import njit
 
 IntArray = NDArray[np.int64]
 Pairs = tuple[IntArray, IntArray]

@@ -39,7 +39,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.arguments import check_number, check_positive
+from track_envs.infra.arguments import check_number, check_positive
 
 __all__ = [
     "BLOCK",

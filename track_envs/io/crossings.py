@@ -3,7 +3,7 @@
 A tracker that knows the sorting line ``x = L`` (``SensorSpec.sorting_line``: the nozzle bar of
 an optical belt sorter) reports, in the frame it lets a track go, the crossing it predicts for
 it: time ``t_c`` and lateral position ``y_c`` with their covariance (the report's sorting
-channel, :mod:`track_envs.sorting_channel`). :class:`PredictedCrossings` gathers those rows over
+channel, :mod:`track_envs.contracts.sorting_channel`). :class:`PredictedCrossings` gathers those rows over
 a stream, with the frame each was reported in; :meth:`PredictedCrossings.last` keeps the one that
 counts for each track: the last prediction made for it (the gnn agent makes exactly one, when it
 deletes the track, from the state of the track's last update).
@@ -156,7 +156,7 @@ def read_crossings(path: str | os.PathLike[str]) -> PredictedCrossings:
         DetectionFileError: a missing file, a header without the columns of
             :data:`CROSSING_COLUMNS` (named), or a non-integer id / frame (row and column named).
     """
-    from track_envs.csv_table import read_table
+    from track_envs.io.csv_parser import read_table
 
     header = ",".join(CROSSING_COLUMNS)
     small = Path(path).is_file() and Path(path).stat().st_size < 2 * len(header)

@@ -14,8 +14,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.compiled import njit
-from track_envs.types import SensorSpec
+from track_envs.infra.compiled import njit
+from track_envs.values.types import SensorSpec
 
 OBSERVATION_KEYS = ("detections", "mask")
 
@@ -111,7 +111,7 @@ def _live_detections(mask: NDArray, flat: NDArray) -> tuple[int, NDArray[np.intp
 
 def pack_observation(detections: NDArray[np.floating], spec: SensorSpec) -> dict[str, NDArray]:
     """Pad one frame's ``m`` detections into an observation of ``spec.max_detections`` rows (the
-    twin of :func:`track_envs.report.pack_report`).
+    twin of :func:`track_envs.contracts.report.pack_report`).
 
     The rows keep their order (row ``i`` is ``detections[i]``), as float32, padding rows zero and
     mask 0 — what an environment hands an agent, without the shuffling and clipping.

@@ -1,9 +1,9 @@
 """A recorded stream of keypoint poses, frame by frame (detections, tracks or ground truth).
 
-:class:`PoseStream` is the pose twin of :class:`~track_envs.detections.Detections`: every frame's
+:class:`PoseStream` is the pose twin of :class:`~track_envs.values.detections.Detections`: every frame's
 poses in flat arrays (CSR layout: frame ``t`` owns rows ``offsets[t]:offsets[t + 1]``), with what
 the pose file formats carry per pose (a track id, a pose score, a head box) and per frame (the
-image id and file name). The readers and the writer of :mod:`track_envs.pose_files` map to it,
+image id and file name). The readers and the writer of :mod:`track_envs.io.poses` map to it,
 ``agents.pose.run.run_pose_agent`` tracks it, and :mod:`track_envs.metrics.pose_scoring` scores
 one stream against another.
 
@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.metrics.keypoints import KEYPOINT_NAMES
-from track_envs.types import SensorSpec
+from track_envs.values.types import SensorSpec
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,7 +217,7 @@ def pose_sensor_spec(
 
 def pose_observation(stream: PoseStream, t: int, spec: SensorSpec) -> dict[str, NDArray]:
     """Frame ``t`` of ``stream`` as a pose agent's observation (the twin of
-    :func:`track_envs.observation.pack_observation`): row ``i`` is the frame's ``i``-th pose,
+    :func:`track_envs.contracts.observation.pack_observation`): row ``i`` is the frame's ``i``-th pose,
     ``x, y`` and confidence per keypoint as float32 (all 0 for a keypoint with confidence 0),
     padding rows zero, mask 0.
 

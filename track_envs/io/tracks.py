@@ -13,7 +13,7 @@
   distth=c)``) then scores the points themselves — only against truth written the same way: the
   ``X, Y`` of a real MOTChallenge gt are box corners, not centres. Read back, a file whose boxes
   all have width and height 0 is points (``boxes`` None); every other file keeps its boxes.
-* ``wide``: the recorded-track layout of BeltReplay-v0 (:mod:`track_envs.track_csv`): no header,
+* ``wide``: the recorded-track layout of BeltReplay-v0 (:mod:`track_envs.io.wide_tracks`): no header,
   one row per frame, one ``(x, y)`` column pair per id, NaN where the id has no track; column pair
   ``k`` holds the ``k``-th smallest id (for ids numbered 0, 1, 2, ... the id itself).
 * ``long``: a header ``frame,id,x,y`` then one row per track and frame, plus ``var_x,cov_xy,var_y``
@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from track_envs.csv_table import DetectionFileError, read_table
-from track_envs.detection_files import _write_mot, read_mot_rows
-from track_envs.track_csv import load_track_csv, write_track_csv
-from track_envs.tracks import Tracks
+from track_envs.io.csv_parser import DetectionFileError, read_table
+from track_envs.io.detections import _write_mot, read_mot_rows
+from track_envs.io.wide_tracks import load_track_csv, write_track_csv
+from track_envs.values.tracks import Tracks
 
 TRACK_FORMATS = ("mot", "wide", "long")
 LONG_COLUMNS = ("frame", "id", "x", "y")
@@ -95,7 +95,7 @@ def read_tracks(
         n_frames: Frames of the stream, when longer than the file's last frame.
         min_confidence: MOT only: drop rows whose confidence (the "considered" flag of ground
             truth) is below this, except −1 ("not given");
-            :data:`~track_envs.detection_files.CONSIDERED` keeps ground truth's considered rows.
+            :data:`~track_envs.io.detections.CONSIDERED` keeps ground truth's considered rows.
 
     Raises:
         DetectionFileError: naming the file and the row and column of the first bad cell, or

@@ -17,9 +17,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-# the checks of the sensor arguments (re-exported from track_envs.arguments)
-from track_envs.arguments import check_non_negative, check_positive, check_probability
-from track_envs.compiled import njit
+# the checks of the sensor arguments (re-exported from track_envs.infra.arguments)
+from track_envs.infra.arguments import check_non_negative, check_positive, check_probability
+from track_envs.infra.compiled import njit
 
 __all__ = ["CLUTTER_ID", "check_non_negative", "check_positive", "check_probability", "sense_points"]
 

@@ -1,0 +1,17 @@
+"""Linear assignment, in two modules that must both exist.
+
+* :mod:`~track_envs.infra.assignment.lone_pairs`: assignment *with misses* (every row may stay
+  unassigned at a miss cost ``γ``) for sparse, gated problems: the lone pairs are split off, the
+  rest becomes the ``[C | M]`` problem, and :func:`~track_envs.infra.assignment.lone_pairs.solve_split`
+  / :func:`~track_envs.infra.assignment.lone_pairs.min_cost_with_misses` solve it with
+  ``scipy.optimize.linear_sum_assignment``. The trackers and GOSPA use it.
+* :mod:`~track_envs.infra.assignment.shortest_augmenting_path`: the dense solver itself, compiled,
+  step for step as scipy's ``rectangular_lsap.cpp``. The compiled metric kernels (GOSPA, CLEAR MOT
+  events) call a solver from inside numba, where scipy cannot be called, and must return scipy's
+  assignment also where several are optimal: py-motmetrics and TrackEval break ties that way, and
+  the metric values are checked against them bit for bit.
+
+They are not two versions of one algorithm: the first reduces a problem (and calls a dense solver),
+the second is the dense solver; the split/merge kernels of the first also run inside compiled
+code, on top of the second.
+"""
