@@ -1,40 +1,85 @@
-"""A numeric table from a delimited text file, with errors that name the file, row and column.
+"""The one CSV parser of the file readers: bytes, line ends, field counts, floats, located errors.
 
-The shared core of the detection and track file readers (:mod:`track_envs.io.detections`,
-:mod:`track_envs.io.tracks`): the file is read as bytes (a ``.zip`` holding one ``.csv`` member
-is read as that member; a UTF-8 byte-order mark, CRLF / CR line ends and trailing blank lines are
-handled as in :mod:`track_envs.io.wide_tracks`), an optional header line is split off, the fields per
-line are counted on the raw bytes (vectorised, so ragged rows are allowed: missing trailing cells
-read as NaN), and pandas' C parser reads every cell as a float. Only on a parse error is the text
-scanned again, with :mod:`csv`, to name the first cell that is not a number.
+Every reader of :mod:`track_envs.io` parses numbers through this module:
+
+* :func:`read_bytes` reads a file (a ``.zip`` holding one ``.csv`` member is read as that member;
+  other members and macOS ``__MACOSX/`` entries are ignored) and :func:`normalise` drops a UTF-8
+  byte-order mark and trailing blank lines and turns CRLF / CR line ends into LF;
+* :func:`field_counts` counts the fields of every line on the raw bytes (vectorised: the
+  delimiters before each line end are counted with ``searchsorted`` on the delimiter offsets,
+  about 0.04 s for a 75 MB file) and rejects a blank line;
+* :func:`parse_floats` reads every cell as a float64 with pandas' C parser (:func:`read_float_frame`:
+  no quoting, missing values only the :data:`NA_TOKENS`, correctly rounded); only when that fails
+  is the text scanned again, with :mod:`csv`, to name the first cell that is not a number
+  (:func:`locate_text`);
+* :func:`format_rows` writes the inverse: ``repr`` of every float (the shortest string that reads
+  back as the same double), so a written file reads back bit for bit;
+* :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
+  and ragged rows (missing trailing cells read as NaN), for the detection, track and crossing
+  readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
+  layout on the same field counts.
 
 Rows in messages are the file's line numbers, from 1, as an editor shows them (a header is line
 1); columns are named by their index from 0 (``column index 3``), as the readers' column options
-count them.
+count them. Every problem raises :class:`TrackFileError` (a ``ValueError``) or, from the table
+readers, its subclass :class:`DetectionFileError`; the message starts with the file's path.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
+import itertools
 import os
+import re
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from track_envs.io.wide_tracks import (
-    TrackFileError,
-    _is_number_or_missing,
-    _normalise,
-    _read_bytes,
-    read_float_frame,
-)
+__all__ = [
+    "NA_TOKENS",
+    "DetectionFileError",
+    "Table",
+    "TrackFileError",
+    "field_counts",
+    "first_bad",
+    "format_rows",
+    "is_number_or_missing",
+    "locate_text",
+    "normalise",
+    "parse_floats",
+    "read_bytes",
+    "read_float_frame",
+    "read_table",
+]
 
+#: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
+NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
+
+# pandas >= 3 parses floats exactly by default (and deprecates ``float_precision``); older pandas
+# needs the round-trip converter to give correctly rounded values.
+_PANDAS_MAJOR = int(pd.__version__.split(".", 1)[0])
+_FLOAT_PRECISION_KW: dict[str, str] = {} if _PANDAS_MAJOR >= 3 else {"float_precision": "round_trip"}
+
+_NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?\s*")
+_INF_RE = re.compile(r"[+-]?inf(?:inity)?", re.IGNORECASE)
+_BLANK_RE = re.compile(rb"\s*\Z")
 _NEWLINE = 10
+
+
+class TrackFileError(ValueError):
+    """A track file is missing, unreadable or not in the track CSV format.
+
+    The message starts with the file's path and names the problem and, where there is one, the row
+    and column.
+    """
 
 
 class DetectionFileError(TrackFileError):
@@ -43,6 +88,202 @@ class DetectionFileError(TrackFileError):
     The message starts with the file's path and names the problem and, where there is one, the
     row (the line number, from 1) and the column (its index, from 0, as column options count).
     """
+
+
+# --------------------------------------------------------------------------------------------------
+# bytes and lines
+
+
+def read_bytes(path: Path, label: str) -> tuple[bytes, str]:
+    """Return the CSV bytes of ``path`` and the label to use in messages about them."""
+    try:
+        if path.suffix.lower() != ".zip":
+            return path.read_bytes(), label
+        with zipfile.ZipFile(path) as archive:
+            members = [
+                info
+                for info in archive.infolist()
+                if not info.is_dir()
+                and info.filename.lower().endswith(".csv")
+                and not info.filename.startswith("__MACOSX/")
+            ]
+            if len(members) != 1:
+                names = ", ".join(info.filename for info in members)
+                found = "no .csv member" if not members else f"{len(members)} .csv members ({names})"
+                raise TrackFileError(f"{label}: zip archive holds {found}; expected exactly one")
+            member = members[0].filename
+            return archive.read(member), f"{label} (member {member})"
+    except FileNotFoundError:
+        raise TrackFileError(f"{label}: no such file") from None
+    except IsADirectoryError:
+        raise TrackFileError(f"{label}: is a directory, not a file") from None
+    except PermissionError:
+        raise TrackFileError(f"{label}: cannot read the file (permission denied)") from None
+    except zipfile.BadZipFile as exc:
+        raise TrackFileError(f"{label}: not a valid zip archive ({exc})") from None
+    except OSError as exc:
+        raise TrackFileError(f"{label}: cannot read the file ({exc.strerror or exc})") from None
+
+
+def normalise(data: bytes, label: str) -> bytes:
+    """Drop a BOM and trailing blank lines, turn CRLF and CR into LF; raise if nothing is left."""
+    if data.startswith(codecs.BOM_UTF8):
+        data = data[len(codecs.BOM_UTF8) :]
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    end = len(data)
+    while end and data[end - 1] == _NEWLINE:
+        end -= 1
+    if end == 0 or _BLANK_RE.match(data):
+        raise TrackFileError(f"{label}: file is empty")
+    return data if end == len(data) else data[:end]
+
+
+def field_counts(
+    body: bytes,
+    label: str,
+    *,
+    delimiter: str = ",",
+    first_row: int = 1,
+    error: type[TrackFileError] = TrackFileError,
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The fields of every line of ``body`` (LF line ends), counted on the bytes.
+
+    Args:
+        body: The lines, without a header.
+        label: The file's name for messages.
+        delimiter: One character between fields.
+        first_row: The file line number of ``body``'s first line (2 after a header).
+        error: The exception class to raise.
+
+    Returns:
+        ``(starts, ends, counts)``: line ``i`` is ``body[starts[i]:ends[i]]`` and has ``counts[i]``
+        fields.
+
+    Raises:
+        error: naming the first blank line.
+    """
+    buf = np.frombuffer(body, dtype=np.uint8)
+    newlines = np.flatnonzero(buf == _NEWLINE)
+    starts = np.concatenate([np.zeros(1, dtype=np.intp), newlines + 1])  # line i is starts[i]:ends[i]
+    ends = np.concatenate([newlines, np.array([len(body)], dtype=np.intp)])
+    blank = ends == starts
+    if blank.any():
+        raise error(f"{label}: row {int(np.argmax(blank)) + first_row} is blank, expected a frame")
+    at = np.flatnonzero(buf == ord(delimiter))
+    counts = np.diff(np.searchsorted(at, ends), prepend=0) + 1
+    return starts, ends, counts
+
+
+# --------------------------------------------------------------------------------------------------
+# numbers
+
+
+def read_float_frame(data: bytes, **options: Any) -> pd.DataFrame:
+    """``data`` (CSV text without header, already validated field by field) as a float64 frame:
+    pandas' C parser, no quoting, blank lines kept (so row numbers stay the file's), missing
+    values only the :data:`NA_TOKENS`, round-trip float precision; ``options`` go to
+    ``pandas.read_csv`` (e.g. ``names``, ``sep``, ``low_memory``). Raises what pandas raises
+    (``ValueError`` or ``UnicodeDecodeError``) for the caller to locate."""
+    return pd.read_csv(  # type: ignore[call-overload]
+        io.BytesIO(data),
+        header=None,
+        index_col=False,
+        dtype=np.float64,
+        engine="c",
+        quoting=csv.QUOTE_NONE,
+        skip_blank_lines=False,
+        keep_default_na=False,
+        na_values=list(NA_TOKENS),
+        encoding="utf-8",
+        **_FLOAT_PRECISION_KW,
+        **options,
+    )
+
+
+def parse_floats(
+    body: bytes,
+    label: str,
+    *,
+    first_row: int = 1,
+    delimiter: str = ",",
+    error: type[TrackFileError] = TrackFileError,
+    expected: str = "a number or NaN",
+    **options: Any,
+) -> NDArray[np.float64]:
+    """The cells of ``body`` (lines already checked by :func:`field_counts`) as a C-contiguous
+    float64 array; ``options`` go to :func:`read_float_frame` (e.g. ``names``, ``low_memory``).
+
+    Raises:
+        error: naming the first cell that is not a number or missing (:func:`locate_text`).
+    """
+    try:
+        frame = read_float_frame(body, sep=delimiter, **options)
+    except (ValueError, UnicodeDecodeError) as exc:  # pandas' ParserError is a ValueError
+        located = locate_text(
+            body, label, exc, first_row=first_row, delimiter=delimiter, error=error, expected=expected
+        )
+        raise located from None
+    return np.ascontiguousarray(frame.to_numpy(dtype=np.float64))
+
+
+def locate_text(
+    body: bytes,
+    label: str,
+    exc: Exception,
+    *,
+    first_row: int = 1,
+    delimiter: str = ",",
+    error: type[TrackFileError] = TrackFileError,
+    expected: str = "a number or NaN",
+) -> TrackFileError:
+    """Re-scan ``body`` (error path only) and return an ``error`` naming the first cell that is not
+    a number, or else the parser's reason ``exc``."""
+    reason = str(exc) if len(str(exc)) <= 200 else str(exc)[:200] + "..."
+    text = body.decode("utf-8", errors="replace")
+    reader = csv.reader(io.StringIO(text), delimiter=delimiter, quoting=csv.QUOTE_NONE)
+    try:
+        for row, fields in enumerate(reader, start=first_row):
+            for column, field in enumerate(fields):
+                if not is_number_or_missing(field):
+                    shown = field if len(field) <= 40 else field[:40] + "..."
+                    return error(
+                        f"{label}: row {row}, column index {column} holds text {shown!r}, expected {expected}"
+                    )
+    except csv.Error as scan_exc:  # e.g. a field over csv's size limit: that is not a number either
+        return error(f"{label}: row {reader.line_num + first_row - 1}: {scan_exc} ({reason})")
+    return error(f"{label}: cannot parse the numbers ({reason})")
+
+
+def is_number_or_missing(field: str) -> bool:
+    """Whether pandas' parser accepts ``field`` as a float or a missing value (inf included)."""
+    return field in NA_TOKENS or bool(_NUMBER_RE.fullmatch(field) or _INF_RE.fullmatch(field))
+
+
+def format_rows(flat: NDArray[np.float64], na_rep: str) -> str:
+    """Format (n_rows, n_fields) values as CSV text, ``repr`` for numbers and ``na_rep`` for NaN.
+
+    Only the visible cells are formatted (``repr`` is the shortest string that reads back as the same
+    double); each row starts as a list of ``na_rep`` tokens that the visible cells are written into,
+    which is about 10x faster than formatting a full object array when most cells are missing.
+    """
+    rows, cols = np.nonzero(~np.isnan(flat))
+    texts = list(map(repr, flat[rows, cols].tolist()))
+    bounds = np.searchsorted(rows, np.arange(flat.shape[0] + 1)).tolist()
+    col_list = cols.tolist()
+    blank = [na_rep] * flat.shape[1]
+    lines = []
+    for lo, hi in itertools.pairwise(bounds):
+        cells = blank.copy()
+        for col, text in zip(col_list[lo:hi], texts[lo:hi], strict=True):
+            cells[col] = text
+        lines.append(",".join(cells))
+    lines.append("")  # final newline
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------------
+# tables
 
 
 @dataclass(frozen=True)
@@ -152,70 +393,35 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
         raise ValueError(f"delimiter must be one character (not a quote or line end), got {delimiter!r}")
     label = os.fspath(path)
     try:
-        data, label = _read_bytes(Path(path), label)
-        data = _normalise(data, label)
+        data, label = read_bytes(Path(path), label)
+        data = normalise(data, label)
     except TrackFileError as exc:
         raise DetectionFileError(str(exc)) from None
     end = data.find(b"\n")
     line1 = data if end < 0 else data[:end]
     fields = line1.decode("utf-8", errors="replace").split(delimiter)
     has_header = header is True or (
-        header == "auto" and any(not _is_number_or_missing(f.strip()) for f in fields)
+        header == "auto" and any(not is_number_or_missing(f.strip()) for f in fields)
     )
     names = [f.strip() for f in fields] if has_header else None
     body = (b"" if end < 0 else data[end + 1 :]) if has_header else data
     first_row = 2 if has_header else 1
     if not body:
         raise DetectionFileError(f"{label}: the file has a header but no data rows")
-    n_columns = _field_count(body, delimiter, label, first_row)
+    counts = field_counts(body, label, delimiter=delimiter, first_row=first_row, error=DetectionFileError)[2]
+    n_columns = int(counts.max())
     if names is not None:
         n_columns = max(n_columns, len(names))
-    values = _parse(body, label, first_row, n_columns, delimiter)
+    values = parse_floats(
+        body,
+        label,
+        first_row=first_row,
+        delimiter=delimiter,
+        error=DetectionFileError,
+        expected="a number",
+        names=list(range(n_columns)),
+    )
     return Table(values, names, first_row, label, body, delimiter)
-
-
-def _field_count(body: bytes, delimiter: str, label: str, first_row: int) -> int:
-    """The most fields on any line (vectorised on the bytes); a blank line is an error."""
-    buf = np.frombuffer(body, dtype=np.uint8)
-    newlines = np.flatnonzero(buf == _NEWLINE)
-    starts = np.concatenate([np.zeros(1, dtype=np.intp), newlines + 1])
-    ends = np.concatenate([newlines, np.array([len(body)], dtype=np.intp)])
-    blank = ends == starts
-    if blank.any():
-        raise DetectionFileError(
-            f"{label}: row {int(np.argmax(blank)) + first_row} is blank, expected a frame"
-        )
-    at = np.flatnonzero(buf == ord(delimiter))
-    per_line = np.diff(np.searchsorted(at, ends), prepend=0)
-    return int(per_line.max()) + 1
-
-
-def _parse(body: bytes, label: str, first_row: int, n_columns: int, delimiter: str) -> NDArray[np.float64]:
-    try:
-        frame = read_float_frame(body, names=list(range(n_columns)), sep=delimiter)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise _locate_text(body, label, first_row, delimiter, exc) from None
-    return np.ascontiguousarray(frame.to_numpy(dtype=np.float64))
-
-
-def _locate_text(
-    body: bytes, label: str, first_row: int, delimiter: str, exc: Exception
-) -> DetectionFileError:
-    """The first cell that is not a number, as an error (error path only)."""
-    text = body.decode("utf-8", errors="replace")
-    reader = csv.reader(io.StringIO(text), delimiter=delimiter, quoting=csv.QUOTE_NONE)
-    try:
-        for row, fields in enumerate(reader, start=first_row):
-            for column, field in enumerate(fields):
-                if not _is_number_or_missing(field):
-                    shown = field if len(field) <= 40 else field[:40] + "..."
-                    return DetectionFileError(
-                        f"{label}: row {row}, column index {column} holds text {shown!r}, expected a number"
-                    )
-    except csv.Error as scan_exc:
-        return DetectionFileError(f"{label}: row {reader.line_num + first_row - 1}: {scan_exc}")
-    reason = str(exc)[:200]
-    return DetectionFileError(f"{label}: cannot parse the numbers ({reason})")
 
 
 def first_bad(bad: NDArray[np.bool_]) -> tuple[int, int]:

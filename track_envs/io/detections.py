@@ -50,8 +50,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.io.csv_parser import DetectionFileError, Table, first_bad, read_table
-from track_envs.io.wide_tracks import _format_rows
+from track_envs.io.csv_parser import DetectionFileError, Table, first_bad, format_rows, read_table
 from track_envs.values.detections import Detections
 
 __all__ = [
@@ -393,7 +392,7 @@ def write_wide_detections(
     grid = np.full((n, width, 2), np.nan)
     slot = np.arange(len(detections)) - np.repeat(detections.offsets[:-1], counts)
     grid[detections.frame_index(), slot] = detections.points
-    body = _format_rows(grid.reshape(n, -1), na_rep).split("\n")
+    body = format_rows(grid.reshape(n, -1), na_rep).split("\n")
     lead_cols = [np.arange(n) + detections.first_frame, counts]
     names = ["frame", "count"]
     if detections.times is not None:

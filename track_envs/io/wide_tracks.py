@@ -19,54 +19,37 @@ count them.
 Every problem with a file raises :class:`TrackFileError`, whose message starts with the file's path
 and says what is wrong and where, e.g. ``tracks.csv: row 17 has 9 fields, expected 8 (ragged rows)``.
 
-Loading uses pandas' C parser, after a vectorised check of the field count of every line on the raw
-bytes, so a 2,000-frame file with 4,400 particles (about 75 MB) loads in a few seconds. The file is
-re-scanned with the :mod:`csv` module only when parsing fails, to locate the offending cell.
+Loading uses the readers' one parser (:mod:`track_envs.io.csv_parser`: pandas' C parser, after a
+vectorised check of the field count of every line on the raw bytes), so a 2,000-frame file with
+4,400 particles (about 75 MB) loads in a few seconds. The file is re-scanned with the :mod:`csv`
+module only when parsing fails, to locate the offending cell.
 :func:`write_track_csv` writes the shortest decimal string that reads back as the same float
 (``repr``), so ``load_track_csv(write_track_csv(x))`` reproduces ``x`` bit for bit (NaNs as NaN).
 """
 
 from __future__ import annotations
 
-import codecs
-import csv
-import io
-import itertools
 import operator
 import os
-import re
 import zipfile
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
+
+from track_envs.io.csv_parser import (
+    NA_TOKENS,
+    TrackFileError,
+    field_counts,
+    format_rows,
+    normalise,
+    parse_floats,
+    read_bytes,
+)
 
 __all__ = ["TrackFileError", "load_track_csv", "write_track_csv"]
 
-#: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
-NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
-
-# pandas >= 3 parses floats exactly by default (and deprecates ``float_precision``); older pandas
-# needs the round-trip converter to give correctly rounded values.
-_PANDAS_MAJOR = int(pd.__version__.split(".", 1)[0])
-_FLOAT_PRECISION_KW: dict[str, str] = {} if _PANDAS_MAJOR >= 3 else {"float_precision": "round_trip"}
-
-_NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?\s*")
-_INF_RE = re.compile(r"[+-]?inf(?:inity)?", re.IGNORECASE)
-_BLANK_RE = re.compile(rb"\s*\Z")
 _LOW_MEMORY_BYTES = 1 << 30  # parse bigger inputs in chunks
-_NEWLINE = 10
-_COMMA = 44
-
-
-class TrackFileError(ValueError):
-    """A track file is missing, unreadable or not in the track CSV format.
-
-    The message starts with the file's path and names the problem and, where there is one, the row
-    and column.
-    """
 
 
 def load_track_csv(
@@ -94,15 +77,12 @@ def load_track_csv(
     label = os.fspath(path)
     if frames is not None:
         frames = _check_frames_shape(frames)
-    data, label = _read_bytes(Path(path), label)
-    data = _normalise(data, label)
+    data, label = read_bytes(Path(path), label)
+    data = normalise(data, label)
 
-    buf = np.frombuffer(data, dtype=np.uint8)
-    newlines = np.flatnonzero(buf == _NEWLINE)
-    starts = np.concatenate([np.zeros(1, dtype=np.intp), newlines + 1])  # line i is starts[i]:ends[i]
-    ends = np.concatenate([newlines, np.array([len(data)], dtype=np.intp)])
+    starts, ends, counts = field_counts(data, label)
     n_rows = len(starts)
-    n_fields = _check_field_counts(buf, starts, ends, label)
+    n_fields = _check_ragged(counts, label)
     if n_fields % 2:
         raise TrackFileError(
             f"{label}: {n_fields} columns is an odd count; expected (x, y) pairs, one per particle"
@@ -110,7 +90,10 @@ def load_track_csv(
 
     start, stop = (0, n_rows) if frames is None else _check_frames_range(frames, n_rows)
     chunk = data if (start, stop) == (0, n_rows) else data[starts[start] : ends[stop - 1]]
-    values = _parse(chunk, label, first_row=start + 1, n_rows=stop - start, n_fields=n_fields)
+    # one pass: ~2x faster than pandas' chunked low-memory mode, which only bigger inputs need
+    values = parse_floats(chunk, label, first_row=start + 1, low_memory=len(chunk) > _LOW_MEMORY_BYTES)
+    if values.shape != (stop - start, n_fields):  # cannot happen after the field-count check
+        raise TrackFileError(f"{label}: parsed {values.shape} cells, expected {(stop - start, n_fields)}")
     _check_values(values, label, first_row=start + 1)
     return np.ascontiguousarray(values.reshape(stop - start, n_fields // 2, 2))
 
@@ -146,7 +129,7 @@ def write_track_csv(path: str | os.PathLike[str], positions: ArrayLike, *, na_re
             "x and y must be both numbers or both NaN"
         )
 
-    payload_text = _format_rows(pos.reshape(pos.shape[0], -1), na_rep)
+    payload_text = format_rows(pos.reshape(pos.shape[0], -1), na_rep)
     payload = payload_text.encode("ascii")
 
     target = Path(path)
@@ -181,154 +164,17 @@ def _check_frames_range(frames: tuple[int, int], n_rows: int) -> tuple[int, int]
     return start, stop
 
 
-def _format_rows(flat: NDArray[np.float64], na_rep: str) -> str:
-    """Format (n_rows, n_fields) values as CSV text, ``repr`` for numbers and ``na_rep`` for NaN.
-
-    Only the visible cells are formatted (``repr`` is the shortest string that reads back as the same
-    double); each row starts as a list of ``na_rep`` tokens that the visible cells are written into,
-    which is about 10x faster than formatting a full object array when most cells are missing.
-    """
-    rows, cols = np.nonzero(~np.isnan(flat))
-    texts = list(map(repr, flat[rows, cols].tolist()))
-    bounds = np.searchsorted(rows, np.arange(flat.shape[0] + 1)).tolist()
-    col_list = cols.tolist()
-    blank = [na_rep] * flat.shape[1]
-    lines = []
-    for lo, hi in itertools.pairwise(bounds):
-        cells = blank.copy()
-        for col, text in zip(col_list[lo:hi], texts[lo:hi], strict=True):
-            cells[col] = text
-        lines.append(",".join(cells))
-    lines.append("")  # final newline
-    return "\n".join(lines)
-
-
-def _read_bytes(path: Path, label: str) -> tuple[bytes, str]:
-    """Return the CSV bytes of ``path`` and the label to use in messages about them."""
-    try:
-        if path.suffix.lower() != ".zip":
-            return path.read_bytes(), label
-        with zipfile.ZipFile(path) as archive:
-            members = [
-                info
-                for info in archive.infolist()
-                if not info.is_dir()
-                and info.filename.lower().endswith(".csv")
-                and not info.filename.startswith("__MACOSX/")
-            ]
-            if len(members) != 1:
-                names = ", ".join(info.filename for info in members)
-                found = "no .csv member" if not members else f"{len(members)} .csv members ({names})"
-                raise TrackFileError(f"{label}: zip archive holds {found}; expected exactly one")
-            member = members[0].filename
-            return archive.read(member), f"{label} (member {member})"
-    except FileNotFoundError:
-        raise TrackFileError(f"{label}: no such file") from None
-    except IsADirectoryError:
-        raise TrackFileError(f"{label}: is a directory, not a file") from None
-    except PermissionError:
-        raise TrackFileError(f"{label}: cannot read the file (permission denied)") from None
-    except zipfile.BadZipFile as exc:
-        raise TrackFileError(f"{label}: not a valid zip archive ({exc})") from None
-    except OSError as exc:
-        raise TrackFileError(f"{label}: cannot read the file ({exc.strerror or exc})") from None
-
-
-def _normalise(data: bytes, label: str) -> bytes:
-    """Drop a BOM and trailing blank lines, turn CRLF and CR into LF; raise if nothing is left."""
-    if data.startswith(codecs.BOM_UTF8):
-        data = data[len(codecs.BOM_UTF8) :]
-    if b"\r" in data:
-        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    end = len(data)
-    while end and data[end - 1] == _NEWLINE:
-        end -= 1
-    if end == 0 or _BLANK_RE.match(data):
-        raise TrackFileError(f"{label}: file is empty")
-    return data if end == len(data) else data[:end]
-
-
-def _check_field_counts(
-    buf: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp], label: str
-) -> int:
-    """Return the number of fields per line; raise ``TrackFileError`` at a blank or ragged line.
-
-    Every line must have as many fields as line 1. Vectorised: the commas before each line end are
-    counted with ``searchsorted`` on the comma offsets (about 0.04 s for a 75 MB file; a Python loop
-    of ``bytes.count`` per line takes about the same for 2,000 long lines but 5x longer for 10^6 short
-    ones).
-    """
-    comma_at = np.flatnonzero(buf == _COMMA)
-    commas = np.diff(np.searchsorted(comma_at, ends), prepend=0)
-    blank = ends == starts
-    if blank.any():
-        raise TrackFileError(f"{label}: row {int(np.argmax(blank)) + 1} is blank, expected a frame")
-    ragged = commas != commas[0]
+def _check_ragged(counts: NDArray[np.intp], label: str) -> int:
+    """The number of fields per line; raise ``TrackFileError`` at the first line with another count
+    than line 1."""
+    ragged = counts != counts[0]
     if ragged.any():
         row = int(np.argmax(ragged))
         raise TrackFileError(
-            f"{label}: row {row + 1} has {commas[row] + 1} fields, expected {commas[0] + 1} "
+            f"{label}: row {row + 1} has {counts[row]} fields, expected {counts[0]} "
             "(as in row 1; ragged rows)"
         )
-    return int(commas[0]) + 1
-
-
-def read_float_frame(data: bytes, **options: Any) -> pd.DataFrame:
-    """``data`` (CSV text without header, already validated field by field) as a float64 frame:
-    pandas' C parser, no quoting, blank lines kept (so row numbers stay the file's), missing
-    values only the :data:`NA_TOKENS`, round-trip float precision; ``options`` go to
-    ``pandas.read_csv`` (e.g. ``names``, ``sep``, ``low_memory``). Raises what pandas raises
-    (``ValueError`` or ``UnicodeDecodeError``) for the caller to locate."""
-    return pd.read_csv(  # type: ignore[call-overload]
-        io.BytesIO(data),
-        header=None,
-        index_col=False,
-        dtype=np.float64,
-        engine="c",
-        quoting=csv.QUOTE_NONE,
-        skip_blank_lines=False,
-        keep_default_na=False,
-        na_values=list(NA_TOKENS),
-        encoding="utf-8",
-        **_FLOAT_PRECISION_KW,
-        **options,
-    )
-
-
-def _parse(data: bytes, label: str, *, first_row: int, n_rows: int, n_fields: int) -> NDArray[np.float64]:
-    """Parse ``n_rows`` validated lines of ``n_fields`` fields into a float array (n_rows, n_fields)."""
-    try:
-        frame = read_float_frame(data, low_memory=len(data) > _LOW_MEMORY_BYTES)  # one pass: ~2x faster
-    except (ValueError, UnicodeDecodeError) as exc:  # pandas' ParserError is a ValueError
-        raise _locate_text(data, label, first_row, exc) from None
-    values: NDArray[np.float64] = frame.to_numpy(dtype=np.float64)
-    if values.shape != (n_rows, n_fields):  # cannot happen after the field-count check
-        raise TrackFileError(f"{label}: parsed {values.shape} cells, expected {(n_rows, n_fields)}")
-    return values
-
-
-def _is_number_or_missing(field: str) -> bool:
-    """Whether pandas' parser accepts ``field`` as a float or a missing value (inf included)."""
-    return field in NA_TOKENS or bool(_NUMBER_RE.fullmatch(field) or _INF_RE.fullmatch(field))
-
-
-def _locate_text(data: bytes, label: str, first_row: int, exc: Exception) -> TrackFileError:
-    """Re-scan ``data`` (error path only) and return an error naming the first cell that is not a number."""
-    reason = str(exc) if len(str(exc)) <= 200 else str(exc)[:200] + "..."
-    text = data.decode("utf-8", errors="replace")
-    reader = csv.reader(io.StringIO(text), quoting=csv.QUOTE_NONE)
-    try:
-        for row, fields in enumerate(reader, start=first_row):
-            for column, field in enumerate(fields):
-                if not _is_number_or_missing(field):
-                    shown = field if len(field) <= 40 else field[:40] + "..."
-                    return TrackFileError(
-                        f"{label}: row {row}, column index {column} holds text {shown!r}, "
-                        "expected a number or NaN"
-                    )
-    except csv.Error as scan_exc:  # e.g. a field over csv's size limit: that is not a number either
-        return TrackFileError(f"{label}: row {reader.line_num + first_row - 1}: {scan_exc} ({reason})")
-    return TrackFileError(f"{label}: cannot parse the numbers ({reason})")
+    return int(counts[0])
 
 
 def _check_values(values: NDArray[np.float64], label: str, *, first_row: int) -> None:
