@@ -62,6 +62,7 @@ __all__ = [
     "read_mot_rows",
     "read_wide_detections",
     "write_mot_detections",
+    "write_mot_rows",
     "write_wide_detections",
 ]
 
@@ -225,7 +226,7 @@ def write_mot_detections(
     if detections.dim != 2:
         raise ValueError(f"MOTChallenge files hold 2-d points; these detections are {detections.dim}-d")
     frame = detections.frame_index() + 1
-    _write_mot(
+    write_mot_rows(
         path,
         frame,
         detections.ids,
@@ -236,7 +237,7 @@ def write_mot_detections(
     )
 
 
-def _write_mot(
+def write_mot_rows(
     path: str | os.PathLike[str],
     frame: NDArray[np.int64],
     ids: NDArray[np.int64],
@@ -246,8 +247,9 @@ def _write_mot(
     *,
     boxes: NDArray[np.float64] | None = None,
 ) -> None:
-    """Rows ``frame, id, left, top, w, h, *tail`` (``tail`` written as given on every row): the
-    row's box from ``boxes`` (N, 4) where it is finite, else a ``box_size`` box about the point."""
+    """Write MOTChallenge rows ``frame, id, left, top, w, h, *tail`` (``tail`` written as given on
+    every row; the detection and the track writers each give theirs): the row's box from ``boxes``
+    (N, 4) where it is finite, else a ``box_size`` box about the point (``box_size`` >= 0)."""
     size = float(box_size)
     if not (np.isfinite(size) and size >= 0):
         raise ValueError(f"box_size must be a finite number >= 0, got {box_size!r}")

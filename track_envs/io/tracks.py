@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from track_envs.io.csv_parser import DetectionFileError, read_table
-from track_envs.io.detections import _write_mot, read_mot_rows
+from track_envs.io.detections import read_mot_rows, write_mot_rows
 from track_envs.io.wide_tracks import load_track_csv, write_track_csv
 from track_envs.values.tracks import Tracks
 
@@ -70,7 +70,8 @@ def write_tracks(
         raise ValueError(f"track files hold 2-d points; these tracks are {tracks.positions.shape[1]}-d")
     if format == "mot":
         tail = ["1", "1", "1"] if truth else ["1.0", "-1,-1,-1"]
-        _write_mot(path, tracks.frame + 1, tracks.ids, tracks.positions, box_size, tail, boxes=tracks.boxes)
+        frame = tracks.frame + 1
+        write_mot_rows(path, frame, tracks.ids, tracks.positions, box_size, tail, boxes=tracks.boxes)
     elif format == "wide":
         if not len(tracks):
             raise ValueError("the wide track layout needs at least one track (one column pair)")
