@@ -30,7 +30,9 @@ equivalently ``\\max_\\pi \\sum_{(i,j) \\in \\pi} (γ - C_{ij})``.
 The result is an optimum of the full problem; where several assignments are equally good, the
 one returned may differ from solving the dense matrix. The split, the problem and the merge are
 compiled (numba), so compiled kernels call them directly; :func:`min_cost_with_misses` and
-:func:`solve_split` run them around ``scipy.optimize.linear_sum_assignment``.
+:func:`solve_split` run them around ``scipy.optimize.linear_sum_assignment``; compiled callers
+(the GOSPA kernel) solve the rest with its compiled twin,
+:func:`track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`.
 """
 
 from __future__ import annotations
