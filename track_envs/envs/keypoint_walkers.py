@@ -15,13 +15,13 @@ from track_envs.envs.sensors import CLUTTER_ID
 from track_envs.envs.skeleton import (
     FLIP_INDEX,
     PROPORTIONS,
-    SKELETON_EDGES,
     Crowd,
     WalkerParams,
     pose_keypoints,
 )
 from track_envs.infra.arguments import check_int, check_non_negative, check_positive, check_probability
 from track_envs.metrics.keypoints import COCO_SIGMAS, oks
+from track_envs.values.keypoints import SKELETON_EDGES
 from track_envs.values.types import SensorSpec
 
 __all__ = ["KeypointWalkersEnv", "WalkerParams"]

@@ -1,7 +1,7 @@
 """COCO skeleton, walking-gait kinematics and body silhouettes of 2-D articulated people.
 
 Everything is batched over people (leading axis ``n``) and keypoints (17, COCO order, see
-:data:`track_envs.metrics.keypoints.KEYPOINT_NAMES`). Image coordinates are pixels, x to the
+:data:`track_envs.values.keypoints.KEYPOINT_NAMES`). Image coordinates are pixels, x to the
 right and y **down** (COCO convention).
 
 The body model (fractions of the person's standing height ``h`` px):
@@ -30,15 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.arguments import check_int, check_non_negative, check_number, check_positive
-
-#: Limb edges of the COCO skeleton (0-based keypoint indices), as drawn by COCO tools.
-SKELETON_EDGES: NDArray[np.int64] = np.array(
-    [
-        [15, 13], [13, 11], [16, 14], [14, 12], [11, 12], [5, 11], [6, 12], [5, 6], [5, 7],
-        [6, 8], [7, 9], [8, 10], [1, 2], [0, 1], [0, 2], [1, 3], [2, 4], [3, 5], [4, 6],
-    ],
-    dtype=np.int64,
-)  # fmt: skip
+from track_envs.values.keypoints import SKELETON_EDGES as SKELETON_EDGES  # the COCO limbs, also from here
 
 #: Keypoint index of the left/right partner of each keypoint (itself for the nose).
 FLIP_INDEX: NDArray[np.int64] = np.array([0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15])

@@ -43,8 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.envs.skeleton import SKELETON_EDGES
-from track_envs.metrics.keypoints import KEYPOINT_NAMES
+from track_envs.values.keypoints import KEYPOINT_NAMES, SKELETON_EDGES
 from track_envs.values.poses import PoseStream
 
 #: Pose file formats.

@@ -43,27 +43,8 @@ from scipy.optimize import linear_sum_assignment
 
 from track_envs.metrics.base import live_report
 from track_envs.metrics.clear_mot import ClearMot
+from track_envs.values.keypoints import KEYPOINT_NAMES
 
-#: COCO keypoint names, in COCO order.
-KEYPOINT_NAMES: tuple[str, ...] = (
-    "nose",
-    "left_eye",
-    "right_eye",
-    "left_ear",
-    "right_ear",
-    "left_shoulder",
-    "right_shoulder",
-    "left_elbow",
-    "right_elbow",
-    "left_wrist",
-    "right_wrist",
-    "left_hip",
-    "right_hip",
-    "left_knee",
-    "right_knee",
-    "left_ankle",
-    "right_ankle",
-)
 NUM_KEYPOINTS = 17
 
 #: Per-keypoint OKS sigmas of the COCO keypoint evaluation (pycocotools ``kpt_oks_sigmas``).

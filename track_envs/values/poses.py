@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.keypoints import KEYPOINT_NAMES
+from track_envs.values.keypoints import KEYPOINT_NAMES
 from track_envs.values.types import SensorSpec
 
 
