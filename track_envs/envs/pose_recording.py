@@ -30,7 +30,9 @@ def record_keypoint_walkers(
     """``(detections, truth)`` of ``frames`` frames of KeypointWalkers-v0 (``env_kwargs``), seeded."""
     import gymnasium as gym
 
-    import track_envs  # noqa: F401  (registers the environments)
+    from track_envs.registration import register_envs
+
+    register_envs()  # idempotent: done already by importing track_envs
 
     env = gym.make("KeypointWalkers-v0", max_episode_steps=frames + 1, **env_kwargs)
     spec = env.unwrapped.sensor_spec  # type: ignore[attr-defined]

@@ -1,7 +1,7 @@
 """Score tracks from a file against ground truth from a file, with the point envs' metrics.
 
 :func:`score_tracks` replays both, frame by frame, into the streaming metrics the point
-environments use (:func:`track_envs.wrappers.tracking_metrics.point_metrics`: CLEAR MOT and IDF1
+environments use (:func:`track_envs.metrics.defaults.point_metrics`: CLEAR MOT and IDF1
 with match distance ``c``, GOSPA with cut-off ``c``, and the association errors e1 / e2 / e_mean).
 The association errors need the truth id behind every detection, which a file has only when it
 was written from a simulation (a MOT detection file's id column); without them they are skipped,
@@ -19,6 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from track_envs.metrics.belt import AssociationErrors
+from track_envs.metrics.boxes import BoxClearMot
+from track_envs.metrics.clear_mot import ClearMot
+from track_envs.metrics.defaults import point_metrics
+from track_envs.metrics.hota_stream import BoxHota, Hota
 from track_envs.values.detections import Detections
 from track_envs.values.tracks import Tracks
 
@@ -84,9 +89,6 @@ def score_tracks(
     Returns:
         ``(metrics, notes)``: one flat dict of floats, and what was skipped and why.
     """
-    from track_envs.metrics import AssociationErrors, BoxClearMot, BoxHota, ClearMot, Hota
-    from track_envs.wrappers.tracking_metrics import point_metrics
-
     kind = match_kind(tracks.boxes is not None, truth.boxes is not None, match)
     metrics = point_metrics(threshold)
     if kind == "iou":

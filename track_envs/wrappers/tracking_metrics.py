@@ -9,15 +9,10 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric, Metric
-from track_envs.metrics.hota_stream import Hota
+from track_envs.metrics import Metric
+from track_envs.metrics.defaults import point_metrics
 
-
-def point_metrics(c: float) -> list[Metric]:
-    """Metrics of multi-target point scenes: association errors e1 / e2 / e_mean (Pollithy et al. 2020), CLEAR
-    MOT with match threshold ``c`` (MOTA, ID switches, IDF1), per-frame GOSPA (c, p = 2, α = 2) and HOTA
-    (Luiten et al. 2021) with similarity ``max(0, 1 − d/c)``."""
-    return [AssociationErrors(), ClearMot(threshold=c), GospaMetric(c=c), Hota(threshold=c)]
+__all__ = ["TrackingMetrics", "default_metrics", "point_metrics"]
 
 
 def default_metrics(env: gym.Env) -> list[Metric]:
