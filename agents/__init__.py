@@ -38,10 +38,14 @@ def _register_builtin() -> None:
     from agents.baseline import DetectionsAgent
     from agents.gnn.agent import GnnAgent
     from agents.jpda.agent import JpdaAgent
+    from agents.jpda.associator import JpdaAssociator
     from agents.one_step import OneStepAgent
     from agents.particle.agent import ParticleFilterAgent
     from agents.pose.baseline import PoseBaselineAgent
     from agents.pose.smc import PoseSmcAgent
+    from agents.tracking.associator import register_associator
+    from agents.tracking.gated import GatedAssignment
+    from agents.tracking.merges import SharedBlobs
 
     register_agent("detections", DetectionsAgent)
     register_agent("gnn", GnnAgent)
@@ -50,6 +54,10 @@ def _register_builtin() -> None:
     register_agent("pose-smc", PoseSmcAgent)
     register_agent("pf", ParticleFilterAgent)
     register_agent("one-step", OneStepAgent)
+    # the association components of the point trackers (agents.tracking.associator)
+    register_associator("gnn", GatedAssignment)
+    register_associator("shared-blobs", SharedBlobs)
+    register_associator("jpda", JpdaAssociator)
 
 
 _register_builtin()

@@ -193,12 +193,12 @@ def run_agent(
 
 def takes_calibration(name: str) -> bool:
     """Whether agent ``name`` takes the keywords of a self-calibration (``agent_kwargs()`` of
-    :func:`agents.self_calibration.calibrate`): gnn and the trackers built on it (jpda)."""
+    :func:`agents.self_calibration.calibrate`): the point trackers (gnn, jpda)."""
     from agents import AGENTS
-    from agents.gnn.agent import GnnAgent
+    from agents.tracking.tracker import PointTracker
 
     factory = AGENTS.factory(name)
-    return isinstance(factory, type) and issubclass(factory, GnnAgent)
+    return isinstance(factory, type) and issubclass(factory, PointTracker)
 
 
 def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:

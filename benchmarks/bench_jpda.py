@@ -53,7 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_tracker import SPEC, synthetic_observations
 
-import agents.gnn.agent as gnn_module
+import agents.tracking.tracker as gnn_module
 import track_envs  # noqa: F401
 from agents import make_agent
 from agents.jpda import _kernels as jpda_kernels
@@ -372,11 +372,11 @@ STAGES = [
     ("predict", "predict"),
     ("jpda_frame kernel (gate, merged-blob pairs, clusters, marginals, moments)", "jpda_frame kernel"),
     ("split blobs (kernel)", "split blobs"),
-    ("second chance (`_recover`)", "second chance"),
+    ("second chance (`SecondChance.recover`)", "second chance"),
     ("rest of the association (Python, arrays; gnn: gate, cost, assignment)", "association rest"),
     ("update (PDA update of the mixture / Kalman update)", "update"),
     ("upkeep (misses, deletions)", "upkeep"),
-    ("velocity prior (`_learn_flow`)", "learn flow"),
+    ("velocity prior (`FlowPrior.learn`)", "learn flow"),
     ("births (`_initiate`)", "initiate"),
     ("nozzle-bar roll-out (`_predict_sorting`)", "sorting"),
     ("estimate, report", "report"),
@@ -400,11 +400,11 @@ def profile(
         ("_initiate", "initiate"),
         ("_report", "report"),
         ("_estimate_mean", "report"),
-        ("_learn_flow", "learn flow"),
-        ("_recover", "second chance"),
         ("_predict_sorting", "sorting"),
     ):
         timer.wrap(agent, attr, stage, on_instance=True)
+    timer.wrap(agent._prior, "learn", "learn flow", on_instance=True)
+    timer.wrap(agent.associator.second_chance, "recover", "second chance", on_instance=True)
     if name == "jpda":
         timer.wrap(jpda_kernels, "jpda_frame", "jpda_frame kernel")
         timer.wrap(jpda_kernels, "split_blobs", "split blobs")

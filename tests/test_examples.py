@@ -299,6 +299,49 @@ def test_extend_agent_associates_within_its_gate_closed_form():
         example.NearestNeighbourAgent(max_misses=1.5)
 
 
+def test_extend_associator_registers_and_tracks_close_to_gnn(monkeypatch, capsys):
+    from agents.tracking.associator import ASSOCIATOR_REGISTRY, Associator, available_associators
+
+    monkeypatch.setattr(ASSOCIATOR_REGISTRY, "_factories", dict(ASSOCIATOR_REGISTRY._factories))
+    example = load("extend_associator")
+    assert "greedy-nearest" in available_associators()
+    assert isinstance(example.GreedyNearest(), Associator)
+    metrics = example.main(["--frames", "80", "--targets", "10"])
+    new, gnn = metrics["greedy-nearest"], metrics["gnn"]
+    # an easy scene (10 targets, few crossings): greedy is nearly optimal
+    assert 0.6 < new["mota"] <= 1.0 and abs(new["mota"] - gnn["mota"]) < 0.05
+    assert new["idf1"] > 0.8
+    assert "greedy-nearest" in capsys.readouterr().out
+
+
+def test_extend_associator_takes_the_nearest_free_detection_in_the_gate():
+    from agents.tracking.associator import FrameContext
+    from track_envs.values.types import Gaussian
+
+    example = load("extend_associator")
+    predicted = np.array([[0.0, 0.0], [1.0, 0.0], [5.0, 5.0]])
+    z = np.array([[0.9, 0.0], [0.2, 0.0], [9.0, 9.0]])
+    frame = FrameContext(
+        prediction=Gaussian(predicted, np.broadcast_to(np.eye(2) * 0.1, (3, 2, 2)).copy()),
+        predicted=predicted,
+        z=z,
+        gate=9.0,
+        p_gate=0.99,
+        recovery_inflation=1.0,
+        noise=0.1,
+        noise_scale=1.0,
+        streak=np.zeros(3, np.int64),
+        last=predicted,
+        motion=0.0,
+        region=(np.zeros(2), np.full(2, 10.0)),
+        spec=sine_spec(),
+    )
+    out = example.GreedyNearest().associate(frame)
+    # track 1 (cost 0.1 to z0) goes first and takes z0; track 0 then takes z1; track 2 has none in its gate
+    assert out.det_of_track.tolist() == [1, 0, -1]
+    np.testing.assert_array_equal(out.measurements[:2], z[[1, 0]])
+
+
 def test_the_extending_section_links_a_tested_example_for_each_extension_point():
     import re
 
@@ -306,6 +349,6 @@ def test_the_extending_section_links_a_tested_example_for_each_extension_point()
     start = page.index("\n## Extending\n")
     section = page[start : page.index("\n## ", start + 1)]
     linked = sorted(set(re.findall(r"examples/(extend_\w+)\.py", section)))
-    assert linked == sorted(p.stem for p in EXAMPLES.glob("extend_*.py")) and len(linked) == 5
+    assert linked == sorted(p.stem for p in EXAMPLES.glob("extend_*.py")) and len(linked) == 6
     tests = Path(__file__).read_text()
     assert all(f'load("{name}")' in tests for name in linked)

@@ -30,19 +30,26 @@ get one track for the pair, and sharing cannot create the missing one. On stream
 it costs little at 6 mm (cylinders unchanged, spheres at 500 /s 0.066 → 0.076). Sharing before
 the recovery association instead of after it was worse in every case.
 
-Hook in :class:`agents.gnn.agent.GnnAgent.act`: after association and recovery, before the per-track
-upkeep, ``det_of_track, z_tracks = share_blobs(prediction.mean, z, det_of_track, extent, *region)``,
-then
-``predictor.update(state, z_tracks, seen)`` with those rows (and the upkeep kernel must count a
-detection shared by several tracks once when it lists the unused detections).
+As a component: :class:`SharedBlobs` wraps another associator (gnn's
+:class:`~agents.tracking.gated.GatedAssignment`): after its association and second chance, before
+the per-track upkeep, ``det_of_track, z_tracks = share_blobs(prediction.mean, z, det_of_track,
+extent, *region)``, then ``predictor.update(state, z_tracks, seen)`` with those rows (the
+tracker's upkeep kernel counts a detection shared by several tracks once when it lists the unused
+detections).
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking._kernels import blob_measurements
+from agents.tracking.associator import SHARED_DETECTIONS, Association, Associator, FrameContext
+from agents.tracking.gated import GatedAssignment
+from predictors.base import Predictor
+from track_envs.values.types import SensorSpec
 
 
 def share_blobs(
@@ -83,3 +90,45 @@ def share_blobs(
     lo = np.full(dim, -np.inf) if low is None else np.ascontiguousarray(low, dtype=np.float64)
     hi = np.full(dim, np.inf) if high is None else np.ascontiguousarray(high, dtype=np.float64)
     return blob_measurements(y, zz, det, float(extent), lo, hi)
+
+
+class SharedBlobs:
+    """Another associator's association, then the merged blobs of :func:`share_blobs`.
+
+    Args:
+        inner: The associator whose association the blobs extend (default gnn's
+            :class:`~agents.tracking.gated.GatedAssignment`); its update corrects the tracks.
+        blob_extent: Largest distance (sensor units) of a leftover track's prediction from a taken
+            detection it may share, >= 0; 0 turns sharing off.
+    """
+
+    def __init__(self, inner: Associator | None = None, blob_extent: float = 0.0):
+        if not (isinstance(blob_extent, int | float) and np.isfinite(blob_extent) and blob_extent >= 0):
+            raise ValueError(f"blob_extent must be a finite distance >= 0, got {blob_extent!r}")
+        self.inner: Associator = GatedAssignment() if inner is None else inner
+        self.blob_extent = float(blob_extent)
+        self.offers = self.inner.offers | ({SHARED_DETECTIONS} if self.blob_extent > 0 else set())
+
+    def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
+        """Start an episode (the inner associator's reset)."""
+        self.inner.reset(spec, predictor)
+
+    def associate(self, frame: FrameContext) -> Association:
+        """The inner association, with the leftover tracks of a blob sharing its detection."""
+        inner = self.inner.associate(frame)
+        if self.blob_extent > 0 and len(frame.z):
+            det_of_track, z_tracks = share_blobs(
+                frame.predicted, frame.z, inner.det_of_track, self.blob_extent, *frame.region
+            )
+            return Association(det_of_track, z_tracks, inner.may_start, inner.detail)
+        return inner
+
+    def update(
+        self, predictor: Predictor, state: Any, association: Association, seen: NDArray[np.bool_]
+    ) -> Any:
+        """The inner associator's update."""
+        return self.inner.update(predictor, state, association, seen)
+
+    def warm_up(self, dim: int) -> None:
+        """The inner associator's warm-up."""
+        self.inner.warm_up(dim)

@@ -311,7 +311,7 @@ def test_the_gnn_defaults_are_the_tuning_defaults():
 
 
 def test_warm_up_runs_the_sorting_roll_out_and_leaves_the_results_unchanged(monkeypatch):
-    import agents.gnn.agent as gnn_module
+    import agents.tracking.tracker as gnn_module
 
     rolled: list[int] = []
 

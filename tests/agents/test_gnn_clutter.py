@@ -113,7 +113,7 @@ def test_without_clutter_the_second_chance_is_unchanged(monkeypatch):
     agent = GnnAgent("kf-cv")
     score_tracker(agent, stream)
     assert seen and all(k == math.inf for k in seen)
-    assert agent._gate_tries == 0.0
+    assert agent.associator.second_chance.gate_tries == 0.0
 
 
 def test_region_margin_inf_turns_region_deletion_off():

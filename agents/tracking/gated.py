@@ -1,0 +1,77 @@
+"""gnn's association: the χ² gate, the optimal (or greedy) assignment and the capped second chance.
+
+For the ``n`` live tracks and ``m`` detections of a frame: squared Mahalanobis costs, χ² gate at
+``p_gate``, Hungarian (or greedy) assignment with a per-track miss cost
+(:mod:`agents.tracking.assign`); tracks and detections left over then get the second chance of
+:mod:`agents.tracking.second_chance` when ``recovery_inflation > 1``. Every track is updated by
+the predictor's ``update`` with its detection; the others coast.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agents.tracking.assign import ASSOCIATORS
+from agents.tracking.associator import SECOND_CHANCE, Association, FrameContext, hard_update
+from agents.tracking.second_chance import SecondChance
+from predictors.base import Predictor
+from track_envs.values.types import SensorSpec
+
+
+class GatedAssignment:
+    """Gated optimal assignment with the capped second chance (module docstring).
+
+    Args:
+        assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
+        recovery_cap_motion: ``k_u`` of the second chance's cap (:mod:`agents.tracking.second_chance`), >= 0.
+        recovery_cap_noise: ``k_σ`` of the cap, >= 0.
+    """
+
+    offers = frozenset({SECOND_CHANCE})
+
+    def __init__(
+        self, assignment: str = "hungarian", recovery_cap_motion: float = 3.0, recovery_cap_noise: float = 5.0
+    ):
+        if assignment not in ASSOCIATORS:
+            raise ValueError(f"assignment must be one of {sorted(ASSOCIATORS)}, got {assignment!r}")
+        self.assignment = assignment
+        self._pairs = ASSOCIATORS[assignment]
+        self.second_chance = SecondChance(recovery_cap_motion, recovery_cap_noise, assignment)
+
+    def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
+        """Start an episode (the second chance's clutter test reads ``spec``)."""
+        self.second_chance.reset(spec)
+
+    def assign(self, frame: FrameContext) -> NDArray[np.int64]:
+        """The detection index of every track (−1: none): gate and assign, then the capped second
+        chance of the leftovers.
+
+        Returns:
+            (n,) int64 detection index per track.
+        """
+        n, m = len(frame.prediction.mean), len(frame.z)
+        det_of_track = np.full(n, -1, dtype=np.int64)
+        track_rows, det_cols = self._pairs(frame.prediction, frame.z, frame.gate)
+        det_of_track[track_rows] = det_cols
+        if len(track_rows) < min(n, m) and frame.recovery_inflation > 1.0:
+            self.second_chance.recover(frame, det_of_track)
+        return det_of_track
+
+    def associate(self, frame: FrameContext) -> Association:
+        """:meth:`assign`, each seen track measured by its detection."""
+        det_of_track = self.assign(frame)
+        # rows of coasting tracks (detection −1) are never read by the update
+        z = frame.z
+        return Association(det_of_track, z[det_of_track] if len(z) else np.zeros_like(frame.predicted))
+
+    def update(
+        self, predictor: Predictor, state: Any, association: Association, seen: NDArray[np.bool_]
+    ) -> Any:
+        """The predictor's ``update`` of the seen tracks."""
+        return hard_update(predictor, state, association, seen)
+
+    def warm_up(self, dim: int) -> None:
+        """Nothing beyond a tracker's warm-up stream."""
