@@ -285,6 +285,81 @@ def median_displacement(predicted: FloatArray, last: FloatArray) -> float:
 
 
 @njit(cache=True)
+def _leftovers(det_of_track: IntArray, n: int, m: int) -> tuple[IntArray, IntArray]:
+    """The tracks (of the first ``n``) without a detection and the ``m`` detections no track
+    took, both ascending."""
+    used = np.zeros(m, dtype=np.bool_)
+    n_tracks = 0
+    for i in range(n):
+        if det_of_track[i] >= 0:
+            used[det_of_track[i]] = True
+        else:
+            n_tracks += 1
+    tracks = np.empty(n_tracks, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        if det_of_track[i] < 0:
+            tracks[k] = i
+            k += 1
+    dets = np.flatnonzero(~used).astype(np.int64)
+    return tracks, dets
+
+
+@njit(cache=True)
+def _leftover_rows(
+    mean: FloatArray, cov: FloatArray, z: FloatArray, tracks: IntArray, dets: IntArray, inflation: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The leftovers' rows: ``(ŷ (k, D), f S (k, D, D), z (l, D))`` with ``f = inflation``."""
+    dim = mean.shape[1]
+    n_tracks = tracks.shape[0]
+    loose_mean = np.empty((n_tracks, dim))
+    loose_cov = np.empty((n_tracks, dim, dim))
+    for a in range(n_tracks):
+        for d in range(dim):
+            loose_mean[a, d] = mean[tracks[a], d]
+            for e in range(dim):
+                loose_cov[a, d, e] = cov[tracks[a], d, e] * inflation
+    loose_z = np.empty((dets.shape[0], dim))
+    for b in range(dets.shape[0]):
+        for d in range(dim):
+            loose_z[b, d] = z[dets[b], d]
+    return loose_mean, loose_cov, loose_z
+
+
+@njit(cache=True)
+def _capped_costs(
+    cost: FloatArray,
+    loose_mean: FloatArray,
+    loose_cov: FloatArray,
+    loose_z: FloatArray,
+    cap: float,
+    gate: float,
+    clutter_log_odds: float,
+) -> int:
+    """Set to ``+inf`` (in place) the costs of the pairs farther apart than ``cap`` or, with
+    clutter, above the track's bound ``2κ − ln|f S_i|`` (:func:`recovery_costs`); returns the
+    number of the remaining pairs with ``cost <= gate``."""
+    n_tracks, dim = loose_mean.shape
+    cap2 = cap * cap
+    n_admissible = 0
+    for a in range(n_tracks):
+        # the largest inflated cost at which the track beats clutter (inf: no clutter)
+        bound = np.inf
+        if clutter_log_odds < np.inf:
+            bound = 2.0 * clutter_log_odds - log_det(loose_cov[a])
+        for b in range(loose_z.shape[0]):
+            dist2 = 0.0
+            for d in range(dim):
+                diff = loose_z[b, d] - loose_mean[a, d]
+                dist2 += diff * diff
+            if dist2 > cap2 or cost[a, b] > bound:
+                cost[a, b] = np.inf
+            elif cost[a, b] <= gate:
+                n_admissible += 1
+    return n_admissible
+
+
+@njit(cache=True)
 def recovery_costs(
     mean: FloatArray,
     cov: FloatArray,
@@ -331,59 +406,19 @@ def recovery_costs(
         ``c <= gate``, ``bad`` (−1, or a leftover track whose covariance is not positive
         definite) and the cap ``r`` (inf when not computed).
     """
-    n, dim = mean.shape
-    m = z.shape[0]
-    used = np.zeros(m, dtype=np.bool_)
-    n_tracks = 0
-    for i in range(n):
-        if det_of_track[i] >= 0:
-            used[det_of_track[i]] = True
-        else:
-            n_tracks += 1
-    tracks = np.empty(n_tracks, dtype=np.int64)
-    k = 0
-    for i in range(n):
-        if det_of_track[i] < 0:
-            tracks[k] = i
-            k += 1
-    dets = np.flatnonzero(~used).astype(np.int64)
-    loose_mean = np.empty((n_tracks, dim))
-    loose_cov = np.empty((n_tracks, dim, dim))
-    for a in range(n_tracks):
-        for d in range(dim):
-            loose_mean[a, d] = mean[tracks[a], d]
-            for e in range(dim):
-                loose_cov[a, d, e] = cov[tracks[a], d, e] * inflation
-    loose_z = np.empty((dets.shape[0], dim))
-    for b in range(dets.shape[0]):
-        for d in range(dim):
-            loose_z[b, d] = z[dets[b], d]
+    tracks, dets = _leftovers(det_of_track, mean.shape[0], z.shape[0])
+    loose_mean, loose_cov, loose_z = _leftover_rows(mean, cov, z, tracks, dets, inflation)
     cost, bad = mahalanobis_costs(loose_mean, loose_cov, loose_z)
     if bad >= 0:
         return RecoveryCosts(tracks, dets, cost, 0, int(tracks[bad]), np.inf)
     n_admissible = 0
-    for a in range(n_tracks):
+    for a in range(tracks.shape[0]):
         for b in range(dets.shape[0]):
             n_admissible += cost[a, b] <= gate
     if n_admissible == 0:
         return RecoveryCosts(tracks, dets, cost, 0, -1, np.inf)
     cap = cap_motion * max(flow_step, median_displacement(mean, last)) + cap_noise
-    cap2 = cap * cap
-    n_admissible = 0
-    for a in range(n_tracks):
-        # the largest inflated cost at which the track beats clutter (inf: no clutter)
-        bound = np.inf
-        if clutter_log_odds < np.inf:
-            bound = 2.0 * clutter_log_odds - log_det(loose_cov[a])
-        for b in range(dets.shape[0]):
-            dist2 = 0.0
-            for d in range(dim):
-                diff = loose_z[b, d] - loose_mean[a, d]
-                dist2 += diff * diff
-            if dist2 > cap2 or cost[a, b] > bound:
-                cost[a, b] = np.inf
-            elif cost[a, b] <= gate:
-                n_admissible += 1
+    n_admissible = _capped_costs(cost, loose_mean, loose_cov, loose_z, cap, gate, clutter_log_odds)
     return RecoveryCosts(tracks, dets, cost, n_admissible, -1, cap)
 
 

@@ -59,6 +59,12 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
        Σ_i = \frac{1}{p_i} \sum_h β_h (z_h - \bar z_i)(z_h - \bar z_i)^\top,
 
    which the PDA update of the predictor takes (:class:`predictors.base.MixtureUpdate`).
+
+Each step is a compiled function of its own, called in order by :func:`jpda_frame`: 1.
+:func:`_track_factors` and :func:`_gated_pairs`; 2. :func:`_merged_hypotheses` (each pair's blob by
+:func:`_blob_gaussian`); 3. :func:`_roots` and :func:`_clusters`; 4. and 5. per cluster
+:func:`_associate_clusters`: :func:`_single_track` for a lone track, else :func:`_cluster_weights`,
+:func:`_cluster_marginals` and :func:`_cluster_mixtures`.
 """
 
 from __future__ import annotations
@@ -423,6 +429,490 @@ def _cluster_marginals(
     return _cluster_marginals_log(L, log_miss, m_a, m_b, m_det, m_w, P, PM, PC)
 
 
+class _Clusters(NamedTuple):
+    """Step 3's clusters that hold a track, labelled in order of their smallest track.
+
+    Attributes:
+        root: (n + m,) union–find root of every track (``0..n−1``) and detection (``n + j``).
+        label: (n + m,) cluster of every root (−1: a cluster without a track).
+        c_nt, c_nd: (n_clusters,) tracks and detections per cluster.
+        local: (n + m,) index of each track / detection within its cluster.
+        t_start, d_start: (n_clusters + 1,) start of each cluster's run in ``t_of`` / ``d_of``.
+        t_of, d_of: the tracks and detections of every cluster, cluster by cluster (ascending inside).
+    """
+
+    root: IntArray
+    label: IntArray
+    c_nt: IntArray
+    c_nd: IntArray
+    local: IntArray
+    t_start: IntArray
+    d_start: IntArray
+    t_of: IntArray
+    d_of: IntArray
+
+
+@njit(cache=True)
+def _track_factors(cov: FloatArray, chol: FloatArray, lnorm: FloatArray) -> int:
+    """Step 1's factors of every track: ``S_i = L_i L_iᵀ`` into ``chol[i]``, the log normaliser
+    ``−log det L_i − (D/2) log 2π`` into ``lnorm[i]``.
+
+    Returns:
+        −1, or the first track whose ``S_i`` is not positive definite (no later row is written).
+    """
+    for i in range(cov.shape[0]):
+        if not cholesky_lower(cov[i], chol[i]):
+            return i
+        lnorm[i] = _log_norm(chol[i])
+    return -1
+
+
+@njit(cache=True)
+def _sorted_first_axis(z: FloatArray) -> tuple[IntArray, FloatArray]:
+    """The detections in ascending first coordinate, ``(order, z[order, 0])``: the gates of steps
+    1 and 2 are windows of that axis found by binary search."""
+    m = z.shape[0]
+    z_order = np.argsort(z[:, 0])
+    zx = np.empty(m)
+    for q in range(m):
+        zx[q] = z[z_order[q], 0]
+    return z_order, zx
+
+
+@njit(cache=True)
+def _gated_pairs(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    chol: FloatArray,
+    lnorm: FloatArray,
+    gate: float,
+    log_ratio: float,
+    z_order: IntArray,
+    zx: FloatArray,
+    diff: FloatArray,
+    work: FloatArray,
+) -> tuple[IntArray, IntArray, FloatArray, int]:
+    """Step 1: the admissible (track, detection) pairs, ``d²_ij ≤ γ``, and their log weights.
+
+    A pair farther along the first axis than ``sqrt(γ S_00)`` is outside the gate
+    (``d² ≥ Δ₀² / S_00``), so track ``i`` tests only the detections of that window of ``zx``.
+
+    Returns:
+        ``(e_t, e_d, e_w, ne)``: track, detection and ``log w_ij`` in the first ``ne`` rows
+        (tracks ascending, each track's detections in ``z_order``).
+    """
+    n, D = mean.shape
+    m = z.shape[0]
+    cap = 4 * (n + m) + 16
+    e_t = np.empty(cap, np.int64)
+    e_d = np.empty(cap, np.int64)
+    e_w = np.empty(cap)
+    ne = 0
+    reach = np.empty(n)
+    for i in range(n):
+        reach[i] = math.sqrt(gate * cov[i, 0, 0])
+    for i in range(n):
+        lo = np.searchsorted(zx, mean[i, 0] - reach[i])
+        hi = np.searchsorted(zx, mean[i, 0] + reach[i], side="right")
+        for q in range(lo, hi):
+            j = z_order[q]
+            for d in range(D):
+                diff[d] = z[j, d] - mean[i, d]
+            d2 = _mahalanobis(chol[i], diff, work)
+            if d2 <= gate:
+                if ne == len(e_t):
+                    e_t = np.concatenate((e_t, np.empty(len(e_t), np.int64)))
+                    e_d = np.concatenate((e_d, np.empty(len(e_d), np.int64)))
+                    e_w = np.concatenate((e_w, np.empty(len(e_w))))
+                e_t[ne], e_d[ne], e_w[ne] = i, j, log_ratio - 0.5 * d2 + lnorm[i]
+                ne += 1
+    return e_t, e_d, e_w, ne
+
+
+@njit(cache=True)
+def _blob_gaussian(
+    mean: FloatArray,
+    cov: FloatArray,
+    a: int,
+    b: int,
+    noise_cov: FloatArray,
+    area_var: float,
+    mu: FloatArray,
+    cm: FloatArray,
+) -> None:
+    """Step 2's predicted measurement of the merged blob of tracks ``a, b`` into ``mu`` and ``cm``:
+    ``μ_e = ½ (ŷ_a + ŷ_b)``, ``C_e = ¼ (S_a + S_b) + ½ R + σ_w² δ δᵀ`` with ``δ = ŷ_a − ŷ_b``."""
+    D = mean.shape[1]
+    for r in range(D):
+        mu[r] = 0.5 * (mean[a, r] + mean[b, r])
+        for c in range(D):
+            dr = mean[a, r] - mean[b, r]
+            dc = mean[a, c] - mean[b, c]
+            cm[r, c] = 0.25 * (cov[a, r, c] + cov[b, r, c]) + 0.5 * noise_cov[r, c] + area_var * dr * dc
+
+
+@njit(cache=True)
+def _merged_hypotheses(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    gate: float,
+    log_ratio: float,
+    extent: float,
+    noise_cov: FloatArray,
+    area_var: float,
+    log_merge_odds: float,
+    mergeable: NDArray[np.bool_],
+    z_order: IntArray,
+    zx: FloatArray,
+    diff: FloatArray,
+    work: FloatArray,
+) -> tuple[IntArray, IntArray, IntArray, FloatArray, int]:
+    """Step 2: the merged-blob hypotheses, every pair of mergeable tracks at most ``extent``
+    apart with every detection inside its blob's gate (none when ``extent`` is 0).
+
+    The pairs are swept in ascending first coordinate of their predictions; a blob's detections
+    are the window ``|z_0 − μ_0| ≤ sqrt(γ C_00)`` of ``zx``, then the full gate.
+
+    Returns:
+        ``(g_a, g_b, g_d, g_w, ng)``: the smaller and larger track, the detection and
+        ``log w_ej`` in the first ``ng`` rows.
+    """
+    n, D = mean.shape
+    m = z.shape[0]
+    mcap = 16
+    g_a = np.empty(mcap, np.int64)
+    g_b = np.empty(mcap, np.int64)
+    g_d = np.empty(mcap, np.int64)
+    g_w = np.empty(mcap)
+    ng = 0
+    if not (extent > 0.0 and n > 1 and m > 0):
+        return g_a, g_b, g_d, g_w, ng
+    cm = np.zeros((D, D))
+    cl = np.zeros((D, D))
+    mu = np.zeros(D)
+    ext2 = extent * extent
+    order = np.argsort(mean[:, 0])
+    for oa in range(n):
+        a = order[oa]
+        if not mergeable[a]:
+            continue
+        for ob in range(oa + 1, n):
+            b = order[ob]
+            if mean[b, 0] - mean[a, 0] > extent:
+                break
+            if not mergeable[b]:
+                continue
+            dist2 = 0.0
+            for d in range(D):
+                dist2 += (mean[a, d] - mean[b, d]) ** 2
+            if dist2 > ext2:
+                continue
+            _blob_gaussian(mean, cov, a, b, noise_cov, area_var, mu, cm)
+            if not cholesky_lower(cm, cl):
+                continue
+            ln = _log_norm(cl)
+            lo, hi = (a, b) if a < b else (b, a)
+            r0 = math.sqrt(gate * cm[0, 0])
+            q0 = np.searchsorted(zx, mu[0] - r0)
+            q1 = np.searchsorted(zx, mu[0] + r0, side="right")
+            for q in range(q0, q1):
+                j = z_order[q]
+                for d in range(D):
+                    diff[d] = z[j, d] - mu[d]
+                d2 = _mahalanobis(cl, diff, work)
+                if d2 <= gate:
+                    if ng == len(g_a):
+                        g_a = np.concatenate((g_a, np.empty(len(g_a), np.int64)))
+                        g_b = np.concatenate((g_b, np.empty(len(g_b), np.int64)))
+                        g_d = np.concatenate((g_d, np.empty(len(g_d), np.int64)))
+                        g_w = np.concatenate((g_w, np.empty(len(g_w))))
+                    g_a[ng], g_b[ng], g_d[ng] = lo, hi, j
+                    g_w[ng] = log_ratio + log_merge_odds - 0.5 * d2 + ln
+                    ng += 1
+    return g_a, g_b, g_d, g_w, ng
+
+
+@njit(cache=True)
+def _roots(
+    n: int,
+    m: int,
+    e_t: IntArray,
+    e_d: IntArray,
+    ne: int,
+    g_a: IntArray,
+    g_b: IntArray,
+    g_d: IntArray,
+    ng: int,
+) -> IntArray:
+    """Step 3's union–find over the ``n`` tracks and ``m`` detections (node ``n + j``) linked by
+    an admissible pair or a merged-blob hypothesis: the (n + m,) root of every node."""
+    parent = np.arange(n + m)
+    for k in range(ne):
+        _union(parent, e_t[k], n + e_d[k])
+    for k in range(ng):
+        _union(parent, g_a[k], n + g_d[k])
+        _union(parent, g_b[k], n + g_d[k])
+    root = np.empty(n + m, np.int64)
+    for v in range(n + m):
+        root[v] = _find(parent, v)
+    return root
+
+
+@njit(cache=True)
+def _clusters(root: IntArray, n: int) -> _Clusters:
+    """Step 3's clusters that hold a track (of the components ``root`` of ``n`` tracks and the
+    detections after them), labelled in order of their smallest track, with their members."""
+    nv = len(root)
+    label = np.full(nv, -1, np.int64)
+    n_cl = 0
+    for i in range(n):
+        r = root[i]
+        if label[r] < 0:
+            label[r] = n_cl
+            n_cl += 1
+    c_nt = np.zeros(n_cl, np.int64)
+    c_nd = np.zeros(n_cl, np.int64)
+    local = np.empty(nv, np.int64)
+    for v in range(nv):
+        lab = label[root[v]]
+        if lab < 0:
+            continue  # a detection in no track's gate: clutter for sure
+        if v < n:
+            local[v] = c_nt[lab]
+            c_nt[lab] += 1
+        else:
+            local[v] = c_nd[lab]
+            c_nd[lab] += 1
+    t_start = np.zeros(n_cl + 1, np.int64)
+    d_start = np.zeros(n_cl + 1, np.int64)
+    for c in range(n_cl):
+        t_start[c + 1] = t_start[c] + c_nt[c]
+        d_start[c + 1] = d_start[c] + c_nd[c]
+    t_of = np.empty(n, np.int64)
+    d_of = np.empty(max(d_start[n_cl], 1), np.int64)
+    for v in range(nv):
+        lab = label[root[v]]
+        if lab < 0:
+            continue
+        if v < n:
+            t_of[t_start[lab] + local[v]] = v
+        else:
+            d_of[d_start[lab] + local[v]] = v - n
+    return _Clusters(root, label, c_nt, c_nd, local, t_start, d_start, t_of, d_of)
+
+
+@njit(cache=True)
+def _big_tracks(cl: _Clusters, max_exact: int) -> IntArray:
+    """The tracks of the clusters of more than ``max_exact`` tracks, cluster by cluster."""
+    n_big = 0
+    for c in range(len(cl.c_nt)):
+        if cl.c_nt[c] > max_exact:
+            n_big += cl.c_nt[c]
+    big = np.empty(n_big, np.int64)
+    nb = 0
+    for c in range(len(cl.c_nt)):
+        if cl.c_nt[c] > max_exact:
+            for q in range(cl.c_nt[c]):
+                big[nb] = cl.t_of[cl.t_start[c] + q]
+                nb += 1
+    return big
+
+
+@njit(cache=True)
+def _cluster_weights(
+    c: int,
+    cl: _Clusters,
+    n: int,
+    e_start: IntArray,
+    e_ord: IntArray,
+    e_t: IntArray,
+    e_d: IntArray,
+    e_w: FloatArray,
+    g_start: IntArray,
+    g_ord: IntArray,
+    g_a: IntArray,
+    g_b: IntArray,
+    g_d: IntArray,
+    g_w: FloatArray,
+    L: FloatArray,
+    ma: IntArray,
+    mb: IntArray,
+    md: IntArray,
+    mw: FloatArray,
+) -> None:
+    """Cluster ``c``'s inputs of step 4 in local indices: its log pair weights into ``L``
+    (nc, mc) (−inf outside the gate) and its merged hypotheses into ``ma, mb, md, mw`` (the
+    first ``len(ma)`` of its run)."""
+    L[:] = -np.inf
+    for q in range(e_start[c], e_start[c + 1]):
+        k = e_ord[q]
+        L[cl.local[e_t[k]], cl.local[n + e_d[k]]] = e_w[k]
+    for q in range(len(ma)):
+        k = g_ord[g_start[c] + q]
+        ma[q], mb[q], md[q], mw[q] = cl.local[g_a[k]], cl.local[g_b[k]], cl.local[n + g_d[k]], g_w[k]
+
+
+@njit(cache=True)
+def _cluster_mixtures(
+    tracks: IntArray,
+    dets: IntArray,
+    P: FloatArray,
+    PM: FloatArray,
+    ma: IntArray,
+    mb: IntArray,
+    md: IntArray,
+    mean: FloatArray,
+    z: FloatArray,
+    mergeable: NDArray[np.bool_],
+    p_seen: FloatArray,
+    z_mean: FloatArray,
+    z_spread: FloatArray,
+    best: IntArray,
+    best_prob: FloatArray,
+    merged_with: IntArray,
+    settled: FloatArray,
+    hyp_w: FloatArray,
+    diff: FloatArray,
+    work: FloatArray,
+) -> None:
+    """Step 5 for the tracks of one cluster from its marginals ``P`` (pairs) and ``PM`` (merged
+    hypotheses ``ma, mb, md``, local indices): the mixture's mean in a first pass, its centred
+    spread in a second; the first pass also adds to ``settled`` and keeps the best hypothesis."""
+    D = z.shape[1]
+    for pass_ in range(2):
+        for q in range(len(tracks)):
+            i = tracks[q]
+            if pass_ == 0:
+                hyp_w[i] = 0.0
+                for d in range(D):
+                    z_mean[i, d] = 0.0
+            for r in range(len(dets)):
+                w = P[q, r]
+                if w <= 0.0:
+                    continue
+                j = dets[r]
+                _accumulate(pass_, i, w, z[j], z_mean, z_spread, hyp_w, diff, D)
+                if pass_ == 0 and mergeable[i]:
+                    settled[j] += w
+                if pass_ == 0 and w > best_prob[i]:
+                    best_prob[i], best[i], merged_with[i] = w, j, -1
+            for h in range(len(ma)):
+                if ma[h] != q and mb[h] != q:
+                    continue
+                w = PM[h]
+                if w <= 0.0:
+                    continue
+                k = tracks[mb[h] if ma[h] == q else ma[h]]
+                j = dets[md[h]]
+                for d in range(D):
+                    work[d] = z[j, d] + 0.5 * (mean[i, d] - mean[k, d])
+                _accumulate(pass_, i, w, work, z_mean, z_spread, hyp_w, diff, D)
+                if pass_ == 0 and ma[h] == q:
+                    settled[j] += w  # once per blob (both members are settled)
+                if pass_ == 0 and w > best_prob[i]:
+                    best_prob[i], best[i], merged_with[i] = w, j, k
+            if pass_ == 0:
+                p_seen[i] = hyp_w[i]
+                if hyp_w[i] > 0.0:
+                    for d in range(D):
+                        z_mean[i, d] /= hyp_w[i]
+                else:
+                    for d in range(D):
+                        z_mean[i, d] = mean[i, d]
+            elif hyp_w[i] > 0.0:
+                for r in range(D):
+                    for s in range(D):
+                        z_spread[i, r, s] /= hyp_w[i]
+
+
+@njit(cache=True)
+def _associate_clusters(
+    mean: FloatArray,
+    z: FloatArray,
+    log_miss: float,
+    max_exact: int,
+    mergeable: NDArray[np.bool_],
+    cl: _Clusters,
+    e_t: IntArray,
+    e_d: IntArray,
+    e_w: FloatArray,
+    ne: int,
+    g_a: IntArray,
+    g_b: IntArray,
+    g_d: IntArray,
+    g_w: FloatArray,
+    ng: int,
+    p_seen: FloatArray,
+    z_mean: FloatArray,
+    z_spread: FloatArray,
+    best: IntArray,
+    best_prob: FloatArray,
+    merged_with: IntArray,
+    clutter: FloatArray,
+    settled: FloatArray,
+    diff: FloatArray,
+    work: FloatArray,
+) -> None:
+    """Steps 4 and 5 for every cluster of at most ``max_exact`` tracks that holds a detection,
+    into the frame's outputs: a lone track without merged blobs in closed form
+    (:func:`_single_track`), any other cluster by its exact marginals
+    (:func:`_cluster_marginals`), then the mixture of each of its tracks."""
+    n = mean.shape[0]
+    n_cl = len(cl.c_nt)
+    c_nt, c_nd, t_of, t_start, d_of, d_start = cl.c_nt, cl.c_nd, cl.t_of, cl.t_start, cl.d_of, cl.d_start
+    e_start, e_ord = _by_cluster(cl.label, cl.root, e_t[:ne], n_cl)
+    g_start, g_ord = _by_cluster(cl.label, cl.root, g_a[:ng], n_cl)
+    hyp_w = np.zeros(n)
+    # scratch of the multi-track clusters, sized once per frame (views per cluster, no allocation)
+    nc_max, mc_max, ge_max = 1, 1, 1
+    for c in range(n_cl):
+        if c_nt[c] <= max_exact:
+            nc_max = max(nc_max, c_nt[c])
+            mc_max = max(mc_max, c_nd[c])
+            ge_max = max(ge_max, g_start[c + 1] - g_start[c])
+    L_buf = np.empty((nc_max, mc_max))
+    P_buf = np.empty((nc_max, mc_max))
+    PC_buf = np.empty(mc_max)
+    ma_buf = np.empty(ge_max, np.int64)
+    mb_buf = np.empty(ge_max, np.int64)
+    md_buf = np.empty(ge_max, np.int64)
+    mw_buf = np.empty(ge_max)
+    PM_buf = np.empty(ge_max)
+    for c in range(n_cl):
+        nc, mc = c_nt[c], c_nd[c]
+        if nc > max_exact or mc == 0:
+            continue
+        tracks, dets = t_of[t_start[c] : t_start[c + 1]], d_of[d_start[c] : d_start[c + 1]]
+        if nc == 1 and g_start[c + 1] == g_start[c]:
+            _single_track(
+                tracks[0], e_ord[e_start[c] : e_start[c + 1]], e_d, e_w, log_miss, z,
+                p_seen, z_mean, z_spread, best, best_prob, clutter, diff, settled, mergeable[tracks[0]],
+            )  # fmt: skip
+            continue
+        ge = g_start[c + 1] - g_start[c]
+        if nc > MAX_MERGE_CLUSTER:
+            ge = 0  # the 2^nc masks of every detection's merged blobs: drop them (module docstring)
+        L, ma, mb, md, mw = L_buf[:nc, :mc], ma_buf[:ge], mb_buf[:ge], md_buf[:ge], mw_buf[:ge]
+        _cluster_weights(
+            c, cl, n, e_start, e_ord, e_t, e_d, e_w, g_start, g_ord, g_a, g_b, g_d, g_w, L, ma, mb, md, mw
+        )
+        P, PM, PC = P_buf[:nc, :mc], PM_buf[:ge], PC_buf[:mc]
+        P[:] = 0.0
+        PM[:] = 0.0
+        PC[:] = 0.0
+        if not _cluster_marginals(L, log_miss, ma, mb, md, mw, P, PM, PC):
+            # p_D P_G = 1 and the tracks cannot all take a detection: leave them undetected
+            continue
+        for q in range(mc):
+            clutter[dets[q]] = PC[q]
+        _cluster_mixtures(
+            tracks, dets, P, PM, ma, mb, md, mean, z, mergeable,
+            p_seen, z_mean, z_spread, best, best_prob, merged_with, settled, hyp_w, diff, work,
+        )  # fmt: skip
+
+
 @njit(cache=True)
 def jpda_frame(
     mean: FloatArray,
@@ -467,272 +957,43 @@ def jpda_frame(
     merged_with = np.full(n, -1, dtype=np.int64)
     clutter = np.ones(m)
     settled = np.zeros(m)
-    for i in range(n):
-        if not cholesky_lower(cov[i], chol[i]):
-            return JpdaFrame(
-                p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, np.zeros(m),
-                np.zeros(0, np.int64), np.zeros(n, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
-                FRAME_NOT_PD, i,
-            )  # fmt: skip
-        lnorm[i] = _log_norm(chol[i])
-    # 1. gated pairs (edge lists)
-    cap = 4 * (n + m) + 16
-    e_t = np.empty(cap, np.int64)
-    e_d = np.empty(cap, np.int64)
-    e_w = np.empty(cap)
-    ne = 0
-    # a pair farther along the first axis than sqrt(γ S_00) is outside the gate (d² >= Δ₀² / S_00)
-    reach = np.empty(n)
-    for i in range(n):
-        reach[i] = math.sqrt(gate * cov[i, 0, 0])
-    z_order = np.argsort(z[:, 0])
-    zx = np.empty(m)
-    for q in range(m):
-        zx[q] = z[z_order[q], 0]
-    for i in range(n):
-        lo = np.searchsorted(zx, mean[i, 0] - reach[i])
-        hi = np.searchsorted(zx, mean[i, 0] + reach[i], side="right")
-        for q in range(lo, hi):
-            j = z_order[q]
-            for d in range(D):
-                diff[d] = z[j, d] - mean[i, d]
-            d2 = _mahalanobis(chol[i], diff, work)
-            if d2 <= gate:
-                if ne == len(e_t):
-                    e_t = np.concatenate((e_t, np.empty(len(e_t), np.int64)))
-                    e_d = np.concatenate((e_d, np.empty(len(e_d), np.int64)))
-                    e_w = np.concatenate((e_w, np.empty(len(e_w))))
-                e_t[ne], e_d[ne], e_w[ne] = i, j, log_ratio - 0.5 * d2 + lnorm[i]
-                ne += 1
-    # 2. merged-blob hypotheses
-    mcap = 16
-    g_a = np.empty(mcap, np.int64)
-    g_b = np.empty(mcap, np.int64)
-    g_d = np.empty(mcap, np.int64)
-    g_w = np.empty(mcap)
-    ng = 0
-    if extent > 0.0 and n > 1 and m > 0:
-        cm = np.zeros((D, D))
-        cl = np.zeros((D, D))
-        mu = np.zeros(D)
-        ext2 = extent * extent
-        order = np.argsort(mean[:, 0])
-        for oa in range(n):
-            a = order[oa]
-            if not mergeable[a]:
-                continue
-            for ob in range(oa + 1, n):
-                b = order[ob]
-                if mean[b, 0] - mean[a, 0] > extent:
-                    break
-                if not mergeable[b]:
-                    continue
-                dist2 = 0.0
-                for d in range(D):
-                    dist2 += (mean[a, d] - mean[b, d]) ** 2
-                if dist2 > ext2:
-                    continue
-                for r in range(D):
-                    mu[r] = 0.5 * (mean[a, r] + mean[b, r])
-                    for c in range(D):
-                        dr = mean[a, r] - mean[b, r]
-                        dc = mean[a, c] - mean[b, c]
-                        cm[r, c] = (
-                            0.25 * (cov[a, r, c] + cov[b, r, c]) + 0.5 * noise_cov[r, c] + area_var * dr * dc
-                        )
-                if not cholesky_lower(cm, cl):
-                    continue
-                ln = _log_norm(cl)
-                lo, hi = (a, b) if a < b else (b, a)
-                r0 = math.sqrt(gate * cm[0, 0])
-                q0 = np.searchsorted(zx, mu[0] - r0)
-                q1 = np.searchsorted(zx, mu[0] + r0, side="right")
-                for q in range(q0, q1):
-                    j = z_order[q]
-                    for d in range(D):
-                        diff[d] = z[j, d] - mu[d]
-                    d2 = _mahalanobis(cl, diff, work)
-                    if d2 <= gate:
-                        if ng == len(g_a):
-                            g_a = np.concatenate((g_a, np.empty(len(g_a), np.int64)))
-                            g_b = np.concatenate((g_b, np.empty(len(g_b), np.int64)))
-                            g_d = np.concatenate((g_d, np.empty(len(g_d), np.int64)))
-                            g_w = np.concatenate((g_w, np.empty(len(g_w))))
-                        g_a[ng], g_b[ng], g_d[ng] = lo, hi, j
-                        g_w[ng] = log_ratio + log_merge_odds - 0.5 * d2 + ln
-                        ng += 1
-    # 3. clusters
-    parent = np.arange(n + m)
-    for k in range(ne):
-        _union(parent, e_t[k], n + e_d[k])
-    for k in range(ng):
-        _union(parent, g_a[k], n + g_d[k])
-        _union(parent, g_b[k], n + g_d[k])
-    root = np.empty(n + m, np.int64)
-    for v in range(n + m):
-        root[v] = _find(parent, v)
-    # clusters that hold a track, labelled in order of their smallest track
-    label = np.full(n + m, -1, np.int64)
-    n_cl = 0
-    for i in range(n):
-        r = root[i]
-        if label[r] < 0:
-            label[r] = n_cl
-            n_cl += 1
-    c_nt = np.zeros(n_cl, np.int64)
-    c_nd = np.zeros(n_cl, np.int64)
-    local = np.empty(n + m, np.int64)
-    for v in range(n + m):
-        lab = label[root[v]]
-        if lab < 0:
-            continue  # a detection in no track's gate: clutter for sure
-        if v < n:
-            local[v] = c_nt[lab]
-            c_nt[lab] += 1
-        else:
-            local[v] = c_nd[lab]
-            c_nd[lab] += 1
-    t_start = np.zeros(n_cl + 1, np.int64)
-    d_start = np.zeros(n_cl + 1, np.int64)
-    for c in range(n_cl):
-        t_start[c + 1] = t_start[c] + c_nt[c]
-        d_start[c + 1] = d_start[c] + c_nd[c]
-    t_of = np.empty(n, np.int64)
-    d_of = np.empty(max(d_start[n_cl], 1), np.int64)
-    for v in range(n + m):
-        lab = label[root[v]]
-        if lab < 0:
-            continue
-        if v < n:
-            t_of[t_start[lab] + local[v]] = v
-        else:
-            d_of[d_start[lab] + local[v]] = v - n
-    e_start, e_ord = _by_cluster(label, root, e_t[:ne], n_cl)
-    g_start, g_ord = _by_cluster(label, root, g_a[:ng], n_cl)
+    bad = _track_factors(cov, chol, lnorm)
+    if bad >= 0:
+        return JpdaFrame(
+            p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, np.zeros(m),
+            np.zeros(0, np.int64), np.zeros(n, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
+            FRAME_NOT_PD, bad,
+        )  # fmt: skip
+    z_order, zx = _sorted_first_axis(z)
+    e_t, e_d, e_w, ne = _gated_pairs(mean, cov, z, chol, lnorm, gate, log_ratio, z_order, zx, diff, work)
+    g_a, g_b, g_d, g_w, ng = _merged_hypotheses(
+        mean,
+        cov,
+        z,
+        gate,
+        log_ratio,
+        extent,
+        noise_cov,
+        area_var,
+        log_merge_odds,
+        mergeable,
+        z_order,
+        zx,
+        diff,
+        work,
+    )
+    cl = _clusters(_roots(n, m, e_t, e_d, ne, g_a, g_b, g_d, ng), n)
     cluster_of = np.empty(n, np.int64)
     for i in range(n):
-        cluster_of[i] = label[root[i]]
-    n_big = 0
-    for c in range(n_cl):
-        if c_nt[c] > max_exact:
-            n_big += c_nt[c]
-    big = np.empty(n_big, np.int64)
-    nb = 0
-    hyp_w = np.zeros(n)
-    # scratch of the multi-track clusters, sized once per frame (views per cluster, no allocation)
-    nc_max, mc_max, ge_max = 1, 1, 1
-    for c in range(n_cl):
-        if c_nt[c] <= max_exact:
-            nc_max = max(nc_max, c_nt[c])
-            mc_max = max(mc_max, c_nd[c])
-            ge_max = max(ge_max, g_start[c + 1] - g_start[c])
-    L_buf = np.empty((nc_max, mc_max))
-    P_buf = np.empty((nc_max, mc_max))
-    PC_buf = np.empty(mc_max)
-    ma_buf = np.empty(ge_max, np.int64)
-    mb_buf = np.empty(ge_max, np.int64)
-    md_buf = np.empty(ge_max, np.int64)
-    mw_buf = np.empty(ge_max)
-    PM_buf = np.empty(ge_max)
-    # 4. per cluster: marginals; 5. per track: the mixture
-    for c in range(n_cl):
-        nc, mc = c_nt[c], c_nd[c]
-        if nc > max_exact:
-            for q in range(nc):
-                big[nb] = t_of[t_start[c] + q]
-                nb += 1
-            continue
-        if mc == 0:
-            continue
-        if nc == 1 and g_start[c + 1] == g_start[c]:
-            _single_track(
-                t_of[t_start[c]], e_ord[e_start[c] : e_start[c + 1]], e_d, e_w, log_miss, z,
-                p_seen, z_mean, z_spread, best, best_prob, clutter, diff,
-                settled, mergeable[t_of[t_start[c]]],
-            )  # fmt: skip
-            continue
-        L = L_buf[:nc, :mc]
-        L[:] = -np.inf
-        for q in range(e_start[c], e_start[c + 1]):
-            k = e_ord[q]
-            L[local[e_t[k]], local[n + e_d[k]]] = e_w[k]
-        ge = g_start[c + 1] - g_start[c]
-        if nc > MAX_MERGE_CLUSTER:
-            ge = 0  # the 2^nc masks of every detection's merged blobs: drop them (module docstring)
-        ma, mb, md, mw = ma_buf[:ge], mb_buf[:ge], md_buf[:ge], mw_buf[:ge]
-        for q in range(ge):
-            k = g_ord[g_start[c] + q]
-            ma[q], mb[q], md[q], mw[q] = local[g_a[k]], local[g_b[k]], local[n + g_d[k]], g_w[k]
-        P, PM, PC = P_buf[:nc, :mc], PM_buf[:ge], PC_buf[:mc]
-        P[:] = 0.0
-        PM[:] = 0.0
-        PC[:] = 0.0
-        if not _cluster_marginals(L, log_miss, ma, mb, md, mw, P, PM, PC):
-            # p_D P_G = 1 and the tracks cannot all take a detection: leave them undetected
-            continue
-        for q in range(mc):
-            clutter[d_of[d_start[c] + q]] = PC[q]
-        # the mixture of every track of the cluster: mean, then centred spread
-        for pass_ in range(2):
-            for q in range(nc):
-                i = t_of[t_start[c] + q]
-                if pass_ == 0:
-                    hyp_w[i] = 0.0
-                    for d in range(D):
-                        z_mean[i, d] = 0.0
-                for r in range(mc):
-                    w = P[q, r]
-                    if w <= 0.0:
-                        continue
-                    j = d_of[d_start[c] + r]
-                    _accumulate(pass_, i, w, z[j], z_mean, z_spread, hyp_w, diff, D)
-                    if pass_ == 0 and mergeable[i]:
-                        settled[j] += w
-                    if pass_ == 0 and w > best_prob[i]:
-                        best_prob[i], best[i], merged_with[i] = w, j, -1
-                for h in range(ge):
-                    if ma[h] != q and mb[h] != q:
-                        continue
-                    w = PM[h]
-                    if w <= 0.0:
-                        continue
-                    k = t_of[t_start[c] + (mb[h] if ma[h] == q else ma[h])]
-                    j = d_of[d_start[c] + md[h]]
-                    for d in range(D):
-                        work[d] = z[j, d] + 0.5 * (mean[i, d] - mean[k, d])
-                    _accumulate(pass_, i, w, work, z_mean, z_spread, hyp_w, diff, D)
-                    if pass_ == 0 and ma[h] == q:
-                        settled[j] += w  # once per blob (both members are settled)
-                    if pass_ == 0 and w > best_prob[i]:
-                        best_prob[i], best[i], merged_with[i] = w, j, k
-                if pass_ == 0:
-                    p_seen[i] = hyp_w[i]
-                    if hyp_w[i] > 0.0:
-                        for d in range(D):
-                            z_mean[i, d] /= hyp_w[i]
-                    else:
-                        for d in range(D):
-                            z_mean[i, d] = mean[i, d]
-                elif hyp_w[i] > 0.0:
-                    for r in range(D):
-                        for s in range(D):
-                            z_spread[i, r, s] /= hyp_w[i]
+        cluster_of[i] = cl.label[cl.root[i]]
+    _associate_clusters(
+        mean, z, log_miss, max_exact, mergeable, cl, e_t, e_d, e_w, ne, g_a, g_b, g_d, g_w, ng,
+        p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, settled, diff, work,
+    )  # fmt: skip
     return JpdaFrame(
-        p_seen,
-        z_mean,
-        z_spread,
-        best,
-        best_prob,
-        merged_with,
-        clutter,
-        settled,
-        c_nt,
-        cluster_of,
-        c_nd,
-        big,
-        FRAME_OK,
-        -1,
-    )
+        p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, settled,
+        cl.c_nt, cluster_of, cl.c_nd, _big_tracks(cl, max_exact), FRAME_OK, -1,
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -858,7 +1119,7 @@ class BlobSplits(NamedTuple):
 
 
 @njit(cache=True)
-def split_blobs(
+def _split_candidates(
     mean: FloatArray,
     cov: FloatArray,
     z: FloatArray,
@@ -868,26 +1129,10 @@ def split_blobs(
     noise_cov: FloatArray,
     area_var: float,
     extent: float,
-) -> BlobSplits:
-    r"""Blobs that fell apart: a track that took no detection, and two free detections whose
-    midpoint its prediction explains.
-
-    A track may have followed a blob of touching particles; when they separate, its detection
-    becomes two pieces whose area-weighted centroid is where the blob would have been. For an
-    unseen track ``i`` and free detections ``j, k`` at most ``extent`` apart, with ``Δ = z_j − z_k``
-    and midpoint ``c = ½ (z_j + z_k)``, the hypothesis is admissible when
-
-    .. math::
-
-        (c - ŷ_i)^\top C^{-1} (c - ŷ_i) \le γ, \qquad
-        C = S_i - \tfrac12 R + σ_w^2 Δ Δ^\top
-
-    (``S_i − R`` the position's uncertainty, ``R/2`` the midpoint's noise, ``σ_w²`` the area
-    split). Admissible hypotheses are taken greedily by that distance, each track and detection
-    once.
-    """
+) -> tuple[IntArray, IntArray, IntArray, FloatArray]:
+    """The admissible split hypotheses of :func:`split_blobs`: ``(track, j, k, d²)`` for every
+    unseen track and pair of free detections ``j < k`` (in ``free`` order) that pass the gate."""
     n, D = mean.shape
-    m = z.shape[0]
     cand_t = np.empty(0, np.int64)
     cand_j = np.empty(0, np.int64)
     cand_k = np.empty(0, np.int64)
@@ -933,6 +1178,23 @@ def split_blobs(
                     ds.append(d2)
     if len(ts):
         cand_t, cand_j, cand_k, cand_d = np.array(ts), np.array(js), np.array(ks), np.array(ds)
+    return cand_t, cand_j, cand_k, cand_d
+
+
+@njit(cache=True)
+def _greedy_splits(
+    mean: FloatArray,
+    z: FloatArray,
+    cand_t: IntArray,
+    cand_j: IntArray,
+    cand_k: IntArray,
+    cand_d: FloatArray,
+) -> tuple[IntArray, IntArray, IntArray]:
+    """The candidates of :func:`_split_candidates` taken greedily by ascending ``d²`` (stable),
+    each track and detection once: ``(track, keep, other)`` in ascending track, ``keep`` the
+    piece nearer to the track's prediction (the first on a tie)."""
+    n, D = mean.shape
+    m = z.shape[0]
     order = np.argsort(cand_d, kind="mergesort")
     used_t = np.zeros(n, np.bool_)
     used_d = np.zeros(m, np.bool_)
@@ -959,7 +1221,44 @@ def split_blobs(
     for q in range(ns):
         track[q], keep[q], other[q] = out_t[q], out_keep[q], out_other[q]
     order2 = np.argsort(track)
-    track, keep, other = track[order2], keep[order2], other[order2]
+    return track[order2], keep[order2], other[order2]
+
+
+@njit(cache=True)
+def split_blobs(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    unseen: NDArray[np.bool_],
+    free: NDArray[np.bool_],
+    gate: float,
+    noise_cov: FloatArray,
+    area_var: float,
+    extent: float,
+) -> BlobSplits:
+    r"""Blobs that fell apart: a track that took no detection, and two free detections whose
+    midpoint its prediction explains.
+
+    A track may have followed a blob of touching particles; when they separate, its detection
+    becomes two pieces whose area-weighted centroid is where the blob would have been. For an
+    unseen track ``i`` and free detections ``j, k`` at most ``extent`` apart, with ``Δ = z_j − z_k``
+    and midpoint ``c = ½ (z_j + z_k)``, the hypothesis is admissible when
+
+    .. math::
+
+        (c - ŷ_i)^\top C^{-1} (c - ŷ_i) \le γ, \qquad
+        C = S_i - \tfrac12 R + σ_w^2 Δ Δ^\top
+
+    (``S_i − R`` the position's uncertainty, ``R/2`` the midpoint's noise, ``σ_w²`` the area
+    split). Admissible hypotheses are taken greedily by that distance, each track and detection
+    once.
+    """
+    D = mean.shape[1]
+    cand_t, cand_j, cand_k, cand_d = _split_candidates(
+        mean, cov, z, unseen, free, gate, noise_cov, area_var, extent
+    )
+    track, keep, other = _greedy_splits(mean, z, cand_t, cand_j, cand_k, cand_d)
+    ns = len(track)
     midpoint = np.empty((ns, D))
     for q in range(ns):
         for d in range(D):
