@@ -1,5 +1,5 @@
 """A plain ``pip install .`` (no extras) tracks: the envs, gnn with every Kalman predictor and the
-shipped belt LSTMs run in numpy, without torch; training says which extra it needs."""
+shipped belt LSTMs run in numpy, without torch; training and pose-smc say which extra they need."""
 
 from __future__ import annotations
 
@@ -45,6 +45,13 @@ for predictor in ("kf-cv", "kf-ca", "random-walk", "lstm", "nll-lstm", "mc-lstm"
     print(predictor, "ok")
 assert not [m for m in sys.modules if m == "torch" or m.startswith("torch.")]
 
+try:
+    make_agent("pose-smc")
+except ModuleNotFoundError as exc:
+    print(exc, file=sys.stderr)
+else:
+    raise AssertionError("pose-smc ran without torch")
+
 from agents.cli import main
 
 assert main(["train", "lstm", "--env", "SineTarget-v0", "--episodes", "1", "--out", "unused"]) == 2
@@ -65,6 +72,7 @@ def test_gnn_with_kalman_filters_and_the_shipped_lstms_runs_without_torch(tmp_pa
         word for p in ("kf-cv", "kf-ca", "random-walk", "lstm", "nll-lstm", "mc-lstm") for word in (p, "ok")
     ]
     assert 'training needs torch: pip install "track-envs[torch]"' in result.stderr
+    assert 'pose-smc needs torch (its pose predictor): pip install "track-envs[torch]"' in result.stderr
 
 
 def test_safetensors_is_a_base_dependency():
