@@ -1,13 +1,13 @@
 # Two commands on a fresh machine with nothing but Python:
 #   make demo   run the main job: the quick benchmark suite (track bench) with its table
-#   make test   run the whole default test suite
+#   make test   run the whole default test suite (with the strict docs build)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean install
+.PHONY: demo test lint docs bench clean install
 
 install: $(STAMP)
 
@@ -30,6 +30,10 @@ lint: $(STAMP)
 	$(PY) -m ruff check track_envs predictors agents tests examples benchmarks
 	$(PY) -m ruff format --check track_envs predictors agents tests examples benchmarks
 	$(PY) -m mypy
+
+# the docs site (site/); tests/test_docs.py builds it with --strict inside make test
+docs: $(STAMP)
+	$(VENV)/bin/mkdocs build --strict
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_belt_sorter.py

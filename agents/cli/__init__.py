@@ -26,9 +26,15 @@ def _run(argv: Sequence[str] | None, prog: str = "track run") -> int:
 
 
 def _train(argv: Sequence[str] | None, prog: str = "track train") -> int:
-    from agents.cli.train import main
+    try:
+        from agents.cli.train import main
 
-    return main(argv, prog)
+        return main(argv, prog)
+    except ModuleNotFoundError as exc:
+        if exc.name != "torch":
+            raise
+        print(f'{prog}: error: training needs torch: pip install "track-envs[torch]"', file=sys.stderr)
+        return 2
 
 
 def _tune(argv: Sequence[str] | None, prog: str = "track tune") -> int:

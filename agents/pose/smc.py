@@ -47,4 +47,10 @@ class PoseSmcAgent(PoseTracker):
         super().__init__(motion, max_active=max_filters, **loop)
         path = pose_model_path(model)
         device = motion.settings.device
-        motion.predictor = PosePredictor(path) if device is None else TorchPosePredictor(path, device)
+        try:
+            motion.predictor = PosePredictor(path) if device is None else TorchPosePredictor(path, device)
+        except ModuleNotFoundError as exc:
+            if exc.name != "torch":
+                raise
+            hint = 'pose-smc needs torch (its pose predictor): pip install "track-envs[torch]"'
+            raise ModuleNotFoundError(hint, name="torch") from exc

@@ -24,7 +24,6 @@ tracker carries the hidden state per track and never re-runs a window.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -32,83 +31,12 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
+from predictors.belt_lstm.features import Features as Features  # re-exported: the training code reads it here
+
 #: Model kinds and the number of head outputs per measurement axis.
 HEAD_OUTPUTS = {"lstm": 1, "nll-lstm": 2, "mc-lstm": 1}
 #: Hidden units of the two LSTM layers (Pollithy et al. 2020, Sec. IV-A).
 HIDDEN = (64, 32)
-
-
-@dataclass(frozen=True)
-class Features:
-    """Region-relative, standardised features of a measurement sequence.
-
-    Attributes:
-        low, size: The sensor region's lower corner and size (D,), in sensor units.
-        in_mean, in_std: Mean and std of the input features ``(u, Δu)`` (2D,).
-        out_mean, out_std: Mean and std of the target displacement ``Δu`` (D,).
-    """
-
-    low: NDArray[np.float64]
-    size: NDArray[np.float64]
-    in_mean: NDArray[np.float64]
-    in_std: NDArray[np.float64]
-    out_mean: NDArray[np.float64]
-    out_std: NDArray[np.float64]
-
-    @classmethod
-    def fit(cls, tracks: list[NDArray[np.float64]], low: Any, high: Any, floor: float = 1e-9) -> Features:
-        """Normalisation statistics of ``tracks`` (each ``(T, D)``) in the region ``[low, high]``."""
-        low_a = np.asarray(low, dtype=np.float64)
-        size = np.asarray(high, dtype=np.float64) - low_a
-        u = [(t - low_a) / size for t in tracks]
-        du = np.concatenate([np.diff(x, axis=0) for x in u if len(x) > 1])
-        inputs = np.concatenate([np.concatenate([x, _diff0(x)], axis=1) for x in u])
-        return cls(
-            low_a,
-            size,
-            inputs.mean(axis=0),
-            np.maximum(inputs.std(axis=0), floor),
-            du.mean(axis=0),
-            np.maximum(du.std(axis=0), floor),
-        )
-
-    def to_dict(self) -> dict[str, list[float]]:
-        """JSON form for a model sidecar."""
-        return {k: np.asarray(getattr(self, k)).tolist() for k in self.__dataclass_fields__}
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Features:
-        """Inverse of :meth:`to_dict`."""
-        return cls(**{k: np.asarray(d[k], dtype=np.float64) for k in cls.__dataclass_fields__})
-
-    def inputs(self, z: NDArray[np.float64], z_prev: NDArray[np.float64] | None) -> NDArray[np.float64]:
-        """Standardised input ``(u, Δu)`` (n, 2D) of measurements ``z`` (n, D) after ``z_prev``."""
-        u = (z - self.low) / self.size
-        du = np.zeros_like(u) if z_prev is None else u - (z_prev - self.low) / self.size
-        return (np.concatenate([u, du], axis=-1) - self.in_mean) / self.in_std
-
-    def sequence_inputs(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
-        """:meth:`inputs` of a padded batch of sequences ``(B, T, D)`` → ``(B, T, 2D)``."""
-        u = (z - self.low) / self.size
-        du = np.concatenate([np.zeros_like(u[:, :1]), np.diff(u, axis=1)], axis=1)
-        return (np.concatenate([u, du], axis=-1) - self.in_mean) / self.in_std
-
-    def targets(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Standardised next displacement ``(B, T − 1, D)`` of sequences ``(B, T, D)``."""
-        du = np.diff((z - self.low) / self.size, axis=1)
-        return (du - self.out_mean) / self.out_std
-
-    def position(self, z: NDArray[np.float64], out: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The predicted next measurement from the last one ``z`` and the standardised output."""
-        return z + self.size * (self.out_mean + self.out_std * out)
-
-    def variance_scale(self) -> NDArray[np.float64]:
-        """Factor from a standardised output variance to sensor units², per axis (D,)."""
-        return (self.size * self.out_std) ** 2
-
-
-def _diff0(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.concatenate([np.zeros_like(x[:1]), np.diff(x, axis=0)], axis=0)
 
 
 class BeltLSTMNet(nn.Module):

@@ -145,7 +145,7 @@ class LSTMPredictor:
         self._rng = np.random.default_rng(0)
 
     def _load(self, model: ModelFile) -> None:
-        from predictors.belt_lstm.network import Features
+        from predictors.belt_lstm.features import Features
 
         arch = model.architecture
         h1, h2 = (int(h) for h in arch["hidden"])

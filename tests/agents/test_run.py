@@ -190,7 +190,7 @@ def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys
     metrics = module.main(["--out", str(tmp_path), "--steps", "60"])
     assert metrics["mota"] > 0.5 and "e1" in metrics
     assert (tmp_path / "tracks.txt").stat().st_size > 1000
-    # the README's second command: the wide detections, dt from the time column
+    # docs/track_run.md's second command: the wide detections, dt from the time column
     episode = tmp_path / "episode-000"
     argv = [
         str(episode / "det.csv"),

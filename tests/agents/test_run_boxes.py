@@ -1,5 +1,5 @@
 """track run on box detections: MOT boxes carried to the output and scored by IoU against MOT
-ground truth (the README's recipe on the MOT15 files py-motmetrics ships), and its input checks."""
+ground truth (docs/track_run.md's recipe on the MOT15 files py-motmetrics ships), and its input checks."""
 
 from __future__ import annotations
 
@@ -15,11 +15,11 @@ from track_envs.io.tracks import read_tracks
 
 mm = pytest.importorskip("motmetrics")
 DATA = Path(mm.__file__).parent / "data"
-README = Path(__file__).resolve().parents[2] / "README.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "track_run.md"
 
 
 def readme_boxes_command() -> list[str]:
-    """The ``track run`` command of the README's boxes subsection, as argv after ``track run``."""
+    """The ``track run`` command of docs/track_run.md's boxes subsection, as argv after ``track run``."""
     text = README.read_text()
     section = text.split("### Boxes: MOTChallenge files", 1)[1].split("\n### ", 1)[0]
     block = section.split("```bash", 1)[1].split("```", 1)[0]

@@ -21,7 +21,7 @@ from track_envs.values.poses import pose_sensor_spec
 from track_envs.values.types import SensorSpec
 
 FRAMES = 15
-README = Path(__file__).resolve().parents[2] / "README.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "track_run.md"
 
 
 @pytest.fixture(scope="module")

@@ -214,8 +214,8 @@ def run_cli(command: str, capsys) -> tuple[int, str, str]:
 
 
 def readme_points_command() -> str:
-    """The command of the README's "Points" subsection."""
-    text = (Path(__file__).parents[2] / "README.md").read_text(encoding="utf-8")
+    """The command of docs/track_run.md's "Points" subsection."""
+    text = (Path(__file__).parents[2] / "docs" / "track_run.md").read_text(encoding="utf-8")
     section = text.split("### Points", 1)[1].split("\n### ", 1)[0]
     return section.split("```bash\n", 1)[1].split("\n```", 1)[0].strip()
 

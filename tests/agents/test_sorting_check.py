@@ -266,8 +266,8 @@ def test_track_run_bad_sorting_flags_are_named(lines_file, tmp_path, capsys, fla
 
 
 def readme_sorting_command() -> str:
-    """The command of the README's "Sorting predictions from a recording" subsection."""
-    text = (Path(__file__).parents[2] / "README.md").read_text()
+    """The command of docs/track_run.md's "Sorting predictions from a recording" subsection."""
+    text = (Path(__file__).parents[2] / "docs" / "track_run.md").read_text()
     section = text.split("### Sorting predictions from a recording", 1)[1].split("\n### ", 1)[0]
     block = section.split("```bash\n", 1)[1].split("```", 1)[0]
     return " ".join(line.rstrip("\\").strip() for line in block.splitlines() if line.strip())
@@ -281,8 +281,12 @@ def test_readme_sorting_command_runs_on_the_shipped_sample(tmp_path, capsys, mon
     words[out] = str(tmp_path / Path(words[out]).name)
     assert main(words[2:]) == 0
     printed = capsys.readouterr().out
-    # the figures the README quotes are the ones printed
-    section = (Path(__file__).parents[2] / "README.md").read_text().split("### Sorting predictions", 1)[1]
+    # the figures the page quotes are the ones printed
+    section = (
+        (Path(__file__).parents[2] / "docs" / "track_run.md")
+        .read_text()
+        .split("### Sorting predictions", 1)[1]
+    )
     crossings, hit_rate = re.search(r"`crossings (\d+)`, `hit_rate ([\d.]+)`", section).groups()
     assert re.search(rf"\ncrossings\s+{crossings}\n", printed)
     printed_rate = float(re.search(r"hit_rate\s+(\S+)", printed).group(1))
