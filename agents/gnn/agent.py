@@ -73,6 +73,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import AgentCapability, AgentTraits
 from agents.gnn import _kernels
 from agents.gnn.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.assign import ASSIGNERS, ASSOCIATORS, chi2_gate
@@ -164,6 +165,16 @@ class GnnAgent:
     how GateTuning-v0 (:mod:`agents.tuning`) acts on the tracker.
     """
 
+    capabilities = frozenset(  # agents.base.AgentCapability
+        {
+            AgentCapability.WARM_UP,
+            AgentCapability.TRACK_COVARIANCES,
+            AgentCapability.LAST_PREDICTION,
+            AgentCapability.LIVE_KNOBS,
+            AgentCapability.SELF_CALIBRATION,
+        }
+    )
+    traits = AgentTraits(takes_predictor=True)
     #: Built with ``predictor=`` (a Gaussian predictor's name or object).
     takes_predictor = True
 

@@ -104,6 +104,9 @@ class JpdaAgent(GnnAgent):
             blobs and the association are this tracker's own).
     """
 
+    capabilities = GnnAgent.capabilities  # agents.base: warm-up, covariances, knobs, ...
+    traits = GnnAgent.traits
+
     def __init__(
         self,
         predictor: str | Predictor = "kf-ca",
