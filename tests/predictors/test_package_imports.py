@@ -7,9 +7,16 @@ from pathlib import Path
 
 import predictors
 
-#: track_envs modules every predictor may use: the value types, the registry helper, the
-#: compiled-kernel decorator and the keypoint similarity (OKS) the pose motions weigh by.
-RUNTIME = {"track_envs.types", "track_envs.registry", "track_envs.compiled", "track_envs.metrics.keypoints"}
+#: track_envs modules every predictor may use: the value types, the registry helper, the plug-in
+#: declarations, the compiled-kernel decorator and the keypoint similarity (OKS) the pose motions
+#: weigh by.
+RUNTIME = {
+    "track_envs.types",
+    "track_envs.registry",
+    "track_envs.declared",
+    "track_envs.compiled",
+    "track_envs.metrics.keypoints",
+}
 #: and those the training recipes (``training`` modules) use besides: the envs (data from their
 #: truth), the empty report, track files and the reliability metric (calibration).
 TRAINING = {
