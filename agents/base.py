@@ -7,24 +7,48 @@ An agent (a tracker) turns each observation of an env into a report of its track
     agent.reset(env.unwrapped.sensor_spec, seed=0)
     report = agent.act(obs)            # the env's action: ids, positions, detection rows, mask
 
-* :class:`Agent` — the two calls every agent has: ``reset(spec, *, seed=None)`` binds it to a
-  sensor and starts an episode (``seed`` seeds any random stream it draws from, so the same seed
-  gives the same reports); ``act(obs) -> report``.
-* :class:`WarmUp` — optional ``warm_up()``: compile or load whatever the first frames would
-  otherwise wait for (numba kernels), before a live stream starts; :func:`warm_up` calls it where
-  an agent has it.
-* Declared traits — class attributes an agent class may set, each with one default
-  (:data:`TRAIT_DEFAULTS`; read them with :func:`agent_traits`):
+* :class:`Agent` — the core, the two calls every agent has: ``reset(spec, *, seed=None)`` binds
+  it to a sensor and starts an episode (``seed`` seeds any random stream it draws from, so the
+  same seed gives the same reports); ``act(obs) -> report``.
+* Declared traits — one class attribute ``traits = AgentTraits(...)`` (:class:`AgentTraits`;
+  a class that declares none has :data:`TRAIT_DEFAULTS`; read them with :func:`agent_traits`):
 
   - ``needs_truth: bool = False`` — an oracle that reads each frame's truth: the loop that runs it
-    calls ``observe_truth(info)`` (:class:`TruthObserver`) before every ``act``. A tracker never
-    sees ``info``.
+    calls ``observe_truth(info)`` (the ``TRUTH_OBSERVER`` capability) before every ``act``. A
+    tracker never sees ``info``.
   - ``position_rank: int = 1`` — 1 for point targets (positions (D,)), 2 for poses (17, 2).
   - ``max_targets: int | None = None`` — the most targets it tracks at once (1: a single-target
     tracker; ``None``: any number).
   - ``takes_predictor: bool = False`` — built with a ``predictor=`` argument (a registered
     Gaussian predictor's name or object, :func:`predictors.resolve_predictor`): the bench runs it
     once per predictor, ``track run --predictor`` passes one.
+
+Optional capabilities
+---------------------
+Anything beyond the core is a capability (:class:`AgentCapability`), declared as a predictor's
+are (:mod:`track_envs.infra.declared`): the class attribute ``capabilities: frozenset[AgentCapability]``
+(none when absent), asked for with :func:`agent_capability`, which returns the agent typed as the
+capability's protocol, or ``None``; :func:`agent_declares` asks a class or a registered factory.
+
+* ``WARM_UP`` (:class:`WarmUp`) — ``warm_up()``: compile or load whatever the first frames would
+  otherwise wait for (numba kernels), before a live stream starts; :func:`warm_up` calls it where
+  an agent declares it. gnn, jpda.
+* ``TRACK_COVARIANCES`` (:class:`TrackCovariances`) — ``track_covariances() -> (n, D, D)``: the
+  covariances of the live rows of the last report, in row order (``run_agent(...,
+  covariance=True)``). gnn, jpda.
+* ``LAST_PREDICTION`` (:class:`LastPrediction`) — ``last_prediction`` (the predicted measurement
+  ``Gaussian`` of the tracks of the last frame, ``None`` before any), ``last_prediction_ids`` and
+  ``last_prediction_detection`` (their ids and the observation row each took, −1: none), there
+  from the first ``reset`` on (ask after it). Read by
+  the merge-event scores (:mod:`agents.merge_scoring`) and GateTuning-v0's diagnostics. gnn, jpda.
+* ``LIVE_KNOBS`` (:class:`LiveKnobs`) — ``p_gate``, ``recovery_inflation`` and ``noise_scale``
+  may be set between frames of a running episode (GateTuning-v0, :mod:`agents.tuning`). gnn, jpda.
+* ``SELF_CALIBRATION`` (:class:`SelfCalibrated`) — built with the keywords of a
+  self-calibration (:meth:`agents.self_calibration.SelfCalibration.agent_kwargs`: ``q``,
+  ``max_misses``, the velocity prior, ...), which ``run_agent(..., calibrate=True)`` and ``track
+  run`` pass. gnn, jpda.
+* ``TRUTH_OBSERVER`` (:class:`TruthObserver`) — ``observe_truth(info)``: the oracle's truth
+  channel (with ``needs_truth``). one-step.
 
 Registry: :func:`make_agent` builds an agent by name (an unknown name raises a ``ValueError`` that
 lists the valid ones), :func:`register_agent` adds one, :func:`agent_applies_to` says whether an
@@ -34,13 +58,16 @@ agent fits an env's targets.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
-from typing import Any, Protocol, runtime_checkable
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any, Literal, Protocol, overload, runtime_checkable
 
+import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.declared import Declarations, declared_value
 from track_envs.infra.registry import Registry
-from track_envs.values.types import SensorSpec
+from track_envs.values.types import Gaussian, SensorSpec
 
 
 @runtime_checkable
@@ -56,21 +83,116 @@ class Agent(Protocol):
         ...
 
 
-@runtime_checkable
-class WarmUp(Protocol):
-    """An agent with a warm-up step (module docstring)."""
+class AgentCapability(StrEnum):
+    """The optional capabilities an agent class may declare (module docstring)."""
+
+    WARM_UP = "warm-up"
+    TRACK_COVARIANCES = "track-covariances"
+    LAST_PREDICTION = "last-prediction"
+    LIVE_KNOBS = "live-knobs"
+    SELF_CALIBRATION = "self-calibration"
+    TRUTH_OBSERVER = "truth-observer"
+
+
+class WarmUp(Agent, Protocol):
+    """``WARM_UP``: an agent with a warm-up step (module docstring)."""
 
     def warm_up(self) -> None:
         """Compile or load what the first frames need, leaving the agent's results unchanged."""
         ...
 
 
-class TruthObserver(Protocol):
-    """An oracle agent (``needs_truth = True``) that reads each frame's truth before ``act``."""
+class TrackCovariances(Agent, Protocol):
+    """``TRACK_COVARIANCES``: the covariances of the reported positions."""
+
+    def track_covariances(self) -> NDArray[np.float64]:
+        """(n, D, D) covariances of the live rows of the last report, in row order."""
+        ...
+
+
+class LastPrediction(Agent, Protocol):
+    """``LAST_PREDICTION``: the tracker-side prediction of the last frame."""
+
+    #: The predicted measurement of the tracks of the last frame with tracks (``None`` before).
+    last_prediction: Gaussian | None
+    #: Their ids (n,).
+    last_prediction_ids: NDArray[np.int64]
+    #: The observation row each took in that frame (n,), −1 for none.
+    last_prediction_detection: NDArray[np.int64]
+
+
+class LiveKnobs(Agent, Protocol):
+    """``LIVE_KNOBS``: association knobs settable between frames (checked, used from the next)."""
+
+    p_gate: float
+    recovery_inflation: float
+    noise_scale: float
+
+
+class SelfCalibrated(Agent, Protocol):
+    """``SELF_CALIBRATION``: built with the keywords of a self-calibration (a promise on the
+    factory's keywords; nothing to check on the object)."""
+
+
+class TruthObserver(Agent, Protocol):
+    """``TRUTH_OBSERVER``: an oracle (``needs_truth``) that reads each frame's truth before ``act``."""
 
     def observe_truth(self, info: Mapping[str, Any]) -> None:
         """Take the ``info`` of the frame the next ``act`` answers."""
         ...
+
+
+#: The protocol of every agent capability.
+AGENT_PROTOCOLS: dict[AgentCapability, type] = {
+    AgentCapability.WARM_UP: WarmUp,
+    AgentCapability.TRACK_COVARIANCES: TrackCovariances,
+    AgentCapability.LAST_PREDICTION: LastPrediction,
+    AgentCapability.LIVE_KNOBS: LiveKnobs,
+    AgentCapability.SELF_CALIBRATION: SelfCalibrated,
+    AgentCapability.TRUTH_OBSERVER: TruthObserver,
+}
+
+#: The capabilities of agents (:mod:`track_envs.infra.declared`).
+AGENT_DECLARATIONS: Declarations[AgentCapability] = Declarations(AgentCapability, AGENT_PROTOCOLS, core=Agent)
+
+
+@overload
+def agent_capability(agent: object, which: Literal[AgentCapability.WARM_UP]) -> WarmUp | None: ...
+@overload
+def agent_capability(
+    agent: object, which: Literal[AgentCapability.TRACK_COVARIANCES]
+) -> TrackCovariances | None: ...
+@overload
+def agent_capability(
+    agent: object, which: Literal[AgentCapability.LAST_PREDICTION]
+) -> LastPrediction | None: ...
+@overload
+def agent_capability(agent: object, which: Literal[AgentCapability.LIVE_KNOBS]) -> LiveKnobs | None: ...
+@overload
+def agent_capability(
+    agent: object, which: Literal[AgentCapability.SELF_CALIBRATION]
+) -> SelfCalibrated | None: ...
+@overload
+def agent_capability(
+    agent: object, which: Literal[AgentCapability.TRUTH_OBSERVER]
+) -> TruthObserver | None: ...
+@overload
+def agent_capability(agent: object, which: AgentCapability) -> Any: ...
+def agent_capability(agent: object, which: AgentCapability) -> Any:
+    """``agent``, typed as the protocol of capability ``which``, when its class declares it; else
+    ``None``. The one way to ask an agent for an optional capability (module docstring).
+
+    Raises:
+        TypeError: if the class declares ``which`` but lacks a member of its protocol (named), or
+            ``which`` is not an :class:`AgentCapability`.
+    """
+    return AGENT_DECLARATIONS.get(agent, which)
+
+
+def agent_declares(agent: object, which: AgentCapability) -> bool:
+    """Whether ``agent`` (an instance, a class or a registered factory) declares ``which``; nothing
+    is built or checked (a factory that is not a class declares nothing)."""
+    return AGENT_DECLARATIONS.declares(agent, which)
 
 
 @dataclass(frozen=True)
@@ -91,22 +213,25 @@ class AgentTraits:
     takes_predictor: bool = False
 
 
-#: The default of each declared trait.
+#: The traits of a class that declares none.
 TRAIT_DEFAULTS = AgentTraits()
 
 
 def agent_traits(agent: object) -> AgentTraits:
-    """The traits an agent (an instance, a class or a registered factory) declares, the default
-    (:data:`TRAIT_DEFAULTS`) for each one it does not."""
-    return AgentTraits(
-        **{f.name: getattr(agent, f.name, getattr(TRAIT_DEFAULTS, f.name)) for f in fields(AgentTraits)}
-    )
+    """The traits an agent (an instance, a class or a registered factory) declares in its class
+    attribute ``traits``, :data:`TRAIT_DEFAULTS` where it declares none.
+
+    Raises:
+        TypeError: if the class's ``traits`` is not an :class:`AgentTraits`.
+    """
+    return declared_value(agent, "traits", AgentTraits, TRAIT_DEFAULTS)
 
 
 def warm_up(agent: Agent) -> None:
-    """``agent.warm_up()`` where the agent has one (:class:`WarmUp`); nothing otherwise."""
-    if isinstance(agent, WarmUp):
-        agent.warm_up()
+    """``agent.warm_up()`` where the agent declares ``WARM_UP``; nothing otherwise."""
+    warming = agent_capability(agent, AgentCapability.WARM_UP)
+    if warming is not None:
+        warming.warm_up()
 
 
 AGENTS = Registry("agent")

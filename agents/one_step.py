@@ -8,7 +8,7 @@ associations"), and each prediction ``N(ŷ, Σ)`` is compared with the measureme
 :class:`OneStepAgent` does that frame by frame on any point env with truth. It is an *oracle*:
 unlike a tracker it reads the frame's ``info["detection_ids"]`` (the truth id behind each
 detection row) through :meth:`OneStepAgent.observe_truth`, which the bench runner calls before
-every ``act`` for agents that declare ``needs_truth = True``. Per frame:
+every ``act`` for agents that declare the ``needs_truth`` trait. Per frame:
 
 1. every track predicts (one batched ``predict``);
 2. tracks whose particle has a detection are scored against it and updated with it; tracks whose
@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import AgentCapability, AgentTraits
 from predictors.base import Capability, Predictor, capability, reset_predictor
 from predictors.registry import resolve_predictor
 from track_envs.contracts.observation import check_observation
@@ -60,10 +61,10 @@ class OneStepAgent:
         **predictor_kwargs: Passed to a predictor given by name (e.g. ``samples`` of mc-lstm).
     """
 
-    #: The bench runner hands this agent each frame's ``info`` (see :meth:`observe_truth`).
-    needs_truth = True
-    #: Built with ``predictor=`` (a Gaussian predictor's name or object).
-    takes_predictor = True
+    #: The bench runner hands this agent each frame's ``info`` (see :meth:`observe_truth`), and it
+    #: is built with ``predictor=`` (a Gaussian predictor's name or object).
+    traits = AgentTraits(needs_truth=True, takes_predictor=True)
+    capabilities = frozenset({AgentCapability.TRUTH_OBSERVER})
 
     def __init__(
         self, predictor: str | Predictor = "kf-ca", *, velocity_prior: bool = True, **predictor_kwargs: Any

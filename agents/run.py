@@ -13,9 +13,10 @@ the tracks carries the box of the detection its track was updated with that fram
 coasts the last box it had (:func:`track_envs.values.tracks.carried_boxes`, one vectorised pass after
 the loop).
 
-An agent whose tracks have covariances says so with a method ``track_covariances()`` returning
-the (n, D, D) covariances of the live rows of its last report, in row order (the GNN tracker:
-its predictor's estimate); ``covariance=True`` collects them.
+An agent whose tracks have covariances declares the ``TRACK_COVARIANCES`` capability
+(:mod:`agents.base`): ``track_covariances()`` returns the (n, D, D) covariances of the live rows
+of its last report, in row order (the GNN tracker: its predictor's estimate); ``covariance=True``
+collects them.
 
 The command-line front end is ``track run`` (:mod:`agents.cli.run`).
 """
@@ -30,6 +31,7 @@ from typing import Any, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.base import AgentCapability, agent_capability, agent_declares
 from agents.file_kinds import check_file_agent
 from agents.sorting_collect import SortingCollector, sorting_spec
 from track_envs.contracts.report import ReportOverflowError
@@ -116,7 +118,8 @@ def run_agent(
             the fullest frame.
         seed: Passed to ``agent.reset`` (the same seed gives the same tracks).
         covariance: Collect the covariance of every reported position from the agent's
-            ``track_covariances()``; ignored (``Tracks.cov`` None) for an agent without it.
+            ``track_covariances()`` (``TRACK_COVARIANCES``); ignored (``Tracks.cov`` None) for an
+            agent that does not declare it.
         progress: Show a tqdm progress bar (frames) on stderr.
         reset: Call ``agent.reset(spec, seed=seed)`` first (False: the caller has).
         grow: When the agent has more live tracks than ``spec.max_tracks`` report rows (a
@@ -130,9 +133,10 @@ def run_agent(
             (:func:`agents.self_calibration.calibrate`, as ``track run`` does when no noise is
             given) and track with them: ``spec``'s noise std is replaced, ``max_tracks`` sized
             for the estimated coasting, and ``agent`` must be a registered agent's name (the
-            estimate sets its keywords: gnn with kf-ca gets all of them, any other agent the
-            noise only). For the figures, or another predictor, call ``calibrate`` yourself and
-            build the agent with its ``agent_kwargs()``.
+            estimate sets its keywords: an agent that declares ``SELF_CALIBRATION``, gnn and
+            jpda, with kf-ca gets all of them, any other agent the noise only). For the figures,
+            or another predictor, call ``calibrate`` yourself and build the agent with its
+            ``agent_kwargs()``.
         sorting_line: A sorting line ``x = sorting_line`` downstream of the region (the nozzle
             bar): the agent is told of it (``spec.sorting_line``) and the predicted crossings
             of its reports' sorting channels are returned too. ``None`` (default): ``spec`` as
@@ -193,12 +197,11 @@ def run_agent(
 
 def takes_calibration(name: str) -> bool:
     """Whether agent ``name`` takes the keywords of a self-calibration (``agent_kwargs()`` of
-    :func:`agents.self_calibration.calibrate`): the point trackers (gnn, jpda)."""
+    :func:`agents.self_calibration.calibrate`): its registered factory declares
+    ``SELF_CALIBRATION`` (gnn and the trackers built on it, jpda)."""
     from agents import AGENTS
-    from agents.tracking.tracker import PointTracker
 
-    factory = AGENTS.factory(name)
-    return isinstance(factory, type) and issubclass(factory, PointTracker)
+    return agent_declares(AGENTS.factory(name), AgentCapability.SELF_CALIBRATION)
 
 
 def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
@@ -232,7 +235,8 @@ def _run(
     progress: bool,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
     """The loop of :func:`run_agent` over a reset agent (with ``sorting``: its crossings too)."""
-    covariances = getattr(agent, "track_covariances", None) if covariance else None
+    declared = agent_capability(agent, AgentCapability.TRACK_COVARIANCES) if covariance else None
+    covariances = declared.track_covariances if declared is not None else None
     bar = _progress(stream.n_frames, progress)
     act = agent.act
     block = int(np.clip(BLOCK_ROWS // spec.max_tracks, 64, 4096))

@@ -45,7 +45,8 @@ NAME = "greedy-nearest"
 class GreedyNearest:
     """Greedy nearest-neighbour association inside the χ² gate (module docstring)."""
 
-    offers: frozenset[str] = frozenset()  # no second chance, no mixture, no shared detections
+    # declares no capability (agents.tracking.AssociatorCapability): no second chance, no
+    # mixture, no shared detections
 
     def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
         """Nothing to set up: the association keeps no state between frames."""

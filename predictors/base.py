@@ -64,6 +64,13 @@ concrete class. The declaration is read from the class, so a wrapper object decl
   the predictor draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the
   same seed gives the same report. Used by every tracker's reset (:func:`reset_predictor`). Belt
   LSTMs.
+* ``KINEMATIC_MODEL`` (:class:`KinematicModel`) — ``order: int`` and ``kinematic_model(dim, dt,
+  q) -> (F, Q, H)``: the predictor is a linear Kalman filter of an ``order``-fold integrator per
+  axis (1: random walk, 2: constant velocity, 3: constant acceleration) driven by white noise of
+  intensity ``q``, and its factory takes the keyword ``q`` (with ``order >= 2`` also
+  ``initial_velocity`` and ``initial_velocity_std``, with ``order == 3``
+  ``initial_acceleration_std``). Used by the self-calibration (:mod:`agents.self_calibration`),
+  which estimates those settings. Kalman filters.
 
 A capability is a promise of the same numbers as the core calls would give where both apply
 (``coast`` equals ``predict`` + ``update``, ``survivors_and_births`` equals take/start/concat,
@@ -87,6 +94,7 @@ from typing import Any, Literal, NamedTuple, Protocol, Self, overload, runtime_c
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.declared import Declarations
 from track_envs.values.types import Gaussian, SensorSpec
 
 
@@ -221,6 +229,7 @@ class Capability(StrEnum):
     RANDOM_STREAM = "random-stream"
     MIXTURE_UPDATE = "mixture-update"
     TRANSLATE = "translate"
+    KINEMATIC_MODEL = "kinematic-model"
 
 
 class Crossings(NamedTuple):
@@ -350,6 +359,22 @@ class RandomStream(Predictor, Protocol):
         ...
 
 
+class KinematicModel(Predictor, Protocol):
+    """``KINEMATIC_MODEL``: a linear Kalman filter of an ``order``-fold integrator per axis."""
+
+    #: Derivatives of the position per axis in the state: 1 (random walk), 2 (constant
+    #: velocity), 3 (constant acceleration).
+    order: int
+
+    def kinematic_model(
+        self, dim: int, dt: float, q: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """``(F, Q, H)`` of the model for ``dim`` axes, frame period ``dt`` and white-noise
+        intensity ``q``: transition (S, S), process noise (S, S) and measurement (dim, S),
+        ``S = order · dim``."""
+        ...
+
+
 #: The protocol of every capability.
 PROTOCOLS: dict[Capability, type] = {
     Capability.NOISE_SCALE: NoiseScale,
@@ -362,7 +387,12 @@ PROTOCOLS: dict[Capability, type] = {
     Capability.RANDOM_STREAM: RandomStream,
     Capability.MIXTURE_UPDATE: MixtureUpdate,
     Capability.TRANSLATE: Translate,
+    Capability.KINEMATIC_MODEL: KinematicModel,
 }
+
+
+#: The capabilities of predictors, read with :func:`capability` (:mod:`track_envs.infra.declared`).
+DECLARATIONS: Declarations[Capability] = Declarations(Capability, PROTOCOLS, core=Predictor)
 
 
 def declared_capabilities(predictor: object) -> frozenset[Capability]:
@@ -371,16 +401,7 @@ def declared_capabilities(predictor: object) -> frozenset[Capability]:
     Raises:
         TypeError: if the class's ``capabilities`` is not a set of :class:`Capability` members.
     """
-    declared: object = getattr(type(predictor), "capabilities", frozenset())
-    if not isinstance(declared, frozenset | set) or not all(isinstance(c, Capability) for c in declared):
-        raise TypeError(
-            f"{type(predictor).__name__}.capabilities must be a frozenset of predictors.base.Capability "
-            f"members {[c.name for c in Capability]}, got {declared!r}"
-        )
-    return frozenset(declared)
-
-
-_CHECKED: set[tuple[type, Capability]] = set()
+    return DECLARATIONS.declared(predictor)
 
 
 @overload
@@ -407,6 +428,8 @@ def capability(predictor: object, which: Literal[Capability.RANDOM_STREAM]) -> R
 def capability(predictor: object, which: Literal[Capability.MIXTURE_UPDATE]) -> MixtureUpdate | None: ...
 @overload
 def capability(predictor: object, which: Literal[Capability.TRANSLATE]) -> Translate | None: ...
+@overload
+def capability(predictor: object, which: Literal[Capability.KINEMATIC_MODEL]) -> KinematicModel | None: ...
 def capability(predictor: object, which: Capability) -> Any:
     """``predictor``, typed as the protocol of capability ``which``, when its class declares it;
     else ``None``. The one way a tracker asks for an optional capability (module docstring).
@@ -415,37 +438,12 @@ def capability(predictor: object, which: Capability) -> Any:
         TypeError: if the class declares ``which`` but lacks a member of its protocol (named), or
             ``which`` is not a :class:`Capability`.
     """
-    if not isinstance(which, Capability):
-        raise TypeError(f"capability must be one of {[c.name for c in Capability]}, got {which!r}")
-    if which not in declared_capabilities(predictor):
-        return None
-    key = (type(predictor), which)
-    if key not in _CHECKED:
-        missing = _missing_members(predictor, PROTOCOLS[which])
-        if missing:
-            raise TypeError(
-                f"{type(predictor).__name__} declares capability {which.name} but lacks {missing} "
-                f"(see predictors.base.{PROTOCOLS[which].__name__})"
-            )
-        _CHECKED.add(key)
-    return predictor
+    return DECLARATIONS.get(predictor, which)
 
 
 def has_capability(predictor: object, which: Capability) -> bool:
     """Whether ``predictor``'s class declares capability ``which`` (checked as :func:`capability` does)."""
     return capability(predictor, which) is not None  # type: ignore[call-overload]
-
-
-def _missing_members(predictor: object, protocol: type) -> list[str]:
-    """The members a capability's protocol adds to the core that ``predictor`` lacks (methods
-    must be callable). ``reset`` and ``start`` with extra keywords are core methods: their
-    presence is the core's check, their keywords the declaration's promise."""
-    own = vars(protocol)
-    methods = [
-        n for n, v in own.items() if callable(v) and not n.startswith("_") and n not in vars(Predictor)
-    ]
-    missing = [n for n in methods if not callable(getattr(predictor, n, None))]
-    return missing + [n for n in own.get("__annotations__", {}) if not hasattr(predictor, n)]
 
 
 def reset_predictor(predictor: Predictor, spec: SensorSpec, rng: np.random.Generator) -> None:

@@ -254,9 +254,11 @@ def env_has_truth(env_id: str) -> bool:
     """Whether ``env_id`` reports ground truth (its env class does not declare ``has_truth = False``)."""
     from gymnasium.envs.registration import load_env_creator
 
+    from track_envs.infra.declared import declared_value
+
     entry = gym.spec(env_id).entry_point
     creator: Any = load_env_creator(entry) if isinstance(entry, str) else entry
-    return bool(getattr(creator, "has_truth", True))
+    return declared_value(creator, "has_truth", bool, True)
 
 
 def why_not(env_id: str, agent: str, predictor: str | None = None) -> str | None:

@@ -10,7 +10,7 @@ import sys
 import time
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
@@ -18,6 +18,11 @@ from agents.cli import arguments, run_pose, self_calibration, sorting
 from agents.file_kinds import check_file_agent
 from agents.run import run_agent
 from predictors import available_predictors
+
+if TYPE_CHECKING:
+    from track_envs.values.detections import Detections
+    from track_envs.values.tracks import Tracks
+    from track_envs.values.types import SensorSpec
 
 PROG = "track run"
 
@@ -95,6 +100,7 @@ def _header(text: str) -> bool | str:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The argparse parser of ``track run`` (``prog``: the name it answers to)."""
+    # long: one argparse declaration per option, in the order --help lists them
     p = argparse.ArgumentParser(
         prog=prog,
         description="Track a file of per-frame detections (no identities) with any agent; write the tracks.",
@@ -245,18 +251,53 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
-    from agents.self_calibration.calibrate import live_track_bound
     from agents.self_calibration.diagnostics import run_figures, run_warnings
-    from agents.self_calibration.report import calibration_lines, write_sidecar
-    from agents.self_calibration.scales import default_threshold
-    from track_envs.io.detections import CONSIDERED, detection_format, read_detections
+    from agents.self_calibration.report import write_sidecar
     from track_envs.io.poses import is_pose_file
-    from track_envs.io.tracks import read_tracks, write_tracks
-    from track_envs.metrics.track_scoring import match_kind, match_line, score_tracks
-    from track_envs.values.detections import detection_sensor_spec
+    from track_envs.io.tracks import write_tracks
 
     if is_pose_file(args.detections, args.input_format):
         return run_pose.run_poses(args)
+    _check_point_arguments(args)
+    start = time.perf_counter()
+    detections, truth, kind, spec = _read_inputs(args)
+    check = sorting.check_arguments(args, spec)
+    if args.predictor is not None and not agent_takes_predictor(args.agent):
+        raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
+    spec, agent_kwargs, calibration, calibration_s = _agent_settings(args, detections, spec)
+    agent = build_agent(args.agent, args.predictor, agent_kwargs)
+    warm_up(agent)  # compile / load the kernels before the first frame
+    read_s = time.perf_counter() - start - calibration_s
+    tracks, crossings = _track(args, agent, detections, spec)
+    write_tracks(args.out, tracks, args.format, box_size=args.box_size)
+    print(
+        f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
+        f"(read in {read_s:.2f} s) -> "
+        f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
+        file=sys.stderr,
+    )
+    if crossings is not None:
+        sorting.write_predictions(args, crossings, tracks)
+    if check is not None:
+        sorting.run_check(args, check, agent, detections, spec, tracks)
+    problems = run_warnings(tracks, len(detections))
+    for problem in problems:
+        print(f"{args.prog}: warning: {problem}", file=sys.stderr)
+    threshold = _metric_threshold(args, calibration, detections)
+    if calibration is not None:
+        content = {"calibration": calibration.as_dict(), "run": run_figures(tracks, len(detections))}
+        content |= {"warnings": problems, "metric_threshold": threshold, "max_tracks": spec.max_tracks}
+        path = write_sidecar(args.out, content)
+        print(f"{args.prog}: calibration ({calibration_s:.2f} s) -> {path}", file=sys.stderr)
+    if truth is not None and args.metrics:
+        assert threshold is not None
+        _print_metrics(args, tracks, truth, detections, kind, threshold)
+    return 0
+
+
+def _check_point_arguments(args: argparse.Namespace) -> None:
+    """Fill the point run's defaults (``--agent gnn``, ``--format mot``) and refuse what does not
+    fit before anything is read (the agent, ``--covariance``, ``--metrics``, ``--min-iou``, ``--out``)."""
     args.agent = args.agent or "gnn"
     args.format = args.format or "mot"
     check_file_agent(args.agent, "point")
@@ -267,11 +308,20 @@ def run(args: argparse.Namespace) -> int:
     if not (0 < args.min_iou <= 1):
         raise ValueError(f"--min-iou must be in (0, 1], got {args.min_iou!r}")
     check_out_file(args.out)
+
+
+def _read_inputs(args: argparse.Namespace) -> tuple[Detections, Tracks | None, str, SensorSpec]:
+    """The detections, the ground truth (``--gt``, read and checked before tracking, as
+    ``--out``), how tracks are matched to it, and the sensor spec the flags give."""
+    from track_envs.io.detections import CONSIDERED, detection_format, read_detections
+    from track_envs.io.tracks import read_tracks
+    from track_envs.metrics.track_scoring import match_kind
+    from track_envs.values.detections import detection_sensor_spec
+
     fmt = detection_format(args.detections, args.input_format)
-    start = time.perf_counter()
     detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
     truth = None
-    if args.gt:  # read (and checked) before tracking, as --out
+    if args.gt:
         truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
     kind = "distance"
     if truth is not None:
@@ -287,9 +337,17 @@ def run(args: argparse.Namespace) -> int:
             max_detections=args.max_detections,
             max_tracks=args.max_tracks,
         )
-    check = sorting.check_arguments(args, spec)
-    if args.predictor is not None and not agent_takes_predictor(args.agent):
-        raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
+    return detections, truth, kind, spec
+
+
+def _agent_settings(
+    args: argparse.Namespace, detections: Detections, spec: SensorSpec
+) -> tuple[SensorSpec, dict[str, Any], Any, float]:
+    """The spec and agent keywords of the run: self-calibrated (printed; with the calibration
+    and the seconds it took) or as the flags give them."""
+    from agents.self_calibration.calibrate import live_track_bound
+    from agents.self_calibration.report import calibration_lines
+
     agent_kwargs = dict(args.agent_kwargs)
     calibration = None
     calibration_s = 0.0
@@ -308,9 +366,14 @@ def run(args: argparse.Namespace) -> int:
                 "--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn"
             )
         agent_kwargs = self_calibration.given_kwargs(args) | agent_kwargs
-    agent = build_agent(args.agent, args.predictor, agent_kwargs)
-    warm_up(agent)  # compile / load the kernels before the first frame
-    read_s = time.perf_counter() - start - calibration_s
+    return spec, agent_kwargs, calibration, calibration_s
+
+
+def _track(
+    args: argparse.Namespace, agent: Any, detections: Detections, spec: SensorSpec
+) -> tuple[Tracks, Any]:
+    """Run ``agent`` over the detections (its warnings printed as notes); the tracks (only the
+    updated rows where ``--coasting-rows`` resolves to none) and the sorting predictions or None."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", RuntimeWarning)
         result = run_agent(
@@ -327,21 +390,15 @@ def run(args: argparse.Namespace) -> int:
     tracks, crossings = result if isinstance(result, tuple) else (result, None)
     if coasting_rows(args, detections) == "none":
         tracks = tracks.updated_rows()
-    write_tracks(args.out, tracks, args.format, box_size=args.box_size)
-    print(
-        f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
-        f"(read in {read_s:.2f} s) -> "
-        f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
-        file=sys.stderr,
-    )
-    if crossings is not None:
-        sorting.write_predictions(args, crossings, tracks)
-    if check is not None:
-        sorting.run_check(args, check, agent, detections, spec, tracks)
-    problems = run_warnings(tracks, len(detections))
-    for problem in problems:
-        print(f"{args.prog}: warning: {problem}", file=sys.stderr)
-    threshold = args.threshold
+    return tracks, crossings
+
+
+def _metric_threshold(args: argparse.Namespace, calibration: Any, detections: Detections) -> float | None:
+    """``--threshold``, or with ``--metrics`` its default (the calibration's, else half the median
+    nearest-neighbour distance within a frame; printed)."""
+    from agents.self_calibration.scales import default_threshold
+
+    threshold: float | None = args.threshold
     if threshold is None and args.metrics:
         threshold = calibration.threshold if calibration is not None else default_threshold(detections)
         print(
@@ -349,21 +406,27 @@ def run(args: argparse.Namespace) -> int:
             "distance within a frame; --threshold sets it)",
             file=sys.stderr,
         )
-    if calibration is not None:
-        content = {"calibration": calibration.as_dict(), "run": run_figures(tracks, len(detections))}
-        content |= {"warnings": problems, "metric_threshold": threshold, "max_tracks": spec.max_tracks}
-        path = write_sidecar(args.out, content)
-        print(f"{args.prog}: calibration ({calibration_s:.2f} s) -> {path}", file=sys.stderr)
-    if truth is not None and args.metrics:
-        assert threshold is not None
-        print(f"matching: {match_line(kind, threshold=threshold, min_iou=args.min_iou)}", file=sys.stderr)
-        metrics, notes = score_tracks(
-            tracks, truth, threshold=threshold, detections=detections, match=kind, min_iou=args.min_iou
-        )
-        print(format_metrics(metrics))
-        for note in notes:
-            print(f"note: {note}", file=sys.stderr)
-    return 0
+    return threshold
+
+
+def _print_metrics(
+    args: argparse.Namespace,
+    tracks: Tracks,
+    truth: Tracks,
+    detections: Detections,
+    kind: str,
+    threshold: float,
+) -> None:
+    """Score the tracks against the truth and print the matching line and the metrics table."""
+    from track_envs.metrics.track_scoring import match_line, score_tracks
+
+    print(f"matching: {match_line(kind, threshold=threshold, min_iou=args.min_iou)}", file=sys.stderr)
+    metrics, notes = score_tracks(
+        tracks, truth, threshold=threshold, detections=detections, match=kind, min_iou=args.min_iou
+    )
+    print(format_metrics(metrics))
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
 
 
 #: detection_sensor_spec's argument names and the flags of ``track run`` that set them.

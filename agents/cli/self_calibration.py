@@ -78,7 +78,6 @@ def calibrated(
     """The spec and agent keywords of a self-calibrated run, and the calibration."""
     from agents.run import takes_calibration
     from agents.self_calibration import calibrate
-    from agents.self_calibration.calibrate import PREDICTOR_MODELS
 
     predictor = args.predictor or "kf-ca"
     gnn_kwargs = {k: v for k, v in agent_kwargs.items() if args.agent == "gnn"}
@@ -95,6 +94,6 @@ def calibrated(
         agent_kwargs=gnn_kwargs,
     )
     kwargs = dict(agent_kwargs)
-    if takes_calibration(args.agent) and predictor in PREDICTOR_MODELS:
+    if takes_calibration(args.agent):  # empty for a predictor without a kinematic model
         kwargs = cal.agent_kwargs() | kwargs
     return cal.sensor_spec(spec), kwargs, cal

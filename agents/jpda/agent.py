@@ -48,6 +48,7 @@ track; the gate probability ``P_G`` is gnn's ``p_gate``.
 
 from __future__ import annotations
 
+import operator
 from typing import Any
 
 from agents.jpda.associator import (
@@ -71,26 +72,15 @@ __all__ = [
     "JpdaAgent",
 ]
 
-#: The associator's settings and per-episode figures a jpda tracker shows as its own attributes.
-_ASSOCIATOR_ATTRIBUTES = frozenset(
-    {
-        "p_detect",
-        "clutter_density",
-        "p_detect_arg",
-        "clutter_density_arg",
-        "min_clutter_rate",
-        "merge_model",
-        "merge_extent",
-        "merge_area_std",
-        "merge_odds",
-        "max_exact",
-        "coalescence_guard",
-        "approximate_tracks",
-        "blob_splits",
-        "last_cluster_tracks",
-        "last_p_seen",
-    }
-)
+
+class _FromAssociator:
+    """A read-only attribute of the tracker: its associator's attribute of the same name."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._get = operator.attrgetter(name)
+
+    def __get__(self, tracker: Any, owner: type | None = None) -> Any:
+        return self if tracker is None else self._get(tracker.associator)
 
 
 class JpdaAgent(PointTracker):
@@ -125,6 +115,23 @@ class JpdaAgent(PointTracker):
             ``recovery_cap_motion``, ..., and the predictor's keywords), except ``blob_extent`` and
             ``assignment`` (the merged blobs and the association are this tracker's own).
     """
+
+    # the associator's settings and per-episode figures, shown as the tracker's own (read-only)
+    p_detect = _FromAssociator()
+    clutter_density = _FromAssociator()
+    p_detect_arg = _FromAssociator()
+    clutter_density_arg = _FromAssociator()
+    min_clutter_rate = _FromAssociator()
+    merge_model = _FromAssociator()
+    merge_extent = _FromAssociator()
+    merge_area_std = _FromAssociator()
+    merge_odds = _FromAssociator()
+    max_exact = _FromAssociator()
+    coalescence_guard = _FromAssociator()
+    approximate_tracks = _FromAssociator()
+    blob_splits = _FromAssociator()
+    last_cluster_tracks = _FromAssociator()
+    last_p_seen = _FromAssociator()
 
     def __init__(
         self,
@@ -165,10 +172,3 @@ class JpdaAgent(PointTracker):
         super().__init__(predictor, associator=associator, owner=type(self), **gnn_kwargs)
         self.recovery_cap_motion = associator.second_chance.cap_motion
         self.recovery_cap_noise = associator.second_chance.cap_noise
-
-    def __getattr__(self, name: str) -> Any:
-        """The associator's settings and figures (class docstring) as attributes of the tracker."""
-        associator = self.__dict__.get("associator")
-        if name in _ASSOCIATOR_ATTRIBUTES and associator is not None:
-            return getattr(associator, name)
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")

@@ -25,11 +25,8 @@ from agents.jpda.marginals import MAX_EXACT
 from agents.jpda.weights import gaussian_log_likelihood, jpda_log_weights
 from agents.tracking.assign import associate_hungarian
 from agents.tracking.associator import (
-    BIRTH_FILTER,
-    MIXTURE_UPDATE,
-    SECOND_CHANCE,
-    SHARED_DETECTIONS,
     Association,
+    AssociatorCapability,
     FrameContext,
 )
 from agents.tracking.gated import GatedAssignment
@@ -61,7 +58,7 @@ class JpdaAssociator:
     """JPDA association with merged blobs and the PDA update (module docstring; the arguments as
     :class:`~agents.jpda.agent.JpdaAgent`'s, plus the second chance's caps)."""
 
-    offers = frozenset({SECOND_CHANCE, MIXTURE_UPDATE, SHARED_DETECTIONS, BIRTH_FILTER})
+    capabilities = frozenset(AssociatorCapability)
 
     def __init__(
         self,

@@ -20,10 +20,11 @@ frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
 A filter starts at its first measurement ``z₀``: ``x⁽ⁱ⁾ ~ N(z₀, Σ₀)``, ``Σ₀ = σ₀² I``, ``w = 1/N``.
 All per-frame work is batched over (T, N); parameters may differ per target ((T,) arrays), which is
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
-A model that moves every particle of a target by one common displacement plus white noise
-(:class:`~predictors.displacement.base.CommonDisplacementModel`: Brownian, constant velocity, the
-LSTM of Jung et al.) runs the frame in a few compiled single passes (:mod:`agents.particle._kernels`);
-any other :class:`~predictors.displacement.base.DisplacementModel` runs the numpy path through its
+A model that declares it moves every particle of a target by one common displacement plus white
+noise (``COMMON_DISPLACEMENT``, :class:`~predictors.displacement.base.CommonDisplacementModel`:
+Brownian, constant velocity, the LSTM of Jung et al.) runs the frame in a few compiled single passes
+(:mod:`agents.particle._kernels`); any other
+:class:`~predictors.displacement.base.DisplacementModel` runs the numpy path through its
 ``propose``. Both draw the same random numbers from the filter's generator in the same order, and
 agree to rounding.
 
@@ -42,11 +43,11 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.base import AgentTraits
 from agents.particle._kernels import (
     add_common,
     all_finite,
@@ -59,8 +60,10 @@ from agents.particle._kernels import (
 from predictors.displacement import (
     STEP,
     CommonDisplacementModel,
+    DisplacementCapability,
     DisplacementModel,
     check_sigma,
+    displacement_capability,
     make_displacement_model,
 )
 from track_envs.contracts.observation import check_observation
@@ -115,7 +118,7 @@ def systematic_resample(weights: ArrayLike, u: float) -> NDArray[np.intp]:
 class BatchParticleFilter:
     """``T`` bootstrap particle filters of ``N`` particles stepped together (module docstring).
 
-    ``fused`` says whether the model runs the compiled path (a :class:`CommonDisplacementModel`);
+    ``fused`` says whether the model runs the compiled path (it declares ``COMMON_DISPLACEMENT``);
     that path updates ``particles`` and ``weights`` in place (copy them to keep a frame's cloud).
 
     Args:
@@ -193,13 +196,16 @@ class BatchParticleFilter:
 
     @property
     def model(self) -> DisplacementModel:
-        """The displacement model; a :class:`CommonDisplacementModel` runs the compiled path."""
+        """The displacement model; one that declares ``COMMON_DISPLACEMENT`` runs the compiled path."""
         return self._model
 
     @model.setter
     def model(self, model: DisplacementModel) -> None:
         self._model = model
-        self.fused = isinstance(model, CommonDisplacementModel)
+        self._common: CommonDisplacementModel | None = displacement_capability(
+            model, DisplacementCapability.COMMON_DISPLACEMENT
+        )
+        self.fused = self._common is not None
 
     def predict(self) -> None:
         """Move every particle with the displacement model (step 1)."""
@@ -251,7 +257,7 @@ class BatchParticleFilter:
     def step(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
         """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2).
 
-        For a :class:`CommonDisplacementModel` the frame runs the compiled kernels
+        For a model that declares ``COMMON_DISPLACEMENT`` the frame runs the compiled kernels
         (:mod:`agents.particle._kernels`)."""
         if self.fused:
             return self._compiled_frame(z, has_z, predict=True)
@@ -260,7 +266,8 @@ class BatchParticleFilter:
 
     def _common_step(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The model's displacement (T, 2) and noise std (1,) or (T,), checked."""
-        model: Any = self._model
+        model = self._common
+        assert model is not None, "the compiled path needs a COMMON_DISPLACEMENT model"
         displacement = np.ascontiguousarray(model.displacement(self.history), dtype=np.float64)
         if displacement.shape != (self.T, 2) or not all_finite(displacement):
             raise ValueError(
@@ -402,7 +409,7 @@ class ParticleFilterAgent:
     """
 
     #: tracks one target: applies to single-target scenes only (see agents.agent_applies_to)
-    max_targets = 1
+    traits = AgentTraits(max_targets=1)
 
     def __init__(
         self,

@@ -36,8 +36,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import AgentTraits
 from agents.tracking.assign import assign_greedy, assign_hungarian
-from predictors.pose import ConstantVelocityPose, PoseMotion
+from predictors.pose import POSE_MOTION_DECLARATIONS, ConstantVelocityPose, PoseMotion
 from track_envs.contracts.observation import check_observation
 from track_envs.contracts.report import pack_report
 from track_envs.infra.registry import split_keywords, takes_keywords_of
@@ -113,11 +114,12 @@ class PoseTracker:
     """
 
     #: Tracks poses (17, 2), not points (see :func:`agents.agent_applies_to`).
-    position_rank = 2
+    traits = AgentTraits(position_rank=2)
 
     @takes_keywords_of(PoseTrackingOptions)
     def __init__(self, motion: PoseMotion, **options: Any) -> None:
         self.options = PoseTrackingOptions(**options)
+        POSE_MOTION_DECLARATIONS.declared(motion)  # a malformed declaration fails here, named
         self.motion = motion
         self.assign = assign_hungarian if self.options.assignment == "hungarian" else assign_greedy
         self._spec: SensorSpec | None = None

@@ -28,6 +28,7 @@ the model stops following them).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -39,15 +40,17 @@ from numpy.typing import NDArray
 from agents.self_calibration.coasting import coasting_radii, reappearance_gaps
 from agents.self_calibration.noise import NoiseEstimate, estimate_noise
 from agents.self_calibration.scales import DataScales, data_scales
+from predictors import make_predictor
+from predictors.base import Capability, KinematicModel, capability
 from track_envs.values.detections import Detections
 from track_envs.values.tracks import Tracks
 from track_envs.values.types import SensorSpec
 
-#: Kalman model of each predictor the calibration knows; any other predictor is calibrated with
-#: the constant-velocity model, and only its measurement noise (the sensor spec's) is used.
-PREDICTOR_MODELS: dict[str, str] = {"kf-cv": "cv", "kf-ca": "ca", "random-walk": "random-walk"}
-#: Kinematic orders ``m`` of the models (the estimator's difference order).
-MODEL_ORDERS: dict[str, int] = {"random-walk": 1, "cv": 2, "ca": 3}
+#: The predictor whose kinematic model calibrates a predictor that declares none
+#: (``Capability.KINEMATIC_MODEL``): only its measurement noise (the sensor spec's) is then used.
+FALLBACK_PREDICTOR = "kf-cv"
+#: The name of each kinematic order (:attr:`SelfCalibration.model`).
+MODEL_NAMES: dict[int, str] = {1: "random-walk", 2: "cv", 3: "ca"}
 #: Fewest detections of a track that the estimate takes.
 MIN_TRACK_LENGTH = 6
 #: Relative change of ``r`` and ``q`` under which the iteration stops.
@@ -142,8 +145,8 @@ class SelfCalibration:
     def agent_kwargs(self) -> dict[str, Any]:
         """``make_agent("gnn", predictor=..., **kwargs)`` keywords that carry the settings (the
         measurement noise goes in the sensor spec, :meth:`sensor_spec`); empty for a predictor
-        that is not one of :data:`PREDICTOR_MODELS`."""
-        if self.predictor not in PREDICTOR_MODELS:
+        without a kinematic model (:func:`kinematics`)."""
+        if kinematics(self.predictor) is None:
             return {}
         kwargs: dict[str, Any] = {"q": self.q, "max_misses": self.max_misses}
         if self.model != "random-walk":
@@ -170,9 +173,26 @@ class SelfCalibration:
         return out
 
 
-def _order(predictor: str) -> tuple[str, int]:
-    model = PREDICTOR_MODELS.get(predictor, "cv")
-    return model, MODEL_ORDERS[model]
+@functools.lru_cache(maxsize=16)
+def kinematics(predictor: str) -> KinematicModel | None:
+    """The kinematic model of the predictor registered as ``predictor`` (its
+    ``Capability.KINEMATIC_MODEL``; the predictor is built once), ``None`` where it declares none.
+
+    Raises:
+        ValueError: for an unknown predictor name (listing the registered ones).
+    """
+    return capability(make_predictor(predictor), Capability.KINEMATIC_MODEL)
+
+
+def tracking_model(predictor: str) -> tuple[str, KinematicModel]:
+    """The predictor the tracking runs use and its kinematic model: ``predictor`` itself where it
+    has one (:func:`kinematics`), else :data:`FALLBACK_PREDICTOR`."""
+    own = kinematics(predictor)
+    if own is not None:
+        return predictor, own
+    fallback = kinematics(FALLBACK_PREDICTOR)
+    assert fallback is not None, f"{FALLBACK_PREDICTOR} declares no kinematic model"
+    return FALLBACK_PREDICTOR, fallback
 
 
 def first_settings(scales: DataScales, dt: float, order: int) -> Settings:
@@ -293,8 +313,8 @@ def _run_gnn(
     from agents import make_agent
     from agents.run import run_agent
 
-    model = PREDICTOR_MODELS.get(predictor, "cv")
-    name = predictor if predictor in PREDICTOR_MODELS else "kf-cv"
+    name, kinematic = tracking_model(predictor)
+    model = MODEL_NAMES[kinematic.order]
     kwargs: dict[str, Any] = {"q": settings.q}
     if model != "random-walk":
         kwargs |= {
@@ -331,8 +351,9 @@ def calibrate(
     Args:
         detections: The stream.
         spec: Its sensor spec (``dt``, region, sizes; its ``noise_std`` is not used).
-        predictor: The predictor the settings are for (``kf-ca``, ``kf-cv``, ``random-walk``;
-            any other: only the measurement noise applies, estimated with the cv model).
+        predictor: The predictor the settings are for: one with a kinematic model
+            (``Capability.KINEMATIC_MODEL``: ``kf-ca``, ``kf-cv``, ``random-walk``); any other:
+            only the measurement noise applies, estimated with :data:`FALLBACK_PREDICTOR`'s model.
         noise_std, q, velocity_mean, velocity_std: Given settings (input units), kept as given
             instead of estimated.
         agent_kwargs: Other gnn keywords of the tracking runs (e.g. ``p_gate``, ``max_misses``);
@@ -344,23 +365,12 @@ def calibrate(
 
     Raises:
         ValueError: a stream without two consecutive frames holding detections (nothing to
-            calibrate from), or ``max_iterations < 1``.
+            calibrate from), ``max_iterations < 1``, or an unknown predictor name.
     """
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
     agent_kwargs = dict(agent_kwargs or {})
-    given = {
-        "noise_std": noise_std,
-        "q": q if q is not None else agent_kwargs.pop("q", None),
-        "velocity_mean": velocity_mean
-        if velocity_mean is not None
-        else agent_kwargs.pop("initial_velocity", None),
-        "velocity_std": velocity_std
-        if velocity_std is not None
-        else agent_kwargs.pop("initial_velocity_std", None),
-        "acceleration_std": agent_kwargs.pop("initial_acceleration_std", None),
-    }
-    agent_kwargs.pop("velocity_fallback", None)
+    given = _given_settings(noise_std, q, velocity_mean, velocity_std, agent_kwargs)
     given_misses = agent_kwargs.get("max_misses")
     scales = data_scales(detections)
     if scales is None:
@@ -369,69 +379,29 @@ def calibrate(
             "(--declared-noise-std) and the process noise (--process-noise) instead"
         )
     dt = spec.dt
-    model, order = _order(predictor)
+    kinematic = tracking_model(predictor)[1]
+    order = kinematic.order
     unit = _power_of_two(scales.length)
-    # the runs see positions / unit (exact: a power of two); settings are kept in input units
-    normal = Detections(
-        detections.points / unit, detections.offsets, detections.ids, detections.first_frame, detections.times
+    normal, normal_spec = _normalised(detections, spec, agent_kwargs, unit)
+    first = _with_given(first_settings(scales, dt, order), given)
+    runs = _iterate(
+        detections,
+        normal,
+        normal_spec,
+        predictor,
+        first,
+        given,
+        agent_kwargs,
+        unit,
+        max_iterations,
+        scales.length,
     )
-    normal_spec = dataclasses.replace(
-        spec,
-        region_low=tuple(v / unit for v in spec.region_low),
-        region_high=tuple(v / unit for v in spec.region_high),
-    )
-    if "region_margin" in agent_kwargs:
-        agent_kwargs["region_margin"] = float(agent_kwargs["region_margin"]) / unit
-    if "blob_extent" in agent_kwargs:
-        agent_kwargs["blob_extent"] = float(agent_kwargs["blob_extent"]) / unit
-
-    def with_given(s: Settings) -> Settings:
-        return Settings(
-            float(given["noise_std"]) if given["noise_std"] is not None else s.noise_std,
-            float(given["q"]) if given["q"] is not None else s.q,
-            np.asarray(given["velocity_mean"], np.float64)
-            if given["velocity_mean"] is not None
-            else s.velocity_mean,
-            float(given["velocity_std"]) if given["velocity_std"] is not None else s.velocity_std,
-            float(given["acceleration_std"]) if given["acceleration_std"] is not None else s.acceleration_std,
-        )
-
-    settings = with_given(first_settings(scales, dt, order))
-    history: list[tuple[float, float]] = []
-    settled = False
-    noise: NoiseEstimate | None = None
-    n_tracks = 0
-    runs = 0
-    labels = np.full(len(detections), -1, np.int64)
-    for _ in range(max_iterations):
-        tracks = _run_gnn(normal, normal_spec, predictor, settings.scaled(1 / unit), agent_kwargs)
-        runs += 1
-        labels = detection_labels(normal, tracks)
-        found = estimate_settings(detections, labels, dt, order, scales.length, settings)
-        if found is None:
-            break
-        new, noise = found
-        new = with_given(new)
-        n_tracks = len(np.unique(confident(labels)[confident(labels) >= 0]))
-        history.append((new.noise_std, new.q))
-        change = max(
-            abs(math.log(new.noise_std / settings.noise_std)) if settings.noise_std > 0 else math.inf,
-            abs(math.log(new.q / settings.q)) / 2,
-        )
-        settings = new
-        if change < SETTLED:
-            settled = True
-            break
+    settings = runs.settings
     p_gate = float(agent_kwargs.get("p_gate", DEFAULT_P_GATE))
     radii = coasting_radii(
-        order, dt, settings.q, settings.noise_std**2, p_gate, detections.dim, MAX_MAX_MISSES
+        kinematic, dt, settings.q, settings.noise_std**2, p_gate, detections.dim, MAX_MAX_MISSES
     )
-    # the ambiguity bound: missed frames after which the gate still lies within length / 2
-    horizon = int(np.sum(np.cumprod(radii[1:] <= scales.length / 2)))
-    gaps, n_ends = reappearance_gaps(
-        detections.points, detections.frame_index(), confident(labels), dt, radii[: horizon + 1], START_SPAN
-    )
-    reappearing = len(gaps) / n_ends if n_ends else 0.0
+    gaps, reappearing = _reappearances(detections, runs.labels, dt, radii, scales.length)
     coast = int(gaps.max()) if len(gaps) and reappearing >= REAPPEAR_SHARE else MIN_MAX_MISSES
     max_misses = int(given_misses) if given_misses is not None else max(MIN_MAX_MISSES, coast)
     given["max_misses"] = given_misses
@@ -439,7 +409,7 @@ def calibrate(
     return SelfCalibration(
         dt=float(dt),
         predictor=predictor,
-        model=model,
+        model=MODEL_NAMES[order],
         noise_std=float(settings.noise_std),
         q=float(settings.q),
         velocity_mean=tuple(float(v) for v in settings.velocity_mean),
@@ -453,13 +423,141 @@ def calibrate(
         max_misses=max_misses,
         reappearing=float(reappearing),
         reappearance_gaps=tuple(int(g) for g in np.sort(gaps)),
-        iterations=runs,
-        settled=settled,
-        n_tracks=n_tracks,
-        n_differences=0 if noise is None else noise.n_differences,
+        iterations=runs.runs,
+        settled=runs.settled,
+        n_tracks=runs.n_tracks,
+        n_differences=0 if runs.noise is None else runs.noise.n_differences,
         sources=sources,
-        history=tuple(history),
+        history=tuple(runs.history),
     )
+
+
+def _given_settings(
+    noise_std: float | None,
+    q: float | None,
+    velocity_mean: NDArray[np.floating] | None,
+    velocity_std: float | None,
+    agent_kwargs: dict[str, Any],
+) -> dict[str, Any]:
+    """The settings given (``None``: estimate it), by :class:`Settings` field; the ones given as
+    gnn keywords are taken out of ``agent_kwargs`` (and ``velocity_fallback`` dropped)."""
+    given = {
+        "noise_std": noise_std,
+        "q": q if q is not None else agent_kwargs.pop("q", None),
+        "velocity_mean": velocity_mean
+        if velocity_mean is not None
+        else agent_kwargs.pop("initial_velocity", None),
+        "velocity_std": velocity_std
+        if velocity_std is not None
+        else agent_kwargs.pop("initial_velocity_std", None),
+        "acceleration_std": agent_kwargs.pop("initial_acceleration_std", None),
+    }
+    agent_kwargs.pop("velocity_fallback", None)
+    return given
+
+
+def _with_given(s: Settings, given: Mapping[str, Any]) -> Settings:
+    """``s`` with the given settings in place of its own."""
+    return Settings(
+        float(given["noise_std"]) if given["noise_std"] is not None else s.noise_std,
+        float(given["q"]) if given["q"] is not None else s.q,
+        np.asarray(given["velocity_mean"], np.float64)
+        if given["velocity_mean"] is not None
+        else s.velocity_mean,
+        float(given["velocity_std"]) if given["velocity_std"] is not None else s.velocity_std,
+        float(given["acceleration_std"]) if given["acceleration_std"] is not None else s.acceleration_std,
+    )
+
+
+def _normalised(
+    detections: Detections, spec: SensorSpec, agent_kwargs: dict[str, Any], unit: float
+) -> tuple[Detections, SensorSpec]:
+    """The stream and spec in positions / ``unit`` (exact: a power of two), and the lengths among
+    ``agent_kwargs`` (``region_margin``, ``blob_extent``) rescaled in place."""
+    normal = Detections(
+        detections.points / unit, detections.offsets, detections.ids, detections.first_frame, detections.times
+    )
+    normal_spec = dataclasses.replace(
+        spec,
+        region_low=tuple(v / unit for v in spec.region_low),
+        region_high=tuple(v / unit for v in spec.region_high),
+    )
+    if "region_margin" in agent_kwargs:
+        agent_kwargs["region_margin"] = float(agent_kwargs["region_margin"]) / unit
+    if "blob_extent" in agent_kwargs:
+        agent_kwargs["blob_extent"] = float(agent_kwargs["blob_extent"]) / unit
+    return normal, normal_spec
+
+
+@dataclass(frozen=True)
+class _Runs:
+    """What the tracking runs of :func:`_iterate` left: the last settings, the labels of the last
+    run, the last noise estimate, and the figures of :class:`SelfCalibration`."""
+
+    settings: Settings
+    labels: NDArray[np.int64]
+    noise: NoiseEstimate | None
+    n_tracks: int
+    runs: int
+    settled: bool
+    history: list[tuple[float, float]]
+
+
+def _iterate(
+    detections: Detections,
+    normal: Detections,
+    normal_spec: SensorSpec,
+    predictor: str,
+    settings: Settings,
+    given: Mapping[str, Any],
+    agent_kwargs: Mapping[str, Any],
+    unit: float,
+    max_iterations: int,
+    length: float,
+) -> _Runs:
+    """Steps 2–4 of the module docstring: track ``normal`` (``detections`` / ``unit``) with
+    ``settings``, estimate new ones from the run's confident tracks (``length``: the stream's
+    scale), until they settle or ``max_iterations`` runs were made."""
+    dt, order = normal_spec.dt, tracking_model(predictor)[1].order
+    history: list[tuple[float, float]] = []
+    settled = False
+    noise: NoiseEstimate | None = None
+    n_tracks = 0
+    runs = 0
+    labels = np.full(len(detections), -1, np.int64)
+    for _ in range(max_iterations):
+        tracks = _run_gnn(normal, normal_spec, predictor, settings.scaled(1 / unit), agent_kwargs)
+        runs += 1
+        labels = detection_labels(normal, tracks)
+        found = estimate_settings(detections, labels, dt, order, length, settings)
+        if found is None:
+            break
+        new, noise = found
+        new = _with_given(new, given)
+        n_tracks = len(np.unique(confident(labels)[confident(labels) >= 0]))
+        history.append((new.noise_std, new.q))
+        change = max(
+            abs(math.log(new.noise_std / settings.noise_std)) if settings.noise_std > 0 else math.inf,
+            abs(math.log(new.q / settings.q)) / 2,
+        )
+        settings = new
+        if change < SETTLED:
+            settled = True
+            break
+    return _Runs(settings, labels, noise, n_tracks, runs, settled, history)
+
+
+def _reappearances(
+    detections: Detections, labels: NDArray[np.int64], dt: float, radii: NDArray[np.float64], length: float
+) -> tuple[NDArray[np.int64], float]:
+    """The gaps of the confident tracks' re-appearances (:mod:`agents.self_calibration.coasting`)
+    up to the ambiguity bound, and the share of track ends they are."""
+    # the ambiguity bound: missed frames after which the gate still lies within length / 2
+    horizon = int(np.sum(np.cumprod(radii[1:] <= length / 2)))
+    gaps, n_ends = reappearance_gaps(
+        detections.points, detections.frame_index(), confident(labels), dt, radii[: horizon + 1], START_SPAN
+    )
+    return gaps, (len(gaps) / n_ends if n_ends else 0.0)
 
 
 def live_track_bound(detections: Detections, max_misses: int) -> int:

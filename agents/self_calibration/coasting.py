@@ -19,16 +19,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking.assign import chi2_gate
-from predictors.kalman.predictor import _kinematic_model
+from predictors.base import KinematicModel
 
 
 def coasting_radii(
-    order: int, dt: float, q: float, r: float, p_gate: float, dim: int, frames: int
+    model: KinematicModel, dt: float, q: float, r: float, p_gate: float, dim: int, frames: int
 ) -> NDArray[np.float64]:
-    """``ρ(k)``, ``k = 0..frames``: the χ² gate radius ``sqrt(γ S_k)`` of a track of the model
-    (order, ``q``, ``r`` per axis) predicted after ``k`` missed frames from its steady state."""
-    F, Q, _ = _kinematic_model(order, 1, dt, q)
-    P = np.zeros((order, order))
+    """``ρ(k)``, ``k = 0..frames``: the χ² gate radius ``sqrt(γ S_k)`` of a track of the
+    predictor's kinematic ``model`` (``Capability.KINEMATIC_MODEL``; ``q``, ``r`` per axis)
+    predicted after ``k`` missed frames from its steady state."""
+    F, Q, _ = model.kinematic_model(1, dt, q)
+    P = np.zeros((model.order, model.order))
     for _ in range(500):  # the Riccati recursion to its steady state
         Pm = F @ P @ F.T + Q
         K = Pm[:, :1] / (Pm[0, 0] + r)

@@ -19,26 +19,34 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from predictors.base import Predictor
+from track_envs.infra.declared import Declarations
 from track_envs.infra.registry import Registry
 from track_envs.values.types import Gaussian, SensorSpec
 
-#: Capability: the associator runs the capped second chance of leftover tracks and detections
-#: (:mod:`agents.tracking.second_chance`), so it reads ``FrameContext.recovery_inflation``.
-SECOND_CHANCE = "second-chance"
-#: Capability: it updates tracks by the moment-matched mixture of their hypotheses.
-MIXTURE_UPDATE = "mixture-update"
-#: Capability: several tracks may take one detection (a merged blob).
-SHARED_DETECTIONS = "shared-detections"
-#: Capability: it keeps some unclaimed detections from starting tracks (``Association.may_start``).
-BIRTH_FILTER = "birth-filter"
-#: Every capability an associator may declare in :attr:`Associator.offers`.
-CAPABILITIES = frozenset({SECOND_CHANCE, MIXTURE_UPDATE, SHARED_DETECTIONS, BIRTH_FILTER})
+
+class AssociatorCapability(StrEnum):
+    """What an associator may declare it does beyond the core (:data:`ASSOCIATOR_DECLARATIONS`).
+
+    * ``SECOND_CHANCE`` — it runs the capped second chance of leftover tracks and detections
+      (:mod:`agents.tracking.second_chance`, its ``second_chance`` attribute), so it reads
+      ``FrameContext.recovery_inflation``;
+    * ``MIXTURE_UPDATE`` — it updates tracks by the moment-matched mixture of their hypotheses;
+    * ``SHARED_DETECTIONS`` — several tracks may take one detection (a merged blob);
+    * ``BIRTH_FILTER`` — it keeps some unclaimed detections from starting tracks
+      (``Association.may_start``).
+    """
+
+    SECOND_CHANCE = "second-chance"
+    MIXTURE_UPDATE = "mixture-update"
+    SHARED_DETECTIONS = "shared-detections"
+    BIRTH_FILTER = "birth-filter"
 
 
 @dataclass(frozen=True)
@@ -100,13 +108,9 @@ class Association:
 
 @runtime_checkable
 class Associator(Protocol):
-    """A tracker's association step (module docstring).
-
-    Attributes:
-        offers: The capabilities it declares (a subset of :data:`CAPABILITIES`).
-    """
-
-    offers: frozenset[str]
+    """A tracker's association step (module docstring). What it does beyond the core it declares
+    in its class attribute ``capabilities`` (a frozenset of :class:`AssociatorCapability`), asked
+    with :func:`associator_capability`."""
 
     def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
         """Start an episode with sensor ``spec``; ``predictor`` is the tracker's (for its
@@ -132,6 +136,40 @@ class Associator(Protocol):
 def hard_update(predictor: Predictor, state: Any, association: Association, seen: NDArray[np.bool_]) -> Any:
     """The predictor's ``update`` of the ``seen`` tracks by their measurement rows."""
     return predictor.update(state, association.measurements, seen)
+
+
+class WithSecondChance(Associator, Protocol):
+    """``SECOND_CHANCE``: the capped second chance it runs, with its gate-hit figures."""
+
+    second_chance: Any
+
+
+class _Declared(Associator, Protocol):
+    """A capability that adds no member to the core (what the associator does, not what it has)."""
+
+
+#: The capabilities of associators (:mod:`track_envs.infra.declared`).
+ASSOCIATOR_DECLARATIONS: Declarations[AssociatorCapability] = Declarations(
+    AssociatorCapability,
+    {
+        AssociatorCapability.SECOND_CHANCE: WithSecondChance,
+        AssociatorCapability.MIXTURE_UPDATE: _Declared,
+        AssociatorCapability.SHARED_DETECTIONS: _Declared,
+        AssociatorCapability.BIRTH_FILTER: _Declared,
+    },
+    core=Associator,
+)
+
+
+def associator_capability(associator: object, which: AssociatorCapability) -> Any:
+    """``associator`` when its class declares capability ``which`` (its members checked), else
+    ``None``: the one way to ask an associator what it offers."""
+    return ASSOCIATOR_DECLARATIONS.get(associator, which)
+
+
+def associator_declares(associator: object, which: AssociatorCapability) -> bool:
+    """Whether ``associator``'s class (or a registered associator class) declares ``which``."""
+    return ASSOCIATOR_DECLARATIONS.declares(associator, which)
 
 
 ASSOCIATOR_REGISTRY = Registry("associator")

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking.assign import ASSOCIATORS
-from agents.tracking.associator import SECOND_CHANCE, Association, FrameContext, hard_update
+from agents.tracking.associator import Association, AssociatorCapability, FrameContext, hard_update
 from agents.tracking.second_chance import SecondChance
 from predictors.base import Predictor
 from track_envs.values.types import SensorSpec
@@ -30,7 +30,7 @@ class GatedAssignment:
         recovery_cap_noise: ``k_σ`` of the cap, >= 0.
     """
 
-    offers = frozenset({SECOND_CHANCE})
+    capabilities = frozenset({AssociatorCapability.SECOND_CHANCE})
 
     def __init__(
         self, assignment: str = "hungarian", recovery_cap_motion: float = 3.0, recovery_cap_noise: float = 5.0

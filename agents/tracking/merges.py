@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking._kernels import blob_measurements
-from agents.tracking.associator import SHARED_DETECTIONS, Association, Associator, FrameContext
+from agents.tracking.associator import Association, Associator, AssociatorCapability, FrameContext
 from agents.tracking.gated import GatedAssignment
 from predictors.base import Predictor
 from track_envs.values.types import SensorSpec
@@ -102,12 +102,13 @@ class SharedBlobs:
             detection it may share, >= 0; 0 turns sharing off.
     """
 
+    capabilities = frozenset({AssociatorCapability.SHARED_DETECTIONS})
+
     def __init__(self, inner: Associator | None = None, blob_extent: float = 0.0):
         if not (isinstance(blob_extent, int | float) and np.isfinite(blob_extent) and blob_extent >= 0):
             raise ValueError(f"blob_extent must be a finite distance >= 0, got {blob_extent!r}")
         self.inner: Associator = GatedAssignment() if inner is None else inner
         self.blob_extent = float(blob_extent)
-        self.offers = self.inner.offers | ({SHARED_DETECTIONS} if self.blob_extent > 0 else set())
 
     def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
         """Start an episode (the inner associator's reset)."""

@@ -45,10 +45,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import AgentCapability, AgentTraits
 from agents.gnn import _kernels
 from agents.gnn.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.assign import chi2_gate
-from agents.tracking.associator import Association, Associator, FrameContext
+from agents.tracking.associator import ASSOCIATOR_DECLARATIONS, Association, Associator, FrameContext
 from agents.tracking.sorting import MAX_STEPS, predict_crossings
 from agents.tracking.velocity_prior import YOUNG_STREAK, FlowPrior, VelocityPriorState
 from agents.tracking.warm_up import warm_up_stream
@@ -108,8 +109,18 @@ class PointTracker:
     between frames of a running episode (each is checked, and the next frame uses it).
     """
 
+    #: What every point tracker offers (:class:`agents.base.AgentCapability`).
+    capabilities = frozenset(
+        {
+            AgentCapability.WARM_UP,
+            AgentCapability.TRACK_COVARIANCES,
+            AgentCapability.LAST_PREDICTION,
+            AgentCapability.LIVE_KNOBS,
+            AgentCapability.SELF_CALIBRATION,
+        }
+    )
     #: Built with ``predictor=`` (a Gaussian predictor's name or object).
-    takes_predictor = True
+    traits = AgentTraits(takes_predictor=True)
 
     def __init__(
         self,
@@ -129,11 +140,12 @@ class PointTracker:
     ):
         check_settings(predict_sorting, max_misses, region_margin, velocity_prior)
         missing = missing_methods(associator, Associator)
-        if missing or not isinstance(getattr(associator, "offers", None), frozenset | set):
+        if missing:
             raise ValueError(
                 f"associator must implement the Associator protocol (agents.tracking.associator); "
-                f"{type(associator).__name__} lacks {missing or ['offers']}"
+                f"{type(associator).__name__} lacks {missing}"
             )
+        ASSOCIATOR_DECLARATIONS.declared(associator)  # a malformed declaration is an error now
         self.associator = associator
         self.predict_sorting = bool(predict_sorting)
         self.predictor: Predictor = resolve_predictor(

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from agents.tuning.diagnostics import FEATURES, N_FEATURES
 from agents.tuning.knobs import make_knobs
-from agents.tuning.policy import FixedPolicy
+from agents.tuning.policy import FixedPolicy, PolicyCapability
 
 
 class NisRule:
@@ -36,6 +36,8 @@ class NisRule:
         fixed: Values of the other knobs (default the gnn's, :data:`agents.gnn.knobs.LIVE_KNOBS`).
         ranges: The env's knob ranges.
     """
+
+    capabilities = frozenset({PolicyCapability.KNOB_RANGES})
 
     def __init__(
         self,

@@ -11,6 +11,7 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 import track_envs  # noqa: F401  (registers the base envs)
+from agents.base import AgentCapability, agent_capability
 from agents.bench.cells import env_kwarg_names
 from agents.gnn.agent import GnnAgent
 from agents.tuning.diagnostics import FEATURE_BOUND, FEATURES, N_FEATURES, WindowDiagnostics
@@ -143,13 +144,17 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             raise ValueError(f"base_env {base_env!r} cannot be built with {sorted(kwargs)}: {exc}") from None
         self.base_env_id = base_env
         spec = self.base.unwrapped.sensor_spec  # type: ignore[attr-defined]
-        if getattr(self.base.unwrapped, "position_shape", (spec.dim,)) != (spec.dim,):
+        if tuple(self.base.unwrapped.position_shape) != (spec.dim,):  # type: ignore[attr-defined]
             raise ValueError(f"base_env must be a point env, {base_env!r} has poses")
         agent_kwargs = dict(agent_kwargs or {})
         agent_kwargs.setdefault("predict_sorting", False)  # no valve here: skip the roll-outs
         self.agent = GnnAgent(predictor=predictor, **agent_kwargs)
+        # the knobs are the tracker's live knobs; its predictions (asked after each reset, which
+        # starts them) feed the diagnostics
+        self._knobbed = _declared(self.agent, AgentCapability.LIVE_KNOBS)
+        self._predictions: Any = None
         self.initial_action = np.array(
-            [k.action(getattr(self.agent, k.name)) for k in self.knobs], dtype=np.float32
+            [k.action(getattr(self._knobbed, k.name)) for k in self.knobs], dtype=np.float32
         )
         self._diagnostics = WindowDiagnostics(spec.dim)
         n = N_FEATURES + len(self.knobs)
@@ -167,6 +172,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         base_seed = int(seed) if seed is not None else int(self.np_random.integers(HELD_OUT_SEEDS))
         self._obs, self._info = self.base.reset(seed=base_seed)
         self.agent.reset(self.base.unwrapped.sensor_spec, seed=base_seed)  # type: ignore[attr-defined]
+        self._predictions = _declared(self.agent, AgentCapability.LAST_PREDICTION)
         self._metric = AssociationErrors()
         self._errors = 0
         self._steps = 0
@@ -183,15 +189,15 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self._diagnostics.clear()
         gospa = 0.0
         terminated = truncated = False
-        agent, diag = self.agent, self._diagnostics
+        agent, diag, predictions = self.agent, self._diagnostics, self._predictions
         for _ in range(self.frames_per_step):
             obs, info = self._obs, self._info
             ids_before = agent._ids
             had_tracks = len(ids_before) > 0
             report = agent.act(obs)
-            last = agent.last_prediction
+            last = predictions.last_prediction
             prediction = (last.mean, last.cov) if had_tracks and last is not None else None
-            rows = agent.last_prediction_detection if had_tracks else None
+            rows = predictions.last_prediction_detection if had_tracks else None
             diag.add_frame(obs, ids_before, report, prediction, rows)
             ids = info.get("detection_ids_merged", info["detection_ids"])
             self._metric.update(info["truth"], ids, report)
@@ -210,11 +216,11 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     # -- helpers ------------------------------------------------------------------------------
     def _apply(self, a: NDArray[np.float64]) -> None:
         for knob, value in zip(self.knobs, a, strict=True):
-            setattr(self.agent, knob.name, knob.value(float(value)))
+            setattr(self._knobbed, knob.name, knob.value(float(value)))
 
     def knob_values(self) -> dict[str, float]:
         """The knobs' current values on the tracker."""
-        return {k.name: float(getattr(self.agent, k.name)) for k in self.knobs}
+        return {k.name: float(getattr(self._knobbed, k.name)) for k in self.knobs}
 
     def true_sensor(self) -> dict[str, float] | None:
         """The base env's true sensor values of the last frame played (``info["sensor"]``: truth
@@ -245,3 +251,13 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     def close(self) -> None:
         self.base.close()
+
+
+def _declared(agent: GnnAgent, which: AgentCapability) -> Any:
+    """``agent`` as capability ``which`` (the tracker GateTuning-v0 drives must declare it)."""
+    declared = agent_capability(agent, which)
+    if declared is None:
+        raise TypeError(
+            f"GateTuning-v0 needs a tracker that declares {which.name}; {type(agent).__name__} does not"
+        )
+    return declared

@@ -22,6 +22,7 @@ import numpy as np
 
 from agents.tuning.env import BASE_MAX_TARGETS, BASE_MAX_TRACKS, HELD_OUT_SEEDS
 from agents.tuning.knobs import knob_ranges
+from agents.tuning.policy import PolicyCapability, policy_capability
 from track_envs.infra.arguments import check_int
 
 #: The grid of the fixed-setting baseline (values of each knob).
@@ -42,19 +43,22 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
     the knobs set (``knobs``), the errors so far (``errors_so_far``) and the true sensor of the
     window's last frame (``sensor``; empty without drift).
 
-    A policy with ``needs_env`` (:class:`~agents.tuning.policy.SettingChooser`) is bound to the
-    env first.
+    A policy that declares ``BINDS_ENV`` (:class:`~agents.tuning.policy.SettingChooser`) is bound
+    to the env first; one that declares ``KNOB_RANGES`` must act on the env's knobs
+    (:mod:`agents.tuning.policy`).
     """
     env_knobs = tuple(env.unwrapped.knobs)  # type: ignore[attr-defined]
-    policy_knobs = getattr(policy, "knobs", None)
+    ranged = policy_capability(policy, PolicyCapability.KNOB_RANGES)
+    policy_knobs = ranged.knobs if ranged is not None else None
     if policy_knobs is not None and tuple(policy_knobs) != env_knobs:
         raise ValueError(
             f"the policy's knob ranges {knob_ranges(policy_knobs)} differ from the env's "
             f"{knob_ranges(env_knobs)}: its actions would set other values; build the env with the "
             "policy's ranges (ranges=...)"
         )
-    if getattr(policy, "needs_env", False):
-        policy.bind(env)
+    binding = policy_capability(policy, PolicyCapability.BINDS_ENV)
+    if binding is not None:
+        binding.bind(env)
     obs, info = env.reset(seed=seed)
     total, knobs, errors, sensor = 0.0, [], [], []
     while True:

@@ -6,27 +6,91 @@ A PPO ``MlpPolicy`` acts deterministically with the mean of its Gaussian: the ac
 the action box. :func:`export_policy` stores those weights (and ``log_std``) in the project's
 model-file format (:mod:`predictors.training.model_file`, kind :data:`KIND`); :class:`TunedPolicy`
 rebuilds the same function in numpy, so acting needs neither torch nor stable-baselines3.
+
+A policy's core is SB3's ``predict`` (:class:`Policy`: a stable-baselines3 model is one); what it
+offers beyond it is declared as every plug-in's capabilities are (:mod:`track_envs.infra.declared`), in
+its class attribute ``capabilities`` and asked with :func:`policy_capability`:
+
+* ``KNOB_RANGES`` (:class:`KnobRanges`) — ``knobs``: the knobs (and ranges) its actions are for,
+  which must be the env's (:func:`agents.tuning.evaluate.episode_errors` checks). The tuned, fixed
+  and NIS-rule policies.
+* ``BINDS_ENV`` (:class:`BindsEnv`) — ``bind(env)``: it plays looking at the env it is bound to
+  (the reference policies, :class:`SettingChooser`); evaluation binds it first.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from enum import StrEnum
 from importlib import resources
 from pathlib import Path
-from typing import Any, Self
+from typing import Any, Literal, Protocol, Self, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agents.gnn.knobs import LIVE_KNOBS
-from agents.tuning.knobs import DEFAULT_RANGES, knob_ranges, make_knobs
+from agents.tuning.knobs import DEFAULT_RANGES, Knob, knob_ranges, make_knobs
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
+from track_envs.infra.declared import Declarations
 
 #: Model-file kind of an exported gate-tuning policy.
 KIND = "gate-tuning-ppo"
 #: Name of the shipped policy under ``agents/tuning/weights``.
 SHIPPED = "gate-tuning-ppo"
+
+
+class Policy(Protocol):
+    """The core of a GateTuning-v0 policy: stable-baselines3's ``predict``."""
+
+    def predict(
+        self,
+        observation: NDArray[np.floating],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.float32], Any]:
+        """The action for ``observation`` (and SB3's recurrent state, ``None`` here)."""
+        ...
+
+
+class PolicyCapability(StrEnum):
+    """The optional capabilities a policy class may declare (module docstring)."""
+
+    KNOB_RANGES = "knob-ranges"
+    BINDS_ENV = "binds-env"
+
+
+class KnobRanges(Policy, Protocol):
+    """``KNOB_RANGES``: the knobs the policy's actions are for."""
+
+    knobs: tuple[Knob, ...]
+
+
+class BindsEnv(Policy, Protocol):
+    """``BINDS_ENV``: plays looking at the env it is bound to."""
+
+    def bind(self, env: Any) -> Any:
+        """Play against ``env`` from now on."""
+        ...
+
+
+#: The capabilities of policies (:mod:`track_envs.infra.declared`).
+POLICY_DECLARATIONS: Declarations[PolicyCapability] = Declarations(
+    PolicyCapability,
+    {PolicyCapability.KNOB_RANGES: KnobRanges, PolicyCapability.BINDS_ENV: BindsEnv},
+    core=Policy,
+)
+
+
+@overload
+def policy_capability(policy: object, which: Literal[PolicyCapability.KNOB_RANGES]) -> KnobRanges | None: ...
+@overload
+def policy_capability(policy: object, which: Literal[PolicyCapability.BINDS_ENV]) -> BindsEnv | None: ...
+def policy_capability(policy: object, which: PolicyCapability) -> Any:
+    """``policy``, typed as the protocol of ``which``, when its class declares it; else ``None``."""
+    return POLICY_DECLARATIONS.get(policy, which)
 
 
 def shipped_policy_path() -> Path:
@@ -40,6 +104,8 @@ class TunedPolicy:
     Args:
         model: A model file of kind :data:`KIND`.
     """
+
+    capabilities = frozenset({PolicyCapability.KNOB_RANGES})
 
     def __init__(self, model: ModelFile):
         if model.kind != KIND:
@@ -118,6 +184,7 @@ class FixedPolicy:
     """
 
     GNN_DEFAULTS: Mapping[str, float] = {name: knob.default for name, knob in LIVE_KNOBS.items()}
+    capabilities = frozenset({PolicyCapability.KNOB_RANGES})
 
     def __init__(
         self,
@@ -158,7 +225,7 @@ class SettingChooser:
     :func:`agents.tuning.evaluate.evaluate` does so.
     """
 
-    needs_env = True
+    capabilities = frozenset({PolicyCapability.BINDS_ENV})
 
     def __init__(self, settings: Sequence[Mapping[str, float]]):
         self.settings = [dict(s) for s in settings]
@@ -170,7 +237,7 @@ class SettingChooser:
 
     def bind(self, env: Any) -> Self:
         """Play against ``env`` (a :class:`~agents.tuning.env.GateTuningEnv`); returns self."""
-        env = getattr(env, "unwrapped", env)
+        env = env.unwrapped
         initial = {k.name: k.value(float(a)) for k, a in zip(env.knobs, env.initial_action, strict=True)}
         ranges = knob_ranges(env.knobs)
         actions = [FixedPolicy(c, defaults=initial, ranges=ranges).action for c in self.settings]

@@ -8,20 +8,26 @@ displacement, given the history of the filter's weighted-mean estimates ``x*`` (
 filter owns the particles and their weights; the weights come from the measurement likelihood,
 never from the model.
 
-Two protocols:
+The core and one optional capability, declared as every plug-in's are
+(:mod:`track_envs.infra.declared`: the class attribute ``capabilities``, asked with
+:func:`displacement_capability`; a model that declares nothing runs everywhere on its core):
 
-* :class:`DisplacementModel`: ``propose`` only; the filter runs its numpy path.
-* :class:`CommonDisplacementModel`: one common displacement per target plus white noise,
-  ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``; the filter runs its compiled
-  path and calls ``displacement`` once per frame.
+* :class:`DisplacementModel` (the core): ``propose`` only; the filter runs its numpy path.
+* ``COMMON_DISPLACEMENT`` (:class:`CommonDisplacementModel`): one common displacement per target
+  plus white noise, ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``; the filter
+  runs its compiled path and calls ``displacement`` once per frame. Brownian, constant velocity,
+  the LSTM of Jung et al.
 """
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from enum import StrEnum
+from typing import Any, Literal, Protocol, overload, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
+
+from track_envs.infra.declared import Declarations
 
 
 @runtime_checkable
@@ -55,3 +61,33 @@ class CommonDisplacementModel(DisplacementModel, Protocol):
         where unknown), from the weighted-mean estimates ``history`` (T, t, 2), oldest first, NaN
         before a target's filter (re)started."""
         ...
+
+
+class DisplacementCapability(StrEnum):
+    """The optional capabilities a displacement model class may declare (module docstring)."""
+
+    COMMON_DISPLACEMENT = "common-displacement"
+
+
+#: The capabilities of displacement models (:mod:`track_envs.infra.declared`).
+DISPLACEMENT_DECLARATIONS: Declarations[DisplacementCapability] = Declarations(
+    DisplacementCapability,
+    {DisplacementCapability.COMMON_DISPLACEMENT: CommonDisplacementModel},
+    core=DisplacementModel,
+)
+
+
+@overload
+def displacement_capability(
+    model: object, which: Literal[DisplacementCapability.COMMON_DISPLACEMENT]
+) -> CommonDisplacementModel | None: ...
+@overload
+def displacement_capability(model: object, which: DisplacementCapability) -> Any: ...
+def displacement_capability(model: object, which: DisplacementCapability) -> Any:
+    """``model``, typed as the protocol of capability ``which``, when its class declares it; else
+    ``None`` (the one way the particle filter asks; module docstring).
+
+    Raises:
+        TypeError: if the class declares ``which`` but lacks a member of its protocol (named).
+    """
+    return DISPLACEMENT_DECLARATIONS.get(model, which)

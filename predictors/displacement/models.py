@@ -1,16 +1,19 @@
 """The hand-made particle displacement models: Brownian motion and constant velocity on the estimates.
 
-Both are :class:`~predictors.displacement.base.CommonDisplacementModel`: every particle of a
-target moves by one common displacement ``d_t`` (zero for Brownian motion, the last estimated
-displacement for constant velocity) plus white noise ``σ_p·Δ·ε``, ``ε ~ N(0, I_2)``, with ``σ_p``
-in multiples of the step length ``Δ`` (Jung, Schlangen, Charlish, FUSION 2019, Sec. II). The
-learned model of the same paper is :class:`predictors.displacement_lstm.model.LSTMDisplacement`.
+Both declare ``COMMON_DISPLACEMENT``
+(:class:`~predictors.displacement.base.CommonDisplacementModel`): every particle of a target moves
+by one common displacement ``d_t`` (zero for Brownian motion, the last estimated displacement for
+constant velocity) plus white noise ``σ_p·Δ·ε``, ``ε ~ N(0, I_2)``, with ``σ_p`` in multiples of the
+step length ``Δ`` (Jung, Schlangen, Charlish, FUSION 2019, Sec. II). The learned model of the same
+paper is :class:`predictors.displacement_lstm.model.LSTMDisplacement`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from predictors.displacement.base import DisplacementCapability
 
 #: Step length ``Δ`` of Jung et al. (2019); σ_p and σ_m are given in multiples of it.
 STEP = 0.2
@@ -31,6 +34,9 @@ class Brownian:
         sigma_p: Process noise in multiples of ``step``, scalar or one per target (T,).
         step: ``Δ`` in trajectory units (default 0.2).
     """
+
+    #: One common displacement per target plus white noise: the filter's compiled path.
+    capabilities = frozenset({DisplacementCapability.COMMON_DISPLACEMENT})
 
     def __init__(self, sigma_p: ArrayLike = 1.0, step: float = STEP):
         self.sigma_p = check_sigma("sigma_p", sigma_p)

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from predictors.displacement.base import DisplacementModel
 from predictors.displacement.models import Brownian, ConstantVelocityDisplacement
-from track_envs.infra.registry import Registry
+from track_envs.infra.registry import Registry, missing_methods
 
 #: The kind of model this registry holds (one of the three kinds of motion model).
 KIND = "displacement"
@@ -68,7 +68,7 @@ def make_displacement_model(
         return factory(sigma_p, step)
     if weights is not None:
         raise ValueError(f"model_weights={weights!r} is for a learned model by name, not model={model!r}")
-    if not isinstance(model, DisplacementModel):
+    if missing_methods(model, DisplacementModel):
         raise ValueError(
             f"model must be a name in {DISPLACEMENT_MODELS.names()} or have propose(), got {model!r}"
         )

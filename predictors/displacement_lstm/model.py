@@ -22,6 +22,7 @@ import os
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from predictors.displacement.base import DisplacementCapability
 from predictors.displacement.geometry import apply_displacement, observe_step
 from predictors.displacement.models import STEP, check_sigma
 from predictors.displacement_lstm.inference import DisplacementLSTM
@@ -54,6 +55,8 @@ class LSTMDisplacement:
         ModelFileError: a missing or corrupt model file, or one of another kind.
         ValueError: a bad ``sigma_p``, ``step``, ``speed_scale`` or ``backend`` (naming the value).
     """
+
+    capabilities = frozenset({DisplacementCapability.COMMON_DISPLACEMENT})  # the compiled path
 
     def __init__(
         self,

@@ -15,7 +15,7 @@ predicted measurement into one call. New tracks' states are compiled too
 one pass, which a tracker may call instead of the three. The optional capabilities the filters
 declare (:class:`~predictors.base.Capability`): a scalable measurement noise, a velocity prior at
 start, a mean-only estimate, the fused survivors and births, and the roll-out to a line in closed
-form (:mod:`predictors.kalman.rollout`).
+form (:mod:`predictors.kalman.rollout`), and their kinematic model (for the self-calibration).
 """
 
 from __future__ import annotations
@@ -320,6 +320,7 @@ class KalmanPredictor:
             Capability.LINE_ROLLOUT,
             Capability.MIXTURE_UPDATE,
             Capability.TRANSLATE,
+            Capability.KINEMATIC_MODEL,
         }
     )
     #: ``estimate`` after coasting is the propagated state: its covariance is the multi-step one.
@@ -377,6 +378,11 @@ class KalmanPredictor:
         self.noise_scale = float(scale)
         if self._spec is not None:
             self._set_R(self._spec.noise_std)
+
+    def kinematic_model(self, dim: int, dt: float, q: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(F, Q, H)`` of this filter's kinematics (its ``order``) for ``dim`` axes, frame
+        period ``dt`` and white-noise intensity ``q`` (the ``KINEMATIC_MODEL`` capability)."""
+        return _kinematic_model(self.order, dim, dt, q)
 
     def _set_R(self, noise_std: float) -> None:
         """``R`` and the matching block of a new track's covariance."""

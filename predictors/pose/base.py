@@ -18,15 +18,24 @@ differs from a :class:`predictors.base.Predictor` in three ways:
 The motions: :class:`~predictors.pose.constant_velocity.ConstantVelocityPose` (one pose per
 track, ``pose-baseline``) and :class:`predictors.pose_lstm.motion.SmcPoseMotion` (particles of
 pose queues moved by the pose LSTM, ``pose-smc``).
+
+Optional capabilities are declared as every plug-in's are (:mod:`track_envs.infra.declared`): the class
+attribute ``capabilities: frozenset[PoseMotionCapability]``, asked with
+:func:`pose_motion_capability`. The loop needs nothing beyond the core today, so
+:class:`PoseMotionCapability` has no member yet and every motion declares nothing; the loop
+checks a motion's declaration when it is built (:data:`POSE_MOTION_DECLARATIONS`), and a
+capability added later gets its protocol in that table.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from enum import StrEnum
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.declared import Declarations
 from track_envs.values.types import SensorSpec
 
 
@@ -63,6 +72,26 @@ class PoseMotion(Protocol):
     def poses(self) -> NDArray[np.float64]:
         """(n, 17, 2) pose estimates after the update (what the report shows)."""
         ...
+
+
+class PoseMotionCapability(StrEnum):
+    """The optional capabilities a pose motion class may declare (none yet; module docstring)."""
+
+
+#: The capabilities of pose motions and their protocols (:mod:`track_envs.infra.declared`).
+POSE_MOTION_DECLARATIONS: Declarations[PoseMotionCapability] = Declarations(
+    PoseMotionCapability, {}, core=PoseMotion
+)
+
+
+def pose_motion_capability(motion: object, which: PoseMotionCapability) -> Any:
+    """``motion``, typed as the protocol of capability ``which``, when its class declares it; else
+    ``None``.
+
+    Raises:
+        TypeError: if the class declares ``which`` but lacks a member of its protocol (named).
+    """
+    return POSE_MOTION_DECLARATIONS.get(motion, which)
 
 
 def centroid_fill(xy: NDArray, found: NDArray) -> NDArray[np.float64]:

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import track_envs
-from agents import AGENTS, agent_applies_to, available_agents, make_agent
+from agents import AGENTS, agent_applies_to, agent_traits, available_agents, make_agent
 from track_envs.infra.registry import UnknownArgumentError
 from track_envs.testing import check_agent
 
 # oracles that read the truth (needs_truth, e.g. one-step) cannot act without it: their
 # behaviour is tested on their own (tests/agents/test_one_step.py)
-TRACKERS = [a for a in available_agents() if not getattr(AGENTS.factory(a), "needs_truth", False)]
+TRACKERS = [a for a in available_agents() if not agent_traits(AGENTS.factory(a)).needs_truth]
 
 
 def test_unknown_agent_lists_the_valid_names():

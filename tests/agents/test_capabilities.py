@@ -240,6 +240,7 @@ def test_the_kalman_filters_and_belt_lstms_declare_their_capabilities():
         Capability.LINE_ROLLOUT,
         Capability.MIXTURE_UPDATE,
         Capability.TRANSLATE,
+        Capability.KINEMATIC_MODEL,
     }
     lstm = make_predictor("nll-lstm")
     assert declared_capabilities(lstm) == {

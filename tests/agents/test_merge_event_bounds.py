@@ -2,7 +2,8 @@
 that handles them meets, and gnn breaking them today.
 
 The streams are :mod:`track_envs.streams.merge_events` (20 instances of each event per stream, two
-streams), the scores :mod:`track_envs.streams.merge_scoring`. Bounds, per scenario: >= 95 % of
+streams), the scores :mod:`track_envs.streams.merge_scoring` (run by :mod:`agents.merge_scoring`).
+Bounds, per scenario: >= 95 % of
 the events resolved (both particles keep their tracks for the 20 frames after the event, no new
 track, or for a separation exactly one new track on the second piece, and no track further than
 0.3 mm = 10 σ from its particle), and a lateral kick (the sideways velocity a track put into its
@@ -29,8 +30,9 @@ import numpy as np
 import pytest
 
 from agents import make_agent
+from agents.merge_scoring import score_agent
 from track_envs.streams.merge_events import merge_event_streams
-from track_envs.streams.merge_scoring import EventScores, bound_violations, concat_scores, score_agent
+from track_envs.streams.merge_scoring import EventScores, bound_violations, concat_scores
 
 SEEDS = (0, 1)
 

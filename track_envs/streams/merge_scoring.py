@@ -1,10 +1,11 @@
 """Per-event scores of a tracker on the merge-event streams (:mod:`track_envs.streams.merge_events`).
 
-The agent runs over the whole stream once (:func:`run_agent`); each event is then scored on the
-report in its window, the ``W`` frames ``e + 1 … e + W`` after the event frame ``e``
-(:func:`score_events`). Matching is by distance: a track *holds* particle ``p`` in frame ``t``
-when it is the live track nearest to ``p`` and within ``match_radius`` of it (default 0.6 mm, a
-third of the 1.8 mm lane gap, 20 σ of the sensor noise).
+The agent runs over the whole stream once (:func:`agents.merge_scoring.run_on_stream`, which
+fills a :class:`TrackHistory`); each event is then scored on the report in its window, the ``W``
+frames ``e + 1 … e + W`` after the event frame ``e`` (:func:`score_events`). Matching is by
+distance: a track *holds* particle ``p`` in frame ``t`` when it is the live track nearest to ``p``
+and within ``match_radius`` of it (default 0.6 mm, a third of the 1.8 mm lane gap, 20 σ of the
+sensor noise).
 
 Joins and missed pairs: ``T_p``, the track holding ``p`` in frame ``e − 1``.
 
@@ -21,7 +22,8 @@ Joins and missed pairs: ``T_p``, the track holding ``p`` in frame ``e − 1``.
   its reported estimate of the frame before (in metres per frame). A filter that put the blob's
   jump into its velocity and acceleration predicts its track sideways past its particle's lane
   (on the belt recordings by 1–2 mm, where the lanes are 1.8 mm apart). Agents without the
-  tracker-side ``last_prediction`` give the reported steps ``ŷ_y(t) − ŷ_y(t − 1)`` instead, from
+  tracker-side prediction (the ``LAST_PREDICTION`` capability of :mod:`agents.base`) give the
+  reported steps ``ŷ_y(t) − ŷ_y(t − 1)`` instead, from
   ``t = e + 2`` on (a track that followed the blob at ``e`` rightly steps back into ``e + 1``),
   which see only what is left after each update.
 
@@ -45,15 +47,12 @@ frame ``e + 1``.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.arguments import check_int, check_positive
-from track_envs.metrics import ClearMot
 from track_envs.streams.merge_events import MergeEventStream
 
 MATCH_RADIUS = 6e-4  # m
@@ -66,9 +65,9 @@ KICK_BOUND = 5e-4  # m per frame, the kick's 95th percentile over the events of 
 @dataclass(frozen=True)
 class TrackHistory:
     """The reports of one run: ids (T, R) int64 (−1 on empty rows) and positions (T, R, D); and,
-    when the agent exposes them (``last_prediction`` and ``last_prediction_ids``, the
-    tracker-side channel of :class:`agents.gnn.agent.GnnAgent`), the predicted measurement of
-    each track in each frame, ``predicted_ids`` (T, R) and ``predicted`` (T, R, D), else None."""
+    when the agent declares them (``LAST_PREDICTION``, :mod:`agents.base`: the tracker-side
+    channel of :class:`agents.gnn.agent.GnnAgent`), the predicted measurement of each track in
+    each frame, ``predicted_ids`` (T, R) and ``predicted`` (T, R, D), else None."""
 
     ids: NDArray[np.int64]
     positions: NDArray[np.float64]
@@ -141,45 +140,6 @@ def concat_scores(scores: list[EventScores]) -> EventScores:
         **{f: np.concatenate([getattr(s, f) for s in scores]) for f in fields},
         stream={"id_switches": float(sum(s.stream["id_switches"] for s in scores)), "idf1": np.nan},
     )
-
-
-def run_agent(
-    agent: object, stream: MergeEventStream, seed: int = 0
-) -> tuple[TrackHistory, dict[str, float]]:
-    """Reset ``agent`` on the stream's spec, feed every frame, and keep the reports; with the
-    whole-stream CLEAR MOT of the reports (merged ids, threshold :data:`MATCH_RADIUS`)."""
-    agent.reset(stream.spec, seed=seed)  # type: ignore[attr-defined]
-    frames, rows = len(stream), stream.spec.max_tracks
-    ids = np.full((frames, rows), -1, np.int64)
-    positions = np.full((frames, rows, stream.spec.dim), np.nan)
-    exposes = hasattr(agent, "last_prediction") and hasattr(agent, "last_prediction_ids")
-    predicted_ids = np.full((frames, rows), -1, np.int64)
-    predicted = np.full((frames, rows, stream.spec.dim), np.nan)
-    mot = ClearMot(threshold=MATCH_RADIUS)
-    previous = None
-    for t in range(frames):
-        report = agent.act(stream.observation(t))  # type: ignore[attr-defined]
-        live = np.asarray(report["mask"]) == 1
-        ids[t] = np.where(live, report["ids"], -1)
-        positions[t][live] = np.asarray(report["positions"], np.float64)[live]
-        mot.update(stream.truth(t), stream.detection_ids[t], report)
-        prediction = getattr(agent, "last_prediction", None) if exposes else None
-        if prediction is not None and prediction is not previous:  # a frame with live tracks
-            k = len(agent.last_prediction_ids)  # type: ignore[attr-defined]
-            predicted_ids[t, :k] = agent.last_prediction_ids  # type: ignore[attr-defined]
-            predicted[t, :k] = prediction.mean
-            previous = prediction
-    if not exposes:
-        return TrackHistory(ids, positions), mot.compute()
-    return TrackHistory(ids, positions, predicted_ids, predicted), mot.compute()
-
-
-def score_agent(
-    make: Callable[[], object], stream: MergeEventStream, seed: int = 0, **kwargs: Any
-) -> EventScores:
-    """:func:`run_agent` on a fresh ``make()``, then :func:`score_events`."""
-    history, mot = run_agent(make(), stream, seed)
-    return score_events(stream, history, mot, **kwargs)
 
 
 def _holders(

@@ -8,12 +8,13 @@ import pytest
 
 from agents import make_agent
 from agents.tracking.associator import (
+    ASSOCIATOR_DECLARATIONS,
     ASSOCIATOR_REGISTRY,
-    CAPABILITIES,
-    SHARED_DETECTIONS,
     Association,
     Associator,
+    AssociatorCapability,
     FrameContext,
+    associator_declares,
     available_associators,
     make_associator,
     register_associator,
@@ -33,7 +34,6 @@ class Recording:
 
     def __init__(self, inner: Associator):
         self.inner = inner
-        self.offers = inner.offers
         self.frames = 0
 
     def reset(self, spec, predictor):
@@ -49,7 +49,7 @@ class Recording:
         assert det.shape == (n,) and det.dtype == np.int64
         assert np.all((det >= -1) & (det < m))
         taken = det[det >= 0]
-        if SHARED_DETECTIONS not in self.offers:
+        if not associator_declares(self.inner, AssociatorCapability.SHARED_DETECTIONS):
             assert len(np.unique(taken)) == len(taken)
         assert out.measurements.shape == frame.predicted.shape
         seen = det >= 0
@@ -69,7 +69,7 @@ class Recording:
 def test_every_registered_associator_conforms_and_tracks(name):
     associator = make_associator(name)
     assert isinstance(associator, Associator)
-    assert isinstance(associator.offers, frozenset) and associator.offers <= CAPABILITIES
+    assert ASSOCIATOR_DECLARATIONS.declared(associator) <= frozenset(AssociatorCapability)
     recording = Recording(associator)
     tracker = PointTracker("kf-cv", associator=recording)
     figures = score_tracker(tracker, STREAM)
