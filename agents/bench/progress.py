@@ -45,6 +45,7 @@ class WarmEta:
         self.clock = clock
         self.done = 0
         self._warm_at: float | None = None
+        self._warm_done = 0
         self._last_at: float | None = None
 
     def update(self, n: int = 1) -> None:
