@@ -7,6 +7,9 @@ that lists the valid ones::
     agent = make_agent("detections")
     agent.reset(env.unwrapped.sensor_spec, seed=0)
     report = agent.act(obs)
+
+The episode loop: :func:`run_episode` runs an agent on one episode of an env and returns its
+metrics (:class:`EpisodeResult`).
 """
 
 from __future__ import annotations
@@ -21,16 +24,19 @@ from agents.base import (
     make_agent,
     register_agent,
 )
+from agents.episode import EpisodeResult, run_episode
 
 __all__ = [
     "AGENTS",
     "Agent",
     "AgentTraits",
+    "EpisodeResult",
     "agent_applies_to",
     "agent_traits",
     "available_agents",
     "make_agent",
     "register_agent",
+    "run_episode",
 ]
 
 

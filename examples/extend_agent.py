@@ -139,7 +139,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     import gymnasium as gym
 
     import track_envs  # noqa: F401  (registers the envs)
-    from agents import make_agent
+    from agents import make_agent, run_episode
     from track_envs.testing import check_agent
     from track_envs.wrappers import TrackingMetrics
 
@@ -147,13 +147,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     check_agent(make_agent(NAME, gate=args.gate), gym.make("SineTarget-v0", clutter_rate=1.0, max_tracks=16))
     env = TrackingMetrics(gym.make("SineTarget-v0", max_episode_steps=args.steps))
     agent = make_agent(NAME, gate=args.gate)
-    obs, info = env.reset(seed=0)
-    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics = info["episode_metrics"]
+    metrics = run_episode(env, agent, seed=0).metrics
     print(f"SineTarget-v0 + {NAME}, {args.steps} frames: mean error {metrics['mean_error']:.3f}")
     return metrics
 

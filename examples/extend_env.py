@@ -98,7 +98,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--steps", type=int, default=100, help="frames to track (default 100)")
     args = parser.parse_args(argv)
 
-    from agents import make_agent
+    from agents import make_agent, run_episode
     from track_envs.testing import check_tracking_env
     from track_envs.wrappers import TrackingMetrics
 
@@ -106,13 +106,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     check_tracking_env(gym.make(ENV_ID), steps=10)
     env = TrackingMetrics(gym.make(ENV_ID, max_episode_steps=args.steps))
     agent = make_agent("gnn", predictor="kf-cv")
-    obs, info = env.reset(seed=0)
-    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics = info["episode_metrics"]
+    metrics = run_episode(env, agent, seed=0).metrics
     print(f"{ENV_ID}: {args.steps} frames, MOTA {metrics['mota']:.3f}, IDF1 {metrics['idf1']:.3f}")
     return metrics
 

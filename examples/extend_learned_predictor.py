@@ -309,7 +309,7 @@ def track(model: str | os.PathLike[str], steps: int, seed: int = 1000) -> dict[s
     import gymnasium as gym
 
     import track_envs  # noqa: F401  (registers the envs)
-    from agents import make_agent
+    from agents import make_agent, run_episode
     from predictors import make_predictor
     from track_envs.testing import check_predictor
     from track_envs.wrappers import TrackingMetrics
@@ -319,13 +319,7 @@ def track(model: str | os.PathLike[str], steps: int, seed: int = 1000) -> dict[s
     spec = env.get_wrapper_attr("sensor_spec")
     check_predictor(make_predictor(NAME, weights=model), spec)
     agent = make_agent("gnn", predictor=NAME, weights=model)
-    obs, info = env.reset(seed=seed)
-    agent.reset(spec, seed=seed)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics: dict[str, Any] = info["episode_metrics"]
+    metrics: dict[str, Any] = run_episode(env, agent, seed=seed).metrics
     print(f"{ENV_ID} + gnn({NAME}), {steps} frames: mean error {metrics['mean_error']:.3f}")
     return metrics
 

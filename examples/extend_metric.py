@@ -64,20 +64,14 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parser.parse_args(argv)
 
     import track_envs  # noqa: F401  (registers the envs)
-    from agents import make_agent
+    from agents import make_agent, run_episode
     from track_envs.wrappers import TrackingMetrics
     from track_envs.wrappers.tracking_metrics import default_metrics
 
     base = gym.make("SineTarget-v0", max_episode_steps=args.steps)
     env = TrackingMetrics(base, metrics=[*default_metrics(base), Coverage(radius=args.radius)])
     agent = make_agent("gnn", predictor="kf-cv")
-    obs, info = env.reset(seed=0)
-    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics = info["episode_metrics"]
+    metrics = run_episode(env, agent, seed=0).metrics
     print(
         f"SineTarget-v0, {args.steps} frames: coverage {metrics['coverage']:.3f}, RMSE {metrics['rmse']:.3f}"
     )

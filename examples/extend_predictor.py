@@ -184,7 +184,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     import gymnasium as gym
 
     import track_envs  # noqa: F401  (registers the envs)
-    from agents import make_agent
+    from agents import make_agent, run_episode
     from predictors import make_predictor
     from track_envs.testing import check_predictor
     from track_envs.wrappers import TrackingMetrics
@@ -198,13 +198,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     spec = env.get_wrapper_attr("sensor_spec")
     check_predictor(make_predictor(NAME), spec)
     agent = make_agent("gnn", predictor=NAME, tracking_index=args.tracking_index)
-    obs, info = env.reset(seed=0)
-    agent.reset(spec, seed=0)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics = info["episode_metrics"]
+    metrics = run_episode(env, agent, seed=0).metrics
     print(f"SineTarget-v0 + gnn({NAME}), {args.steps} frames: mean error {metrics['mean_error']:.3f}")
     return metrics
 

@@ -13,7 +13,7 @@ import ast
 import gymnasium as gym
 
 import track_envs
-from agents import agent_applies_to, available_agents, make_agent
+from agents import agent_applies_to, available_agents, make_agent, run_episode
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -55,13 +55,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     if not agent_applies_to(name, shape, targets):
         raise SystemExit(f"agent {name!r} does not apply to {args.env}; agents that do: {fits}")
     agent = make_agent(name, **({"predictor": args.predictor} if args.predictor else {}))
-    obs, _ = env.reset(seed=args.seed)
-    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=args.seed)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
-    metrics = info["episode_metrics"]
+    metrics = run_episode(env, agent, seed=args.seed).metrics
     print(f"{args.env} + {name}{'/' + args.predictor if args.predictor else ''}, {args.steps} frames at most")
     for key, value in metrics.items():
         print(f"  {key:<24} {value:.6g}")

@@ -20,7 +20,7 @@ from pathlib import Path
 import gymnasium as gym
 
 import track_envs  # noqa: F401  (registers the envs)
-from agents import make_agent
+from agents import make_agent, run_episode
 from agents.run import run_agent
 from track_envs.io.detections import read_detections
 from track_envs.io.tracks import read_tracks, write_tracks
@@ -32,13 +32,8 @@ from track_envs.wrappers import RecordTracking
 def record(folder: Path, steps: int) -> Path:
     """Write one BeltSorter-v0 episode (seed 0; reports of the no-tracking baseline) as files; its folder."""
     env = RecordTracking(gym.make("BeltSorter-v0", max_episode_steps=steps), folder)
-    obs, _ = env.reset(seed=0)
-    baseline = make_agent("detections")
-    baseline.reset(env.unwrapped.sensor_spec)  # type: ignore[attr-defined]
-    while True:
-        obs, _, terminated, truncated, _ = env.step(baseline.act(obs))
-        if terminated or truncated:
-            return folder / "episode-000"
+    run_episode(env, make_agent("detections"), seed=0)  # the wrapper writes the files at the end
+    return folder / "episode-000"
 
 
 def main(argv: list[str] | None = None) -> dict[str, float]:

@@ -5,6 +5,10 @@ unknown name raises a ``ValueError`` that lists the valid ones); :func:`resolve_
 name or a Predictor object, as a tracker's ``predictor`` argument does. :func:`motion_models`
 lists every motion model of the three kinds (Gaussian predictor, particle displacement, pose
 hypothesis) with the agents that take it.
+
+Training recipes (:mod:`predictors.training.recipes`): each learned family registers how ``track
+train KIND`` trains it beside its predictor (:func:`register_recipe`, :func:`available_recipes`);
+the families' modules, which import torch, load on first use.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from predictors.registry import (
     register_predictor,
     resolve_predictor,
 )
+from predictors.training.recipes import TrainingRecipe, available_recipes, register_recipe
 
 __all__ = [
     "BELT_ENVS",
@@ -30,13 +35,16 @@ __all__ = [
     "Capability",
     "MotionModel",
     "Predictor",
+    "TrainingRecipe",
     "available_predictors",
+    "available_recipes",
     "capability",
     "has_capability",
     "make_predictor",
     "motion_models",
     "predictor_applies_to",
     "register_predictor",
+    "register_recipe",
     "resolve_predictor",
 ]
 
@@ -120,6 +128,14 @@ def _register_builtin() -> None:
     register_predictor("lstm", lstm)
     register_predictor("nll-lstm", nll_lstm)
     register_predictor("mc-lstm", mc_lstm)
+    # the training recipes of the learned families (``track train KIND``, in this order): the belt
+    # LSTMs above, the particle filter's displacement model ("lstm" of
+    # predictors.displacement.registry) and the SMC pose tracker's predictor ("smc" of
+    # predictors.pose.registry)
+    for kind in ("lstm", "mc-lstm", "nll-lstm"):
+        register_recipe(kind, "predictors.belt_lstm.training")
+    register_recipe("displacement-lstm", "predictors.displacement_lstm.training")
+    register_recipe("pose-lstm", "predictors.pose_lstm.training")
 
 
 _register_builtin()

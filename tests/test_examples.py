@@ -152,11 +152,11 @@ def track_episode(agent, steps, **env_kwargs):
     """The episode metrics of ``agent`` on ``steps`` frames of SineTarget-v0 (seed 0)."""
     import gymnasium as gym
 
-    from agents.bench.runner import run_episode
+    from agents import run_episode
     from track_envs.wrappers import TrackingMetrics
 
     env = TrackingMetrics(gym.make("SineTarget-v0", max_episode_steps=steps, **env_kwargs))
-    return run_episode(env, agent, seed=0)[0]
+    return run_episode(env, agent, seed=0).metrics
 
 
 def test_extend_predictor_tracks_in_gnn_and_gnn_uses_its_declared_capability(scoped_registries, capsys):

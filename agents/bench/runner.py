@@ -48,14 +48,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from tqdm import tqdm
 
 import agents
 import predictors
 import track_envs  # registers the environments
 from agents import make_agent
-from agents.base import agent_traits
 from agents.bench.cells import NO_PREDICTOR, Cell
+from agents.bench.progress import CellBar
+from agents.episode import run_episode
 from track_envs.wrappers import TrackingMetrics
 
 SCHEMA = 1
@@ -173,29 +173,6 @@ def check_cells(cells: Iterable[Cell]) -> int:
     return len(specs) + len(agents_seen)
 
 
-def run_episode(env: gym.Env, agent: Any, seed: int) -> tuple[dict[str, float], int]:
-    """One episode of the loop; its ``episode_metrics`` and its number of frames.
-
-    An agent that declares ``needs_truth = True`` (an oracle that scores a predictor with true
-    associations, :class:`agents.one_step.OneStepAgent`) is handed each frame's ``info`` through
-    ``observe_truth(info)`` before ``act``, and its own ``episode_metrics()`` join the record's.
-    """
-    obs, info = env.reset(seed=seed)
-    agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
-    observe = agent.observe_truth if agent_traits(agent).needs_truth else None
-    frames = 0
-    while True:
-        if observe is not None:
-            observe(info)
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        frames += 1
-        if terminated or truncated:
-            metrics = dict(info["episode_metrics"])
-            if observe is not None:
-                metrics.update(agent.episode_metrics())
-            return metrics, frames
-
-
 def run_cell(cell: Cell) -> dict[str, Any]:
     """Run every episode of ``cell``; return its record (see the module docstring)."""
     start = time.perf_counter()
@@ -205,10 +182,10 @@ def run_cell(cell: Cell) -> dict[str, Any]:
     try:
         for k in range(cell.episodes):
             t0 = time.perf_counter()
-            metrics, n = run_episode(env, agent, episode_seed(cell.seed, k))
+            result = run_episode(env, agent, seed=episode_seed(cell.seed, k))
             episode_s += time.perf_counter() - t0
-            episodes.append(metrics)
-            frames += n
+            episodes.append(result.metrics)
+            frames += result.frames
     finally:
         env.close()
     wall = time.perf_counter() - start
@@ -424,7 +401,8 @@ def run_cells(
         engine: ``"local"`` (process pool, or in-process with ``workers=1``) or ``"ray"``.
         workers: Local processes (default: the CPU count); ignored by ``"ray"``.
         address: Ray cluster address (``ray.init(address=...)``); ``None`` starts a local Ray.
-        progress: Show a tqdm bar over the cells.
+        progress: Show a tqdm bar over the cells (its time left leaves out each worker's first
+            cell, which compiles the kernels: :class:`agents.bench.progress.CellBar`).
         check: Build every distinct env and agent of the cells to run first
             (:func:`check_cells`), so a bad argument stops the run before any cell ran.
 
@@ -443,7 +421,16 @@ def run_cells(
     if check:
         check_cells(todo)
     out.mkdir(parents=True, exist_ok=True)
-    bar = tqdm(total=len(todo), unit="cell", desc=f"track bench ({engine})", disable=not progress)
+    n_workers = workers or os.cpu_count() or 1
+    # the first cell of each worker compiles the kernels: its time is left out of the ETA
+    parallel = n_workers if engine == "local" else os.cpu_count() or 1
+    bar = CellBar(
+        total=len(todo),
+        unit="cell",
+        desc=f"track bench ({engine})",
+        disable=not progress,
+        warm_up=max(1, min(parallel, len(todo))),
+    )
 
     def on_record(record: dict[str, Any]) -> None:
         write_record(out, record)
@@ -453,7 +440,7 @@ def run_cells(
         if engine == "ray":
             _ray_engine(todo, address, on_record)
         else:
-            _local_engine(todo, workers or os.cpu_count() or 1, on_record)
+            _local_engine(todo, n_workers, on_record)
     finally:
         bar.close()
     return RunResult(len(cells), len(todo), len(cells) - len(todo), time.perf_counter() - start, out)

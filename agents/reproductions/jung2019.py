@@ -121,6 +121,9 @@ def run_batch(
 ) -> Batch:
     """Step ``T`` independent runs through one filter per displacement model, frame by frame.
 
+    Not an episode of an env (:func:`agents.run_episode`): every run of the batch is one target of
+    one batched filter per model, and all the filters see the same measurements.
+
     Args:
         truth: Local trajectory (F, 2) shared by every run, or one per run (T, F, 2).
         p_detect: Detection probability, scalar or (T,).
@@ -170,14 +173,7 @@ def run_batch(
     }
     k = len(traced)
     batch = Batch(truth=np.zeros((k, n_frames, 2)), detections=np.full((k, n_frames, 2), np.nan))
-    total = {name: np.zeros(t_runs) for name in models}
-    count = {name: np.zeros(t_runs) for name in models}
-    over_time = {name: np.full(n_frames, np.nan) for name in models}
-    est_trace = {name: np.full((k, n_frames, 2), np.nan) for name in models}
-    spread = {name: np.full((k, n_frames), np.nan) for name in models}
-    spread_std = {name: np.full((k, n_frames), np.nan) for name in models}
-    p_total = {name: np.zeros(t_runs) for name in models}
-    errors = {name: np.full((t_runs, n_frames), np.nan) if per_frame else None for name in models}
+    tallies = {name: _Tally.empty(t_runs, n_frames, traced, per_frame) for name in models}
     for frame in tqdm(range(n_frames), desc=desc, leave=False, mininterval=0.5, disable=not desc):
         here = x_local[:, frame] if x_local.ndim == 3 else np.broadcast_to(x_local[frame], (t_runs, 2))
         occluded = False if occ is None else (occ[0] <= frame) & (frame < occ[1])
@@ -187,40 +183,79 @@ def run_batch(
         batch.truth[:, frame] = x[traced]
         batch.detections[:, frame] = np.where(detected[traced, None], z[traced], np.nan)
         for name, pf in filters.items():
-            estimate = pf.step(z, detected)
-            err = np.linalg.norm(estimate - x, axis=1)
-            ok = np.isfinite(err)
-            total[name][ok] += err[ok]
-            count[name][ok] += 1
-            if ok.any():
-                over_time[name][frame] = err[ok].mean()
-            table = errors[name]
-            if table is not None:
-                table[:, frame] = err
-            dist = np.linalg.norm(pf.particles - x[:, None, :], axis=2)
-            mean = np.einsum("tn,tn->t", pf.weights, dist)
-            p_total[name][ok] += mean[ok]
-            if k:
-                est_trace[name][:, frame] = estimate[traced]
-                d, w, m = dist[traced], pf.weights[traced], mean[traced]
-                var = np.einsum("kn,kn->k", w, (d - m[:, None]) ** 2)
-                started = pf.started[traced]
-                spread[name][started, frame] = m[started]
-                spread_std[name][started, frame] = np.sqrt(var[started])
-    for name in models:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean_error = total[name] / count[name]
-            particle_error = p_total[name] / count[name]
-        batch.filters[name] = FilterRuns(
-            mean_error,
-            over_time[name],
-            est_trace[name],
-            spread[name],
-            spread_std[name],
-            particle_error,
-            errors[name],
-        )
+            tallies[name].add(frame, pf.step(z, detected), x, pf)
+    batch.filters = {name: tallies[name].runs() for name in models}
     return batch
+
+
+@dataclass
+class _Tally:
+    """What one filter of :func:`run_batch` did so far, frame by frame."""
+
+    traced: NDArray[np.intp]
+    total: NDArray[np.float64]
+    count: NDArray[np.float64]
+    over_time: NDArray[np.float64]
+    estimates: NDArray[np.float64]
+    spread: NDArray[np.float64]
+    spread_std: NDArray[np.float64]
+    particle_total: NDArray[np.float64]
+    errors: NDArray[np.float64] | None
+
+    @classmethod
+    def empty(cls, t_runs: int, n_frames: int, traced: NDArray[np.intp], per_frame: bool) -> _Tally:
+        k = len(traced)
+        return cls(
+            traced,
+            np.zeros(t_runs),
+            np.zeros(t_runs),
+            np.full(n_frames, np.nan),
+            np.full((k, n_frames, 2), np.nan),
+            np.full((k, n_frames), np.nan),
+            np.full((k, n_frames), np.nan),
+            np.zeros(t_runs),
+            np.full((t_runs, n_frames), np.nan) if per_frame else None,
+        )
+
+    def add(
+        self, frame: int, estimate: NDArray[np.float64], x: NDArray[np.float64], pf: BatchParticleFilter
+    ) -> None:
+        """Count the filter's ``estimate`` (T, 2) of frame ``frame`` against the world truth ``x``,
+        and its particles' distance to it (weighted mean and spread, traced runs)."""
+        err = np.linalg.norm(estimate - x, axis=1)
+        ok = np.isfinite(err)
+        self.total[ok] += err[ok]
+        self.count[ok] += 1
+        if ok.any():
+            self.over_time[frame] = err[ok].mean()
+        if self.errors is not None:
+            self.errors[:, frame] = err
+        dist = np.linalg.norm(pf.particles - x[:, None, :], axis=2)
+        mean = np.einsum("tn,tn->t", pf.weights, dist)
+        self.particle_total[ok] += mean[ok]
+        if len(self.traced):
+            traced = self.traced
+            self.estimates[:, frame] = estimate[traced]
+            d, w, m = dist[traced], pf.weights[traced], mean[traced]
+            var = np.einsum("kn,kn->k", w, (d - m[:, None]) ** 2)
+            started = pf.started[traced]
+            self.spread[started, frame] = m[started]
+            self.spread_std[started, frame] = np.sqrt(var[started])
+
+    def runs(self) -> FilterRuns:
+        """The :class:`FilterRuns` of the frames counted."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_error = self.total / self.count
+            particle_error = self.particle_total / self.count
+        return FilterRuns(
+            mean_error,
+            self.over_time,
+            self.estimates,
+            self.spread,
+            self.spread_std,
+            particle_error,
+            self.errors,
+        )
 
 
 def gain_percent(brownian: ArrayLike, learned: ArrayLike) -> NDArray[np.float64]:

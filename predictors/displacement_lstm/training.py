@@ -14,10 +14,16 @@ training, masks drawn from the training loop's seeded generator (Jung et al. 201
 Metrics (test tracks, numpy inference): RMS rotation and speed errors and the mean one-step
 position error ``‖x̂_t − x_t‖`` with ``x̂_t`` the predicted step applied to the true ``x_{t−1}`` and
 its heading.
+
+Training recipe (:mod:`predictors.training.recipes`): :func:`recipe` gives ``track train
+displacement-lstm``, :func:`train_command` runs it.
 """
 
 from __future__ import annotations
 
+import argparse
+import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,6 +37,7 @@ from predictors.displacement_lstm.network import DROPOUT, HIDDEN, DisplacementLS
 from predictors.training.data import TrackSet, TrackSplit, pad_tracks
 from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 from predictors.training.model_file import ModelFile
+from predictors.training.recipes import TrainingRecipe
 
 FloatArray = NDArray[np.float64]
 
@@ -185,3 +192,61 @@ def displacement_metrics(model: DisplacementLSTM, tracks: list[FloatArray]) -> d
         "test_mean_error": float(np.nanmean(e["position"])),
         "test_predictions": int(np.isfinite(e["position"]).sum()),
     }
+
+
+# ------------------------------------------------------------------ the training recipe
+
+#: ``track train displacement-lstm``'s one-line help.
+HELP = "the LSTM particle filter's displacement model (speed and rotation per step)"
+
+
+def recipe(kind: str = KIND) -> TrainingRecipe:
+    """The training recipe of the displacement LSTM (``track train displacement-lstm``)."""
+    if kind != KIND:
+        raise ValueError(f"unknown displacement model kind {kind!r}; valid names are {[KIND]}")
+    return TrainingRecipe(KIND, HELP, train=train_command)
+
+
+def train_command(args: argparse.Namespace) -> Path:
+    """``track train displacement-lstm``: train on the data ``args`` names (with ``--added-noise-std``:
+    one seeded noisy copy of each part of the split), compute the test metrics and write
+    ``args.out``; returns the sidecar's path."""
+    from predictors.belt_lstm.training import noisy_tracks
+    from predictors.training.command import load_data, print_split, train_config, training_record
+    from predictors.training.data import split_tracks
+    from predictors.training.model_file import save_model
+
+    start = time.perf_counter()
+    data = load_data(args)
+    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
+    if args.added_noise_std != 0.0:  # one noisy copy per part, seeded
+        split = TrackSplit(
+            noisy_tracks(split.train, args.added_noise_std, args.seed),
+            noisy_tracks(split.validation, args.added_noise_std, args.seed + 1),
+            noisy_tracks(split.test, args.added_noise_std, args.seed + 2),
+            split.dropped,
+            split.min_length,
+        )
+    s = print_split(len(data), split, args.min_length)
+    config = train_config(args)
+    dropout = 0.25 if args.dropout is None else args.dropout
+    step = args.sine_step if args.sine else args.data_step
+    net, features, history = train_displacement_model(
+        split, config, hidden=args.hidden, dropout=dropout, step=step, progress=not args.no_progress
+    )
+    test = split.test if len(split.test) else split.validation if len(split.validation) else split.train
+    metrics = displacement_metrics(
+        DisplacementLSTM.from_model_file(to_model_file(net, features)), test.tracks
+    )
+    training = training_record(args, config, history, noise_std=args.added_noise_std)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
+    model = to_model_file(
+        net, features, training=training, data={**dict(data.description), **s}, metrics=metrics
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: one-step position "
+        f"error {metrics['test_mean_error']:.3g}, rotation RMSE {metrics['test_rotation_rmse']:.3g} rad, "
+        f"speed RMSE {metrics['test_speed_rmse']:.3g}"
+    )
+    return sidecar_path

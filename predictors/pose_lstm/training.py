@@ -25,11 +25,17 @@ the same for the last visible coordinate alone, the NLL, and the homoscedastic `
 (the RMS residual per axis on the validation split) that the ``aleatoric=False`` ablation uses.
 After ``loss="mse"`` the NLL and mean σ are those of the untrained ``log σ`` outputs (no meaning);
 ``fixed_sigma`` is the σ of such a model.
+
+Training recipe (:mod:`predictors.training.recipes`): :func:`recipe` gives ``track train
+pose-lstm``, :func:`train_command` runs it.
 """
 
 from __future__ import annotations
 
+import argparse
+import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -40,6 +46,7 @@ from predictors.pose_lstm.network import PosePredictorNet
 from predictors.pose_lstm.predictor import KIND, SCALE_PER_HEIGHT, window_features
 from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 from predictors.training.model_file import ModelFile
+from predictors.training.recipes import TrainingRecipe
 
 
 @dataclass(frozen=True)
@@ -310,3 +317,81 @@ def to_model_file(net: PosePredictorNet, scale_per_height: float, **meta: Any) -
     """A :class:`~predictors.training.model_file.ModelFile` of a trained pose predictor."""
     normalisation = {"scale_per_height": scale_per_height}
     return trained_model_file(net, kind=KIND, dim=2, normalisation=normalisation, **meta)
+
+
+# ------------------------------------------------------------------ the training recipe
+
+#: ``track train pose-lstm``'s one-line help.
+HELP = "the SMC pose tracker's probabilistic pose predictor (KeypointWalkers-v0)"
+
+
+def recipe(kind: str = KIND) -> TrainingRecipe:
+    """The training recipe of the pose predictor (``track train pose-lstm``, with ``--loss``)."""
+    if kind != KIND:
+        raise ValueError(f"unknown pose predictor kind {kind!r}; valid names are {[KIND]}")
+    return TrainingRecipe(KIND, HELP, train=train_command, add_arguments=add_arguments)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--loss``: the pose predictor's loss (:data:`LOSSES`)."""
+    parser.add_argument(
+        "--loss",
+        choices=LOSSES,
+        default="nll",
+        help="nll: the Gaussian negative log-likelihood of eq. (8), mu and sigma learnt "
+        "(default); mse: the squared error of mu alone (sigma is then the model file's "
+        "fixed_sigma, the validation RMS residual)",
+    )
+
+
+def train_command(args: argparse.Namespace) -> Path:
+    """``track train pose-lstm``: train on windows of a keypoint env's episodes (``--env``), compute
+    the test metrics and write ``args.out``; returns the sidecar's path.
+
+    Raises:
+        ValueError: no ``--env`` (the predictor trains on a keypoint env's detections and truth).
+    """
+    from predictors.training.command import train_config, training_record
+    from predictors.training.model_file import save_model
+
+    if not args.env:
+        raise ValueError(
+            "pose-lstm trains on a keypoint env's detections and truth; pass --env KeypointWalkers-v0"
+        )
+    start = time.perf_counter()
+    window = 15 if args.window is None else args.window
+    data = pose_windows_from_env(
+        args.env,
+        episodes=args.episodes,
+        seed=args.data_seed,
+        steps=args.steps,
+        window=window,
+        **args.env_kwargs,
+    )
+    train, validation, test = data.split(args.seed)
+    s = {"train_windows": len(train), "validation_windows": len(validation), "test_windows": len(test)}
+    print(f"{len(data)} pose windows of {len(np.unique(data.person))} people: {s}")
+    config = train_config(args)
+    dropout = 0.3 if args.dropout is None else args.dropout
+    net, history = train_pose_model(
+        train,
+        validation,
+        config,
+        dropout=dropout,
+        min_window=args.min_window,
+        loss=args.loss,
+        progress=not args.no_progress,
+    )
+    metrics = pose_metrics(net, validation, test, min(10, window))
+    training = training_record(args, config, history, min_window=args.min_window, loss=args.loss)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
+    model = to_model_file(
+        net, SCALE_PER_HEIGHT, training=training, data={**data.description, **s}, metrics=metrics
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean error "
+        f"{metrics['test_mean_error_px']:.3g} px (last visible coordinate: "
+        f"{metrics['test_last_visible_error_px']:.3g} px), NLL {metrics['test_nll']:.3g}"
+    )
+    return sidecar_path

@@ -32,6 +32,7 @@ from agents.cli import (
 )
 from agents.cli import arguments as arguments_mod
 from agents.cli.arguments import example_block, example_lines, parse_assignments
+from predictors import available_recipes
 
 ROOT = Path(__file__).parents[2]
 
@@ -192,7 +193,7 @@ def test_every_out_says_whether_it_is_a_file_a_stem_or_a_directory():
 
 def test_every_command_with_a_progress_bar_has_no_progress():
     with_bars = ["track bench run", "track run", "track tune train"]
-    with_bars += [f"track train {k}" for k in train.KINDS]
+    with_bars += [f"track train {k}" for k in available_recipes()]
     progs = {p.prog for p in all_parsers() if "--no-progress" in options(p)}
     assert set(with_bars) <= progs
 
@@ -218,7 +219,7 @@ def test_the_two_noises_have_two_names():
     declared = {p.prog for p in all_parsers() if "--declared-noise-std" in options(p)}
     added = {p.prog for p in all_parsers() if "--added-noise-std" in options(p)}
     assert declared == {"track run"}
-    assert added == {f"track train {k}" for k in [*train.KINDS, "calibrate"]}
+    assert added == {f"track train {k}" for k in [*available_recipes(), "calibrate"]}
     for p in all_parsers():
         if "--noise-std" in options(p):  # the old name: a deprecated alias of the one each meant
             assert "deprecated alias" in str(options(p)["--noise-std"].help)
