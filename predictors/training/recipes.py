@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from track_envs.registry import Registry
+from track_envs.infra.registry import Registry
 
 
 def _no_arguments(parser: argparse.ArgumentParser) -> None:
