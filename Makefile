@@ -49,7 +49,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_rendering.py
 	$(PY) benchmarks/bench_track_run.py
 	$(PY) benchmarks/bench_hota.py
-	$(PY) benchmarks/bench_self_calibration.py
+	$(PY) benchmarks/bench_sensor_model.py
 	$(PY) benchmarks/bench_jpda_marginals.py
 	$(PY) benchmarks/bench_jpda.py
 	$(PY) benchmarks/bench_pose_smc.py --threads 2

@@ -17,38 +17,89 @@ from __future__ import annotations
 from agents.base import (
     AGENTS,
     Agent,
+    AgentCapability,
     AgentTraits,
     agent_applies_to,
+    agent_capability,
     agent_traits,
     available_agents,
     make_agent,
     register_agent,
 )
 from agents.episode import EpisodeResult, run_episode
+from agents.files import run_agent, run_pose_agent
+from agents.sensor_model import SensorModelEstimate, estimate_sensor_model
+from agents.tracking import (
+    Association,
+    Associator,
+    AssociatorCapability,
+    FrameContext,
+    PointTracker,
+    available_associators,
+    make_associator,
+    register_associator,
+)
+from track_envs.infra.moved_modules import register_moved_modules
 
 __all__ = [
     "AGENTS",
     "Agent",
+    "AgentCapability",
     "AgentTraits",
+    "Association",
+    "Associator",
+    "AssociatorCapability",
     "EpisodeResult",
+    "FrameContext",
+    "PointTracker",
+    "SensorModelEstimate",
     "agent_applies_to",
+    "agent_capability",
     "agent_traits",
     "available_agents",
+    "available_associators",
+    "estimate_sensor_model",
     "make_agent",
+    "make_associator",
     "register_agent",
+    "register_associator",
+    "run_agent",
     "run_episode",
+    "run_pose_agent",
 ]
+
+#: Module paths of the earlier release (deprecated aliases of the modules at their new paths).
+MOVED_MODULES = {
+    "agents.self_calibration": "agents.sensor_model",
+    "agents.self_calibration.calibrate": "agents.sensor_model.estimate",
+    "agents.self_calibration.coasting": "agents.sensor_model.coasting",
+    "agents.self_calibration.diagnostics": "agents.sensor_model.diagnostics",
+    "agents.self_calibration.noise": "agents.sensor_model.noise",
+    "agents.self_calibration.report": "agents.sensor_model.summary",
+    "agents.self_calibration.scales": "agents.sensor_model.scales",
+    "agents.cli.self_calibration": "agents.cli.sensor_model",
+    "agents.bench.report": "agents.bench.tables",
+    "agents.baseline": "agents.detections_agent",
+    "agents.pose.baseline": "agents.pose.tracker",
+    "agents.pose.run": "agents.files.poses",
+    "agents.run": "agents.files.points",
+    "agents.file_kinds": "agents.files.kinds",
+    "agents.sorting_check": "agents.sorting.check",
+    "agents.sorting_collect": "agents.sorting.collect",
+    "agents.tracking.sorting": "agents.sorting.rollout",
+    "agents.gnn.knobs": "agents.tracking.knobs",
+}
 
 
 def _register_builtin() -> None:
-    from agents.baseline import DetectionsAgent
+    from agents.detections_agent import DetectionsAgent
     from agents.gnn.agent import GnnAgent
     from agents.jpda.agent import JpdaAgent
     from agents.jpda.associator import JpdaAssociator
     from agents.one_step import OneStepAgent
     from agents.particle.agent import ParticleFilterAgent
-    from agents.pose.baseline import PoseBaselineAgent
     from agents.pose.smc import PoseSmcAgent
+    from agents.pose.tracker import PoseBaselineAgent
     from agents.tracking.associator import register_associator
     from agents.tracking.gated import GatedAssignment
     from agents.tracking.merges import SharedBlobs
@@ -67,3 +118,4 @@ def _register_builtin() -> None:
 
 
 _register_builtin()
+register_moved_modules(MOVED_MODULES)

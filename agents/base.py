@@ -43,8 +43,8 @@ capability's protocol, or ``None``; :func:`agent_declares` asks a class or a reg
   the merge-event scores (:mod:`agents.merge_scoring`) and GateTuning-v0's diagnostics. gnn, jpda.
 * ``LIVE_KNOBS`` (:class:`LiveKnobs`) — ``p_gate``, ``recovery_inflation`` and ``noise_scale``
   may be set between frames of a running episode (GateTuning-v0, :mod:`agents.tuning`). gnn, jpda.
-* ``SELF_CALIBRATION`` (:class:`SelfCalibrated`) — built with the keywords of a
-  self-calibration (:meth:`agents.self_calibration.SelfCalibration.agent_kwargs`: ``q``,
+* ``SENSOR_MODEL`` (:class:`SensorModelSettings`) — built with the keywords of a
+  sensor-model estimate (:meth:`agents.sensor_model.SensorModelEstimate.agent_kwargs`: ``q``,
   ``max_misses``, the velocity prior, ...), which ``run_agent(..., calibrate=True)`` and ``track
   run`` pass. gnn, jpda.
 * ``TRUTH_OBSERVER`` (:class:`TruthObserver`) — ``observe_truth(info)``: the oracle's truth
@@ -90,7 +90,7 @@ class AgentCapability(StrEnum):
     TRACK_COVARIANCES = "track-covariances"
     LAST_PREDICTION = "last-prediction"
     LIVE_KNOBS = "live-knobs"
-    SELF_CALIBRATION = "self-calibration"
+    SENSOR_MODEL = "sensor-model"
     TRUTH_OBSERVER = "truth-observer"
 
 
@@ -129,8 +129,8 @@ class LiveKnobs(Agent, Protocol):
     noise_scale: float
 
 
-class SelfCalibrated(Agent, Protocol):
-    """``SELF_CALIBRATION``: built with the keywords of a self-calibration (a promise on the
+class SensorModelSettings(Agent, Protocol):
+    """``SENSOR_MODEL``: built with the keywords of a sensor-model estimate (a promise on the
     factory's keywords; nothing to check on the object)."""
 
 
@@ -141,6 +141,10 @@ class TruthObserver(Agent, Protocol):
         """Take the ``info`` of the frame the next ``act`` answers."""
         ...
 
+    def episode_metrics(self) -> dict[str, float]:
+        """The oracle's own figures of the episode so far (joined to the env's metrics)."""
+        ...
+
 
 #: The protocol of every agent capability.
 AGENT_PROTOCOLS: dict[AgentCapability, type] = {
@@ -148,7 +152,7 @@ AGENT_PROTOCOLS: dict[AgentCapability, type] = {
     AgentCapability.TRACK_COVARIANCES: TrackCovariances,
     AgentCapability.LAST_PREDICTION: LastPrediction,
     AgentCapability.LIVE_KNOBS: LiveKnobs,
-    AgentCapability.SELF_CALIBRATION: SelfCalibrated,
+    AgentCapability.SENSOR_MODEL: SensorModelSettings,
     AgentCapability.TRUTH_OBSERVER: TruthObserver,
 }
 
@@ -170,8 +174,8 @@ def agent_capability(
 def agent_capability(agent: object, which: Literal[AgentCapability.LIVE_KNOBS]) -> LiveKnobs | None: ...
 @overload
 def agent_capability(
-    agent: object, which: Literal[AgentCapability.SELF_CALIBRATION]
-) -> SelfCalibrated | None: ...
+    agent: object, which: Literal[AgentCapability.SENSOR_MODEL]
+) -> SensorModelSettings | None: ...
 @overload
 def agent_capability(
     agent: object, which: Literal[AgentCapability.TRUTH_OBSERVER]

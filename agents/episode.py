@@ -9,8 +9,9 @@ and the examples share::
     result.metrics["e_mean"], result.frames
 
 Per frame it calls ``agent.act(obs)`` and steps the env with the report. It resets the env with
-``seed`` and the agent with the env's sensor spec and the same seed. An agent that declares
-``needs_truth = True`` (an oracle, :class:`agents.base.TruthObserver`) gets each frame's ``info``
+``seed`` and the agent with the env's sensor spec and the same seed. An
+oracle (``AgentTraits(needs_truth=True)``, declaring ``TRUTH_OBSERVER``:
+:class:`agents.base.TruthObserver`) gets each frame's ``info``
 through ``observe_truth(info)`` before ``act``, and its own ``episode_metrics()`` join the
 result's. A tracker never sees ``info``.
 """
@@ -23,7 +24,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from agents.base import agent_traits
+from agents.base import AgentCapability, agent_capability, agent_traits
 
 #: ``on_step(frame, obs, report, reward, info)``: called after each env step with the frame index
 #: (0 for the first), the observation the agent answered, its report, and the step's reward and
@@ -65,7 +66,8 @@ def run_episode(
 
     Args:
         env: A tracking env, usually wrapped in :class:`~track_envs.wrappers.TrackingMetrics`.
-        agent: An :class:`~agents.base.Agent`; a truth observer (``needs_truth = True``) gets each
+        agent: An :class:`~agents.base.Agent`; a truth observer (``needs_truth``,
+            ``TRUTH_OBSERVER``) gets each
             frame's ``info`` before ``act``.
         seed: Seed of ``env.reset`` and ``agent.reset``.
         steps: Stop after this many frames (``None``: when the env terminates or truncates).
@@ -81,7 +83,15 @@ def run_episode(
         raise ValueError(f"steps must be >= 1 or None, got {steps}")
     obs, info = env.reset(seed=seed)
     agent.reset(env.get_wrapper_attr("sensor_spec"), seed=seed)
-    observe = agent.observe_truth if agent_traits(agent).needs_truth else None
+    oracle = (
+        agent_capability(agent, AgentCapability.TRUTH_OBSERVER) if agent_traits(agent).needs_truth else None
+    )
+    if agent_traits(agent).needs_truth and oracle is None:
+        raise ValueError(
+            f"{type(agent).__name__} declares needs_truth but not AgentCapability.TRUTH_OBSERVER "
+            "(observe_truth(info), episode_metrics()): declare it in its capabilities"
+        )
+    observe = None if oracle is None else oracle.observe_truth
     frames = 0
     while True:
         if observe is not None:
@@ -95,8 +105,8 @@ def run_episode(
         if terminated or truncated or (steps is not None and frames >= steps):
             break
     metrics = _episode_metrics(env, info)
-    if observe is not None:
-        metrics.update(agent.episode_metrics())
+    if oracle is not None:
+        metrics.update(oracle.episode_metrics())
     return EpisodeResult(metrics, frames, bool(terminated), bool(truncated), info)
 
 

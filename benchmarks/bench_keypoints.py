@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import predictors.pose.constant_velocity as pose_module
 import track_envs  # noqa: F401
-from agents.pose.baseline import PoseBaselineAgent
+from agents.pose.tracker import PoseBaselineAgent
 from track_envs.contracts.report import empty_report
 from track_envs.metrics.keypoints import COCO_SIGMAS, pairwise_oks
 

@@ -6,7 +6,7 @@
    per frame) timed on the same files. Target: <= 2 s.
 2. ``track run``'s overhead over the agent's own frame time: the same gnn (kf-ca) tracker over
    the same stream, (a) ``agent.act`` on observations packed before the clock starts (the
-   agent's own time), (b) :func:`agents.run.run_agent` (packing, the loop, gathering the reports
+   agent's own time), (b) :func:`agents.files.points.run_agent` (packing, the loop, gathering the reports
    into tracks, a tqdm bar), (c) the whole ``track run`` command (read, track, write the MOT
    file), each timed in the same process on the process's CPU time (the machine is shared: wall
    time counts the waits for a core), seven interleaved repetitions; the ratio is the median of
@@ -31,7 +31,7 @@ import numpy as np
 
 from agents import make_agent
 from agents.cli.run import main as track_run
-from agents.run import packed_block, run_agent
+from agents.files.points import packed_block, run_agent
 from track_envs.io.detections import (
     read_mot_detections,
     read_wide_detections,

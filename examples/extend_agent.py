@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from agents import register_agent
+from agents import AgentTraits, register_agent
 from track_envs.contracts.observation import check_observation
 from track_envs.contracts.report import pack_report
 from track_envs.values.types import SensorSpec
@@ -56,11 +56,9 @@ class NearestNeighbourAgent:
         max_misses: Consecutive misses a track survives, >= 0.
     """
 
-    # declared traits (agents.base; these are the defaults, written out to show them)
-    position_rank = 1  # point targets, positions (D,)
-    max_targets = None  # any number of targets
-    needs_truth = False  # a tracker, not an oracle
-    takes_predictor = False  # no predictor= argument
+    # declared traits (agents.AgentTraits; these are the defaults, written out to show them):
+    # point targets (positions (D,)), any number of them, a tracker (not an oracle), no predictor=
+    traits = AgentTraits(position_rank=1, max_targets=None, needs_truth=False, takes_predictor=False)
 
     def __init__(self, *, gate: float | None = None, max_misses: int = 3):
         if gate is not None and not (isinstance(gate, int | float) and math.isfinite(gate) and gate > 0):

@@ -2,7 +2,7 @@
 
 python examples/sorting_check_figure.py --out docs/figures/sorting_from_recordings
 
-For each predictor (gnn agent), ``agents.sorting_check.check_sorting`` on the sample (200 frames
+For each predictor (gnn agent), ``agents.sorting.check.check_sorting`` on the sample (200 frames
 of BeltSorter-v0 detections, metres, 100 Hz, 0.1 mm noise) with the virtual line at ``x = 0.35``
 and predictions from ``x <= 0.30`` (5 cm, the BeltSorter-v0 nozzle bar's distance), then the hit
 rate and lateral error over cut-offs from 2 to 14 cm before the line. ``--truth`` also runs the
@@ -22,7 +22,7 @@ import numpy as np
 
 import track_envs  # noqa: F401  (registers the environments)
 from agents import make_agent
-from agents.sorting_check import SortingCheck, check_sorting
+from agents.sorting.check import SortingCheck, check_sorting
 from track_envs.envs.detection_replay import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
 from track_envs.io.detections import read_detections
 from track_envs.values.detections import Detections, detection_sensor_spec
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             result = check_sorting(agent, detections, spec, LINE, LINE - d, reference=reference)
             curve.append(result.score.summary("m"))
             if reference is None:  # the reference run does not depend on the cut-off: once
-                from agents.run import run_agent
+                from agents.files.points import run_agent
 
                 reference = run_agent(agent, detections, spec)
         curves[name] = curve

@@ -43,7 +43,7 @@ concrete class. The declaration is read from the class, so a wrapper object decl
   attribute ``rollout_covariance``: ``"state"`` (``estimate`` after coasting carries the
   multi-step covariance) or ``"accumulate"`` (it is only the one-step prediction, so the roll-out
   sums the one-step covariances). Used by the sorting roll-out
-  (:func:`agents.tracking.sorting.predict_crossings`). Kalman filters (closed form,
+  (:func:`agents.sorting.rollout.predict_crossings`). Kalman filters (closed form,
   :mod:`predictors.kalman.rollout`), belt LSTMs.
 * ``COAST`` (:class:`Coast`) — ``coast(state) -> (state, Gaussian)``: ``predict`` then
   ``update`` with nothing seen, in one call, returning the prediction. Used by the sorting
@@ -69,7 +69,7 @@ concrete class. The declaration is read from the class, so a wrapper object decl
   axis (1: random walk, 2: constant velocity, 3: constant acceleration) driven by white noise of
   intensity ``q``, and its factory takes the keyword ``q`` (with ``order >= 2`` also
   ``initial_velocity`` and ``initial_velocity_std``, with ``order == 3``
-  ``initial_acceleration_std``). Used by the self-calibration (:mod:`agents.self_calibration`),
+  ``initial_acceleration_std``). Used by the self-calibration (:mod:`agents.sensor_model`),
   which estimates those settings. Kalman filters.
 
 A capability is a promise of the same numbers as the core calls would give where both apply

@@ -53,9 +53,8 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
     ("drift.py", "drift"): "SensorDrift: a drift's schedule fields by name",
     ("drift.py", "self.nominal"): "SensorDrift: the nominal sensor's fields by name",
     ("informed.py", "preset"): "a drift preset's schedule fields by name",
-    ("pose_baseline.py", "self"): "PoseTrackingOptions: its own fields by name",
-    ("baseline.py", "self"): "PoseTrackingOptions: its own fields by name",
-    ("train.py", "config"): "a training config dataclass's fields by name",
+    ("tracker.py", "self"): "PoseTrackingOptions: its own fields by name",
+    ("command.py", "config"): "a training config dataclass's fields by name",
     ("merge_scoring.py", "s"): "EventScores: a dataclass's fields by name",
     # numpy / numba / stable-baselines3 / os internals, not plug-ins
     ("belt_sorter.py", "np.random"): "a replay's recorded bit generator, by numpy's name",
@@ -67,7 +66,7 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
     # argparse namespaces: options another command's parser may not define
     ("run_pose.py", "args"): "argparse Namespace of track run: sorting options of the point parser",
     ("run.py", "args"): "argparse Namespace: argv set by main(), absent when run(args) is called",
-    ("train.py", "args"): "argparse Namespace: options of some training kinds only",
+    ("command.py", "args"): "argparse Namespace: options of some training kinds only",
     # the core check of a plug-in (every protocol method present), in the registries
     ("registry.py", "obj"): "track_envs.infra.registry.missing_methods: the core methods of a protocol",
     ("testing.py", "agent"): "track_envs.testing: the contract check of an agent's core methods",
@@ -85,13 +84,6 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
 #: ``(module file name, imported private name)`` → why it is imported (by file name: robust to moves).
 ALLOWED_PRIVATE_IMPORTS: dict[tuple[str, str], str] = {
     ("marginals.py", "_cluster_marginals"): "jpda's compiled cluster marginals (jpda being rewritten)",
-    ("csv_table.py", "_is_number_or_missing"): "CSV readers split across modules (track_envs io/ move)",
-    ("csv_table.py", "_normalise"): "CSV readers split across modules (track_envs io/ move)",
-    ("csv_table.py", "_read_bytes"): "CSV readers split across modules (track_envs io/ move)",
-    ("detection_files.py", "_format_rows"): "CSV writers split across modules (track_envs io/ move)",
-    ("track_files.py", "_write_mot"): "MOT writer shared by detections and tracks (track_envs io/ move)",
-    ("hota_stream.py", "_report_poses"): "keypoint metrics' pose extraction, shared by HOTA",
-    ("hota_stream.py", "_truth_poses"): "keypoint metrics' pose extraction, shared by HOTA",
 }
 
 

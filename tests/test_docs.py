@@ -69,7 +69,7 @@ SKIPPED: dict[str, str] = {
 
 #: Commands another test runs (the command as the page writes it, after joining lines): that test.
 COVERED: dict[str, str] = {
-    "track run recording.csv --dt 0.005 --out tracks.csv": "tests/agents/test_self_calibration.py",
+    "track run recording.csv --dt 0.005 --out tracks.csv": "tests/agents/test_sensor_model.py",
     "track run track_envs/data/detections_sample.zip --time-column time --declared-noise-std 1e-4 "
     "--out tracks.csv --sorting-check line=0.35,cut=0.3": "tests/agents/test_sorting_check.py",
     "DATA=$(python -c": "tests/agents/test_run_boxes.py",

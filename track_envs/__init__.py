@@ -12,11 +12,11 @@ Heavy modules (pymunk worlds, renderers, metrics) load only when an environment 
 
 from __future__ import annotations
 
-from track_envs import _aliases
+from track_envs.infra import moved_modules
 from track_envs.registration import ENV_IDS, register_envs
 
 __all__ = ["ENV_IDS", "register_envs"]
 __version__ = "0.1.0"
 
-_aliases.install()  # the old module paths, deprecated
+moved_modules.install()  # the old module paths, deprecated
 register_envs()

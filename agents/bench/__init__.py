@@ -12,8 +12,8 @@ on a local process pool (default) or Ray, and builds tables and plots from the r
 from __future__ import annotations
 
 from agents.bench.cells import NO_PREDICTOR, Cell, Group, expand, load_suite, plan, suite_names
-from agents.bench.report import aggregate, terminal_table, write_report
 from agents.bench.runner import load_records, run_cell, run_cells, write_record
+from agents.bench.tables import aggregate, terminal_table, write_report
 
 __all__ = [
     "NO_PREDICTOR",

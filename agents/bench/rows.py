@@ -8,7 +8,7 @@ the env kwargs, ``steps``, ``episodes`` (shown when not 1) and the agent kwargs 
 so records made with other steps, episodes or kwargs in the same out dir are separate rows,
 never pooled.
 
-:mod:`agents.bench.report` (tables and plots), :mod:`agents.bench.figures` (the predictor-score
+:mod:`agents.bench.tables` (tables and plots), :mod:`agents.bench.figures` (the predictor-score
 plots) and :mod:`agents.bench.claims` (paper reproductions) import from here and not from each
 other's private names.
 """

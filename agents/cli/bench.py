@@ -156,8 +156,8 @@ def print_skipped(prog: str, skipped: Sequence[tuple[Any, str]]) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from agents.bench.report import aggregate, terminal_table, write_report
     from agents.bench.runner import CellError, check_cells, is_finished, run_cells, scan_records
+    from agents.bench.tables import aggregate, terminal_table, write_report
 
     prog = f"{args.prog} run"
     try:
@@ -214,8 +214,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from agents.bench.report import aggregate, terminal_table, write_report
     from agents.bench.runner import scan_records
+    from agents.bench.tables import aggregate, terminal_table, write_report
 
     prog = f"{args.prog} report"
     if not os.path.isdir(args.dir):

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING, Any
 
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
-from agents.cli import arguments, run_pose, self_calibration, sorting
-from agents.file_kinds import check_file_agent
-from agents.run import run_agent
+from agents.cli import arguments, run_pose, sensor_model, sorting
+from agents.files.kinds import check_file_agent
+from agents.files.points import run_agent
 from predictors import available_predictors
 
 if TYPE_CHECKING:
@@ -152,7 +152,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     g.add_argument("--dt", type=float, help="frame period in seconds (default: inferred from --time-column)")
     arguments.add_declared_noise(g)
     g.set_defaults(declared_noise_std=None)  # not given: the run calibrates itself (--calibrate auto)
-    self_calibration.add_arguments(g)
+    sensor_model.add_arguments(g)
     g.add_argument("--p-detect", type=float, default=1.0, help="declared detection probability (default 1)")
     g.add_argument(
         "--clutter-rate", type=float, default=0.0, help="declared clutter detections per frame (default 0)"
@@ -251,8 +251,8 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
-    from agents.self_calibration.diagnostics import run_figures, run_warnings
-    from agents.self_calibration.report import write_sidecar
+    from agents.sensor_model.diagnostics import run_figures, run_warnings
+    from agents.sensor_model.summary import write_sidecar
     from track_envs.io.poses import is_pose_file
     from track_envs.io.tracks import write_tracks
 
@@ -345,27 +345,27 @@ def _agent_settings(
 ) -> tuple[SensorSpec, dict[str, Any], Any, float]:
     """The spec and agent keywords of the run: self-calibrated (printed; with the calibration
     and the seconds it took) or as the flags give them."""
-    from agents.self_calibration.calibrate import live_track_bound
-    from agents.self_calibration.report import calibration_lines
+    from agents.sensor_model.estimate import live_track_bound
+    from agents.sensor_model.summary import calibration_lines
 
     agent_kwargs = dict(args.agent_kwargs)
     calibration = None
     calibration_s = 0.0
-    if self_calibration.wanted(args):
+    if sensor_model.wanted(args):
         calibration_start = time.perf_counter()
-        spec, agent_kwargs, calibration = self_calibration.calibrated(args, detections, spec, agent_kwargs)
+        spec, agent_kwargs, calibration = sensor_model.calibrated(args, detections, spec, agent_kwargs)
         calibration_s = time.perf_counter() - calibration_start
         for line in calibration_lines(calibration):
             print(f"{args.prog}: {line}", file=sys.stderr)
         if args.max_tracks is None:  # a report that holds every track the run can have
             rows = live_track_bound(detections, int(agent_kwargs.get("max_misses", 2)))
             spec = dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))
-    elif self_calibration.given_kwargs(args):
+    elif sensor_model.given_kwargs(args):
         if args.agent != "gnn":
             raise ValueError(
                 "--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn"
             )
-        agent_kwargs = self_calibration.given_kwargs(args) | agent_kwargs
+        agent_kwargs = sensor_model.given_kwargs(args) | agent_kwargs
     return spec, agent_kwargs, calibration, calibration_s
 
 
@@ -396,7 +396,7 @@ def _track(
 def _metric_threshold(args: argparse.Namespace, calibration: Any, detections: Detections) -> float | None:
     """``--threshold``, or with ``--metrics`` its default (the calibration's, else half the median
     nearest-neighbour distance within a frame; printed)."""
-    from agents.self_calibration.scales import default_threshold
+    from agents.sensor_model.scales import default_threshold
 
     threshold: float | None = args.threshold
     if threshold is None and args.metrics:

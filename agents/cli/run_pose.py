@@ -1,10 +1,10 @@
 """``track run`` on pose files (COCO keypoint results, PoseTrack JSON: :mod:`track_envs.io.poses`).
 
 The file is read into a :class:`~track_envs.values.poses.PoseStream`, tracked with a pose agent
-(:func:`agents.pose.run.run_pose_agent`), written as PoseTrack results and, with ``--gt`` and
+(:func:`agents.files.poses.run_pose_agent`), written as PoseTrack results and, with ``--gt`` and
 ``--metrics``, scored with per-joint MOTA and HOTA
 (:func:`track_envs.metrics.pose_scoring.score_poses`). Which agents run on which kind of file:
-:mod:`agents.file_kinds`.
+:mod:`agents.files.kinds`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import time
 from typing import Any
 
 from agents.base import warm_up
-from agents.file_kinds import FILE_KINDS, check_file_agent, file_agents
+from agents.files.kinds import FILE_KINDS, check_file_agent, file_agents
 
 
 def agent_help() -> str:
@@ -38,7 +38,7 @@ def add_pose_arguments(p: argparse.ArgumentParser) -> None:
 def run_poses(args: argparse.Namespace) -> int:
     """Read a pose file, track it with a pose agent, write PoseTrack results, score against --gt."""
     from agents.cli.run import build_agent, format_metrics
-    from agents.pose.run import run_pose_agent
+    from agents.files.poses import run_pose_agent
     from track_envs.io.poses import image_list, json_pose_format, load_json, read_pose_file, write_posetrack
     from track_envs.metrics.pose_scoring import score_poses
     from track_envs.values.poses import pose_sensor_spec

@@ -8,7 +8,7 @@
     by default ``OUT.sorting.csv`` beside ``--out`` (``OUT`` its path without suffix). Tracks still
     alive at the recording's end get none.
 ``--sorting-check line=L,cut=C[,lateral_tolerance=W,time_tolerance=T,min_seen=N]``
-    The truth-free check of :mod:`agents.sorting_check` (NAME=VALUE grammar): a virtual line
+    The truth-free check of :mod:`agents.sorting.check` (NAME=VALUE grammar): a virtual line
     ``x = L`` inside the camera window, predictions from the detections at ``x <= C`` (``C < L``),
     scored against where the tracks of ``--out`` crossed ``L``. Prints the figures (hit rate,
     error percentiles) and writes the scored predictions, by default to
@@ -74,7 +74,7 @@ def check_arguments(args: argparse.Namespace, spec: SensorSpec) -> dict[str, Any
     Raises:
         ValueError: naming the flag, the value and what it must be.
     """
-    from agents.sorting_check import check_line_and_cut
+    from agents.sorting.check import check_line_and_cut
     from track_envs.metrics.crossing_check import check_tolerances
 
     if args.sorting_out is not None and (args.sorting_line is None) == (args.sorting_check is None):
@@ -135,7 +135,7 @@ def run_check(
 ) -> None:
     """Run ``--sorting-check`` with the tracks of ``--out`` as the reference; print the figures
     (stdout) and write the scored predictions."""
-    from agents.sorting_check import check_sorting
+    from agents.sorting.check import check_sorting
 
     result = check_sorting(agent, detections, spec, reference=tracks, seed=args.seed, **check)
     path = Path(args.sorting_out) if args.sorting_out else sidecar(args.out, ".sorting-check.csv")

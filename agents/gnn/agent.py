@@ -16,8 +16,8 @@ from typing import Any
 
 from numpy.typing import NDArray
 
-from agents.gnn.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.gated import GatedAssignment
+from agents.tracking.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.merges import SharedBlobs
 from agents.tracking.tracker import PointTracker
 from agents.tracking.velocity_prior import FLOW_WINDOW, MIN_FLOW_SAMPLES, YOUNG_STREAK, VelocityPriorState

@@ -2,7 +2,7 @@
 
 Okada, Takenaka and Taniguchi, "Multi-person Pose Tracking using Sequential Monte Carlo with
 Probabilistic Neural Pose Predictor" (ICRA 2020), Sec. II and IV, Algorithm 1: the agent
-``pose-smc`` (:class:`PoseSmcAgent`) is the loop :class:`agents.pose.baseline.PoseTracker` (OKS
+``pose-smc`` (:class:`PoseSmcAgent`) is the loop :class:`agents.pose.tracker.PoseTracker` (OKS
 scores, bipartite matching with a threshold, lifetimes, births, ``F_max`` filters) with the motion
 hypothesis :class:`predictors.pose_lstm.motion.SmcPoseMotion` (``P`` particles per filter, each a
 queue of the last ``L`` poses, proposed by the probabilistic pose predictor, resampled and
@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.pose.baseline import PoseTracker, PoseTrackingOptions
+from agents.pose.tracker import PoseTracker, PoseTrackingOptions
 from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion, SmcSettings, pose_model_path
 from track_envs.infra.registry import split_keywords, takes_keywords_of
 
@@ -31,7 +31,7 @@ class PoseSmcAgent(PoseTracker):
         max_filters: ``F_max``, the most active filters (the loop's ``max_active``).
         options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
             ``window``, ``alpha``, ``elite``, ``device``, …) and of
-            :class:`~agents.pose.baseline.PoseTrackingOptions` but ``max_active``;
+            :class:`~agents.pose.tracker.PoseTrackingOptions` but ``max_active``;
             the signature lists them with their defaults.
     """
 

@@ -1,4 +1,36 @@
 """The multi-target point tracker and what its trackers share: the core (:mod:`.tracker`: track
 table, life cycle, velocity prior, report), the association components (:mod:`.associator`: the
 protocol and registry; :mod:`.gated`, :mod:`.second_chance`, :mod:`.merges`), gating and
-assignment, and the sorting roll-out to the nozzle bar."""
+assignment (the sorting roll-out to the nozzle bar is :mod:`agents.sorting`)."""
+
+from agents.tracking.associator import (
+    Association,
+    Associator,
+    AssociatorCapability,
+    FrameContext,
+    associator_capability,
+    available_associators,
+    make_associator,
+    register_associator,
+)
+from agents.tracking.gated import GatedAssignment
+from agents.tracking.merges import SharedBlobs
+from agents.tracking.second_chance import SecondChance
+from agents.tracking.tracker import PointTracker
+from agents.tracking.velocity_prior import VelocityPriorState
+
+__all__ = [
+    "Association",
+    "Associator",
+    "AssociatorCapability",
+    "FrameContext",
+    "GatedAssignment",
+    "PointTracker",
+    "SecondChance",
+    "SharedBlobs",
+    "VelocityPriorState",
+    "associator_capability",
+    "available_associators",
+    "make_associator",
+    "register_associator",
+]

@@ -21,7 +21,8 @@ detected outside its gate, with odds ``(1 − p_D) : (p_D − a)``, where ``a`` 
 established tracks (updated the last two frames, predicted inside the region) find a detection in
 their gate (measured over the last ≈100 frames; ``p_D − a`` at least ``p_D (1 − p_gate)``). The
 second chance then takes a pair only when the kicked-target hypothesis beats a miss plus a clutter
-detection, ``(p_D − a) N(z; ŷ, f S) ≥ (1 − p_D) λ`` (:func:`agents.gnn._kernels.clutter_log_odds`):
+detection, ``(p_D − a) N(z; ŷ, f S) ≥ (1 − p_D) λ``
+(:func:`agents.tracking._upkeep_kernels.clutter_log_odds`):
 on a stream whose motion model holds (``a ≈ p_D``) a coasting track no longer takes the clutter
 detection or another target's first detection in its inflated gate, while on a belt whose
 collisions knock particles out of their gates (``a < p_D``) it still recovers them. Without
@@ -35,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.gnn import _kernels
+from agents.tracking import _upkeep_kernels as _kernels
 from agents.tracking.assign import ASSIGNERS
 from agents.tracking.associator import FrameContext
 from track_envs.values.types import SensorSpec

@@ -23,14 +23,14 @@ was updated with (−1 when it coasted). When the sensor has a nozzle bar downst
 (``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
 crossing of the bar in the report's sorting channel (:mod:`track_envs.contracts.sorting_channel`): its
 predictor rolled forward from the track's state without further measurements
-(:func:`agents.tracking.sorting.predict_crossings`; a track slower than a sixth of the flow is given
+(:func:`agents.sorting.rollout.predict_crossings`; a track slower than a sixth of the flow is given
 up, see :meth:`PointTracker._rollout_steps`). A deleted track has coasted since its last update,
 and coasting is that roll-out, so the prediction is the one from the last update.
 
 All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
 steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
 are each one compiled loop (numba: :mod:`predictors.kalman._kernels`,
-:mod:`agents.tracking._kernels`, :mod:`agents.gnn._kernels`), so a frame is a few dozen calls
+:mod:`agents.tracking._kernels`, :mod:`agents.tracking._upkeep_kernels`), so a frame is a few dozen calls
 whatever the number of tracks. The kernels compile (or load from numba's cache) on first use;
 :meth:`PointTracker.warm_up` runs every one of them once on a tiny synthetic input, so that a live
 stream does not pause on its first frames.
@@ -46,11 +46,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.base import AgentCapability, AgentTraits
-from agents.gnn import _kernels
-from agents.gnn.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
+from agents.sorting.rollout import MAX_STEPS, predict_crossings
+from agents.tracking import _upkeep_kernels as _kernels
 from agents.tracking.assign import chi2_gate
 from agents.tracking.associator import ASSOCIATOR_DECLARATIONS, Association, Associator, FrameContext
-from agents.tracking.sorting import MAX_STEPS, predict_crossings
+from agents.tracking.knobs import NOISE_SCALE, P_GATE, RECOVERY_INFLATION
 from agents.tracking.velocity_prior import YOUNG_STREAK, FlowPrior, VelocityPriorState
 from agents.tracking.warm_up import warm_up_stream
 from predictors.base import Capability, Predictor, capability, reset_predictor
@@ -116,7 +116,7 @@ class PointTracker:
             AgentCapability.TRACK_COVARIANCES,
             AgentCapability.LAST_PREDICTION,
             AgentCapability.LIVE_KNOBS,
-            AgentCapability.SELF_CALIBRATION,
+            AgentCapability.SENSOR_MODEL,
         }
     )
     #: Built with ``predictor=`` (a Gaussian predictor's name or object).

@@ -33,7 +33,7 @@ class NisRule:
 
     Args:
         gain: ``η`` in (0, 1] (default 0.5).
-        fixed: Values of the other knobs (default the gnn's, :data:`agents.gnn.knobs.LIVE_KNOBS`).
+        fixed: Values of the other knobs (default the gnn's, :data:`agents.tracking.knobs.LIVE_KNOBS`).
         ranges: The env's knob ranges.
     """
 

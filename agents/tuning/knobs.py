@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.gnn.knobs import LIVE_KNOBS
+from agents.tracking.knobs import LIVE_KNOBS
 
-#: The scale of each knob (its valid values are the tracker's, :data:`agents.gnn.knobs.LIVE_KNOBS`).
+#: The scale of each knob (its valid values are the tracker's, :data:`agents.tracking.knobs.LIVE_KNOBS`).
 SCALES = {"p_gate": "log-miss", "recovery_inflation": "log", "noise_scale": "log"}
 #: Default ranges: gate misses 0.5 … 1e-6, second-chance scale 1 (off) … 1000, noise ×0.25 … ×64.
 #: (The best fixed setting of the belt with drift, p_gate 0.7 and noise ×32, lies inside.)

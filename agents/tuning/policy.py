@@ -30,7 +30,7 @@ from typing import Any, Literal, Protocol, Self, overload
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.gnn.knobs import LIVE_KNOBS
+from agents.tracking.knobs import LIVE_KNOBS
 from agents.tuning.knobs import DEFAULT_RANGES, Knob, knob_ranges, make_knobs
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes, save_model
 from track_envs.infra.declared import Declarations

@@ -293,7 +293,7 @@ class LSTMPredictor:
     def coast(self, state: Any) -> tuple[Any, Gaussian]:
         """:meth:`predict` then :meth:`update` with nothing seen, in one pass: every track is fed
         its own prediction. Returns the new state and the prediction (the roll-out step of
-        :func:`agents.tracking.sorting.predict_crossings`; the same numbers as the two calls, without
+        :func:`agents.sorting.rollout.predict_crossings`; the same numbers as the two calls, without
         their argument checks)."""
         self._need_spec()
         prediction = self._prediction(state)
@@ -309,7 +309,7 @@ class LSTMPredictor:
     def rollout_crossings(
         self, state: Any, line: float, frame: int, dt: float, max_steps: int
     ) -> Crossings | None:
-        """The crossings of ``x = line`` that :func:`agents.tracking.sorting.predict_crossings` finds by
+        """The crossings of ``x = line`` that :func:`agents.sorting.rollout.predict_crossings` finds by
         rolling ``state`` forward with :meth:`coast`, in one compiled pass over the tracks
         (:func:`predictors.belt_lstm._kernels.lstm_crossings_kernel`, float64); ``None`` where that
         pass does not apply (mc-lstm, other than 2-D measurements)."""

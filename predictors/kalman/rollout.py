@@ -1,6 +1,6 @@
 """Nozzle-bar crossings of Kalman tracks in closed form: the Kalman filters' ``LINE_ROLLOUT`` capability.
 
-The generic roll-out (:func:`agents.tracking.sorting.predict_crossings`) steps a predictor frame
+The generic roll-out (:func:`agents.sorting.rollout.predict_crossings`) steps a predictor frame
 by frame without measurements until the predicted position passes the line ``x = L``. For a
 linear Kalman filter the ``j``-step roll-out is known in closed form,
 

@@ -1,7 +1,7 @@
 """The pose hypothesis motion: what the tracks of a multi-person pose tracker predict.
 
 A pose motion is the motion half of the pose-tracking loop of Okada et al. (2020), Algorithm 1
-(:class:`agents.pose.baseline.PoseTracker`); the loop keeps the ids, lifetimes and matching. It
+(:class:`agents.pose.tracker.PoseTracker`); the loop keeps the ids, lifetimes and matching. It
 differs from a :class:`predictors.base.Predictor` in three ways:
 
 * **it owns its state and changes it in place.** The motion holds one row per active track

@@ -4,7 +4,7 @@
 motion of ``pose-baseline``) and ``"smc"`` (:class:`predictors.pose_lstm.motion.SmcPoseMotion`
 with its pose predictor loaded, the motion of ``pose-smc``). Each pose agent builds its own motion
 from its keyword arguments; the registry names them and builds one for a
-:class:`agents.pose.baseline.PoseTracker` of your own.
+:class:`agents.pose.tracker.PoseTracker` of your own.
 """
 
 from __future__ import annotations

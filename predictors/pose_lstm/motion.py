@@ -4,7 +4,7 @@ Okada, Takenaka and Taniguchi, "Multi-person Pose Tracking using Sequential Mont
 Probabilistic Neural Pose Predictor" (ICRA 2020), Sec. II and IV, Algorithm 1. This module is the
 motion hypothesis, :class:`SmcPoseMotion` (a :class:`~predictors.pose.base.PoseMotion`); the loop
 (OKS scores, bipartite matching with a threshold, lifetimes, births, ``F_max`` filters) is
-:class:`agents.pose.baseline.PoseTracker`, and the agent ``pose-smc`` is
+:class:`agents.pose.tracker.PoseTracker`, and the agent ``pose-smc`` is
 :class:`agents.pose.smc.PoseSmcAgent`.
 
 Each active filter ``k`` holds ``P`` particles; particle ``n`` is a queue of the last ``L`` poses

@@ -15,9 +15,9 @@ import track_envs  # noqa: F401
 from agents import AGENTS, agent_applies_to, available_agents, make_agent, register_agent
 from agents.base import Agent, agent_traits
 from agents.gnn.agent import GnnAgent
-from agents.gnn.knobs import LIVE_KNOBS
 from agents.one_step import OneStepAgent
-from agents.tracking.sorting import predict_crossings
+from agents.sorting.rollout import predict_crossings
+from agents.tracking.knobs import LIVE_KNOBS
 from predictors import make_predictor, resolve_predictor
 from predictors.base import BatchState, Capability, capability, declared_capabilities, has_capability
 from predictors.kalman.predictor import KalmanPredictor

@@ -19,10 +19,10 @@ from agents.base import (
     agent_traits,
     warm_up,
 )
+from agents.files.points import run_agent, takes_calibration
 from agents.particle.agent import BatchParticleFilter
-from agents.pose.baseline import PoseTracker
-from agents.run import run_agent, takes_calibration
-from agents.self_calibration.calibrate import FALLBACK_PREDICTOR, kinematics, tracking_model
+from agents.pose.tracker import PoseTracker
+from agents.sensor_model.estimate import FALLBACK_PREDICTOR, kinematics, tracking_model
 from agents.tuning.policy import FixedPolicy, PolicyCapability, SettingChooser, policy_capability
 from predictors import make_predictor
 from predictors.base import Capability, capability
@@ -116,7 +116,7 @@ def test_every_registered_agent_declares_what_its_consumers_ask():
         AgentCapability.TRACK_COVARIANCES,
         AgentCapability.LAST_PREDICTION,
         AgentCapability.LIVE_KNOBS,
-        AgentCapability.SELF_CALIBRATION,
+        AgentCapability.SENSOR_MODEL,
     }
     assert declared["gnn"] == declared["jpda"] == tracker
     assert declared["one-step"] == {AgentCapability.TRUTH_OBSERVER}

@@ -8,10 +8,10 @@ import pytest
 
 import agents
 import track_envs  # noqa: F401
-from agents import EpisodeResult, make_agent, run_episode
-from agents.baseline import DetectionsAgent
+from agents import AgentCapability, AgentTraits, EpisodeResult, make_agent, run_episode
 from agents.bench.cells import Cell
 from agents.bench.runner import run_cell
+from agents.detections_agent import DetectionsAgent
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -34,7 +34,8 @@ def test_same_metrics_as_the_bench_cell_of_the_same_seed():
 class TruthCounter(DetectionsAgent):
     """An oracle: counts the truths it is handed, one per frame before act."""
 
-    needs_truth = True
+    traits = AgentTraits(needs_truth=True)
+    capabilities = frozenset({AgentCapability.TRUTH_OBSERVER})
 
     def reset(self, spec, *, seed=None):
         super().reset(spec, seed=seed)

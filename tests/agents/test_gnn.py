@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.gnn import _kernels as _gnn_kernels
 from agents.gnn.agent import YOUNG_STREAK
+from agents.tracking import _upkeep_kernels as _gnn_kernels
 from predictors import available_predictors
 from predictors.base import Capability
 from predictors.kalman.predictor import KalmanPredictor
@@ -301,7 +301,7 @@ def test_any_protocol_predictor_works_with_the_compiled_frame():
 
 
 def test_flow_statistics_equal_numpy_median_and_mad() -> None:
-    from agents.gnn._kernels import median_and_mad_variance
+    from agents.tracking._upkeep_kernels import median_and_mad_variance
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 7, 40):

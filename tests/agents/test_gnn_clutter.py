@@ -7,7 +7,7 @@ chance used to let coasting tracks take clutter and other targets' first detecti
 inflated gates: on the stream below gnn's defaults scored a lower IDF1 than the plain GNN (kf-cv,
 0.887 against 0.902 on seed 0) and made 1.9x (kf-cv) and 1.3x (kf-ca) the ID switches of the same
 tracker without the second chance. With the clutter test of the second chance
-(:func:`agents.gnn._kernels.clutter_log_odds`) every measure of the defaults is at least the
+(:func:`agents.tracking._upkeep_kernels.clutter_log_odds`) every measure of the defaults is at least the
 plain GNN's.
 """
 
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from agents import make_agent
-from agents.gnn import _kernels
 from agents.gnn.agent import GnnAgent
+from agents.tracking import _upkeep_kernels as _kernels
 from track_envs.streams.constant_velocity import (
     ConstantVelocityStream,
     constant_velocity_stream,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.gnn import _kernels as gnn
 from agents.tracking import _kernels as tracking
+from agents.tracking import _upkeep_kernels as gnn
 from predictors.kalman import _kernels as kalman
 from predictors.kalman.predictor import cv_model
 

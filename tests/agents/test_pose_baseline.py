@@ -8,7 +8,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import agent_applies_to, make_agent
-from agents.pose.baseline import PoseBaselineAgent
+from agents.pose.tracker import PoseBaselineAgent
 from track_envs.metrics.keypoints import COCO_SIGMAS, pairwise_oks
 from track_envs.values.types import SensorSpec
 from track_envs.wrappers import TrackingMetrics

@@ -10,8 +10,8 @@ import pytest
 
 from agents import AGENTS, make_agent
 from agents.bench.cells import expand, load_suite
-from agents.pose.baseline import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
 from agents.pose.smc import PoseSmcAgent
+from agents.pose.tracker import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
 from predictors.pose import ConstantVelocityPose
 from predictors.pose_lstm.motion import SmcPoseMotion, SmcSettings
 from track_envs.infra.registry import (

@@ -10,8 +10,8 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import agent_applies_to, make_agent
-from agents.pose.baseline import PoseTracker, detection_areas
 from agents.pose.smc import PoseSmcAgent
+from agents.pose.tracker import PoseTracker, detection_areas
 from predictors.pose import centroid_fill
 from predictors.pose_lstm.predictor import PosePredictor, window_features
 from predictors.pose_lstm.training import pose_windows_from_env, to_model_file, train_pose_model

@@ -12,7 +12,7 @@ import pytest
 import track_envs  # noqa: F401  (registers the envs)
 from agents import make_agent
 from agents.cli.run import format_metrics, main
-from agents.run import run_agent
+from agents.files.points import run_agent
 from track_envs.contracts.observation import check_observation, pack_observation
 from track_envs.io.tracks import read_tracks
 from track_envs.values.detections import Detections

@@ -11,9 +11,9 @@ import pytest
 
 from agents import make_agent
 from agents.cli.run import main
-from agents.file_kinds import file_agents, why_not
-from agents.pose.run import run_pose_agent
-from agents.run import run_agent
+from agents.files.kinds import file_agents, why_not
+from agents.files.points import run_agent
+from agents.files.poses import run_pose_agent
 from track_envs.envs.pose_recording import record_keypoint_walkers
 from track_envs.io.poses import posetrack_track_ids, read_pose_file, write_coco_results, write_posetrack
 from track_envs.metrics.pose_scoring import score_poses

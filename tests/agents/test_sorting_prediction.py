@@ -9,7 +9,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.tracking.sorting import predict_crossings
+from agents.sorting.rollout import predict_crossings
 from predictors import available_predictors, make_predictor, predictor_applies_to
 from predictors.base import Capability, Crossings
 from track_envs.metrics import SortingPrediction

@@ -9,7 +9,7 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.pose.baseline import PoseTracker
+from agents.pose.tracker import PoseTracker
 from predictors.pose import POSE_MOTIONS, ConstantVelocityPose, centroid_fill, motion_models
 from predictors.pose_lstm.motion import SmcPoseMotion, elite_mask, resample_indices
 from track_envs.values.types import SensorSpec

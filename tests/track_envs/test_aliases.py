@@ -11,7 +11,7 @@ import sys
 import pytest
 
 import track_envs
-from track_envs._aliases import MOVED
+from track_envs.infra.moved_modules import MOVED
 
 #: The public names of every old module (as they were defined there).
 OLD_NAMES: dict[str, tuple[str, ...]] = {

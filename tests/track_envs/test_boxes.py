@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.run import run_agent
+from agents.files.points import run_agent
 from track_envs.io.detections import (
     CONSIDERED,
     DetectionFileError,

@@ -3,7 +3,7 @@
 Layers, lowest first: ``infra`` (compiled kernels, registries, argument checks, assignment),
 ``values`` (value types), ``contracts`` (observation / report), ``io`` (files), ``metrics``,
 ``wrappers``, ``envs`` (with ``registration``, which only names them), ``streams``, and the
-package's own top (``__init__``, ``testing``, ``_aliases``). Every import is checked, also those
+package's own top (``__init__``, ``testing``). Every import is checked, also those
 inside functions.
 """
 
@@ -19,7 +19,7 @@ import track_envs
 ROOT = Path(track_envs.__file__).parent
 LAYERS = ("infra", "values", "contracts", "io", "metrics", "wrappers", "envs", "streams", "top")
 #: Top-level modules of the package and the layer each belongs to.
-TOP_MODULES = {"registration": "envs", "testing": "top", "_aliases": "top", "__init__": "top"}
+TOP_MODULES = {"registration": "envs", "testing": "top", "__init__": "top"}
 
 
 def layer_of(module: str) -> str:

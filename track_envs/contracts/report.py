@@ -133,7 +133,7 @@ def empty_report(max_tracks: int, position_shape: tuple[int, ...]) -> dict[str, 
 class ReportOverflowError(ValueError):
     """More live tracks than a report has rows: ``n_tracks`` tracks, ``max_tracks`` rows.
 
-    A ``ValueError``, so callers that catch those still do; :func:`agents.run.run_agent` catches
+    A ``ValueError``, so callers that catch those still do; :func:`agents.files.points.run_agent` catches
     this one and runs again with a larger report.
     """
 

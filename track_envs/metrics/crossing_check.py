@@ -6,7 +6,7 @@ line ``x = L`` inside the window, let the tracker see only the detections upstre
 ``x_cut < L`` (its camera window ends there), and compare its predicted crossings of ``L`` with
 where the tracks of the whole recording really crossed ``L``. This module holds the two pure
 halves (no tracker): the observed crossings of tracks (:func:`observed_crossings`) and the score
-(:func:`score_crossings`); :func:`agents.sorting_check.check_sorting` runs the tracker.
+(:func:`score_crossings`); :func:`agents.sorting.check.check_sorting` runs the tracker.
 
 **Observed crossing** of a track: between two consecutive detections the track was updated with,
 at frames ``f_a < f_b`` (coasted frames between them allowed), with positions ``p_a``, ``p_b`` and

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from track_envs.metrics.base import live_report, live_truth
 from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
 from track_envs.metrics.hota_similarity import box_iou, point_similarity
-from track_envs.metrics.keypoints import _report_poses, _truth_poses, oks
+from track_envs.metrics.keypoints import oks, report_poses, truth_poses
 
 #: HOTA's figure names (:data:`~track_envs.metrics.hota.HOTA_FIELDS`) and the metric keys they
 #: have in ``episode_metrics``, records and tables.
@@ -142,8 +142,8 @@ class PoseHota(_StreamingHota):
     ) -> None:
         """Add one frame (``detection_ids`` is unused)."""
         del detection_ids
-        truth_ids, g, visible, scale = _truth_poses(truth)
-        report_ids, x = _report_poses(report)
+        truth_ids, g, visible, scale = truth_poses(truth)
+        report_ids, x = report_poses(report)
         area = self.area_factor * np.asarray(scale, dtype=np.float64) ** 2
         similarity = oks(g, visible, area, x).T if len(g) and len(x) else np.zeros((len(g), len(x)))
         self._acc.add_frame(truth_ids, report_ids, np.clip(similarity, 0.0, 1.0))

@@ -209,7 +209,7 @@ def oks_upper_bound(
     return np.max(np.where(valid, np.exp(-e), 0.0), axis=2, initial=0.0)
 
 
-def _truth_poses(truth: Mapping[str, NDArray]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def truth_poses(truth: Mapping[str, NDArray]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Ids (m,), keypoints (m, 17, 2), keypoint visibility (m, 17), scale (m,) of the visible truths."""
     ids = np.asarray(truth["ids"], dtype=np.int64)
     keep = (ids >= 0) & np.asarray(truth["visible"], dtype=bool)
@@ -224,7 +224,7 @@ def _truth_poses(truth: Mapping[str, NDArray]) -> tuple[NDArray, NDArray, NDArra
     )
 
 
-def _report_poses(report: Mapping[str, NDArray]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+def report_poses(report: Mapping[str, NDArray]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     ids, pos, _ = live_report(report)
     if pos.ndim != 3 or pos.shape[1:] != (NUM_KEYPOINTS, 2):
         raise ValueError(
@@ -274,14 +274,14 @@ class KeypointMota:
     ) -> None:
         """Add one frame (``detection_ids`` is unused)."""
         del detection_ids
-        oids, g, vis, scale = _truth_poses(truth)
+        oids, g, vis, scale = truth_poses(truth)
         keep = np.asarray(truth["ids"]) >= 0
         keep &= np.asarray(truth["visible"], dtype=bool)
         if "head_size" in truth:
             head = np.asarray(truth["head_size"], dtype=np.float64)[keep]
         else:
             head = self.head_fraction * np.asarray(scale, dtype=np.float64)
-        hids, x = _report_poses(report)
+        hids, x = report_poses(report)
         # normalised distances (m, n, K); NaN where the PCKh criterion fails
         d = np.linalg.norm(g[:, None] - x[None], axis=-1) / np.maximum(head, _EPS)[:, None, None]
         d[d > self.pckh] = np.nan
@@ -360,8 +360,8 @@ class PoseOks:
     ) -> None:
         """Add one frame (``detection_ids`` is unused)."""
         del detection_ids
-        _, g, vis, scale = _truth_poses(truth)
-        _, x = _report_poses(report)
+        _, g, vis, scale = truth_poses(truth)
+        _, x = report_poses(report)
         self._truths += len(g)
         self._tracks += len(x)
         if len(g) == 0 or len(x) == 0:

@@ -4,7 +4,7 @@
 owns rows ``offsets[t]:offsets[t + 1]`` of ``points``), so that a stream of 50,000 frames is a
 few arrays, not 50,000 small ones. The file readers of :mod:`track_envs.io.detections` return
 it; :class:`~track_envs.envs.detection_replay.DetectionReplayEnv` replays it and
-``agents.run.run_agent`` tracks it.
+``agents.files.points.run_agent`` tracks it.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
 poses in flat arrays (CSR layout: frame ``t`` owns rows ``offsets[t]:offsets[t + 1]``), with what
 the pose file formats carry per pose (a track id, a pose score, a head box) and per frame (the
 image id and file name). The readers and the writer of :mod:`track_envs.io.poses` map to it,
-``agents.pose.run.run_pose_agent`` tracks it, and :mod:`track_envs.metrics.pose_scoring` scores
+``agents.files.poses.run_pose_agent`` tracks it, and :mod:`track_envs.metrics.pose_scoring` scores
 one stream against another.
 
 Keypoints follow COCO: ``(x, y, v)`` with ``v = 0`` not labelled (``x = y = 0``), ``v = 1``

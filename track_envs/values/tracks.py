@@ -115,7 +115,7 @@ class Tracks:
         first_frame: int = 0,
     ) -> Tracks:
         """:meth:`from_reports` with the reports' arrays given key by key (one list per key, one
-        array per frame), which is how :func:`agents.run.run_agent` keeps them: arrays, not dicts,
+        array per frame), which is how :func:`agents.files.points.run_agent` keeps them: arrays, not dicts,
         so that the reports of a block hold no objects Python's garbage collector scans."""
         if not len(mask):
             return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), first_frame)

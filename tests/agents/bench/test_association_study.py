@@ -23,7 +23,7 @@ import pytest
 from scipy import stats
 
 from agents.bench.cells import Cell, kwarg_items
-from agents.bench.report import write_csvs
+from agents.bench.tables import write_csvs
 
 _SPEC = importlib.util.spec_from_file_location(
     "association_study", Path(__file__).parents[3] / "benchmarks" / "association_study.py"

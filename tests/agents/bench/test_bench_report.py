@@ -10,8 +10,8 @@ import pytest
 from matplotlib.container import ErrorbarContainer
 
 from agents.bench import Cell, aggregate, load_records, run_cell, write_record
-from agents.bench.report import Row, axis_scale, bar_figure, error_band, sweep_figure
 from agents.bench.runner import SkippedRecordWarning, scan_records
+from agents.bench.tables import Row, axis_scale, bar_figure, error_band, sweep_figure
 from agents.cli.bench import main
 
 matplotlib.use("Agg")

@@ -9,8 +9,8 @@ import pytest
 
 from agents.bench import expand
 from agents.bench.cells import Cell, load_suite, override, packaged_suites, suite_names
-from agents.bench.report import aggregate, write_report
 from agents.bench.runner import load_records, run_cell, write_record
+from agents.bench.tables import aggregate, write_report
 from agents.cli.bench import main
 
 matplotlib.use("Agg")

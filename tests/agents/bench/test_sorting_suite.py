@@ -5,7 +5,7 @@ from __future__ import annotations
 import matplotlib
 
 from agents.bench import expand, load_suite
-from agents.bench.report import Row, best_rows, headline, sorting_error_figure
+from agents.bench.tables import Row, best_rows, headline, sorting_error_figure
 
 matplotlib.use("Agg")
 

@@ -120,7 +120,7 @@ def reference_mota(tracks: PoseStream, truth: PoseStream, pckh: float = 0.5) -> 
 @pytest.mark.parametrize("agent", ["pose-baseline", "detections-as-tracks"])
 def test_per_joint_mota_matches_motmetrics_on_a_walkers_episode(episode, agent):
     from agents import make_agent
-    from agents.pose.run import run_pose_agent
+    from agents.files.poses import run_pose_agent
     from track_envs.values.poses import pose_sensor_spec
 
     det, gt = episode

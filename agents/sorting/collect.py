@@ -1,4 +1,5 @@
-"""Collect the sorting channel of an agent's reports over a stream (for :func:`agents.run.run_agent`).
+"""Collect the sorting channel of an agent's reports over a stream (for
+:func:`agents.files.points.run_agent`).
 
 An agent told of a sorting line (``SensorSpec.sorting_line``) adds to each report the predicted
 crossings of the tracks it let go in that frame (:mod:`track_envs.contracts.sorting_channel`). The collector

@@ -1,4 +1,5 @@
-"""The gnn's live knobs: the settings that may change between frames, with their defaults and valid values.
+"""The point trackers' live knobs (gnn, jpda): the settings that may change between frames, with
+their defaults and valid values.
 
 :class:`~agents.gnn.agent.GnnAgent` takes its defaults from here and checks a new value with
 :meth:`LiveKnob.check`; the gate tuning (:mod:`agents.tuning`) reads the same table for its

@@ -1,4 +1,5 @@
-"""Deprecated module paths of the flat layout, importable for this release.
+"""Deprecated module paths, importable for this release (``track_envs``'s, and those other
+packages register).
 
 The modules moved into layers (``infra``, ``values``, ``contracts``, ``io``, ``envs``,
 ``metrics``). :class:`MovedModuleFinder`, on ``sys.meta_path`` from ``import track_envs``, answers
@@ -50,6 +51,10 @@ MOVED: dict[str, str] = {
 }
 
 
+#: The moves other packages registered (:func:`register_moved_modules`), old name -> new one.
+_MOVED_ELSEWHERE: dict[str, str] = {}
+
+
 class _AliasLoader(importlib.abc.Loader):
     """Loads an old name as the module at its new path (imported, then put in its place)."""
 
@@ -71,15 +76,22 @@ class _AliasLoader(importlib.abc.Loader):
 
 
 class MovedModuleFinder(importlib.abc.MetaPathFinder):
-    """A ``sys.meta_path`` finder for the names in :data:`MOVED` (and only those)."""
+    """A ``sys.meta_path`` finder for the names in :data:`MOVED` and those registered (only those)."""
 
     def find_spec(
         self, fullname: str, path: Sequence[str] | None, target: ModuleType | None = None
     ) -> importlib.machinery.ModuleSpec | None:
-        new = MOVED.get(fullname)
+        new = MOVED.get(fullname) or _MOVED_ELSEWHERE.get(fullname)
         if new is None:
             return None
         return importlib.machinery.ModuleSpec(fullname, _AliasLoader(new))
+
+
+def register_moved_modules(moved: dict[str, str]) -> None:
+    """Alias old dotted module names of another package to their new ones (``agents`` registers
+    its moves on import; :data:`MOVED` is ``track_envs``'s own) and install the finder."""
+    _MOVED_ELSEWHERE.update(moved)
+    install()
 
 
 def install() -> None:

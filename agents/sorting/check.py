@@ -10,7 +10,7 @@ camera window, put a virtual line ``x = L`` and a cut-off ``x_cut < L``.
 2. **Cut run**: the same tracker over the detections at ``x <= x_cut`` only, told that its camera
    window ends at ``x_cut`` and that the sorting line is ``L``; it predicts each track's crossing
    when it lets the track go, from the track's state at its last detection before the cut-off
-   (the gnn agent's sorting channel, collected by :func:`agents.run.run_agent`).
+   (the gnn agent's sorting channel, collected by :func:`agents.files.points.run_agent`).
 3. **Matching**: a cut-run track is the reference track that was updated with the same detection
    as the cut-run track's last one (the detection the prediction starts from).
 4. **Score** (:func:`track_envs.metrics.crossing_check.score_crossings`): hit rate within ``±w_y`` and
@@ -31,7 +31,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.run import run_agent
 from track_envs.io.crossings import PredictedCrossings
 from track_envs.metrics.crossing_check import (
     LATERAL_TOLERANCE,
@@ -159,6 +158,9 @@ def check_sorting(
         from agents import make_agent
 
         agent = make_agent(agent)
+    # (imported here: the file engine itself collects predictions with agents.sorting)
+    from agents.files.points import run_agent
+
     if reference is None:
         reference = run_agent(agent, detections, spec, seed=seed)
     observed = observed_crossings(reference, detections, line, spec.dt)

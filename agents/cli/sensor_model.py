@@ -1,7 +1,7 @@
 """The self-calibration of ``track run``: its options, and how they turn into the agent and sensor spec.
 
 With ``--calibrate auto`` (the default) a run without ``--declared-noise-std`` calibrates itself
-(:func:`agents.self_calibration.calibrate`); ``--calibrate on`` calibrates whatever is not given
+(:func:`agents.sensor_model.estimate`); ``--calibrate on`` calibrates whatever is not given
 (``--declared-noise-std``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
 ``max_misses`` in ``--agent-kwargs`` each override their estimate), ``off`` never.
 """
@@ -76,12 +76,12 @@ def calibrated(
     args: argparse.Namespace, detections: Detections, spec: SensorSpec, agent_kwargs: dict[str, Any]
 ) -> tuple[SensorSpec, dict[str, Any], Any]:
     """The spec and agent keywords of a self-calibrated run, and the calibration."""
-    from agents.run import takes_calibration
-    from agents.self_calibration import calibrate
+    from agents.files.points import takes_calibration
+    from agents.sensor_model import estimate_sensor_model
 
     predictor = args.predictor or "kf-ca"
     gnn_kwargs = {k: v for k, v in agent_kwargs.items() if args.agent == "gnn"}
-    cal = calibrate(
+    cal = estimate_sensor_model(
         detections,
         spec,
         predictor=predictor,

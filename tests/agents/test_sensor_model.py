@@ -12,10 +12,10 @@ import pytest
 
 from agents import make_agent
 from agents.cli import main as track_main
-from agents.run import run_agent
-from agents.self_calibration import calibrate, run_warnings
-from agents.self_calibration.calibrate import detection_labels, live_track_bound
-from agents.self_calibration.noise import design_matrix, estimate_noise
+from agents.files.points import run_agent
+from agents.sensor_model import estimate_sensor_model, run_warnings
+from agents.sensor_model.estimate import detection_labels, live_track_bound
+from agents.sensor_model.noise import design_matrix, estimate_noise
 from predictors.kalman.predictor import _kinematic_model
 from track_envs.io.detections import write_wide_detections
 from track_envs.metrics.track_scoring import score_tracks
@@ -125,7 +125,7 @@ def belt():
 @pytest.fixture(scope="module")
 def calibrated(belt):
     spec = detection_sensor_spec(belt, dt=0.005)
-    cal = calibrate(belt, spec, predictor="kf-cv")
+    cal = estimate_sensor_model(belt, spec, predictor="kf-cv")
     agent = make_agent("gnn", predictor="kf-cv", **cal.agent_kwargs())
     return cal, run_agent(agent, belt, cal.sensor_spec(spec))
 
@@ -146,7 +146,7 @@ def test_pixels_and_metres_give_the_same_tracks(belt, calibrated, k):
     cal, tracks = calibrated
     other = scaled(belt, k)
     spec = detection_sensor_spec(other, dt=0.005)
-    cal_k = calibrate(other, spec, predictor="kf-cv")
+    cal_k = estimate_sensor_model(other, spec, predictor="kf-cv")
     assert cal_k.noise_std == pytest.approx(cal.noise_std * k, rel=1e-6)
     assert cal_k.q == pytest.approx(cal.q * k * k, rel=1e-6)
     assert cal_k.max_misses == cal.max_misses
@@ -159,7 +159,9 @@ def test_pixels_and_metres_give_the_same_tracks(belt, calibrated, k):
 
 def test_given_settings_are_kept(belt):
     spec = detection_sensor_spec(belt, dt=0.005)
-    cal = calibrate(belt, spec, predictor="kf-ca", noise_std=1e-4, q=7.0, agent_kwargs={"max_misses": 4})
+    cal = estimate_sensor_model(
+        belt, spec, predictor="kf-ca", noise_std=1e-4, q=7.0, agent_kwargs={"max_misses": 4}
+    )
     assert (cal.noise_std, cal.q, cal.max_misses) == (1e-4, 7.0, 4)
     assert cal.sources["noise_std"] == cal.sources["q"] == cal.sources["max_misses"] == "given"
     assert cal.sources["velocity_mean"] == "estimated"
@@ -168,7 +170,7 @@ def test_given_settings_are_kept(belt):
 def test_calibrate_needs_motion():
     lone = Detections.from_frames([np.zeros((1, 2)), np.zeros((0, 2)), np.ones((1, 2))])
     with pytest.raises(ValueError, match="no two consecutive frames"):
-        calibrate(lone, detection_sensor_spec(lone, dt=1.0))
+        estimate_sensor_model(lone, detection_sensor_spec(lone, dt=1.0))
 
 
 # -- warnings and the report size ---------------------------------------------------------------
@@ -291,20 +293,20 @@ def test_metric_threshold_defaults_from_the_data(tmp_path, capsys):
     assert "mota" in out
 
 
-# -- the figures of docs/self_calibration.md -----------------------------------------------------
+# -- the figures of docs/sensor_model.md -----------------------------------------------------
 @pytest.mark.slow
 def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
     import sys
 
     sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
-    from bench_self_calibration import belt_sample, tud_campus
+    from bench_sensor_model import belt_sample, tud_campus
 
     for (det, truth), dt, threshold, best in (
-        (belt_sample(5e-4), 0.01, 0.005, 0.982),  # best of the hand-tuned grid (docs/self_calibration.md)
+        (belt_sample(5e-4), 0.01, 0.005, 0.982),  # best of the hand-tuned grid (docs/sensor_model.md)
         (tud_campus(), 0.04, 50.0, 0.666),
     ):
         spec = detection_sensor_spec(det, dt=dt)
-        cal = calibrate(det, spec)
+        cal = estimate_sensor_model(det, spec)
         tracks = run_agent(
             make_agent("gnn", predictor="kf-ca", **cal.agent_kwargs()), det, cal.sensor_spec(spec)
         )

@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents.base import AgentCapability, agent_capability, agent_declares
-from agents.file_kinds import check_file_agent
-from agents.sorting_collect import SortingCollector, sorting_spec
+from agents.files.kinds import check_file_agent
+from agents.sorting.collect import SortingCollector, sorting_spec
 from track_envs.contracts.report import ReportOverflowError
 from track_envs.io.crossings import PredictedCrossings
 from track_envs.values.detections import Detections
@@ -130,10 +130,10 @@ def run_agent(
             report gives. Needs ``reset`` (an agent that was reset by the caller cannot be run again).
         calibrate: Estimate the measurement noise, the process noise, the velocity prior and
             the coasting length from ``detections`` first
-            (:func:`agents.self_calibration.calibrate`, as ``track run`` does when no noise is
+            (:func:`agents.sensor_model.estimate`, as ``track run`` does when no noise is
             given) and track with them: ``spec``'s noise std is replaced, ``max_tracks`` sized
             for the estimated coasting, and ``agent`` must be a registered agent's name (the
-            estimate sets its keywords: an agent that declares ``SELF_CALIBRATION``, gnn and
+            estimate sets its keywords: an agent that declares ``SENSOR_MODEL``, gnn and
             jpda, with kf-ca gets all of them, any other agent the noise only). For the figures,
             or another predictor, call ``calibrate`` yourself and build the agent with its
             ``agent_kwargs()``.
@@ -155,7 +155,7 @@ def run_agent(
     Raises:
         ValueError: a frame with more detections than ``spec.max_detections`` (named),
             detections whose dimension is not ``spec.dim``, an agent that cannot track
-            recorded points (a pose agent; one that needs truth: :mod:`agents.file_kinds`); a
+            recorded points (a pose agent; one that needs truth: :mod:`agents.files.kinds`); a
             ``sorting_line`` not downstream of the region, or an agent that reports no crossings.
     """
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
@@ -197,28 +197,28 @@ def run_agent(
 
 def takes_calibration(name: str) -> bool:
     """Whether agent ``name`` takes the keywords of a self-calibration (``agent_kwargs()`` of
-    :func:`agents.self_calibration.calibrate`): its registered factory declares
-    ``SELF_CALIBRATION`` (gnn and the trackers built on it, jpda)."""
+    :func:`agents.sensor_model.estimate`): its registered factory declares
+    ``SENSOR_MODEL`` (gnn and the trackers built on it, jpda)."""
     from agents import AGENTS
 
-    return agent_declares(AGENTS.factory(name), AgentCapability.SELF_CALIBRATION)
+    return agent_declares(AGENTS.factory(name), AgentCapability.SENSOR_MODEL)
 
 
 def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
-    """The agent ``name`` built with the settings :func:`agents.self_calibration.calibrate`
+    """The agent ``name`` built with the settings :func:`agents.sensor_model.estimate`
     estimates from ``stream``, and ``spec`` with the estimated noise and a report that holds every
     track the estimated coasting allows (``run_agent(..., calibrate=True)``)."""
     from agents import make_agent
-    from agents.self_calibration import calibrate
-    from agents.self_calibration.calibrate import live_track_bound
+    from agents.sensor_model import estimate_sensor_model
+    from agents.sensor_model.estimate import live_track_bound
 
     if not isinstance(name, str):
         raise ValueError(
             "run_agent(calibrate=True) needs the agent by name (e.g. 'gnn'): the estimate sets its "
-            f"keywords; got {type(name).__name__}. Or call agents.self_calibration.calibrate(...) and "
+            f"keywords; got {type(name).__name__}. Or call agents.sensor_model.estimate(...) and "
             "build the agent with its agent_kwargs()"
         )
-    estimate = calibrate(stream, spec)
+    estimate = estimate_sensor_model(stream, spec)
     kwargs = estimate.agent_kwargs() if takes_calibration(name) else {}
     spec = estimate.sensor_spec(spec)
     rows = live_track_bound(stream, estimate.max_misses)

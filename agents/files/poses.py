@@ -1,6 +1,6 @@
 """Run a pose agent over a recorded pose stream (a pose file), outside a gym loop.
 
-:func:`run_pose_agent` is :func:`agents.run.run_agent` for poses: each frame of a
+:func:`run_pose_agent` is :func:`agents.files.points.run_agent` for poses: each frame of a
 :class:`~track_envs.values.poses.PoseStream` is packed as KeypointWalkers-v0 observes it
 (:func:`~track_envs.values.poses.pose_observation`), handed to ``agent.act``, and the report's live rows
 become the frame's tracked poses, a :class:`~track_envs.values.poses.PoseStream` with track ids:
@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.file_kinds import check_file_agent
+from agents.files.kinds import check_file_agent
 from track_envs.metrics.keypoints import NUM_KEYPOINTS
 from track_envs.values.poses import PoseStream, pose_observation
 from track_envs.values.types import SensorSpec

@@ -1,5 +1,5 @@
 """Self-calibrated ``track run`` against the best hand-tuned run, on the shipped belt sample and on
-TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/self_calibration.md.
+TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/sensor_model.md.
 
 * belt sample: the true tracks of ``track_envs/data/belt_sample.zip`` (300 frames, dt 0.01 s, metres)
   plus Gaussian noise of std ``--belt-noise`` (default 5e-4 m, seed 0) are the detections, with the
@@ -11,7 +11,7 @@ TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/self_calib
 Hand-tuned grid: predictor kf-ca / kf-cv × declared noise std (5 values) × max_misses 2 / 5 × p_gate
 0.99 / 0.999 (40 runs a data set). Calibrated: ``calibrate`` with the predictor, then one gnn run.
 
-    python benchmarks/bench_self_calibration.py
+    python benchmarks/bench_sensor_model.py
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from agents import make_agent
-from agents.run import run_agent
-from agents.self_calibration import calibrate
+from agents.files.points import run_agent
+from agents.sensor_model import estimate_sensor_model
 from track_envs.envs.belt_replay import sample_recording_path
 from track_envs.io.detections import read_detections
 from track_envs.io.tracks import read_tracks
@@ -91,7 +91,7 @@ def compare(
     )
     for predictor in ("kf-ca", "kf-cv"):
         spec = detection_sensor_spec(det, dt=dt)
-        cal = calibrate(det, spec, predictor=predictor)
+        cal = estimate_sensor_model(det, spec, predictor=predictor)
         tracks = run_agent(
             make_agent("gnn", predictor=predictor, **cal.agent_kwargs()), det, cal.sensor_spec(spec)
         )

@@ -7,7 +7,7 @@ import json
 import os
 from typing import Any
 
-from agents.self_calibration.calibrate import SelfCalibration
+from agents.sensor_model.estimate import SensorModelEstimate
 
 #: Suffix of the sidecar: ``tracks.txt`` → ``tracks.txt.calibration.json``.
 SIDECAR_SUFFIX = ".calibration.json"
@@ -19,7 +19,7 @@ def _vector(values: tuple[float, ...]) -> str:
     return "(" + ", ".join(f"{v:.4g}" for v in values) + ")"
 
 
-def calibration_lines(cal: SelfCalibration) -> list[str]:
+def calibration_lines(cal: SensorModelEstimate) -> list[str]:
     """The estimates, one per line, each with its unit ("input units": positions as given) and
     whether it was estimated or given."""
     src = cal.sources

@@ -1,15 +1,15 @@
 """Self-calibration: the sensor and motion noise of a Kalman tracker estimated from its own tracks.
 
-:func:`calibrate` needs nothing but the detections and the frame period. It iterates
+:func:`estimate_sensor_model` needs nothing but the detections and the frame period. It iterates
 
-1. **first settings from the data** (:mod:`agents.self_calibration.scales`): the flow ``ū`` and
+1. **first settings from the data** (:mod:`agents.sensor_model.scales`): the flow ``ū`` and
    spread ``s`` of the frame-to-frame displacements give the measurement noise std ``s / 2``, a
    process noise whose one-frame position std is ``s``, a velocity prior ``N(ū / dt, (2 s / dt)²)``
    and an acceleration std ``2 s / dt²``;
 2. **track** the stream with the GNN tracker and the chosen Kalman model (:mod:`agents.gnn`);
 3. **estimate** from the confident tracks (at least ``MIN_TRACK_LENGTH`` detections) the
    measurement variance ``r`` and the process-noise intensity ``q`` of the model by autocovariance
-   least squares on the differenced detections (:mod:`agents.self_calibration.noise`; Odelson,
+   least squares on the differenced detections (:mod:`agents.sensor_model.noise`; Odelson,
    Rajamani and Rawlings 2006), and the velocity prior — median and robust spread of each track's
    first velocity — and, for the constant-acceleration model, the spread of the first accelerations;
 4. **repeat** 2–3 with the new settings until ``r`` and ``q`` change by less than ``SETTLED``
@@ -37,9 +37,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.self_calibration.coasting import coasting_radii, reappearance_gaps
-from agents.self_calibration.noise import NoiseEstimate, estimate_noise
-from agents.self_calibration.scales import DataScales, data_scales
+from agents.sensor_model.coasting import coasting_radii, reappearance_gaps
+from agents.sensor_model.noise import NoiseEstimate, estimate_noise
+from agents.sensor_model.scales import DataScales, data_scales
 from predictors import make_predictor
 from predictors.base import Capability, KinematicModel, capability
 from track_envs.values.detections import Detections
@@ -49,7 +49,7 @@ from track_envs.values.types import SensorSpec
 #: The predictor whose kinematic model calibrates a predictor that declares none
 #: (``Capability.KINEMATIC_MODEL``): only its measurement noise (the sensor spec's) is then used.
 FALLBACK_PREDICTOR = "kf-cv"
-#: The name of each kinematic order (:attr:`SelfCalibration.model`).
+#: The name of each kinematic order (:attr:`SensorModelEstimate.model`).
 MODEL_NAMES: dict[int, str] = {1: "random-walk", 2: "cv", 3: "ca"}
 #: Fewest detections of a track that the estimate takes.
 MIN_TRACK_LENGTH = 6
@@ -65,7 +65,7 @@ DEFAULT_P_GATE = 0.999
 MIN_MAX_MISSES = 2
 #: Most frames a track may coast.
 MAX_MAX_MISSES = 100
-#: Share of track ends whose target re-appears (:mod:`agents.self_calibration.coasting`) from which
+#: Share of track ends whose target re-appears (:mod:`agents.sensor_model.coasting`) from which
 #: tracks coast through the longest gap seen.
 REAPPEAR_SHARE = 0.05
 
@@ -92,8 +92,8 @@ class Settings:
 
 
 @dataclass(frozen=True)
-class SelfCalibration:
-    """What :func:`calibrate` estimated, in the units of the input (positions as given, seconds).
+class SensorModelEstimate:
+    """What :func:`estimate_sensor_model` estimated, in the units of the input (positions as given, seconds).
 
     Attributes:
         dt: Frame period (s).
@@ -110,7 +110,7 @@ class SelfCalibration:
         threshold: The default metric match distance, ``length / 2`` (units).
         max_misses: Frames a track may coast: when at least ``REAPPEAR_SHARE`` of the confident
             tracks' ends are followed by a start of the same target (their re-appearances,
-            :mod:`agents.self_calibration.coasting`, looked for while the coasted gate radius stays
+            :mod:`agents.sensor_model.coasting`, looked for while the coasted gate radius stays
             within ``length / 2``), the longest gap of those; else ``MIN_MAX_MISSES``.
         reappearing: That share; ``reappearance_gaps``: the gaps seen (frames).
         iterations: Tracking runs made; ``settled``: whether ``r`` and ``q`` settled.
@@ -311,7 +311,7 @@ def _run_gnn(
 ) -> Tracks:
     """One tracking run of the gnn with ``settings`` (the stream and settings already normalised)."""
     from agents import make_agent
-    from agents.run import run_agent
+    from agents.files.points import run_agent
 
     name, kinematic = tracking_model(predictor)
     model = MODEL_NAMES[kinematic.order]
@@ -334,7 +334,7 @@ def _run_gnn(
         return run_agent(agent, detections, run_spec, seed=0)
 
 
-def calibrate(
+def estimate_sensor_model(
     detections: Detections,
     spec: SensorSpec,
     *,
@@ -345,7 +345,7 @@ def calibrate(
     velocity_std: float | None = None,
     agent_kwargs: Mapping[str, Any] | None = None,
     max_iterations: int = 5,
-) -> SelfCalibration:
+) -> SensorModelEstimate:
     """Estimate the tracker's settings from the detections (module docstring).
 
     Args:
@@ -361,7 +361,7 @@ def calibrate(
         max_iterations: Most tracking runs, >= 1.
 
     Returns:
-        :class:`SelfCalibration`.
+        :class:`SensorModelEstimate`.
 
     Raises:
         ValueError: a stream without two consecutive frames holding detections (nothing to
@@ -406,7 +406,7 @@ def calibrate(
     max_misses = int(given_misses) if given_misses is not None else max(MIN_MAX_MISSES, coast)
     given["max_misses"] = given_misses
     sources = {k: ("given" if v is not None else "estimated") for k, v in given.items()}
-    return SelfCalibration(
+    return SensorModelEstimate(
         dt=float(dt),
         predictor=predictor,
         model=MODEL_NAMES[order],
@@ -492,7 +492,7 @@ def _normalised(
 @dataclass(frozen=True)
 class _Runs:
     """What the tracking runs of :func:`_iterate` left: the last settings, the labels of the last
-    run, the last noise estimate, and the figures of :class:`SelfCalibration`."""
+    run, the last noise estimate, and the figures of :class:`SensorModelEstimate`."""
 
     settings: Settings
     labels: NDArray[np.int64]
@@ -550,7 +550,7 @@ def _iterate(
 def _reappearances(
     detections: Detections, labels: NDArray[np.int64], dt: float, radii: NDArray[np.float64], length: float
 ) -> tuple[NDArray[np.int64], float]:
-    """The gaps of the confident tracks' re-appearances (:mod:`agents.self_calibration.coasting`)
+    """The gaps of the confident tracks' re-appearances (:mod:`agents.sensor_model.coasting`)
     up to the ambiguity bound, and the share of track ends they are."""
     # the ambiguity bound: missed frames after which the gate still lies within length / 2
     horizon = int(np.sum(np.cumprod(radii[1:] <= length / 2)))

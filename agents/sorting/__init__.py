@@ -1,0 +1,28 @@
+"""Sorting prediction: when and where each particle passes the nozzle bar, the tracker's side.
+
+* :func:`predict_crossings` (:mod:`.rollout`) — a predictor rolled forward without measurements
+  to the line ``x = L`` (what a point tracker reports in its sorting channel for the tracks it
+  lets go);
+* :class:`SortingCollector` (:mod:`.collect`) — the sorting channel of a stream of reports,
+  gathered into :class:`track_envs.io.crossings.PredictedCrossings`;
+* :func:`check_sorting` (:mod:`.check`) — the truth-free check of those predictions on a
+  recording that ends before the bar.
+
+The report's sorting channel (a contract), its CSV file and its scores live with the other
+contracts, files and scores: :mod:`track_envs.contracts.sorting_channel`,
+:mod:`track_envs.io.crossings`, :mod:`track_envs.metrics.crossing_check` and
+:mod:`track_envs.metrics.sorting`.
+"""
+
+from agents.sorting.check import SortingCheck, check_sorting
+from agents.sorting.collect import SortingCollector, sorting_spec
+from agents.sorting.rollout import MAX_STEPS, predict_crossings
+
+__all__ = [
+    "MAX_STEPS",
+    "SortingCheck",
+    "SortingCollector",
+    "check_sorting",
+    "predict_crossings",
+    "sorting_spec",
+]
