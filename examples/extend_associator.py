@@ -25,16 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents import make_agent
-from agents.tracking.assign import mahalanobis_cost
-from agents.tracking.associator import (
-    Association,
-    FrameContext,
-    hard_update,
-    make_associator,
-    register_associator,
-)
-from agents.tracking.tracker import PointTracker
+from agents import Association, FrameContext, PointTracker, make_agent, make_associator, register_associator
+from agents.tracking import hard_update, mahalanobis_cost
 from predictors.base import Predictor
 from track_envs.streams.constant_velocity import constant_velocity_stream, score_tracker
 from track_envs.values.types import SensorSpec

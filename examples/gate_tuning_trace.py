@@ -19,9 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 import agents.tuning
-from agents.tuning import FixedPolicy
-from agents.tuning.evaluate import episode_errors
-from agents.tuning.knobs import knob_ranges
+from agents.tuning import FixedPolicy, episode_errors, knob_ranges
 
 #: The best fixed setting of the 168-setting grid on training seeds 0-4 (docs/gate_tuning.md).
 BEST_FIXED = {"p_gate": 0.7, "recovery_inflation": 1.0, "noise_scale": 32.0}
@@ -89,7 +87,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "best fixed": FixedPolicy(BEST_FIXED, ranges=ranges),
     }
     if args.table:
-        from agents.tuning.informed import SensorInformedPolicy
+        from agents.tuning import SensorInformedPolicy
 
         policies["sensor-informed"] = SensorInformedPolicy(args.table)
     traces = {name: trace(env, policy, args.seed) for name, policy in policies.items()}

@@ -22,7 +22,7 @@ import numpy as np
 
 import track_envs  # noqa: F401  (registers the environments)
 from agents import make_agent
-from agents.sorting.check import SortingCheck, check_sorting
+from agents.sorting import SortingCheck, check_sorting
 from track_envs.envs.detection_replay import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
 from track_envs.io.detections import read_detections
 from track_envs.values.detections import Detections, detection_sensor_spec
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             result = check_sorting(agent, detections, spec, LINE, LINE - d, reference=reference)
             curve.append(result.score.summary("m"))
             if reference is None:  # the reference run does not depend on the cut-off: once
-                from agents.files.points import run_agent
+                from agents import run_agent
 
                 reference = run_agent(agent, detections, spec)
         curves[name] = curve

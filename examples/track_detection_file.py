@@ -20,8 +20,7 @@ from pathlib import Path
 import gymnasium as gym
 
 import track_envs  # noqa: F401  (registers the envs)
-from agents import make_agent, run_episode
-from agents.files.points import run_agent
+from agents import make_agent, run_agent, run_episode
 from track_envs.io.detections import read_detections
 from track_envs.io.tracks import read_tracks, write_tracks
 from track_envs.metrics.track_scoring import score_tracks

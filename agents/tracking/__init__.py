@@ -3,6 +3,7 @@ table, life cycle, velocity prior, report), the association components (:mod:`.a
 protocol and registry; :mod:`.gated`, :mod:`.second_chance`, :mod:`.merges`), gating and
 assignment (the sorting roll-out to the nozzle bar is :mod:`agents.sorting`)."""
 
+from agents.tracking.assign import chi2_gate, mahalanobis_cost
 from agents.tracking.associator import (
     Association,
     Associator,
@@ -10,6 +11,7 @@ from agents.tracking.associator import (
     FrameContext,
     associator_capability,
     available_associators,
+    hard_update,
     make_associator,
     register_associator,
 )
@@ -31,6 +33,9 @@ __all__ = [
     "VelocityPriorState",
     "associator_capability",
     "available_associators",
+    "chi2_gate",
+    "hard_update",
+    "mahalanobis_cost",
     "make_associator",
     "register_associator",
 ]

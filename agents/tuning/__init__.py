@@ -18,9 +18,26 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 from agents.tuning.adaptive import NisRule
+from agents.tuning.evaluate import episode_errors, evaluate, paired
+from agents.tuning.informed import SensorInformedPolicy
+from agents.tuning.knobs import Knob, knob_ranges, make_knobs
 from agents.tuning.policy import FixedPolicy, TunedPolicy, load_policy
 
-__all__ = ["ENV_ID", "FixedPolicy", "NisRule", "TunedPolicy", "load_policy", "register_tuning_env"]
+__all__ = [
+    "ENV_ID",
+    "FixedPolicy",
+    "Knob",
+    "NisRule",
+    "SensorInformedPolicy",
+    "TunedPolicy",
+    "episode_errors",
+    "evaluate",
+    "knob_ranges",
+    "load_policy",
+    "make_knobs",
+    "paired",
+    "register_tuning_env",
+]
 
 ENV_ID = "GateTuning-v0"
 
