@@ -20,6 +20,8 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.metrics.base import MetricTraits
+
 
 class Coverage:
     """Fraction of frames in which every visible target has a reported track within ``radius``.
@@ -28,7 +30,7 @@ class Coverage:
     targets ``x_i`` and the live report rows ``y_j``; a frame without visible targets is covered.
     """
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self, radius: float) -> None:
         if not radius > 0:

@@ -12,6 +12,7 @@ import track_envs  # noqa: F401  (registers the envs)
 from track_envs.contracts.report import empty_report
 from track_envs.envs.detection_replay import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
 from track_envs.io.detections import read_wide_detections, write_mot_detections, write_wide_detections
+from track_envs.metrics.base import metric_traits
 from track_envs.values.detections import Detections
 from track_envs.wrappers import TrackingMetrics
 
@@ -94,7 +95,7 @@ def test_every_truth_metric_declares_its_need():
         and list(inspect.signature(c.update).parameters)[1:] == ["truth", "detection_ids", "report"]
     ]
     assert len(streaming) == 11  # with BoxClearMot, Hota, BoxHota and PoseHota
-    assert all(c.needs_truth is True for c in streaming)
+    assert all(metric_traits(c).needs_truth is True for c in streaming)
 
 
 def test_unshuffled_rows_keep_the_file_order(tmp_path: Path):

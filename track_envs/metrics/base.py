@@ -7,9 +7,10 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
 * ``truth`` — ``info["truth"]``: ``"ids"`` (max_targets,) int64, −1 for padding; ``"positions"``
   (max_targets, D); ``"visible"`` (max_targets,) bool.
 * ``detection_ids`` — ``info["detection_ids"]``: (max_detections,) int64, the truth id behind each
-  detection row, −1 for clutter and padding. A metric whose class sets ``accepts_merged_ids =
-  True`` may instead get ``info["detection_ids_merged"]`` (max_detections, K): every truth id
-  behind each row (touching particles seen as one blob), −1 padded, column 0 the primary (see
+  detection row, −1 for clutter and padding. A metric whose class declares
+  ``traits = MetricTraits(accepts_merged_ids=True)`` may instead get
+  ``info["detection_ids_merged"]`` (max_detections, K): every truth id behind each row (touching
+  particles seen as one blob), −1 padded, column 0 the primary (see
   :mod:`track_envs.metrics.merged`).
 * ``report`` — the action: ``"ids"`` (max_tracks,) int64, ``"positions"`` (max_tracks, D),
   ``"detection"`` (max_tracks,) int64 (detection row used this frame or −1), ``"mask"``
@@ -19,29 +20,51 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
 
 Every metric also has ``reset()`` to start a new episode.
 
-A metric that scores against the truth declares it with the class attribute ``needs_truth =
-True`` (every metric here does); one that reads only the reports (a track count, say) leaves it
-out, since the default is ``False`` (as for agents). :class:`~track_envs.wrappers.TrackingMetrics`
-skips the metrics that need truth on an environment without it (``has_truth = False``,
-DetectionReplay-v0).
+What a metric is, it declares in one class attribute ``traits = MetricTraits(...)`` (read with
+:func:`metric_traits`, the way agents declare theirs, :mod:`track_envs.infra.declared`): a metric
+that scores against the truth declares ``needs_truth=True`` (every metric here does); one that
+reads only the reports (a track count, say) declares nothing, since the default is ``False``.
+:class:`~track_envs.wrappers.TrackingMetrics` skips the metrics that need truth on an environment
+without it (``has_truth = False``, DetectionReplay-v0).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.declared import declared_value
+
+
+@dataclass(frozen=True)
+class MetricTraits:
+    """What a metric class declares about itself (``traits = MetricTraits(...)``); the defaults
+    are those of a class that declares nothing.
+
+    Attributes:
+        needs_truth: Scores against the truth: skipped on an environment without it.
+        accepts_merged_ids: Takes ``info["detection_ids_merged"]`` (every truth id behind a
+            merged detection) as its ``detection_ids``.
+    """
+
+    needs_truth: bool = False
+    accepts_merged_ids: bool = False
+
+
+def metric_traits(metric: object) -> MetricTraits:
+    """The traits ``metric``'s class (or ``metric``, a class) declares; the defaults where none."""
+    return declared_value(metric, "traits", MetricTraits, MetricTraits())
+
 
 @runtime_checkable
 class Metric(Protocol):
-    """A streaming scorer of reports against ground truth (motmetrics-style).
-
-    Optional class attributes (declared, read by :class:`~track_envs.wrappers.TrackingMetrics`):
-    ``needs_truth`` (default ``False``) and ``accepts_merged_ids`` (default ``False``).
-    """
+    """A streaming scorer of reports against ground truth (motmetrics-style). What it is beyond
+    this, it declares in ``traits`` (:class:`MetricTraits`, read by
+    :class:`~track_envs.wrappers.TrackingMetrics` with :func:`metric_traits`)."""
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.compiled import njit
-from track_envs.metrics.base import report_mask
+from track_envs.metrics.base import MetricTraits, report_mask
 from track_envs.metrics.key_table import KeyTable, add_entry
 from track_envs.metrics.merged import as_merged, resolve_merged, set_key
 
@@ -119,8 +119,7 @@ class AssociationErrors:
     :meth:`compute`.
     """
 
-    needs_truth = True
-    accepts_merged_ids = True
+    traits = MetricTraits(needs_truth=True, accepts_merged_ids=True)
 
     def __init__(self) -> None:
         self.reset()

@@ -24,6 +24,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from track_envs.metrics.base import MetricTraits
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.metrics.hota_similarity import box_iou
 
@@ -47,7 +48,7 @@ class BoxClearMot(ClearMot):
         min_iou: Smallest overlap of a match, in (0, 1].
     """
 
-    accepts_merged_ids = False
+    traits = MetricTraits(needs_truth=True)  # (ClearMot's, without merged ids)
 
     def __init__(self, min_iou: float = 0.5) -> None:
         if not (np.isfinite(min_iou) and 0 < min_iou <= 1):

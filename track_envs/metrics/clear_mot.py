@@ -57,7 +57,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from track_envs.infra.compiled import njit
-from track_envs.metrics.base import report_arrays, truth_arrays
+from track_envs.metrics.base import MetricTraits, report_arrays, truth_arrays
 from track_envs.metrics.clear_mot_events import COUNTERS, TRUTH_VALUES, frame_events
 from track_envs.metrics.close_pairs import close_pairs, finite_entries
 from track_envs.metrics.key_table import KeyTable
@@ -183,8 +183,7 @@ class ClearMot:
         threshold: Largest distance, in sensor units, at which a track can match a truth.
     """
 
-    needs_truth = True
-    accepts_merged_ids = True
+    traits = MetricTraits(needs_truth=True, accepts_merged_ids=True)
 
     def __init__(self, threshold: float) -> None:
         if not (np.isfinite(threshold) and threshold > 0):

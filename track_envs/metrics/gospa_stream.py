@@ -20,7 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import report_arrays, truth_arrays
+from track_envs.metrics.base import MetricTraits, report_arrays, truth_arrays
 from track_envs.metrics.gospa import check_gospa_parameters, gospa_frame
 
 
@@ -39,7 +39,7 @@ class GospaMetric:
         p: Order, >= 1 and finite.
     """
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self, c: float, p: float = 2.0) -> None:
         check_gospa_parameters(c, p)

@@ -26,7 +26,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import live_report, live_truth
+from track_envs.metrics.base import MetricTraits, live_report, live_truth
 from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
 from track_envs.metrics.hota_similarity import box_iou, point_similarity
 from track_envs.metrics.keypoints import oks, report_poses, truth_poses
@@ -54,7 +54,7 @@ class _StreamingHota:
     """What the streaming HOTA metrics share: the accumulator, ``reset`` and ``compute``; each
     subclass turns a frame into (truth ids, report ids, similarity) in ``update``."""
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self) -> None:
         self._acc = HotaAccumulator()

@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.metrics.base import live_report
+from track_envs.metrics.base import MetricTraits, live_report
 from track_envs.metrics.clear_mot import ClearMot
 from track_envs.values.keypoints import KEYPOINT_NAMES
 
@@ -253,7 +253,7 @@ class KeypointMota:
             (see the class docstring); ``False`` counts every reported keypoint as a hypothesis.
     """
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self, pckh: float = 0.5, head_fraction: float = 0.1, ignore_hidden: bool = True) -> None:
         if not (np.isfinite(pckh) and pckh > 0):
@@ -337,7 +337,7 @@ class PoseOks:
     (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.
     """
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self, threshold: float = 0.5, area_factor: float = 0.2) -> None:
         if not 0.0 <= threshold <= 1.0:

@@ -18,7 +18,7 @@ merged detection to *either* particle's track as correct:
   so a track within ``threshold`` of the centroid is within that distance of each member (the
   triangle inequality). The match distance entering MOTP is the true one.
 
-Metrics that read merged ids say so with the class attribute ``accepts_merged_ids = True``;
+Metrics that read merged ids say so with ``traits = MetricTraits(accepts_merged_ids=True)``;
 :class:`~track_envs.wrappers.TrackingMetrics` hands them ``info["detection_ids_merged"]`` when the
 env provides it, and ``info["detection_ids"]`` (one id per row) to every other metric.
 """

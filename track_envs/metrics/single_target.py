@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import live_report
+from track_envs.metrics.base import MetricTraits, live_report
 
 #: Mean error above which a track counts as lost (Jung et al. 2019), trajectory units.
 LOST_THRESHOLD = 5.0
@@ -45,7 +45,7 @@ class SingleTargetError:
         lost_threshold: Mean error above which the track is lost (default 5).
     """
 
-    needs_truth = True
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(self, occlusion: tuple[int, int] | None = None, lost_threshold: float = LOST_THRESHOLD):
         if occlusion is not None:

@@ -44,6 +44,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.metrics.base import MetricTraits
+
 #: χ²₂(0.95), the 95% quantile of the NEES of a consistent 2-D Gaussian.
 CHI2_2_95 = 5.991464547107979
 
@@ -59,8 +61,7 @@ class SortingPrediction:
         length_to_mm: Millimetres per sensor unit for the ``_mm`` keys (default 1000: metres).
     """
 
-    needs_truth = True
-    accepts_merged_ids = False
+    traits = MetricTraits(needs_truth=True)
 
     def __init__(
         self,

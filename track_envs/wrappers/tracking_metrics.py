@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.metrics import Metric
+from track_envs.metrics.base import metric_traits
 from track_envs.metrics.defaults import point_metrics
 
 __all__ = ["TrackingMetrics", "default_metrics", "point_metrics"]
@@ -36,16 +37,17 @@ class TrackingMetrics(gym.Wrapper):
     metric's ``compute()`` (later metrics win on a shared key).
 
     Merged detections: when the env's ``info`` has ``"detection_ids_merged"`` (every truth id
-    behind each detection row, BeltSorter-v0's touching particles), metrics whose class sets
-    ``accepts_merged_ids = True`` receive that (max_detections, K) array as ``detection_ids``
-    and count an association of a merged detection to either particle's track as correct (see
-    :mod:`track_envs.metrics.merged`); every other metric receives ``info["detection_ids"]``.
+    behind each detection row, BeltSorter-v0's touching particles), metrics whose class declares
+    ``traits = MetricTraits(accepts_merged_ids=True)`` receive that (max_detections, K) array as
+    ``detection_ids`` and count an association of a merged detection to either particle's track
+    as correct (see :mod:`track_envs.metrics.merged`); every other metric receives
+    ``info["detection_ids"]``.
 
     An environment without ground truth (``has_truth = False``, DetectionReplay-v0) gets no
-    metric that needs truth: a metric declares that it does with the class attribute
-    ``needs_truth = True`` (every metric of :mod:`track_envs.metrics` does; the default, as for
-    agents, is ``False``). The last step's ``info["episode_metrics_note"]`` says what was
-    skipped.
+    metric that needs truth: a metric declares that it does with
+    ``traits = MetricTraits(needs_truth=True)`` (every metric of :mod:`track_envs.metrics` does;
+    the default, as for agents, is ``False``; :func:`track_envs.metrics.base.metric_traits`). The
+    last step's ``info["episode_metrics_note"]`` says what was skipped.
 
     Args:
         env: A tracking environment (wrapped or not).
@@ -62,8 +64,8 @@ class TrackingMetrics(gym.Wrapper):
         except AttributeError:
             has_truth = True
         if not has_truth:
-            skipped = [type(m).__name__ for m in self.metrics if getattr(m, "needs_truth", False)]
-            self.metrics = [m for m in self.metrics if not getattr(m, "needs_truth", False)]
+            skipped = [type(m).__name__ for m in self.metrics if metric_traits(m).needs_truth]
+            self.metrics = [m for m in self.metrics if not metric_traits(m).needs_truth]
             self.note = "the environment has no ground truth: metrics that need it are skipped" + (
                 f" ({', '.join(skipped)})" if skipped else " (every point metric: MOTA, IDF1, GOSPA, e1, e2)"
             )
@@ -84,7 +86,7 @@ class TrackingMetrics(gym.Wrapper):
         obs, reward, terminated, truncated, info = self.env.step(action)
         merged = self._merged_ids if self._merged_ids is not None else self._detection_ids
         for metric in self.metrics:
-            ids = merged if getattr(metric, "accepts_merged_ids", False) else self._detection_ids
+            ids = merged if metric_traits(metric).accepts_merged_ids else self._detection_ids
             metric.update(self._truth, ids, action)
         self._keep(info)
         if terminated or truncated:

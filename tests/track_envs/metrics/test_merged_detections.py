@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from track_envs.metrics import AssociationErrors, ClearMot, GospaMetric
+from track_envs.metrics.base import MetricTraits
 from track_envs.metrics.merged import set_key
 from track_envs.wrappers import TrackingMetrics
 
@@ -155,7 +156,7 @@ class Recorder:
 
 
 class MergedRecorder(Recorder):
-    accepts_merged_ids = True
+    traits = MetricTraits(accepts_merged_ids=True)
 
 
 def test_wrapper_hands_merged_ids_only_to_metrics_that_accept_them():
