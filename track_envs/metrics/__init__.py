@@ -1,5 +1,10 @@
 """Streaming, vectorised scorers of tracker reports against ground truth."""
 
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
 from track_envs.metrics.aleatoric import AleatoricArea
 from track_envs.metrics.base import Metric
 from track_envs.metrics.belt import AssociationErrors
@@ -16,12 +21,33 @@ from track_envs.metrics.single_target import SingleTargetError
 from track_envs.metrics.sorting import SortingPrediction
 from track_envs.metrics.track_error import TrackErrorDistribution
 
+if TYPE_CHECKING:
+    from track_envs.metrics.crossing_check import CrossingScore, score_crossings
+    from track_envs.metrics.defaults import point_metrics
+    from track_envs.metrics.keypoints import keypoint_metrics
+    from track_envs.metrics.pose_scoring import per_joint_mota, pose_hota, score_poses
+    from track_envs.metrics.track_scoring import score_tracks
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "CrossingScore": "track_envs.metrics.crossing_check",
+    "score_crossings": "track_envs.metrics.crossing_check",
+    "point_metrics": "track_envs.metrics.defaults",
+    "keypoint_metrics": "track_envs.metrics.keypoints",
+    "per_joint_mota": "track_envs.metrics.pose_scoring",
+    "pose_hota": "track_envs.metrics.pose_scoring",
+    "score_poses": "track_envs.metrics.pose_scoring",
+    "score_tracks": "track_envs.metrics.track_scoring",
+}
+
 __all__ = [
     "AleatoricArea",
     "AssociationErrors",
     "BoxClearMot",
     "BoxHota",
     "ClearMot",
+    "CrossingScore",
     "GospaMetric",
     "GospaResult",
     "Hota",
@@ -39,8 +65,29 @@ __all__ = [
     "box_iou",
     "gospa",
     "iou_distances",
+    "keypoint_metrics",
     "mahalanobis_sq",
     "oks",
     "pairwise_oks",
+    "per_joint_mota",
+    "point_metrics",
     "point_similarity",
+    "pose_hota",
+    "score_crossings",
+    "score_poses",
+    "score_tracks",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(home), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
