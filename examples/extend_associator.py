@@ -35,9 +35,9 @@ from agents.tracking.associator import (
     register_associator,
 )
 from agents.tracking.tracker import PointTracker
-from predictors.base import Predictor
-from track_envs.streams.constant_velocity import constant_velocity_stream, score_tracker
-from track_envs.values.types import SensorSpec
+from predictors import Predictor
+from track_envs import SensorSpec
+from track_envs.streams import constant_velocity_stream, score_tracker
 
 NAME = "greedy-nearest"
 
