@@ -67,7 +67,7 @@ def __getattr__(name: str) -> Any:
     home = _LAZY.get(name)
     if home is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(home), name)
+    value = vars(import_module(home))[name]
     globals()[name] = value
     return value
 
