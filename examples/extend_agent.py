@@ -29,9 +29,8 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from agents import AgentTraits, register_agent
-from track_envs.contracts.observation import check_observation
-from track_envs.contracts.report import pack_report
-from track_envs.values.types import SensorSpec
+from track_envs import SensorSpec
+from track_envs.contracts import check_observation, pack_report
 
 NAME = "nearest"
 #: The default gate in multiples of the sensor's noise std.

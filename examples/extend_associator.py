@@ -27,9 +27,9 @@ from numpy.typing import NDArray
 
 from agents import Association, FrameContext, PointTracker, make_agent, make_associator, register_associator
 from agents.tracking import hard_update, mahalanobis_cost
-from predictors.base import Predictor
-from track_envs.streams.constant_velocity import constant_velocity_stream, score_tracker
-from track_envs.values.types import SensorSpec
+from predictors import Predictor
+from track_envs import SensorSpec
+from track_envs.streams import constant_velocity_stream, score_tracker
 
 NAME = "greedy-nearest"
 

@@ -24,8 +24,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from track_envs.envs.base import TrackingEnv, Truth
-from track_envs.values.types import SensorSpec
+from track_envs import SensorSpec
+from track_envs.envs import TrackingEnv, Truth
 
 ENV_ID = "CirclingTargets-v0"
 
@@ -77,7 +77,7 @@ class CirclingTargetsEnv(TrackingEnv):
         return Truth.all_in_view(np.arange(self.num_targets, dtype=np.int64), xy)
 
     def _canvas(self) -> Any:
-        from track_envs.envs.rendering import Canvas
+        from track_envs.envs import Canvas
 
         return Canvas.for_region(self.sensor_spec, width=500)
 

@@ -35,11 +35,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors import Predictor, register_predictor
-from predictors.base import BatchState
-from predictors.lstm_cell import LSTMCellWeights
-from predictors.training.model_file import ModelFile, load_model, require_shapes
-from track_envs.values.types import Gaussian, SensorSpec
+from predictors import BatchState, LSTMCellWeights, Predictor, register_predictor
+from predictors.training import ModelFile, load_model, require_shapes
+from track_envs import Gaussian, SensorSpec
 
 #: The registered predictor name, and the stem of its model file.
 NAME = "learned-step"
@@ -57,7 +55,7 @@ def measured_tracks(episodes: int, steps: int, seed: int) -> Any:
     :class:`~predictors.training.data.TrackSplit`."""
     import gymnasium as gym
 
-    from predictors.training.data import split_tracks, tracks_from_env
+    from predictors.training import split_tracks, tracks_from_env
 
     noise_std = float(gym.make(ENV_ID).unwrapped.sensor_spec.noise_std)  # type: ignore[attr-defined]
     truth = tracks_from_env(ENV_ID, episodes=episodes, steps=steps, seed=seed)
@@ -69,7 +67,7 @@ def measured_tracks(episodes: int, steps: int, seed: int) -> Any:
 def sequences(tracks: Sequence[FloatArray], scale: FloatArray) -> tuple[FloatArray, ...]:
     """Inputs, targets (B, T − 1, D) and mask (B, T − 1) of tracks ``z_0 … z_T``: the input at
     step ``t`` is ``(z_t − z_{t−1}) / scale`` (0 at ``t = 0``), the target ``(z_{t+1} − z_t) / scale``."""
-    from predictors.training.data import pad_tracks
+    from predictors.training import pad_tracks
 
     steps = [np.diff(z, axis=0) / scale for z in tracks]
     inputs, mask = pad_tracks([np.concatenate([np.zeros_like(d[:1]), d[:-1]]) for d in steps])
@@ -123,8 +121,7 @@ def train(
     """
     import torch
 
-    from predictors.training.loop import TrainConfig, fit, seeded_init, trained_model_file
-    from predictors.training.model_file import save_model
+    from predictors.training import TrainConfig, fit, save_model, seeded_init, trained_model_file
 
     config = TrainConfig(epochs=epochs, lr=0.02, decay_every=max(epochs // 3, 1), seed=seed)
     if not 1 <= hidden <= 64:

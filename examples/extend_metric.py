@@ -20,7 +20,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.metrics.base import MetricTraits
+from track_envs.metrics import MetricTraits
 
 
 class Coverage:
@@ -67,8 +67,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
     import track_envs  # noqa: F401  (registers the envs)
     from agents import make_agent, run_episode
-    from track_envs.wrappers import TrackingMetrics
-    from track_envs.wrappers.tracking_metrics import default_metrics
+    from track_envs.wrappers import TrackingMetrics, default_metrics
 
     base = gym.make("SineTarget-v0", max_episode_steps=args.steps)
     env = TrackingMetrics(base, metrics=[*default_metrics(base), Coverage(radius=args.radius)])

@@ -33,9 +33,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors import Capability, register_predictor
-from predictors.base import BatchState
-from track_envs.values.types import Gaussian, SensorSpec
+from predictors import BatchState, Capability, register_predictor
+from track_envs import Gaussian, SensorSpec
 
 NAME = "alpha-beta"
 FloatArray = NDArray[np.float64]

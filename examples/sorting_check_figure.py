@@ -23,9 +23,9 @@ import numpy as np
 import track_envs  # noqa: F401  (registers the environments)
 from agents import make_agent
 from agents.sorting import SortingCheck, check_sorting
-from track_envs.envs.detection_replay import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
-from track_envs.io.detections import read_detections
-from track_envs.values.detections import Detections, detection_sensor_spec
+from track_envs import Detections, detection_sensor_spec
+from track_envs.envs import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
+from track_envs.io import read_detections
 
 LINE, CUT = 0.35, 0.30
 DISTANCES = (0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14)
@@ -37,8 +37,8 @@ def belt_episode(n_frames: int, line: float, seed: int = 1) -> tuple[Detections,
     ``line`` (``particle``, ``t``, ``y``, interpolated between the frames around it)."""
     import gymnasium as gym
 
-    from track_envs.contracts.report import empty_report
-    from track_envs.envs.nozzle import recorded_crossings
+    from track_envs.contracts import empty_report
+    from track_envs.envs import recorded_crossings
 
     env = gym.make("BeltSorter-v0")
     obs, info = env.reset(seed=seed)

@@ -21,10 +21,9 @@ import gymnasium as gym
 
 import track_envs  # noqa: F401  (registers the envs)
 from agents import make_agent, run_agent, run_episode
-from track_envs.io.detections import read_detections
-from track_envs.io.tracks import read_tracks, write_tracks
-from track_envs.metrics.track_scoring import score_tracks
-from track_envs.values.detections import detection_sensor_spec
+from track_envs import detection_sensor_spec
+from track_envs.io import read_detections, read_tracks, write_tracks
+from track_envs.metrics import score_tracks
 from track_envs.wrappers import RecordTracking
 
 

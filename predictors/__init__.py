@@ -13,9 +13,10 @@ the families' modules, which import torch, load on first use.
 
 from __future__ import annotations
 
-from typing import Any
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
 
-from predictors.base import Capability, Predictor, capability, has_capability
+from predictors.base import BatchState, Capability, Crossings, Predictor, capability, has_capability
 from predictors.motion_models import KINDS, MotionModel, motion_models
 from predictors.registry import (
     BELT_ENVS,
@@ -28,11 +29,23 @@ from predictors.registry import (
 )
 from predictors.training.recipes import TrainingRecipe, available_recipes, register_recipe
 
+if TYPE_CHECKING:
+    from predictors.lstm_cell import LSTMCellWeights
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "LSTMCellWeights": "predictors.lstm_cell",
+}
+
 __all__ = [
     "BELT_ENVS",
     "KINDS",
     "PREDICTORS",
+    "BatchState",
     "Capability",
+    "Crossings",
+    "LSTMCellWeights",
     "MotionModel",
     "Predictor",
     "TrainingRecipe",
@@ -47,6 +60,20 @@ __all__ = [
     "register_recipe",
     "resolve_predictor",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
 
 
 def kf_cv(

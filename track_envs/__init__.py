@@ -12,10 +12,57 @@ Heavy modules (pymunk worlds, renderers, metrics) load only when an environment 
 
 from __future__ import annotations
 
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
 from track_envs.infra import moved_modules
 from track_envs.registration import ENV_IDS, register_envs
 
-__all__ = ["ENV_IDS", "register_envs"]
+if TYPE_CHECKING:
+    from track_envs.values.detections import Detections, detection_sensor_spec
+    from track_envs.values.poses import PoseStream, pose_sensor_spec
+    from track_envs.values.tracks import Tracks
+    from track_envs.values.types import Gaussian, SensorSpec
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "Detections": "track_envs.values.detections",
+    "detection_sensor_spec": "track_envs.values.detections",
+    "PoseStream": "track_envs.values.poses",
+    "pose_sensor_spec": "track_envs.values.poses",
+    "Tracks": "track_envs.values.tracks",
+    "Gaussian": "track_envs.values.types",
+    "SensorSpec": "track_envs.values.types",
+}
+
+__all__ = [
+    "ENV_IDS",
+    "Detections",
+    "Gaussian",
+    "PoseStream",
+    "SensorSpec",
+    "Tracks",
+    "detection_sensor_spec",
+    "pose_sensor_spec",
+    "register_envs",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
 __version__ = "0.1.0"
 
 moved_modules.install()  # the old module paths, deprecated

@@ -28,6 +28,16 @@ import numpy as np
 from track_envs.contracts.report import empty_report, validate_report
 from track_envs.values.types import Gaussian, SensorSpec
 
+__all__ = [
+    "PREDICTOR_METHODS",
+    "STREAM_INFO_KEYS",
+    "assert_equal_trees",
+    "check_agent",
+    "check_predictor",
+    "check_tracking_env",
+    "stream_digest",
+]
+
 #: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
 PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
 #: The ``info`` entries :func:`stream_digest` hashes by default (those an env emits): the time,

@@ -12,6 +12,8 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
+__all__ = ["bench_alias", "build_parser", "main", "run_alias", "train_alias", "tune_alias"]
+
 
 def _bench(argv: Sequence[str] | None, prog: str = "track bench") -> int:
     from agents.cli.bench import main

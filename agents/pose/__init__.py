@@ -1,2 +1,8 @@
-"""Multi-person pose trackers: the constant-velocity baseline and the SMC pose tracker of Okada et
-al. (2020)."""
+"""Multi-person pose trackers: the pose-tracking loop of Okada et al. (2020) with a pluggable motion
+hypothesis (:mod:`.tracker`), its constant-velocity agent (``pose-baseline``) and the SMC pose tracker
+(:mod:`.smc`, ``pose-smc``)."""
+
+from agents.pose.smc import PoseSmcAgent
+from agents.pose.tracker import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
+
+__all__ = ["PoseBaselineAgent", "PoseSmcAgent", "PoseTracker", "PoseTrackingOptions"]

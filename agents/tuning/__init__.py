@@ -18,7 +18,7 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 from agents.tuning.adaptive import NisRule
-from agents.tuning.evaluate import episode_errors, evaluate, paired
+from agents.tuning.evaluate import episode_errors, paired
 from agents.tuning.informed import SensorInformedPolicy
 from agents.tuning.knobs import Knob, knob_ranges, make_knobs
 from agents.tuning.policy import FixedPolicy, TunedPolicy, load_policy
@@ -31,7 +31,6 @@ __all__ = [
     "SensorInformedPolicy",
     "TunedPolicy",
     "episode_errors",
-    "evaluate",
     "knob_ranges",
     "load_policy",
     "make_knobs",

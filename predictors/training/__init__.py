@@ -12,3 +12,119 @@
 
 torch is imported by these modules; nothing else in :mod:`predictors` needs it to run a tracker.
 """
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from predictors.training.calibration import Recalibration, fit_recalibration
+    from predictors.training.data import (
+        TrackSet,
+        TrackSplit,
+        pad_tracks,
+        split_tracks,
+        tracks_from_env,
+        tracks_from_file,
+        tracks_from_positions,
+    )
+    from predictors.training.evaluate import OneStepResult, one_step_predictions
+    from predictors.training.loop import History, TrainConfig, fit, seeded_init, trained_model_file
+    from predictors.training.model_file import (
+        ModelFile,
+        ModelFileError,
+        load_model,
+        model_paths,
+        require_shapes,
+        save_model,
+    )
+    from predictors.training.recipes import (
+        RECIPES,
+        TrainingRecipe,
+        available_recipes,
+        register_recipe,
+        register_tuner,
+        training_recipe,
+        tuner_of,
+    )
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "Recalibration": "predictors.training.calibration",
+    "fit_recalibration": "predictors.training.calibration",
+    "TrackSet": "predictors.training.data",
+    "TrackSplit": "predictors.training.data",
+    "pad_tracks": "predictors.training.data",
+    "split_tracks": "predictors.training.data",
+    "tracks_from_env": "predictors.training.data",
+    "tracks_from_file": "predictors.training.data",
+    "tracks_from_positions": "predictors.training.data",
+    "OneStepResult": "predictors.training.evaluate",
+    "one_step_predictions": "predictors.training.evaluate",
+    "History": "predictors.training.loop",
+    "TrainConfig": "predictors.training.loop",
+    "fit": "predictors.training.loop",
+    "seeded_init": "predictors.training.loop",
+    "trained_model_file": "predictors.training.loop",
+    "ModelFile": "predictors.training.model_file",
+    "ModelFileError": "predictors.training.model_file",
+    "load_model": "predictors.training.model_file",
+    "model_paths": "predictors.training.model_file",
+    "require_shapes": "predictors.training.model_file",
+    "save_model": "predictors.training.model_file",
+    "RECIPES": "predictors.training.recipes",
+    "TrainingRecipe": "predictors.training.recipes",
+    "available_recipes": "predictors.training.recipes",
+    "register_recipe": "predictors.training.recipes",
+    "register_tuner": "predictors.training.recipes",
+    "training_recipe": "predictors.training.recipes",
+    "tuner_of": "predictors.training.recipes",
+}
+
+__all__ = [
+    "RECIPES",
+    "History",
+    "ModelFile",
+    "ModelFileError",
+    "OneStepResult",
+    "Recalibration",
+    "TrackSet",
+    "TrackSplit",
+    "TrainConfig",
+    "TrainingRecipe",
+    "available_recipes",
+    "fit",
+    "fit_recalibration",
+    "load_model",
+    "model_paths",
+    "one_step_predictions",
+    "pad_tracks",
+    "register_recipe",
+    "register_tuner",
+    "require_shapes",
+    "save_model",
+    "seeded_init",
+    "split_tracks",
+    "tracks_from_env",
+    "tracks_from_file",
+    "tracks_from_positions",
+    "trained_model_file",
+    "training_recipe",
+    "tuner_of",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,7 +1,12 @@
 """Streaming, vectorised scorers of tracker reports against ground truth."""
 
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
 from track_envs.metrics.aleatoric import AleatoricArea
-from track_envs.metrics.base import Metric
+from track_envs.metrics.base import Metric, MetricTraits, metric_traits
 from track_envs.metrics.belt import AssociationErrors
 from track_envs.metrics.boxes import BoxClearMot, iou_distances
 from track_envs.metrics.clear_mot import ClearMot
@@ -16,18 +21,40 @@ from track_envs.metrics.single_target import SingleTargetError
 from track_envs.metrics.sorting import SortingPrediction
 from track_envs.metrics.track_error import TrackErrorDistribution
 
+if TYPE_CHECKING:
+    from track_envs.metrics.crossing_check import CrossingScore, score_crossings
+    from track_envs.metrics.defaults import point_metrics
+    from track_envs.metrics.keypoints import keypoint_metrics
+    from track_envs.metrics.pose_scoring import per_joint_mota, pose_hota, score_poses
+    from track_envs.metrics.track_scoring import score_tracks
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "CrossingScore": "track_envs.metrics.crossing_check",
+    "score_crossings": "track_envs.metrics.crossing_check",
+    "point_metrics": "track_envs.metrics.defaults",
+    "keypoint_metrics": "track_envs.metrics.keypoints",
+    "per_joint_mota": "track_envs.metrics.pose_scoring",
+    "pose_hota": "track_envs.metrics.pose_scoring",
+    "score_poses": "track_envs.metrics.pose_scoring",
+    "score_tracks": "track_envs.metrics.track_scoring",
+}
+
 __all__ = [
     "AleatoricArea",
     "AssociationErrors",
     "BoxClearMot",
     "BoxHota",
     "ClearMot",
+    "CrossingScore",
     "GospaMetric",
     "GospaResult",
     "Hota",
     "HotaAccumulator",
     "KeypointMota",
     "Metric",
+    "MetricTraits",
     "Nees",
     "PoseHota",
     "PoseOks",
@@ -39,8 +66,30 @@ __all__ = [
     "box_iou",
     "gospa",
     "iou_distances",
+    "keypoint_metrics",
     "mahalanobis_sq",
+    "metric_traits",
     "oks",
     "pairwise_oks",
+    "per_joint_mota",
+    "point_metrics",
     "point_similarity",
+    "pose_hota",
+    "score_crossings",
+    "score_poses",
+    "score_tracks",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,3 +1,53 @@
 """Synthetic detection streams with known truth, for checks that no env scene isolates: each module
 builds a :class:`~track_envs.values.types.SensorSpec`, the observations a tracker consumes and the truth
 to score it by."""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from track_envs.streams.constant_velocity import (
+        ConstantVelocityStream,
+        constant_velocity_stream,
+        score_tracker,
+    )
+    from track_envs.streams.merge_events import MergeEventStream, merge_event_streams
+    from track_envs.streams.merge_scoring import EventScores, score_events
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "ConstantVelocityStream": "track_envs.streams.constant_velocity",
+    "constant_velocity_stream": "track_envs.streams.constant_velocity",
+    "score_tracker": "track_envs.streams.constant_velocity",
+    "MergeEventStream": "track_envs.streams.merge_events",
+    "merge_event_streams": "track_envs.streams.merge_events",
+    "EventScores": "track_envs.streams.merge_scoring",
+    "score_events": "track_envs.streams.merge_scoring",
+}
+
+__all__ = [
+    "ConstantVelocityStream",
+    "EventScores",
+    "MergeEventStream",
+    "constant_velocity_stream",
+    "merge_event_streams",
+    "score_events",
+    "score_tracker",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -208,7 +208,8 @@ def detection_sensor_spec(
             detection grown by 2% of its size on each side.
         measurement_noise_std: The declared measurement noise std per axis (the tracker's ``R``),
             in the detections' units (after ``scale``); a recording adds none, it *has* noise.
-        p_detect, clutter_rate: Declared detection probability and clutter rate per frame.
+        p_detect: Declared detection probability.
+        clutter_rate: Declared clutter rate per frame.
         max_detections: Rows of an observation; default the most detections in a frame (at
             least 16). Smaller than that most is an error.
         max_tracks: Rows of a report; default twice the most detections in a frame (at least 16).

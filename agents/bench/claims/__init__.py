@@ -12,6 +12,8 @@ import importlib
 import pkgutil
 from types import ModuleType
 
+__all__ = ["available_claims", "claims_module"]
+
 
 def available_claims() -> list[str]:
     """Suites that have a claims module."""

@@ -15,3 +15,40 @@ They are not two versions of one algorithm: the first reduces a problem (and cal
 the second is the dense solver; the split/merge kernels of the first also run inside compiled
 code, on top of the second.
 """
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from track_envs.infra.assignment.lone_pairs import min_cost_with_misses, solve_split
+    from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
+
+#: The module of each name loaded on first access (``__getattr__``), so that importing
+#: the package stays light.
+_LAZY: dict[str, str] = {
+    "min_cost_with_misses": "track_envs.infra.assignment.lone_pairs",
+    "solve_split": "track_envs.infra.assignment.lone_pairs",
+    "linear_sum_assignment": "track_envs.infra.assignment.shortest_augmenting_path",
+}
+
+__all__ = [
+    "linear_sum_assignment",
+    "min_cost_with_misses",
+    "solve_split",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
+    home = _LAZY.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = vars(import_module(home))[name]
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
