@@ -144,17 +144,13 @@ def mc_lstm(*, weights: Any = None, particle_kind: str = "cylinder", samples: in
     return LSTMPredictor("mc-lstm", weights, particle_kind=particle_kind, samples=samples)
 
 
-for _factory in (lstm, nll_lstm, mc_lstm):
-    _factory.envs = BELT_ENVS  # type: ignore[attr-defined]
-
-
 def _register_builtin() -> None:
     register_predictor("kf-cv", kf_cv)
     register_predictor("kf-ca", kf_ca)
     register_predictor("random-walk", random_walk)
-    register_predictor("lstm", lstm)
-    register_predictor("nll-lstm", nll_lstm)
-    register_predictor("mc-lstm", mc_lstm)
+    register_predictor("lstm", lstm, envs=BELT_ENVS)
+    register_predictor("nll-lstm", nll_lstm, envs=BELT_ENVS)
+    register_predictor("mc-lstm", mc_lstm, envs=BELT_ENVS)
     # the training recipes of the learned families (``track train KIND``, in this order): the belt
     # LSTMs above, the particle filter's displacement model ("lstm" of
     # predictors.displacement.registry) and the SMC pose tracker's predictor ("smc" of

@@ -8,7 +8,7 @@ its ``predictor`` argument, a registered name or an object of the
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from predictors.base import Predictor
@@ -26,9 +26,26 @@ PREDICTORS = Registry("predictor")
 BELT_ENVS = ("BeltSorter-v0", "BeltReplay-v0")
 
 
-def register_predictor(name: str, factory: Callable[..., Predictor]) -> None:
-    """Register ``factory`` under ``name`` (re-registering a name replaces it)."""
+#: The env ids each predictor was registered for (none: every point env).
+_MEANT_FOR: dict[str, tuple[str, ...]] = {}
+
+
+def register_predictor(
+    name: str, factory: Callable[..., Predictor], *, envs: Sequence[str] | None = None
+) -> None:
+    """Register ``factory`` under ``name`` (re-registering a name replaces it).
+
+    Args:
+        name: The name :func:`make_predictor` and ``make_agent(..., predictor=name)`` take.
+        factory: Builds the predictor; its keyword arguments are the predictor's.
+        envs: The env ids the predictor is meant for (a learned model made for one geometry,
+            e.g. the belt LSTMs: the belt envs); ``None`` (default): every point env.
+    """
     PREDICTORS.register(name, factory)
+    if envs is None:
+        _MEANT_FOR.pop(name, None)
+    else:
+        _MEANT_FOR[name] = tuple(envs)
 
 
 def available_predictors() -> list[str]:
@@ -39,11 +56,12 @@ def available_predictors() -> list[str]:
 def predictor_applies_to(name: str, env_id: str) -> bool:
     """Whether predictor ``name`` is meant for ``env_id``.
 
-    A factory may declare ``envs``, the env ids its model was made for (the belt LSTMs: the belt
-    envs, whose geometry and motion their weights learnt); factories without it apply to every
-    point env.
+    A predictor registered with ``envs`` (the env ids its model was made for: the belt LSTMs, the
+    belt envs, whose geometry and motion their weights learnt) applies to those only; one
+    registered without applies to every point env.
     """
-    envs = getattr(PREDICTORS.factory(name), "envs", None)
+    PREDICTORS.factory(name)  # an unknown name is an error listing the valid ones
+    envs = _MEANT_FOR.get(name)
     return envs is None or env_id in envs
 
 

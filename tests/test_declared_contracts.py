@@ -75,7 +75,6 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
     ("env.py", "self._knobbed"): "GateTuning-v0: the LIVE_KNOBS an agent declares, by knob name",
     ("env.py", "self.base.unwrapped"): "gymnasium env attributes",
     # not yet converted (files owned elsewhere): metrics' and predictor factories' traits
-    ("registry.py", "PREDICTORS.factory(name)"): "predictor factory's envs (not converted yet)",
 }
 
 

@@ -354,8 +354,10 @@ def estimate_sensor_model(
         predictor: The predictor the settings are for: one with a kinematic model
             (``Capability.KINEMATIC_MODEL``: ``kf-ca``, ``kf-cv``, ``random-walk``); any other:
             only the measurement noise applies, estimated with :data:`FALLBACK_PREDICTOR`'s model.
-        noise_std, q, velocity_mean, velocity_std: Given settings (input units), kept as given
-            instead of estimated.
+        noise_std: A given measurement noise std (input units), kept instead of estimated.
+        q: A given process noise intensity, kept instead of estimated.
+        velocity_mean: A given velocity prior mean (input units per second), kept as given.
+        velocity_std: A given velocity prior std (input units per second), kept as given.
         agent_kwargs: Other gnn keywords of the tracking runs (e.g. ``p_gate``, ``max_misses``);
             a ``q``, ``initial_velocity`` or ``initial_velocity_std`` among them counts as given.
         max_iterations: Most tracking runs, >= 1.
@@ -365,7 +367,7 @@ def estimate_sensor_model(
 
     Raises:
         ValueError: a stream without two consecutive frames holding detections (nothing to
-            calibrate from), ``max_iterations < 1``, or an unknown predictor name.
+            estimate from), ``max_iterations < 1``, or an unknown predictor name.
     """
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
