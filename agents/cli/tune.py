@@ -177,6 +177,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The argparse parser of ``track tune`` (``prog``: the name it answers to)."""
+    # long: one argparse declaration per option and subcommand, in the order --help lists them
     parser = argparse.ArgumentParser(
         prog=prog,
         description="PPO on GateTuning-v0: train, grid baseline, paired evaluation on held-out seeds.",
