@@ -13,7 +13,6 @@ the families' modules, which import torch, load on first use.
 
 from __future__ import annotations
 
-from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from predictors.base import BatchState, Capability, Crossings, Predictor, capability, has_capability
@@ -28,6 +27,7 @@ from predictors.registry import (
     resolve_predictor,
 )
 from predictors.training.recipes import TrainingRecipe, available_recipes, register_recipe
+from track_envs.infra.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from predictors.lstm_cell import LSTMCellWeights
@@ -62,18 +62,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """Import ``name`` from its module on first access (the module stays unloaded until then)."""
-    home = _LAZY.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = vars(import_module(home))[name]
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
 
 
 def kf_cv(

@@ -8,12 +8,13 @@ from pathlib import Path
 import predictors
 
 #: track_envs modules every predictor may use: the value types, the registry helper, the plug-in
-#: declarations, the compiled-kernel decorator and the keypoint similarity (OKS) the pose motions
-#: weigh by.
+#: declarations, the packages' lazy exports, the compiled-kernel decorator and the keypoint
+#: similarity (OKS) the pose motions weigh by.
 RUNTIME = {
     "track_envs.values.types",
     "track_envs.infra.registry",
     "track_envs.infra.declared",
+    "track_envs.infra.lazy",
     "track_envs.infra.compiled",
     "track_envs.metrics.keypoints",
 }
