@@ -1,9 +1,10 @@
 """Training the displacement LSTM of the LSTM particle filter (Jung et al. 2019) on trajectories.
 
 Data: any :class:`~predictors.training.data.TrackSet` — the noiseless sine of eq. (5)
-(:func:`sine_tracks`), a point env's truth or a user's track file — optionally cut into
-overlapping windows (:func:`window_tracks`), so one long curve gives many training sequences that
-start at every phase (a filter may (re)start anywhere on it). Each track ``x_0 … x_n`` becomes
+(:func:`predictors.training.data.sine_tracks`), a point env's truth or a user's track file —
+optionally cut into overlapping windows (:func:`predictors.training.data.window_tracks`), so one
+long curve gives many training sequences that start at every phase (a filter may (re)start
+anywhere on it). Each track ``x_0 … x_n`` becomes
 ``(r_t, s_t)`` (:func:`predictors.displacement.geometry.displacements_of`, ``r_0 = s_0 = 0``); the network
 reads ``(r_{t−1}, s_{t−1})`` and predicts ``(r_t, s_t)``, ``t = 1 … n``, from the zero state at the
 track's first frame, as a filter does from its first estimate.
@@ -40,43 +41,6 @@ from predictors.training.model_file import ModelFile
 from predictors.training.recipes import TrainingRecipe
 
 FloatArray = NDArray[np.float64]
-
-
-def sine_tracks(periods: float = 25.0, step: float = 0.2) -> TrackSet:
-    """The noiseless sine ``x_t = (tΔ, sin tΔ)`` of Jung et al. (2019), eq. (5), as one track."""
-    from track_envs.envs.single_target import n_frames_for, sine_trajectory
-
-    if not (np.isfinite(periods) and periods > 0):
-        raise ValueError(f"periods must be a number > 0, got {periods!r}")
-    if not (np.isfinite(step) and step > 0):
-        raise ValueError(f"step must be a number > 0, got {step!r}")
-    x = sine_trajectory(n_frames_for(periods, step), step)
-    low, high = x.min(axis=0), x.max(axis=0)
-    return TrackSet(
-        [x],
-        1.0,
-        tuple(map(float, low)),
-        tuple(map(float, high)),
-        {"source": "sine", "equation": "x_t = (t*step, sin(t*step))", "periods": periods, "step": step},
-    )
-
-
-def window_tracks(data: TrackSet, length: int, stride: int) -> TrackSet:
-    """Every window of ``length`` frames starting every ``stride`` frames of each track.
-
-    Tracks shorter than ``length`` are kept whole.
-    """
-    if not (isinstance(length, int) and length >= 2):
-        raise ValueError(f"window length must be an integer >= 2, got {length!r}")
-    if not (isinstance(stride, int) and stride >= 1):
-        raise ValueError(f"window stride must be an integer >= 1, got {stride!r}")
-    out: list[FloatArray] = []
-    for t in data.tracks:
-        if len(t) <= length:
-            out.append(t)
-            continue
-        out.extend(t[a : a + length] for a in range(0, len(t) - length + 1, stride))
-    return data.with_tracks(out, window=length, stride=stride)
 
 
 def fit_features(data: TrackSet, step: float | None = None) -> DisplacementFeatures:

@@ -25,8 +25,7 @@ def load_data(args: argparse.Namespace) -> TrackSet:
     Raises:
         ValueError: ``--tracks`` without ``--dt``.
     """
-    from predictors.displacement_lstm.training import sine_tracks, window_tracks
-    from predictors.training.data import tracks_from_env, tracks_from_file
+    from predictors.training.data import sine_tracks, tracks_from_env, tracks_from_file, window_tracks
 
     if args.env:
         data = tracks_from_env(

@@ -251,3 +251,40 @@ def pad_tracks(tracks: Sequence[NDArray[np.floating]]) -> tuple[FloatArray, NDAr
     mask = np.arange(out.shape[1])[None, :] < lengths[:, None]
     out[mask] = np.concatenate([np.asarray(t, dtype=np.float64) for t in tracks])
     return out, mask
+
+
+def window_tracks(data: TrackSet, length: int, stride: int) -> TrackSet:
+    """Every window of ``length`` frames starting every ``stride`` frames of each track.
+
+    Tracks shorter than ``length`` are kept whole.
+    """
+    if not (isinstance(length, int) and length >= 2):
+        raise ValueError(f"window length must be an integer >= 2, got {length!r}")
+    if not (isinstance(stride, int) and stride >= 1):
+        raise ValueError(f"window stride must be an integer >= 1, got {stride!r}")
+    out: list[FloatArray] = []
+    for t in data.tracks:
+        if len(t) <= length:
+            out.append(t)
+            continue
+        out.extend(t[a : a + length] for a in range(0, len(t) - length + 1, stride))
+    return data.with_tracks(out, window=length, stride=stride)
+
+
+def sine_tracks(periods: float = 25.0, step: float = 0.2) -> TrackSet:
+    """The noiseless sine ``x_t = (tΔ, sin tΔ)`` of Jung et al. (2019), eq. (5), as one track."""
+    from track_envs.envs.single_target import n_frames_for, sine_trajectory
+
+    if not (np.isfinite(periods) and periods > 0):
+        raise ValueError(f"periods must be a number > 0, got {periods!r}")
+    if not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be a number > 0, got {step!r}")
+    x = sine_trajectory(n_frames_for(periods, step), step)
+    low, high = x.min(axis=0), x.max(axis=0)
+    return TrackSet(
+        [x],
+        1.0,
+        tuple(map(float, low)),
+        tuple(map(float, high)),
+        {"source": "sine", "equation": "x_t = (t*step, sin(t*step))", "periods": periods, "step": step},
+    )

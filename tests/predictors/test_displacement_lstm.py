@@ -16,12 +16,10 @@ from predictors.displacement_lstm.training import (
     displacement_tensors,
     fit_features,
     one_step_errors,
-    sine_tracks,
     to_model_file,
     train_displacement_model,
-    window_tracks,
 )
-from predictors.training.data import TrackSplit, split_tracks
+from predictors.training.data import TrackSplit, sine_tracks, split_tracks, window_tracks
 from predictors.training.loop import TrainConfig, seeded_init
 from predictors.training.model_file import ModelFileError, load_model, save_model
 
