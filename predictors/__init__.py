@@ -145,7 +145,7 @@ def _register_builtin() -> None:
     # predictors.displacement.registry) and the SMC pose tracker's predictor ("smc" of
     # predictors.pose.registry)
     for kind in ("lstm", "mc-lstm", "nll-lstm"):
-        register_recipe(kind, "predictors.belt_lstm.training")
+        register_recipe(kind, "predictors.belt_lstm.recipe")
     register_recipe("displacement-lstm", "predictors.displacement_lstm.training")
     register_recipe("pose-lstm", "predictors.pose_lstm.training")
 

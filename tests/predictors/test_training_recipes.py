@@ -47,7 +47,7 @@ def test_unknown_kinds_and_mismatched_recipes_are_named(scoped):
         training_recipe("gru")
     with pytest.raises(ValueError, match="recipe of kind 'a' registered as 'b'"):
         register_recipe("b", TrainingRecipe("a", "help", train=lambda args: "x"))
-    register_recipe("c", "predictors.belt_lstm.training")
+    register_recipe("c", "predictors.belt_lstm.recipe")
     with pytest.raises(ValueError, match="unknown belt LSTM kind 'c'"):
         training_recipe("c")
 

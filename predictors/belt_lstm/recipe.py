@@ -1,0 +1,118 @@
+"""``track train lstm | nll-lstm | mc-lstm``: the belt LSTMs' training recipe (registered in
+:mod:`predictors`), on top of their training (:mod:`predictors.belt_lstm.training`) and model
+statistics (:mod:`predictors.belt_lstm.model_stats`)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+from predictors.belt_lstm.network import HEAD_OUTPUTS
+from predictors.belt_lstm.training import to_model_file, train_belt_model
+from predictors.training.data import TrackSplit
+from predictors.training.loop import TrainConfig
+from predictors.training.recipes import TrainingRecipe, tuner_of
+
+#: ``track train KIND``'s one-line help of each belt LSTM kind.
+HELP = {
+    "lstm": "belt LSTM with a scaled identity covariance chosen by a line search on gnn's e_mean",
+    "mc-lstm": "belt LSTM with Monte Carlo (variational) dropout: the epistemic uncertainty",
+    "nll-lstm": "belt LSTM trained on the Gaussian negative log-likelihood: the aleatoric uncertainty",
+}
+
+
+def recipe(kind: str) -> TrainingRecipe:
+    """The training recipe of belt LSTM ``kind`` (``lstm``, ``mc-lstm``, ``nll-lstm``)."""
+    if kind not in HEAD_OUTPUTS:
+        raise ValueError(f"unknown belt LSTM kind {kind!r}; valid names are {sorted(HEAD_OUTPUTS)}")
+    return TrainingRecipe(kind, HELP[kind], train=train_command)
+
+
+def train_command(args: argparse.Namespace) -> Path:
+    """``track train lstm | nll-lstm | mc-lstm``: train ``args.model`` on the data ``args`` names,
+    compute its calibration, MC statistics and test metrics, run the kind's post-training step
+    (:func:`~predictors.training.recipes.tuner_of`: ``lstm``'s covariance line search) and write
+    ``args.out``; returns the sidecar's path.
+
+    Raises:
+        ValueError: ``--dropout`` or ``--dropout-grid`` for a kind other than ``mc-lstm``, bad
+            ``--dropout-grid`` rates, too little data.
+    """
+    from predictors.belt_lstm.model_stats import model_statistics
+    from predictors.training.command import load_data, print_split, train_config, training_record, with_meta
+    from predictors.training.data import split_tracks
+    from predictors.training.model_file import load_model, save_model
+
+    start = time.perf_counter()
+    data = load_data(args)
+    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
+    s = print_split(len(data), split, args.min_length)
+    config = train_config(args)
+    if args.dropout is not None and args.model != "mc-lstm":
+        raise ValueError(f"--dropout is for mc-lstm and displacement-lstm, not {args.model}")
+    dropout = (0.002 if args.dropout is None else args.dropout) if args.model == "mc-lstm" else 0.0
+    grid = None
+    if args.dropout_grid is not None:
+        if args.model != "mc-lstm":
+            raise ValueError(f"--dropout-grid is for mc-lstm, not {args.model}")
+        dropout, grid = _grid_search(args, split, config)
+    net, features, history = train_belt_model(
+        args.model,
+        split,
+        config,
+        dropout=dropout,
+        noise_std=args.added_noise_std,
+        progress=not args.no_progress,
+    )
+    stats = model_statistics(net, features, split, noise_std=args.added_noise_std, seed=args.seed)
+    training = training_record(args, config, history, noise_std=args.added_noise_std)
+    if grid is not None:
+        training["dropout_grid"] = grid
+    model = to_model_file(
+        net,
+        features,
+        calibration=stats["calibration"],
+        mc=stats["mc"],
+        training=training,
+        data={**dict(data.description), **s},
+        metrics=stats["metrics"],
+    )
+    tensor_path, sidecar_path = save_model(args.out, model)
+    tune = tuner_of(args.model)
+    if tune is not None:
+        training["tuning"] = tune(sidecar_path, args)
+        model = load_model(sidecar_path)
+    training["wall_time_s"] = round(time.perf_counter() - start, 1)
+    save_model(args.out, with_meta(model, training=training))
+    m = stats["metrics"]
+    print(
+        f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean per-track "
+        f"error {m['test_mean_error']:.3g}, coverage at 0.999 {m['test_coverage_999']:.4f}"
+    )
+    return sidecar_path
+
+
+def _grid_search(
+    args: argparse.Namespace, split: TrackSplit, config: TrainConfig
+) -> tuple[float, list[dict[str, float]]]:
+    """``--dropout-grid``: short runs per rate, printed; the rate of the best validation
+    predictive log-likelihood and the grid."""
+    from predictors.belt_lstm.model_stats import dropout_grid
+
+    try:
+        rates = [float(r) for r in args.dropout_grid.split(",") if r.strip()]
+    except ValueError:
+        raise ValueError(f"--dropout-grid must be comma-separated rates, got {args.dropout_grid!r}") from None
+    if not rates or not all(0 < r < 1 for r in rates):
+        raise ValueError(f"--dropout-grid rates must be in (0, 1), got {args.dropout_grid!r}")
+    short = dataclasses.replace(config, epochs=args.grid_epochs, decay_every=max(1, args.grid_epochs // 5))
+    grid = dropout_grid(split, rates, short, noise_std=args.added_noise_std, seed=args.seed)
+    print("dropout grid (validation predictive log-likelihood, mean error):")
+    for row in grid:
+        ll, err = row["validation_log_likelihood"], row["validation_mean_error"]
+        print(f"  {row['dropout']:<8g} {ll:10.4f}  {err:.4g}")
+    best = max(grid, key=lambda r: r["validation_log_likelihood"])
+    print(f"chose dropout {best['dropout']:g}")
+    return float(best["dropout"]), grid
