@@ -145,7 +145,8 @@ def check_sorting(
         reference: The agent's tracks of the whole recording when already made with ``spec``
             and ``seed`` (saves the reference run).
         seed: The agent's seed in both runs.
-        lateral_tolerance, time_tolerance: ``w_y`` (detection units) and ``w_t`` (s).
+        lateral_tolerance: ``w_y``, the lateral tolerance of a hit (detection units).
+        time_tolerance: ``w_t``, the time tolerance of a hit (s).
         min_seen: Fewest detections at ``x <= cut`` for a crossing track to be scored.
 
     Raises:

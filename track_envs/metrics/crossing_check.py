@@ -138,7 +138,8 @@ class CrossingScore:
         lateral_error: (n,) ``Δy = ŷ − y_c`` (detection units).
         nees: (n,) ``(Δt, Δy) Σ⁻¹ (Δt, Δy)ᵀ`` (NaN for a singular Σ).
         hit: (n,) bool.
-        lateral_tolerance, time_tolerance: ``w_y``, ``w_t``.
+        lateral_tolerance: ``w_y``.
+        time_tolerance: ``w_t``.
     """
 
     crossings: int
@@ -218,7 +219,8 @@ def score_crossings(
         scored: Ids of the tracks eligible for scoring (seen upstream of the cut-off); of them,
             those in ``observed`` are the crossings scored.
         dt: Frame period (s), for ``late``.
-        lateral_tolerance, time_tolerance: ``w_y`` and ``w_t``.
+        lateral_tolerance: ``w_y``, the lateral tolerance of a hit.
+        time_tolerance: ``w_t``, the time tolerance of a hit (s).
         end_time: Time of the recording's last frame (for ``beyond_end``).
     """
     check_tolerances(lateral_tolerance, time_tolerance, 1)
