@@ -88,7 +88,7 @@ PYTHON_SKIPPED: dict[str, str] = {
     'weights="models/my-material"': "loads a model file of your own",
     'model_weights="models/displacement-lstm-pw"': "loads a model file of your own",
     'device="cuda"': "needs a GPU (tests/agents/test_pose_smc_device.py runs it where there is one)",
-    "calibrate(detections, spec": "a fragment on a detection stream of the page's text",
+    "estimate_sensor_model(detections, spec": "a fragment on a detection stream of the page's text",
 }
 
 #: Names every Python block may use without importing them (the pages' fragments assume them).
