@@ -245,7 +245,7 @@ def check_kwarg_type(env_id: str, name: str, value: Any, default: Any) -> None:
 
 def trackers() -> list[str]:
     """The registered agents a group without ``agents`` runs: every agent but the oracles that
-    read the truth (``needs_truth = True``, :class:`agents.one_step.OneStepAgent`), which run
+    read the truth (``AgentTraits(needs_truth=True)``, :class:`agents.one_step.OneStepAgent`), which run
     only where a suite names them."""
     return [a for a in available_agents() if not agent_traits(AGENTS.factory(a)).needs_truth]
 
