@@ -53,6 +53,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_jpda_marginals.py
 	$(PY) benchmarks/bench_jpda.py
 	$(PY) benchmarks/bench_pose_smc.py --threads 2
+	$(PIP) install --quiet -e ".[compare]"
+	$(PY) benchmarks/bench_scale.py --figure results/scale/scale.png
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -90,7 +90,9 @@ def _time_tracker(label: str, agent_name: str, kwargs: dict[str, Any], n: int, f
     from agents import make_agent
     from track_envs.metrics.defaults import point_metrics
 
+    t0 = time.perf_counter()
     stream = stream_for(n, frames)
+    generate_s = time.perf_counter() - t0
     agent = make_agent(agent_name, **kwargs)
     agent.reset(stream.spec, seed=0)
     agent.warm_up()
@@ -123,6 +125,18 @@ def _time_tracker(label: str, agent_name: str, kwargs: dict[str, Any], n: int, f
     scores = {k: float(v) for m in metrics for k, v in m.compute().items()}
     record.update({k: scores[k] for k in ("mota", "idf1", "hota", "e1", "e2")})
     out = [record]
+    if label == "gnn kf-cv":
+        ms = 1e3 * generate_s / frames
+        out.append(
+            {
+                "kind": "env",
+                "label": "constant-velocity stream",
+                "n": n,
+                "in_view": in_view,
+                "ms_per_frame": ms,
+                "us_per_target": 1e3 * ms / in_view,
+            }
+        )
     for name, times in metric_s.items() if label == "gnn kf-cv" else ():
         ms = 1e3 * float(np.median(times[settle:]))
         out.append(
