@@ -1,5 +1,5 @@
-"""Assignment on a sparse list of pairs: components against the dense optimum, greedy against the
-dense rounds of mutual best matches (ties included)."""
+"""Assignment on a sparse list of pairs: components and sparse augmenting paths against the dense
+optimum, greedy against the dense rounds of mutual best matches (ties included)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 
 from agents.tracking.assign import assign_greedy
-from track_envs.infra.assignment.components import component_labels, solve_sparse
+from track_envs.infra.assignment.components import DENSE_LIMIT, component_labels, solve_sparse
 from track_envs.infra.assignment.greedy import greedy_sparse
 from track_envs.infra.assignment.lone_pairs import min_cost_with_misses
+from track_envs.infra.assignment.sparse_path import solve_with_misses
 
 
 def sparse_problem(seed: int, ties: bool) -> tuple[np.ndarray, float]:
@@ -116,3 +117,37 @@ def test_components_are_the_connected_pieces_of_the_pairs() -> None:
     assert count == 2
     assert row_label.tolist() == [0, 0, 1, -1, -1]
     assert col_label.tolist() == [1, -1, 0, 1, 0]
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 100_000), ties=st.booleans())
+def test_sparse_augmenting_paths_reach_the_dense_optimum(seed: int, ties: bool) -> None:
+    cost, gate = sparse_problem(seed, ties)
+    ptr, cols, values = as_csr(cost, cost <= gate)
+    col_of = solve_with_misses(ptr, cols, values, cost.shape[1], gate)
+    rows = np.flatnonzero(col_of >= 0)
+    check_matching(cost, gate, rows, col_of[rows])
+    total = cost[rows, col_of[rows]].sum() + gate * (cost.shape[0] - len(rows))
+    assert total == pytest.approx(dense_optimum(cost, gate), rel=1e-12, abs=1e-12)
+    if not ties:
+        ref_rows, ref_cols = min_cost_with_misses(cost, gate)
+        np.testing.assert_array_equal(rows, ref_rows)
+        np.testing.assert_array_equal(col_of[rows], ref_cols)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_component_too_large_for_a_dense_matrix_is_solved_on_its_pairs(seed: int) -> None:
+    # a band of 400 rows, each with pairs to its 3 neighbouring columns: one component whose
+    # [C | M] matrix (400 × 800) exceeds DENSE_LIMIT
+    rng = np.random.default_rng(seed)
+    n = 400
+    cost = np.full((n, n), np.inf)
+    for i in range(n):
+        for j in range(max(0, i - 1), min(n, i + 2)):
+            cost[i, j] = rng.random() * 2.0
+    assert n * (2 * n) > DENSE_LIMIT
+    ptr, cols, values = as_csr(cost, np.isfinite(cost))
+    rows, got = solve_sparse(ptr, cols, values, n, 1.0)
+    ref_rows, ref_cols = min_cost_with_misses(cost, 1.0)
+    np.testing.assert_array_equal(rows, ref_rows)
+    np.testing.assert_array_equal(got, ref_cols)

@@ -24,9 +24,13 @@ admissible columns are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with costs
    diagonal of the miss block ``M``, the stand-in ``B = 2 (|γ| + 1)(k + 1) + max |C|`` for every
    inadmissible entry) by the compiled shortest augmenting path solver
    (:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`), all
-   components in one compiled loop. The work is ``O(Σ_c k_c² (k_c + l_c))``: linear in the
-   number of rows when the components stay small, as they do for gates of bounded size in a
-   scene of bounded density.
+   components in one compiled loop: ``O(k² (k + l))`` each, linear in the number of rows when
+   the components stay small, as they do for gates of bounded size in a scene of bounded
+   density. A component whose matrix would exceed :data:`DENSE_LIMIT` entries (the giant
+   component of a first frame, when new tracks' gates are wide) is solved on its pairs by
+   sparse shortest augmenting paths instead
+   (:func:`~track_envs.infra.assignment.sparse_path.solve_with_misses`), in memory linear in its
+   pairs.
 
 The summed cost equals the optimum of the one dense ``[C | M]`` problem; where several matchings
 are optimal (exactly equal sums), the one returned may differ from the dense solver's.
@@ -39,12 +43,17 @@ from numpy.typing import NDArray
 
 from track_envs.infra.assignment.lone_pairs import split_sparse
 from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
+from track_envs.infra.assignment.sparse_path import solve_with_misses
 from track_envs.infra.compiled import njit
 
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
-__all__ = ["admissible_only", "component_labels", "solve_sparse"]
+__all__ = ["DENSE_LIMIT", "admissible_only", "component_labels", "solve_sparse"]
+
+#: A component whose dense ``[C | M]`` matrix would have more entries than this is solved by
+#: sparse shortest augmenting paths instead.
+DENSE_LIMIT = 1 << 16
 
 
 @njit(cache=True)
@@ -147,6 +156,37 @@ def admissible_only(
 
 
 @njit(cache=True)
+def _solve_large(
+    ptr: IntArray,
+    cols: IntArray,
+    cost: FloatArray,
+    gate: float,
+    rows: IntArray,
+    comp_cols: IntArray,
+    local: IntArray,
+    partner: IntArray,
+) -> None:
+    """One component too large for a dense ``[C | M]`` matrix, by sparse shortest augmenting paths
+    (:func:`~track_envs.infra.assignment.sparse_path.solve_with_misses`); ``partner`` in place."""
+    k = rows.shape[0]
+    sub_ptr = np.zeros(k + 1, dtype=np.int64)
+    for a in range(k):
+        sub_ptr[a + 1] = sub_ptr[a] + ptr[rows[a] + 1] - ptr[rows[a]]
+    sub_cols = np.empty(sub_ptr[k], dtype=np.int64)
+    sub_cost = np.empty(sub_ptr[k])
+    for a in range(k):
+        t = sub_ptr[a]
+        for e in range(ptr[rows[a]], ptr[rows[a] + 1]):
+            sub_cols[t] = local[cols[e]]
+            sub_cost[t] = cost[e]
+            t += 1
+    col_of = solve_with_misses(sub_ptr, sub_cols, sub_cost, comp_cols.shape[0], gate)
+    for a in range(k):
+        if col_of[a] >= 0:
+            partner[rows[a]] = comp_cols[col_of[a]]
+
+
+@njit(cache=True)
 def solve_sparse(
     ptr: IntArray, cols: IntArray, cost: FloatArray, n_cols: int, gate: float
 ) -> tuple[IntArray, IntArray]:
@@ -177,19 +217,30 @@ def solve_sparse(
             n_local = col_start[c + 1] - col_start[c]
             for b in range(n_local):
                 local[col_members[col_start[c] + b]] = b
+            if k * (n_local + k) > DENSE_LIMIT:
+                _solve_large(
+                    ptr,
+                    cols,
+                    cost,
+                    gate,
+                    row_members[row_start[c] : row_start[c + 1]],
+                    col_members[col_start[c] : col_start[c + 1]],
+                    local,
+                    partner,
+                )
+                continue
             largest = 0.0
             for a in range(k):
                 i = row_members[row_start[c] + a]
                 for e in range(ptr[i], ptr[i + 1]):
-                    if cost[e] <= gate and abs(cost[e]) > largest:
+                    if abs(cost[e]) > largest:
                         largest = abs(cost[e])
             big = 2.0 * (abs(gate) + 1.0) * (k + 1) + largest
             problem = np.full((k, n_local + k), big)
             for a in range(k):
                 i = row_members[row_start[c] + a]
                 for e in range(ptr[i], ptr[i + 1]):
-                    if cost[e] <= gate:
-                        problem[a, local[cols[e]]] = cost[e]
+                    problem[a, local[cols[e]]] = cost[e]
                 problem[a, n_local + a] = gate
             sol_rows, sol_cols = linear_sum_assignment(problem)
             for t in range(sol_rows.shape[0]):
