@@ -471,7 +471,7 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
     from agents.tracking import _kernels as _association_kernels
     from predictors.kalman import _kernels as _kalman_kernels
     from track_envs.infra.assignment import components as _components
-    from track_envs.infra.assignment import greedy as _greedy
+    from track_envs.infra.assignment import sparse_path as _sparse_path
 
     agent = make_agent("gnn", predictor="kf-ca")
     agent.reset(SPEC)
@@ -488,7 +488,7 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
         _gnn_kernels.survivors_and_births,
         _association_kernels.gated_pairs,
         _components.solve_sparse,
-        _greedy.greedy_sparse,
+        _sparse_path.solve_with_misses,
         _kalman_kernels.start_tracks,
         _kalman_kernels.keep_and_start_tracks,
         _kalman_kernels.predict_and_project_tracks,
