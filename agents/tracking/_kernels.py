@@ -1,4 +1,4 @@
-"""Compiled (numba) kernels of the association: Mahalanobis costs, gate, lone pairs, the rest, blobs.
+"""Compiled (numba) kernels of the association: Mahalanobis costs of the gated pairs, blobs.
 
 For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (D dimensions),
 
@@ -8,26 +8,45 @@ For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (
     = (z_j - ŷ_i)^\\top S_i^{-1} (z_j - ŷ_i):
 
 one Cholesky factor and its triangular inverse per track, then for every pair ``D`` rows of
-``L⁻¹`` times the difference. :func:`gated_costs` also splits the admissible pairs
-(``d² <= γ``) into lone pairs and the rest in the same call
-(:func:`track_envs.infra.assignment.lone_pairs.split_dense`), so the assignment only sees the rows and columns
-that compete: :func:`track_envs.infra.assignment.lone_pairs.rest_problem` builds their ``[C | M]`` problem for
-the solver and :func:`track_envs.infra.assignment.lone_pairs.merge_solution` joins its answer to
-the lone pairs (both also importable from here, for compiled callers).
+``L⁻¹`` times the difference. The planar case ``D = 2`` has its own closed-form factor; other
+dimensions run a generic Cholesky and triangular inverse.
 
-The planar case ``D = 2`` has its own closed-form row (its loop over detections vectorises);
-other dimensions run a generic Cholesky and triangular inverse.
+**Gating without an n × m array** (:func:`gated_pairs`). A pair is admissible when
+``d²_ij <= γ``. Writing ``y = L_i⁻¹ (z_j − ŷ_i)``, the difference is ``z_j − ŷ_i = L_i y`` and by
+Cauchy–Schwarz on row ``k`` of ``L_i``
+
+.. math::
+
+    |z_{jk} - ŷ_{ik}| = |(L_i)_{k·} \\, y| \\le \\lVert (L_i)_{k·} \\rVert \\, \\lVert y \\rVert
+    \\le \\sqrt{S_{i,kk}} \\sqrt{γ} = h_{ik},
+
+so every admissible detection lies in the axis-aligned box of half-widths ``h_ik`` around
+``ŷ_i``. The spatial index (:func:`track_envs.infra.spatial.box_candidates`, a uniform grid) lists
+the detections in each box in ``O(n + m)`` for boxes of bounded size, and only those candidates
+get the exact test, with the same floating-point expressions as the dense
+:func:`mahalanobis_costs` (so the costs are bit-identical). The box is widened by a relative
+``1e-9`` and an absolute ``1e-300``: the computed ``d²`` differs from the exact one by a few units
+in the last place of the terms, so a pair the dense code admits is never outside the widened box.
+The result is the admissible pairs as compressed sparse rows; the assignment runs on that list
+(:mod:`track_envs.infra.assignment.components`, :mod:`track_envs.infra.assignment.greedy`).
 
 :func:`blob_measurements` is the compiled pass of :func:`agents.tracking.merges.share_blobs`:
-the tracks that join a merged detection's blob and the rigid-group measurement of each.
+the tracks that join a merged detection's blob and the rigid-group measurement of each; the
+taken detections near a leftover track come from the same index (a Euclidean ball of radius
+``extent`` lies in the box of half-width ``extent``).
 
 Kernels and their results (inputs are float64 / int64 C-contiguous arrays):
 
-* :func:`mahalanobis_costs` → ``(cost, bad)``: the (n, m) squared distances.
-* :func:`gated_costs` → :class:`GatedCosts` ``(cost, lone_rows, lone_cols, rest_rows, rest_cols,
-  bad)``: the costs and the split of the admissible pairs.
+* :func:`mahalanobis_costs` → ``(cost, bad)``: the dense (n, m) squared distances (the public
+  :func:`agents.tracking.assign.mahalanobis_cost`, and the reference of the tests).
+* :func:`gated_pairs` → :class:`GatedPairs` ``(ptr, cols, cost, bad, wide)``: the admissible
+  pairs and their costs.
 * :func:`blob_measurements` → ``(det_of_track, z_tracks)``: blob members added, the measurement
   of each track.
+
+:func:`~track_envs.infra.assignment.lone_pairs.rest_problem` and
+:func:`~track_envs.infra.assignment.lone_pairs.merge_solution` are importable from here, for
+compiled callers.
 """
 
 from __future__ import annotations
@@ -37,42 +56,43 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.infra.assignment.lone_pairs import merge_solution, partner_pairs, rest_problem, split_dense
+from track_envs.infra.assignment.lone_pairs import merge_solution, rest_problem
 from track_envs.infra.compiled import njit
+from track_envs.infra.spatial import box_candidates
 from track_envs.values.types import FloatArray
 
 IntArray = NDArray[np.int64]
 
 __all__ = [
-    "GatedCosts",
+    "GatedPairs",
     "blob_measurements",
     "cholesky_lower",
-    "gated_costs",
+    "gate_half_widths",
+    "gated_pairs",
     "mahalanobis_costs",
     "merge_solution",
     "rest_problem",
 ]
 
 
-class GatedCosts(NamedTuple):
-    """Result of :func:`gated_costs`: the costs of a frame and the split of its admissible pairs.
+class GatedPairs(NamedTuple):
+    """Result of :func:`gated_pairs`: the admissible pairs of a frame as compressed sparse rows.
 
     Attributes:
-        cost: (n, m) squared Mahalanobis distances ``d²_ij``.
-        lone_rows: Tracks of the lone pairs (admissible and alone in their row and column), ascending.
-        lone_cols: The detection of each lone row.
-        rest_rows: Tracks with admissible pairs that are not lone, ascending.
-        rest_cols: Detections with admissible pairs that are not lone, ascending.
+        ptr: (n + 1,) track ``i``'s pairs are ``ptr[i]:ptr[i + 1]``.
+        cols: The detection of each pair, ascending within a track.
+        cost: The squared Mahalanobis distance ``d²_ij <= γ`` of each pair.
         bad: −1, or the first track whose covariance is not positive definite (the other fields
             are then not meaningful).
+        wide: −1, or the first track whose gate half-width ``sqrt(γ S_kk)`` is not finite (the
+            other fields are then not meaningful).
     """
 
+    ptr: IntArray
+    cols: IntArray
     cost: FloatArray
-    lone_rows: IntArray
-    lone_cols: IntArray
-    rest_rows: IntArray
-    rest_cols: IntArray
     bad: int
+    wide: int
 
 
 @njit(cache=True)
@@ -203,26 +223,153 @@ def mahalanobis_costs(mean: FloatArray, cov: FloatArray, z: FloatArray) -> tuple
     return cost, bad
 
 
-@njit(cache=True)
-def gated_costs(mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float) -> GatedCosts:
-    """:func:`mahalanobis_costs` and the lone-pair split of the admissible pairs (cost <= gate).
+#: Relative and absolute slack of a gate's box: rounding never drops a pair that the exact test keeps.
+BOX_SLACK = 1e-9
+BOX_TINY = 1e-300
 
-    A *lone pair* is an admissible pair alone in both its row and its column; it belongs to an
-    optimal assignment. The rest are the rows and columns with admissible pairs that are not in a
-    lone pair (:func:`track_envs.infra.assignment.lone_pairs.split_dense`).
+
+@njit(cache=True)
+def _planar_factors(cov: FloatArray) -> tuple[FloatArray, int]:
+    """``(i00, i10, i11)`` of every ``L⁻¹`` for ``D = 2`` (:func:`_planar_costs`'s expressions);
+    and −1, or the first track whose covariance is not positive definite."""
+    n = cov.shape[0]
+    inv = np.empty((n, 3))
+    for i in range(n):
+        a = cov[i, 0, 0]
+        if not a > 0.0:
+            return inv, i
+        l00 = np.sqrt(a)
+        l10 = cov[i, 1, 0] / l00
+        s = cov[i, 1, 1] - l10 * l10
+        if not s > 0.0:
+            return inv, i
+        l11 = np.sqrt(s)
+        i00 = 1.0 / l00
+        i11 = 1.0 / l11
+        i10 = -(l10 * i00) / l11
+        inv[i, 0] = i00
+        inv[i, 1] = i10
+        inv[i, 2] = i11
+    return inv, -1
+
+
+@njit(cache=True)
+def _general_factors(cov: FloatArray) -> tuple[FloatArray, int]:
+    """Every ``L⁻¹`` (n, D, D), lower triangular (:func:`_general_costs`'s expressions); and −1,
+    or the first track whose covariance is not positive definite."""
+    n, D = cov.shape[0], cov.shape[1]
+    L = np.zeros((D, D))
+    inv = np.zeros((n, D, D))
+    for i in range(n):
+        for c in range(D):
+            s = cov[i, c, c]
+            for k in range(c):
+                s -= L[c, k] * L[c, k]
+            if not s > 0.0:
+                return inv, i
+            lcc = np.sqrt(s)
+            L[c, c] = lcc
+            for r in range(c + 1, D):
+                s = cov[i, r, c]
+                for k in range(c):
+                    s -= L[r, k] * L[c, k]
+                L[r, c] = s / lcc
+        for c in range(D):
+            inv[i, c, c] = 1.0 / L[c, c]
+            for r in range(c + 1, D):
+                s = 0.0
+                for k in range(c, r):
+                    s -= L[r, k] * inv[i, k, c]
+                inv[i, r, c] = s / L[r, r]
+    return inv, -1
+
+
+@njit(cache=True)
+def gate_half_widths(cov: FloatArray, gate: float) -> FloatArray:
+    """(n, K) half-widths ``h_k = sqrt(γ S_kk) (1 + 1e-9) + 1e-300`` of the boxes around the
+    χ² gates on the first ``K = min(D, 2)`` axes (module docstring)."""
+    n, D = cov.shape[0], cov.shape[1]
+    K = min(D, 2)
+    half = np.empty((n, K))
+    for i in range(n):
+        for k in range(K):
+            half[i, k] = np.sqrt(gate * cov[i, k, k]) * (1.0 + BOX_SLACK) + BOX_TINY
+    return half
+
+
+@njit(cache=True)
+def gated_pairs(mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float) -> GatedPairs:
+    """The admissible pairs ``d²_ij <= γ`` (``γ = gate``) and their costs, without an (n, m) array.
+
+    Every covariance is factored first (the first one that is not positive definite is
+    ``bad``); the spatial index then gives the detections inside each track's box
+    ``|z_k − ŷ_k| <= h_k`` (:func:`gate_half_widths`; a half-width that is not finite is ``wide``),
+    and the exact test runs on those with the floating-point expressions of
+    :func:`mahalanobis_costs`, so every cost is bit-identical to the dense one. A detection with a
+    non-finite coordinate is no candidate (its dense cost is NaN or inf, never admissible); a
+    track with a non-finite mean has none.
 
     Returns:
-        :class:`GatedCosts` ``(cost (n, m), lone_rows, lone_cols, rest_rows, rest_cols, bad)``,
-        indices ascending (``lone_rows`` ascending, ``lone_cols`` their partners); ``bad`` as in
-        :func:`mahalanobis_costs`.
+        :class:`GatedPairs` ``(ptr, cols, cost, bad, wide)``; with no track or no detection, no
+        pairs and no check (as :func:`mahalanobis_costs`).
     """
-    cost, bad = mahalanobis_costs(mean, cov, z)
+    n, D = mean.shape
+    m = z.shape[0]
+    empty_i = np.zeros(0, dtype=np.int64)
+    empty_f = np.zeros(0)
+    if n == 0 or m == 0:
+        return GatedPairs(np.zeros(n + 1, dtype=np.int64), empty_i, empty_f, -1, -1)
+    if D == 2:
+        planar, bad = _planar_factors(cov)
+        general = np.zeros((0, D, D))
+    else:
+        general, bad = _general_factors(cov)
+        planar = np.zeros((0, 3))
     if bad >= 0:
-        empty = np.zeros(0, dtype=np.int64)
-        return GatedCosts(cost, empty, empty, empty, empty, bad)
-    partner, rest_rows, rest_cols = split_dense(cost, gate)
-    lone_rows, lone_cols = partner_pairs(partner)
-    return GatedCosts(cost, lone_rows, lone_cols, rest_rows, rest_cols, -1)
+        return GatedPairs(np.zeros(n + 1, dtype=np.int64), empty_i, empty_f, bad, -1)
+    if not gate >= 0.0:  # no cost (a sum of squares, or NaN) is admissible
+        return GatedPairs(np.zeros(n + 1, dtype=np.int64), empty_i, empty_f, -1, -1)
+    found = box_candidates(mean, gate_half_widths(cov, gate), z)
+    if found.bad >= 0:
+        return GatedPairs(np.zeros(n + 1, dtype=np.int64), empty_i, empty_f, -1, found.bad)
+    cand_ptr, cand_cols = found.ptr, found.cols
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    cols = np.empty(cand_cols.shape[0], dtype=np.int64)
+    cost = np.empty(cand_cols.shape[0])
+    t = 0
+    for i in range(n):
+        if D == 2:
+            i00 = planar[i, 0]
+            i10 = planar[i, 1]
+            i11 = planar[i, 2]
+            mu0 = mean[i, 0]
+            mu1 = mean[i, 1]
+            for e in range(cand_ptr[i], cand_ptr[i + 1]):
+                j = cand_cols[e]
+                d0 = z[j, 0] - mu0
+                d1 = z[j, 1] - mu1
+                y0 = i00 * d0
+                y1 = i10 * d0 + i11 * d1
+                c = y0 * y0 + y1 * y1
+                if c <= gate:
+                    cols[t] = j
+                    cost[t] = c
+                    t += 1
+        else:
+            for e in range(cand_ptr[i], cand_ptr[i + 1]):
+                j = cand_cols[e]
+                c = 0.0
+                for r in range(D):
+                    y = general[i, r, 0] * (z[j, 0] - mean[i, 0])
+                    for k in range(1, r + 1):
+                        y += general[i, r, k] * (z[j, k] - mean[i, k])
+                    c += y * y
+                if c <= gate:
+                    cols[t] = j
+                    cost[t] = c
+                    t += 1
+        ptr[i + 1] = t
+    return GatedPairs(ptr, cols[:t], cost[:t], -1, -1)
 
 
 @njit(cache=True)
@@ -261,27 +408,54 @@ def blob_measurements(
         if det_of_track[i] >= 0:
             owner[det_of_track[i]] = i
     e2 = extent * extent
+    # the candidates: taken detections within the box |z_k − ŷ_j| <= extent of each leftover track
+    n_taken = 0
+    for d in range(m):
+        n_taken += owner[d] >= 0
+    taken = np.empty(n_taken, np.int64)
+    t = 0
+    for d in range(m):
+        if owner[d] >= 0:
+            taken[t] = d
+            t += 1
+    queries = np.empty(n, np.int64)
+    n_queries = 0
     for j in range(n):
         if det_of_track[j] >= 0:
             continue
         inside = True
         for k in range(dim):
             inside = inside and low[k] <= predicted[j, k] <= high[k]
-        if not inside:  # a particle that left the view is no blob member
-            continue
-        best, best_d = -1, e2
-        for d in range(m):
-            i = owner[d]
-            if i < 0:
-                continue
-            dj = 0.0
-            di = 0.0
+        if inside:  # a particle that left the view is no blob member
+            queries[n_queries] = j
+            n_queries += 1
+    if n_queries == 0 or n_taken == 0:
+        out[queries[:n_queries]] = -1
+    else:
+        points = np.empty((n_taken, dim))
+        for t in range(n_taken):
             for k in range(dim):
-                dj += (predicted[j, k] - z[d, k]) ** 2
-                di += (predicted[i, k] - z[d, k]) ** 2
-            if dj <= best_d and di <= e2:
-                best, best_d = d, dj
-        out[j] = best
+                points[t, k] = z[taken[t], k]
+        centres = np.empty((n_queries, dim))
+        for q in range(n_queries):
+            for k in range(dim):
+                centres[q, k] = predicted[queries[q], k]
+        half = np.full((n_queries, min(dim, 2)), extent * (1.0 + BOX_SLACK) + BOX_TINY)
+        found = box_candidates(centres, half, points)
+        for q in range(n_queries):
+            j = queries[q]
+            best, best_d = -1, e2
+            for e in range(found.ptr[q], found.ptr[q + 1]):
+                d = taken[found.cols[e]]  # ascending, as the dense scan over all detections
+                i = owner[d]
+                dj = 0.0
+                di = 0.0
+                for k in range(dim):
+                    dj += (predicted[j, k] - z[d, k]) ** 2
+                    di += (predicted[i, k] - z[d, k]) ** 2
+                if dj <= best_d and di <= e2:
+                    best, best_d = d, dj
+            out[j] = best
     # rigid-group measurements for every blob with two or more tracks
     z_tracks = np.zeros((n, dim))
     count = np.zeros(m, np.int64)

@@ -25,8 +25,9 @@ except the flow's ring buffer):
   n_young, unused)``: the per-track counters and masks above.
 * :func:`learn_flow` → :class:`FlowUpdate` ``(n_samples, head, fresh, median, variance,
   updated)``: the velocity prior's ring buffer after a push, and the re-estimated prior.
-* :func:`recovery_costs` → :class:`RecoveryCosts` ``(tracks, dets, cost, n_admissible, bad,
-  cap)``: the second-chance problem of the leftover tracks and detections.
+* :func:`recovery_costs` → :class:`RecoveryCosts` ``(tracks, dets, ptr, cols, cost, n_admissible,
+  bad, wide, cap)``: the admissible pairs of the second chance of the leftover tracks and
+  detections (through the spatial index: no leftover-tracks × leftover-detections array).
 * :func:`survivors_and_births` → :class:`TrackArrays` ``(ids, misses, streak, estimate,
   detection_rows)``: the per-track arrays of the kept and the new tracks.
 * :func:`median_and_mad_variance` → ``(median, variance)``; :func:`median_displacement` → a float.
@@ -39,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.tracking._kernels import cholesky_lower, mahalanobis_costs
+from agents.tracking._kernels import cholesky_lower, gated_pairs
 from track_envs.infra.compiled import njit
 from track_envs.values.types import FloatArray
 
@@ -92,23 +93,32 @@ class FlowUpdate(NamedTuple):
 
 
 class RecoveryCosts(NamedTuple):
-    """Result of :func:`recovery_costs`: the second-chance problem of the leftovers.
+    """Result of :func:`recovery_costs`: the second-chance problem of the leftovers, as a sparse
+    list of its admissible pairs.
 
     Attributes:
         tracks: (k,) the tracks without a detection, ascending.
         dets: (l,) the detections no track took, ascending.
-        cost: (k, l) inflated squared Mahalanobis costs, ``+inf`` beyond the distance cap.
-        n_admissible: Number of pairs with ``cost <= gate``.
+        ptr: (k + 1,) leftover track ``a``'s pairs are ``ptr[a]:ptr[a + 1]``.
+        cols: The leftover detection (an index into ``dets``) of each pair, ascending within a track.
+        cost: The inflated squared Mahalanobis cost of each pair: ``<= gate``, within the
+            distance cap and, with clutter, passing the clutter test.
+        n_admissible: Number of pairs (``len(cost)``).
         bad: −1, or a leftover track whose inflated covariance is not positive definite (the
             other fields are then not meaningful).
+        wide: −1, or a leftover track whose inflated gate's half-width is not finite (the other
+            fields are then not meaningful).
         cap: The distance cap ``r`` (``inf`` when it was not computed).
     """
 
     tracks: IntArray
     dets: IntArray
+    ptr: IntArray
+    cols: IntArray
     cost: FloatArray
     n_admissible: int
     bad: int
+    wide: int
     cap: float
 
 
@@ -327,36 +337,41 @@ def _leftover_rows(
 
 
 @njit(cache=True)
-def _capped_costs(
+def _capped_pairs(
+    ptr: IntArray,
+    cols: IntArray,
     cost: FloatArray,
     loose_mean: FloatArray,
     loose_cov: FloatArray,
     loose_z: FloatArray,
     cap: float,
-    gate: float,
     clutter_log_odds: float,
-) -> int:
-    """Set to ``+inf`` (in place) the costs of the pairs farther apart than ``cap`` or, with
-    clutter, above the track's bound ``2κ − ln|f S_i|`` (:func:`recovery_costs`); returns the
-    number of the remaining pairs with ``cost <= gate``."""
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """The pairs (compressed sparse rows) within ``cap`` of their track and, with clutter, at or
+    below the track's bound ``2κ − ln|f S_i|`` (:func:`recovery_costs`)."""
     n_tracks, dim = loose_mean.shape
     cap2 = cap * cap
-    n_admissible = 0
+    out_ptr = np.zeros(n_tracks + 1, dtype=np.int64)
+    out_cols = np.empty(cols.shape[0], dtype=np.int64)
+    out_cost = np.empty(cols.shape[0])
+    t = 0
     for a in range(n_tracks):
         # the largest inflated cost at which the track beats clutter (inf: no clutter)
         bound = np.inf
-        if clutter_log_odds < np.inf:
+        if clutter_log_odds < np.inf and ptr[a + 1] > ptr[a]:
             bound = 2.0 * clutter_log_odds - log_det(loose_cov[a])
-        for b in range(loose_z.shape[0]):
+        for e in range(ptr[a], ptr[a + 1]):
+            b = cols[e]
             dist2 = 0.0
             for d in range(dim):
                 diff = loose_z[b, d] - loose_mean[a, d]
                 dist2 += diff * diff
-            if dist2 > cap2 or cost[a, b] > bound:
-                cost[a, b] = np.inf
-            elif cost[a, b] <= gate:
-                n_admissible += 1
-    return n_admissible
+            if not (dist2 > cap2 or cost[e] > bound):
+                out_cols[t] = b
+                out_cost[t] = cost[e]
+                t += 1
+        out_ptr[a + 1] = t
+    return out_ptr, out_cols[:t], out_cost[:t]
 
 
 @njit(cache=True)
@@ -373,25 +388,30 @@ def recovery_costs(
     cap_noise: float,
     clutter_log_odds: float = np.inf,
 ) -> RecoveryCosts:
-    """Costs of the second-chance association of the tracks and detections left over.
+    """The admissible pairs of the second-chance association of the tracks and detections left over.
 
     For the unassigned tracks ``i`` and the untaken detections ``j``, with the predicted
-    covariance scaled by ``f = inflation``,
+    covariance scaled by ``f = inflation``, a pair is admissible when
 
     .. math::
 
-        c_{ij} = (z_j - ŷ_i)^\\top (f S_i)^{-1} (z_j - ŷ_i)
-        \\quad\\text{if } \\lVert z_j - ŷ_i \\rVert \\le r, \\text{ else } +\\infty,
-        \\qquad r = k_u \\max(u_{flow}, \\operatorname{median}_t \\lVert ŷ_t - x̂_t \\rVert) + r_σ,
+        c_{ij} = (z_j - ŷ_i)^\\top (f S_i)^{-1} (z_j - ŷ_i) \\le γ
+        \\quad\\text{and}\\quad \\lVert z_j - ŷ_i \\rVert \\le r, \\qquad
+        r = k_u \\max(u_{flow}, \\operatorname{median}_t \\lVert ŷ_t - x̂_t \\rVert) + r_σ,
 
-    which bounds the jump in distance whatever the covariance (``u_flow = flow_step``, the
-    flow's motion per frame; the median runs over all live tracks ``t``, ``last`` holding their
-    previous estimates ``x̂_t``; ``k_u = cap_motion``, ``r_σ = cap_noise``). The cap is only
-    computed when some pair passes the inflated gate.
+    which bounds the jump in distance whatever the covariance (``γ = gate``; ``u_flow =
+    flow_step``, the flow's motion per frame; the median runs over all live tracks ``t``, ``last``
+    holding their previous estimates ``x̂_t``; ``k_u = cap_motion``, ``r_σ = cap_noise``). The cap
+    is only computed when some pair passes the inflated gate.
+
+    The pairs passing the inflated gate come from the spatial index, never a (k, l) array
+    (:func:`agents.tracking._kernels.gated_pairs` on the leftovers with covariances ``f S_i``:
+    the box ``sqrt(γ f S_kk)`` around each leftover track, then the exact test with the dense
+    expressions); the cap and the clutter test then filter that list.
 
     With clutter (``clutter_log_odds = κ`` finite, :func:`clutter_log_odds`), a pair is also
-    refused (``+inf``) unless the track's target, detected outside its gate and spread by the
-    inflated covariance, explains the detection better than a miss and a clutter detection do:
+    refused unless the track's target, detected outside its gate and spread by the inflated
+    covariance, explains the detection better than a miss and a clutter detection do:
 
     .. math::
 
@@ -401,25 +421,26 @@ def recovery_costs(
     ``κ = +inf`` (no clutter, or ``p_D = 1``) skips the test.
 
     Returns:
-        :class:`RecoveryCosts` ``(tracks, dets, cost (k, l), n_admissible, bad, cap)``: the
-        leftover tracks and detections (ascending), their costs, the number of pairs with
-        ``c <= gate``, ``bad`` (−1, or a leftover track whose covariance is not positive
-        definite) and the cap ``r`` (inf when not computed).
+        :class:`RecoveryCosts` ``(tracks, dets, ptr, cols, cost, n_admissible, bad, wide, cap)``:
+        the leftover tracks and detections (ascending), their admissible pairs (``cols`` index
+        ``dets``), their number, ``bad`` (−1, or a leftover track whose covariance is not positive
+        definite), ``wide`` (−1, or a leftover track whose inflated gate is unbounded) and the cap
+        ``r`` (inf when not computed).
     """
     tracks, dets = _leftovers(det_of_track, mean.shape[0], z.shape[0])
     loose_mean, loose_cov, loose_z = _leftover_rows(mean, cov, z, tracks, dets, inflation)
-    cost, bad = mahalanobis_costs(loose_mean, loose_cov, loose_z)
-    if bad >= 0:
-        return RecoveryCosts(tracks, dets, cost, 0, int(tracks[bad]), np.inf)
-    n_admissible = 0
-    for a in range(tracks.shape[0]):
-        for b in range(dets.shape[0]):
-            n_admissible += cost[a, b] <= gate
-    if n_admissible == 0:
-        return RecoveryCosts(tracks, dets, cost, 0, -1, np.inf)
+    pairs = gated_pairs(loose_mean, loose_cov, loose_z, gate)
+    if pairs.bad >= 0 or pairs.wide >= 0:
+        bad = int(tracks[pairs.bad]) if pairs.bad >= 0 else -1
+        wide = int(tracks[pairs.wide]) if pairs.wide >= 0 else -1
+        return RecoveryCosts(tracks, dets, pairs.ptr, pairs.cols, pairs.cost, 0, bad, wide, np.inf)
+    if pairs.cost.shape[0] == 0:
+        return RecoveryCosts(tracks, dets, pairs.ptr, pairs.cols, pairs.cost, 0, -1, -1, np.inf)
     cap = cap_motion * max(flow_step, median_displacement(mean, last)) + cap_noise
-    n_admissible = _capped_costs(cost, loose_mean, loose_cov, loose_z, cap, gate, clutter_log_odds)
-    return RecoveryCosts(tracks, dets, cost, n_admissible, -1, cap)
+    ptr, cols, cost = _capped_pairs(
+        pairs.ptr, pairs.cols, pairs.cost, loose_mean, loose_cov, loose_z, cap, clutter_log_odds
+    )
+    return RecoveryCosts(tracks, dets, ptr, cols, cost, cost.shape[0], -1, -1, cap)
 
 
 def clutter_log_odds(

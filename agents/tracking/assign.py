@@ -12,16 +12,22 @@ admissible when ``d_{ij}^2 \\le γ = F^{-1}_{χ^2_D}(p_{gate})`` (``p_gate = 0.9
 000). The global nearest neighbour assignment minimises the summed cost over admissible pairs,
 where leaving a track unassigned costs ``γ``.
 
-Hungarian assignment is :mod:`track_envs.infra.assignment.lone_pairs`: lone pairs (alone in their row
-and column)
-directly, the rest as the rectangular problem ``[C | M]`` with per-track miss columns (``γ`` on
-the diagonal of ``M``, one finite stand-in for every inadmissible entry), so it stays feasible
-when a row or the whole frame is gated out and ``linear_sum_assignment`` never sees ``inf`` (the
-failure of Stone Soup issue 824).
+The trackers call the one-pass :data:`ASSOCIATORS` (prediction, detections, gate → pairs), which
+never build an (n, m) array: the spatial index lists the detections inside a box around each
+track's gate and the exact test keeps the admissible pairs (:func:`gated_pairs`,
+:mod:`agents.tracking._kernels`), as compressed sparse rows. The optimal assignment then takes the
+lone pairs (alone in their row and column) directly and solves every other connected component
+of the pairs exactly as its own ``[C | M]`` problem, with per-track miss columns (``γ`` on the
+diagonal of ``M``, one finite stand-in for every inadmissible entry, so it stays feasible when a
+row is gated out and the solver never sees ``inf``, the failure of Stone Soup issue 824):
+:mod:`track_envs.infra.assignment.components`. Greedy takes the admissible pairs by ascending
+cost (:mod:`track_envs.infra.assignment.greedy`). A frame costs ``O(n + m)`` for gates and
+components of bounded size. :data:`SPARSE_ASSIGNERS` assign such a list (the second chance).
 
-The trackers call the one-pass :data:`ASSOCIATORS` (prediction, detections, gate → pairs): the
-costs, the gate and the split into lone pairs and competing rows and columns come from one
-compiled loop (:mod:`agents.tracking._kernels`); :data:`ASSIGNERS` take a cost matrix.
+:data:`ASSIGNERS` take a dense cost matrix (the pose tracker's, and the reference of the tests):
+:func:`assign_hungarian` is :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`
+(lone pairs, then the rest as one ``[C | M]`` problem), :func:`assign_greedy` the rounds of mutual
+best matches.
 """
 
 from __future__ import annotations
@@ -31,7 +37,9 @@ from numpy.typing import NDArray
 from scipy.stats import chi2
 
 from agents.tracking import _kernels
-from track_envs.infra.assignment.lone_pairs import EMPTY_PAIRS, Pairs, min_cost_with_misses, solve_split
+from track_envs.infra.assignment.components import solve_sparse
+from track_envs.infra.assignment.greedy import greedy_sparse
+from track_envs.infra.assignment.lone_pairs import EMPTY_PAIRS, Pairs, min_cost_with_misses
 from track_envs.values.types import FloatArray, Gaussian
 
 _EMPTY: Pairs = EMPTY_PAIRS
@@ -132,34 +140,60 @@ def assign_greedy(cost: NDArray[np.floating], gate: float) -> Pairs:
 ASSIGNERS = {"hungarian": assign_hungarian, "greedy": assign_greedy}
 
 
-def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
-    """Gate and assign in one pass; the same pairs as
-    ``assign_hungarian(mahalanobis_cost(prediction, z), gate)``.
+def gated_pairs(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> _kernels.GatedPairs:
+    """The admissible pairs ``d²_ij <= gate`` of a frame and their costs, as compressed sparse rows
+    (:func:`agents.tracking._kernels.gated_pairs`: spatial index, then the exact test).
 
-    The costs and the lone-pair split of the admissible pairs come from one compiled kernel
-    (:func:`agents.tracking._kernels.gated_costs`); only the rows and columns that compete go
-    to ``scipy.optimize.linear_sum_assignment``, as the problem ``[C | M]``
-    (:func:`track_envs.infra.assignment.lone_pairs.solve_split`, the path of
-    :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`).
+    Raises:
+        ValueError: if ``z`` is not (m, D), or a track's gate half-width ``sqrt(γ S_kk)`` is not
+            finite (naming the track and the value).
+        numpy.linalg.LinAlgError: if some predicted covariance is not positive definite.
+    """
+    mean, cov, zz = _prepared(prediction, z)
+    pairs = _kernels.gated_pairs(mean, cov, zz, float(gate))
+    _checked(pairs.bad)
+    if pairs.wide >= 0:
+        with np.errstate(over="ignore", invalid="ignore"):
+            half = np.sqrt(float(gate) * np.diagonal(cov[pairs.wide])[: min(cov.shape[1], 2)])
+        raise ValueError(
+            f"track {pairs.wide}: gate half-width sqrt(gate * S_kk) = {half.tolist()} is not finite "
+            f"(gate {float(gate)!r}, predicted covariance diagonal {np.diagonal(cov[pairs.wide]).tolist()}); "
+            "a gate must be bounded"
+        )
+    return pairs
+
+
+def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
+    """Gate and assign in one pass; the optimum of
+    ``assign_hungarian(mahalanobis_cost(prediction, z), gate)`` (the same pairs where the optimum
+    is unique).
+
+    The admissible pairs come from the spatial index and the exact test (:func:`gated_pairs`), never
+    an (n, m) array; lone pairs are taken directly and every other connected component of the
+    pairs is solved exactly as its own ``[C | M]`` problem
+    (:func:`track_envs.infra.assignment.components.solve_sparse`).
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs, sorted by row.
 
     Raises:
-        ValueError: if ``z`` is not (m, D).
+        ValueError: if ``z`` is not (m, D), or a gate half-width is not finite.
         numpy.linalg.LinAlgError: if some predicted covariance is not positive definite.
     """
-    split = _kernels.gated_costs(*_prepared(prediction, z), float(gate))
-    _checked(split.bad)
-    return solve_split(
-        split.cost, float(gate), split.lone_rows, split.lone_cols, split.rest_rows, split.rest_cols
-    )
+    pairs = gated_pairs(prediction, z, gate)
+    return solve_sparse(pairs.ptr, pairs.cols, pairs.cost, len(z), float(gate))
 
 
 def associate_greedy(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
-    """``assign_greedy(mahalanobis_cost(prediction, z), gate)``."""
-    return assign_greedy(mahalanobis_cost(prediction, z), gate)
+    """``assign_greedy(mahalanobis_cost(prediction, z), gate)``, on the list of admissible pairs
+    (:func:`gated_pairs`, :func:`track_envs.infra.assignment.greedy.greedy_sparse`)."""
+    pairs = gated_pairs(prediction, z, gate)
+    return greedy_sparse(pairs.ptr, pairs.cols, pairs.cost, len(z), float(gate))
 
 
 #: Gate-and-assign functions ``(prediction, z, gate) -> (rows, cols)`` by assignment name.
 ASSOCIATORS = {"hungarian": associate_hungarian, "greedy": associate_greedy}
+
+#: Assignments of a sparse list of pairs ``(ptr, cols, cost, n_cols, gate) -> (rows, cols)``
+#: (compressed sparse rows; pairs above the gate are not admissible) by assignment name.
+SPARSE_ASSIGNERS = {"hungarian": solve_sparse, "greedy": greedy_sparse}

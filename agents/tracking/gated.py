@@ -1,9 +1,11 @@
 """gnn's association: the χ² gate, the optimal (or greedy) assignment and the capped second chance.
 
-For the ``n`` live tracks and ``m`` detections of a frame: squared Mahalanobis costs, χ² gate at
-``p_gate``, Hungarian (or greedy) assignment with a per-track miss cost
-(:mod:`agents.tracking.assign`); tracks and detections left over then get the second chance of
-:mod:`agents.tracking.second_chance` when ``recovery_inflation > 1``. Every track is updated by
+For the ``n`` live tracks and ``m`` detections of a frame: the admissible pairs of the χ² gate at
+``p_gate`` from the spatial index and the exact squared Mahalanobis test, then the optimal
+assignment with a per-track miss cost (lone pairs, then each connected component of the pairs on
+its own) or the greedy one (:mod:`agents.tracking.assign`); tracks and detections left over then
+get the second chance of :mod:`agents.tracking.second_chance` when ``recovery_inflation > 1``.
+Nothing of size ``n × m`` is built: a frame costs ``O(n + m)`` at a bounded density. Every track is updated by
 the predictor's ``update`` with its detection; the others coast.
 """
 
@@ -18,6 +20,7 @@ from agents.tracking.assign import ASSOCIATORS
 from agents.tracking.associator import Association, AssociatorCapability, FrameContext, hard_update
 from agents.tracking.second_chance import SecondChance
 from predictors.base import Predictor
+from track_envs.infra.assignment.sparse_path import solve_with_misses
 from track_envs.values.types import SensorSpec
 
 
@@ -74,4 +77,7 @@ class GatedAssignment:
         return hard_update(predictor, state, association, seen)
 
     def warm_up(self, dim: int) -> None:
-        """Nothing beyond a tracker's warm-up stream."""
+        """Compile the solver of the components too large for a dense matrix (a tracker's warm-up
+        stream has none; a live run meets one in its first frames)."""
+        one = np.array([0, 1], dtype=np.int64)
+        solve_with_misses(one, one[:1], np.zeros(1), 1, 1.0)

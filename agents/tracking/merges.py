@@ -35,7 +35,8 @@ As a component: :class:`SharedBlobs` wraps another associator (gnn's
 the per-track upkeep, ``det_of_track, z_tracks = share_blobs(prediction.mean, z, det_of_track,
 extent, *region)``, then ``predictor.update(state, z_tracks, seen)`` with those rows (the
 tracker's upkeep kernel counts a detection shared by several tracks once when it lists the unused
-detections).
+detections). The taken detections near a leftover track come from the spatial index (the ball of
+radius ``extent`` lies in the box of half-width ``extent``), so a frame costs ``O(n + m)``.
 """
 
 from __future__ import annotations

@@ -28,6 +28,12 @@ detection or another target's first detection in its inflated gate, while on a b
 collisions knock particles out of their gates (``a < p_D``) it still recovers them. Without
 clutter, or with ``p_D = 1``, the second chance is as above.
 
+The leftovers' admissible pairs come from the spatial index (a box of half-widths
+``sqrt(γ f S_kk)`` around each leftover track, the exact inflated test on the detections inside,
+then the cap and the clutter test on that list: :func:`agents.tracking._upkeep_kernels.recovery_costs`),
+and are assigned as a sparse list (:data:`agents.tracking.assign.SPARSE_ASSIGNERS`): no array of
+leftover tracks × leftover detections, so a frame costs ``O(n + m)``.
+
 One component, used by gnn's gated assignment and by jpda alike.
 """
 
@@ -37,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.tracking import _upkeep_kernels as _kernels
-from agents.tracking.assign import ASSIGNERS
+from agents.tracking.assign import SPARSE_ASSIGNERS
 from agents.tracking.associator import FrameContext
 from track_envs.values.types import SensorSpec
 
@@ -67,11 +73,11 @@ class SecondChance:
         for name, value in (("recovery_cap_motion", cap_motion), ("recovery_cap_noise", cap_noise)):
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if assignment not in ASSIGNERS:
-            raise ValueError(f"assignment must be one of {sorted(ASSIGNERS)}, got {assignment!r}")
+        if assignment not in SPARSE_ASSIGNERS:
+            raise ValueError(f"assignment must be one of {sorted(SPARSE_ASSIGNERS)}, got {assignment!r}")
         self.cap_motion = float(cap_motion)
         self.cap_noise = float(cap_noise)
-        self._assign = ASSIGNERS[assignment]
+        self._assign = SPARSE_ASSIGNERS[assignment]
         self._spec: SensorSpec | None = None
         self.clutter_density = 0.0
         self.gate_hits = 0.0
@@ -121,9 +127,20 @@ class SecondChance:
             raise np.linalg.LinAlgError(
                 f"predicted covariance S of track {leftovers.bad} is not positive definite"
             )
+        if leftovers.wide >= 0:
+            with np.errstate(over="ignore", invalid="ignore"):
+                cov = np.asarray(prediction.cov)[leftovers.wide] * frame.recovery_inflation
+                half = np.sqrt(frame.gate * np.diagonal(cov)[: min(cov.shape[0], 2)])
+            raise ValueError(
+                f"track {leftovers.wide}: second-chance gate half-width sqrt(gate * f S_kk) = "
+                f"{half.tolist()} is not finite (gate {frame.gate!r}, inflation "
+                f"{frame.recovery_inflation!r}); a gate must be bounded"
+            )
         if leftovers.n_admissible == 0:
             return
-        rows, cols = self._assign(leftovers.cost, frame.gate)
+        rows, cols = self._assign(
+            leftovers.ptr, leftovers.cols, leftovers.cost, len(leftovers.dets), float(frame.gate)
+        )
         det_of_track[leftovers.tracks[rows]] = leftovers.dets[cols]
 
     def _count_gate_hits(

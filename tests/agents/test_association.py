@@ -1,5 +1,6 @@
 """Association: cost against a direct formula, gating, Hungarian vs brute force, greedy, edge cases,
-and the compiled one-pass gate-and-assign against the two-step numpy path."""
+and the compiled one-pass gate-and-assign (spatial index, sparse pairs) against the dense two-step
+path."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from agents.tracking.assign import (
     chi2_gate,
     mahalanobis_cost,
 )
-from track_envs.infra.assignment.lone_pairs import partner_pairs, split_dense
+from track_envs.infra.assignment.lone_pairs import split_dense
 from track_envs.values.types import Gaussian
 
 
@@ -164,23 +165,20 @@ def clustered_frame(rng, n, m, dim, spread):
     spread=st.sampled_from([1e-3, 0.05, 0.3]),
     seed=st.integers(0, 10_000),
 )
-def test_gated_costs_split_the_pairs_as_split_dense_does(n, m, dim, spread, seed):
+def test_gated_pairs_are_the_admissible_entries_of_the_dense_costs(n, m, dim, spread, seed):
     pred, z = clustered_frame(np.random.default_rng(seed), n, m, dim, spread)
     gate = chi2_gate(0.999, dim)
-    cost, lone_rows, lone_cols, rest_rows, rest_cols, bad = _association_kernels.gated_costs(
+    ptr, cols, pair_cost, bad, wide = _association_kernels.gated_pairs(
         np.ascontiguousarray(pred.mean), np.ascontiguousarray(pred.cov), z, gate
     )
-    assert bad == -1
-    np.testing.assert_array_equal(cost, mahalanobis_cost(pred, z))
-    partner, ref_rest_rows, ref_rest_cols = split_dense(cost, gate)  # tested against its definition
-    ref_rows, ref_cols = partner_pairs(partner)
-    for got, ref in [
-        (lone_rows, ref_rows),
-        (lone_cols, ref_cols),
-        (rest_rows, ref_rest_rows),
-        (rest_cols, ref_rest_cols),
-    ]:
-        np.testing.assert_array_equal(got, ref)
+    assert bad == wide == -1
+    cost = mahalanobis_cost(pred, z)
+    rows = np.repeat(np.arange(n), np.diff(ptr))
+    ref_rows, ref_cols = np.nonzero(cost <= gate)  # row-major: rows, then columns ascending
+    np.testing.assert_array_equal(rows, ref_rows)
+    np.testing.assert_array_equal(cols, ref_cols)
+    np.testing.assert_array_equal(pair_cost, cost[ref_rows, ref_cols])  # bit-identical costs
+    _, rest_rows, rest_cols = split_dense(cost, gate)
     if len(rest_rows):  # the solver's problem [C | M] with one finite stand-in for gated entries
         sub = cost[np.ix_(rest_rows, rest_cols)]
         k, ok = len(rest_rows), sub <= gate

@@ -470,6 +470,8 @@ def test_second_chance_takes_no_detection_beyond_its_distance_cap(offset, cap_mo
 def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
     from agents.tracking import _kernels as _association_kernels
     from predictors.kalman import _kernels as _kalman_kernels
+    from track_envs.infra.assignment import components as _components
+    from track_envs.infra.assignment import sparse_path as _sparse_path
 
     agent = make_agent("gnn", predictor="kf-ca")
     agent.reset(SPEC)
@@ -484,9 +486,9 @@ def test_warm_up_compiles_every_kernel_and_leaves_the_tracker_untouched():
         _gnn_kernels.learn_flow,
         _gnn_kernels.recovery_costs,
         _gnn_kernels.survivors_and_births,
-        _association_kernels.gated_costs,
-        _association_kernels.rest_problem,
-        _association_kernels.merge_solution,
+        _association_kernels.gated_pairs,
+        _components.solve_sparse,
+        _sparse_path.solve_with_misses,
         _kalman_kernels.start_tracks,
         _kalman_kernels.keep_and_start_tracks,
         _kalman_kernels.predict_and_project_tracks,

@@ -49,7 +49,7 @@ def _gnn_results() -> list[tuple[object, type]]:
 
 def _tracking_results() -> list[tuple[object, type]]:
     mean, cov = _tracks(3)
-    return [(tracking.gated_costs(mean, cov, mean[::-1].copy(), 9.0), tracking.GatedCosts)]
+    return [(tracking.gated_pairs(mean, cov, mean[::-1].copy(), 9.0), tracking.GatedPairs)]
 
 
 def _kalman_results() -> list[tuple[object, type]]:
