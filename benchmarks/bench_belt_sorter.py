@@ -12,6 +12,11 @@ ratios; timings are the best of three repetitions; "visible" counts particles in
 The cost of the nozzle bar (particles simulated until they pass it 0.05 m past the window, and
 the crossing truth) is the default env against ``nozzle_offset=None`` in the same run
 (``--nozzle-only`` times just that).
+
+``--industrial`` times the step cost per particle in view of ``BeltParams.industrial()`` (2 m
+wide, 4 m window, ≈12,000 particles in view) against the default belt in the same run: the
+median over ``--frames`` steps after the warm-up, each step divided by the particles in the
+window at that frame, sizes derived from the scene (run it with ``OMP_NUM_THREADS=1``).
 """
 
 from __future__ import annotations
@@ -86,7 +91,15 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--nozzle-only", action="store_true", help="time only the nozzle bar's cost")
+    parser.add_argument(
+        "--industrial",
+        action="store_true",
+        help="industrial belt vs default: cost per particle",
+    )
     args = parser.parse_args()
+    if args.industrial:
+        industrial_cost(args.frames, args.seed)
+        return
     nozzle_cost(args.frames, args.seed)
     if args.nozzle_only:
         return
@@ -113,6 +126,36 @@ def main() -> None:
             f"| ≈{target} (measured {vis:.0f}) | {env_fps:.0f} | {merged_fps:.0f} | {naive_fps:.0f} "
             f"| {env_fps / naive_fps:.1f}x | {merged_fps / naive_fps:.1f}x |"
         )
+
+
+def step_cost(physics: BeltParams, frames: int, seed: int) -> tuple[float, float, float]:
+    """Median seconds per step and per particle in view over ``frames`` steps after the warm-up,
+    and the mean particles in view (sizes derived from the scene, empty reports)."""
+    env = gym.make("BeltSorter-v0", physics=physics)
+    report = empty_report(env.unwrapped.sensor_spec.max_tracks, (2,))  # type: ignore[attr-defined]
+    env.reset(seed=seed)
+    per_step, per_particle, visible = [], [], []
+    for _ in range(frames):
+        start = time.perf_counter()
+        _, _, _, _, info = env.step(report)
+        elapsed = time.perf_counter() - start
+        n = int(np.count_nonzero(info["truth"]["ids"] >= 0))
+        per_step.append(elapsed)
+        per_particle.append(elapsed / max(n, 1))
+        visible.append(n)
+    env.close()
+    return float(np.median(per_step)), float(np.median(per_particle)), float(np.mean(visible))
+
+
+def industrial_cost(frames: int, seed: int) -> None:
+    """The step cost per particle of the industrial belt against the default belt's, same run."""
+    default = step_cost(BeltParams(), max(frames, 500), seed)
+    industrial = step_cost(BeltParams.industrial(), min(frames, 200), seed)
+    print("| belt | particles in view | step (ms) | µs per particle and step |")
+    print("|---|---|---|---|")
+    for name, (step, particle, visible) in (("default", default), ("industrial", industrial)):
+        print(f"| {name} | {visible:,.0f} | {step * 1e3:.2f} | {particle * 1e6:.2f} |")
+    print(f"ratio industrial / default per particle: {industrial[1] / default[1]:.2f}")
 
 
 def nozzle_cost(frames: int, seed: int) -> None:

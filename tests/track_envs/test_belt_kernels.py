@@ -134,3 +134,91 @@ def test_window_rows_order_by_id_for_dense_and_sparse_ids(ids: list[int]) -> Non
     got = window_rows(rows, truth, -1.0, 1.0)
     inside = [r for r in range(len(ids)) if r != 1]
     assert got.tolist() == sorted(inside, key=lambda r: ids[r])
+
+
+def _take_parked_reference(truth: np.ndarray, row_kind: np.ndarray, kinds: np.ndarray) -> np.ndarray:
+    """The first release's scan: for each new particle in turn, the first free parked row of its kind."""
+    out = np.full(len(kinds), -1, dtype=np.int64)
+    taken = np.zeros(len(truth), dtype=bool)
+    for i, k in enumerate(kinds):
+        for r in range(len(truth)):
+            if truth[r] == PARKED and row_kind[r] == k and not taken[r]:
+                taken[r] = True
+                out[i] = r
+                break
+    return out
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_take_parked_in_one_pass_equals_the_scan_per_particle(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(0, 60))
+    truth = np.where(rng.random(m) < 0.4, PARKED, rng.integers(-2, 50, m)).astype(np.int64)
+    row_kind = rng.integers(0, 3, m).astype(np.int64)
+    kinds = rng.integers(0, 3, int(rng.integers(0, 25))).astype(np.int64)
+    np.testing.assert_array_equal(
+        take_parked(truth, row_kind, kinds), _take_parked_reference(truth, row_kind, kinds)
+    )
+
+
+def _touching_reference(x, angles, kinds, table, tol):
+    """Connected components of the touching relation over every pair (labels: lowest member)."""
+    from track_envs.envs.blobs import core_distance
+
+    n = len(x)
+    parent = np.arange(n)
+
+    def find(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    d = np.hypot(x[:, None, 0] - x[None, :, 0], x[:, None, 1] - x[None, :, 1])
+    near = np.argwhere(np.triu(d <= 0.03, 1))  # beyond 3 cm no silhouettes of these kinds touch
+    for i, j in near:
+        a, b = table[kinds[i]], table[kinds[j]]
+        gap = core_distance(x[i, 0], x[i, 1], angles[i], a[0], a[1], x[j, 0], x[j, 1], angles[j], b[0], b[1])
+        if gap <= a[2] + b[2] + tol:
+            ri, rj = find(i), find(j)
+            parent[max(ri, rj)] = min(ri, rj)
+    return np.array([find(i) for i in range(n)])
+
+
+@pytest.mark.parametrize(("width", "length"), [(2.0, 0.1), (0.05, 1.0), (0.4, 0.4)])
+def test_touching_groups_on_wide_and_long_belts_equal_every_pair(width: float, length: float) -> None:
+    from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS
+    from track_envs.envs.blobs import MERGE_TOLERANCE, silhouette_table, touching_groups
+
+    names = ["sphere", "cylinder", "cuboid"]
+    table = silhouette_table(
+        [(PARTICLE_KINDS[k].shape, PARTICLE_KINDS[k].length, PARTICLE_KINDS[k].width) for k in names],
+        BOX_ROUNDING,
+    )
+    rng = np.random.default_rng(3)
+    n = 1500
+    x = np.column_stack([rng.uniform(0, length, n), rng.uniform(0, width, n)])  # ≈10 % covered
+    kinds = rng.integers(0, 3, n)
+    angles = rng.uniform(-np.pi, np.pi, n)
+    label = touching_groups(x, angles, kinds, table, MERGE_TOLERANCE)
+    expected = _touching_reference(x, angles, kinds, table, MERGE_TOLERANCE)
+    assert (expected != np.arange(n)).sum() > 50  # many merges
+    np.testing.assert_array_equal(label, expected)
+
+
+def test_merged_rows_by_table_and_by_search_agree() -> None:
+    from track_envs.envs.blobs import MAX_MERGED, merged_rows
+
+    rng = np.random.default_rng(4)
+    for spread in (1, 10**9):  # ids nearly consecutive (a table by id), or far apart (a search)
+        ids = np.unique(rng.integers(0, 500 * spread, 400))
+        rng.shuffle(ids)
+        merged = np.full((30, MAX_MERGED), -1, np.int64)
+        merged[:, :3] = ids[:90].reshape(30, 3)
+        rows = np.concatenate([ids[::3], np.full(50, -1)])
+        rng.shuffle(rows)
+        got = merged_rows(rows, merged, MAX_MERGED)
+        expected = np.full((len(rows), MAX_MERGED), -1, np.int64)
+        expected[:, 0] = rows
+        for g in range(30):
+            expected[rows == merged[g, 0], 1:] = merged[g, 1:]
+        np.testing.assert_array_equal(got, expected)

@@ -125,7 +125,7 @@ def test_detection_probability_and_clutter_rate():
 
 
 def test_overfull_frames_warn_once_and_count_what_they_drop():
-    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30)
+    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30, overflow="drop")
     with (
         pytest.warns(RuntimeWarning, match="max_detections=20"),
         pytest.warns(RuntimeWarning, match="max_targets=30"),
@@ -135,10 +135,110 @@ def test_overfull_frames_warn_once_and_count_what_they_drop():
     assert (info["truth"]["ids"] >= 0).sum() == 30
 
 
+def test_overfull_frames_grow_the_rows_and_the_spaces():
+    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30)
+    with (
+        pytest.warns(RuntimeWarning, match=r"exceed max_detections=20; the observation grows to \d+ rows"),
+        pytest.warns(RuntimeWarning, match=r"exceed max_targets=30; the rows of info\['truth'\] grow"),
+    ):
+        obs, info = env.reset(seed=0)
+    base = env.unwrapped
+    rows = base.sensor_spec.max_detections
+    assert rows in (40, 80, 160, 320) and obs["detections"].shape == (rows, 2)
+    assert obs["mask"].sum() == (info["detection_ids"] >= 0).sum() + 0  # no clutter by default
+    assert obs["mask"].sum() > 20 and info["dropped_detections"] == 0 and info["dropped_targets"] == 0
+    assert env.observation_space.contains(obs)
+    assert env.action_space["detection"].shape == (base.sensor_spec.max_tracks,)
+    assert base.max_targets >= (info["truth"]["ids"] >= 0).sum() > 30
+    # nothing is dropped: the truth lists every particle of the window
+    state = base.world.state((0.0, base.physics.window_length))
+    np.testing.assert_array_equal(info["truth"]["ids"][: len(state.ids)], state.ids)
+    obs, *_ = env.step(empty_report(base.sensor_spec.max_tracks, (2,)))
+    assert env.observation_space.contains(obs)
+
+
+def test_observation_sizes_follow_the_scene():
+    from track_envs.envs.belt_physics import expected_in_view, scene_rows
+
+    default = gym.make("BeltSorter-v0").unwrapped
+    assert (default.sensor_spec.max_detections, default.sensor_spec.max_tracks, default.max_targets) == (
+        256,
+        256,
+        256,
+    )
+    assert expected_in_view(BeltParams(), {"cylinder": 1.0}) == pytest.approx(61.8, abs=0.1)  # DEM: 58–73
+    busy = gym.make("BeltSorter-v0", feed_rate=1560.0).unwrapped  # ≈500 in view
+    rows = scene_rows(busy.physics, busy.kinds)
+    assert rows % 256 == 0 and rows >= 3 * expected_in_view(busy.physics, busy.kinds)
+    assert (busy.sensor_spec.max_detections, busy.sensor_spec.max_tracks, busy.max_targets) == (rows,) * 3
+    given = gym.make("BeltSorter-v0", feed_rate=1560.0, max_detections=64, max_tracks=32).unwrapped
+    assert (given.sensor_spec.max_detections, given.sensor_spec.max_tracks, given.max_targets) == (
+        64,
+        32,
+        rows,
+    )
+    industrial = gym.make("BeltSorter-v0", physics=BeltParams.industrial()).unwrapped
+    n = expected_in_view(industrial.physics, industrial.kinds)
+    assert 11_500 < n < 12_500
+    assert industrial.sensor_spec.max_detections == industrial.max_targets == 17_664 > 1.4 * n
+
+
+def test_the_industrial_preset():
+    p = BeltParams.industrial()
+    assert (p.window_width, p.window_length, p.feed_rate, p.feed_burstiness, p.warmup_time) == (
+        2.0,
+        4.0,
+        4300.0,
+        0.17,
+        3.5,
+    )
+    assert (p.belt_speed, p.drop_x, p.drop_spread, p.substeps) == (1.44, -0.08, 0.04, 1)  # the defaults'
+    assert BeltParams.industrial(feed_rate=100.0).feed_rate == 100.0
+    with pytest.raises(TypeError):
+        BeltParams.industrial(window_hight=1.0)
+
+
+def test_a_short_wide_belt_holds_what_its_feed_implies():
+    """A 2 m wide belt seen over 0.5 m (the preset's width and feed, a short window): the count in
+    view follows the kinematics of expected_in_view, the derived sizes hold every particle."""
+    from track_envs.envs.belt_physics import expected_in_view
+
+    physics = BeltParams.industrial(window_length=0.5, warmup_time=0.8)
+    env = gym.make("BeltSorter-v0", physics=physics)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow
+        _, info = env.reset(seed=0)
+        counts = [(info["truth"]["ids"] >= 0).sum()]
+        report = empty_report(env.unwrapped.sensor_spec.max_tracks, (2,))
+        for _ in range(20):
+            _, _, _, _, info = env.step(report)
+            counts.append((info["truth"]["ids"] >= 0).sum())
+    expected = expected_in_view(physics, {"cylinder": 1.0})
+    assert 1_550 < expected < 1_750
+    assert 0.75 * expected < np.mean(counts) < 1.25 * expected
+
+
+@pytest.mark.slow
+def test_the_industrial_belt_holds_ten_thousand_particles_in_view():
+    env = gym.make("BeltSorter-v0", physics=BeltParams.industrial())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the derived sizes hold every particle and detection
+        obs, info = env.reset(seed=0)
+        counts = [(info["truth"]["ids"] >= 0).sum()]
+        report = empty_report(env.unwrapped.sensor_spec.max_tracks, (2,))
+        for _ in range(10):
+            obs, _, _, _, info = env.step(report)
+            counts.append((info["truth"]["ids"] >= 0).sum())
+    assert min(counts) >= 10_000
+    assert obs["mask"].sum() > 8_000  # touching particles merge into fewer detections
+
+
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
         ({"noise_std": -1.0}, "noise_std"),
+        ({"merge_tolerance": 0.05}, r"merge_tolerance must be a gap in \[0, 0.01\] m .* got 0.05"),
+        ({"overflow": "truncate"}, "overflow must be 'grow' or 'drop', got 'truncate'"),
         ({"p_detect": 1.5}, "p_detect"),
         ({"clutter_rate": -0.1}, "clutter_rate"),
         ({"max_detections": 0}, "max_detections"),
@@ -217,16 +317,24 @@ def test_copies_are_exact_in_a_later_episode_and_before_the_first_reset():
     assert_tree_equal(belt_frames(clone, 100), belt_frames(env, 100))
 
 
-def test_a_copy_of_an_overfull_belt_keeps_its_counts_without_warning_again():
-    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30)
+@pytest.mark.parametrize("overflow", ["drop", "grow"])
+def test_a_copy_of_an_overfull_belt_keeps_its_counts_without_warning_again(overflow):
+    env = gym.make("BeltSorter-v0", max_detections=20, max_targets=30, overflow=overflow)
     with pytest.warns(RuntimeWarning):
         env.reset(seed=0)
-    belt_frames(env, 5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a grown belt may grow again
+        belt_frames(env, 5)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         clone = copy.deepcopy(env)
-    a, b = belt_frames(env, 50), belt_frames(clone, 50)
-    assert b[-1][4]["dropped_detections"] > 0 and b[-1][4]["dropped_targets"] > 0
+    assert clone.unwrapped.sensor_spec == env.unwrapped.sensor_spec
+    assert clone.observation_space == env.observation_space
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a, b = belt_frames(env, 50), belt_frames(clone, 50)
+    dropped = b[-1][4]["dropped_detections"] > 0 and b[-1][4]["dropped_targets"] > 0
+    assert dropped == (overflow == "drop")
     assert_tree_equal(b, a)
 
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import abc
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import gymnasium as gym
@@ -97,6 +97,11 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     gospa_c: float
     #: Shuffle the detection rows every frame (a replay may keep its file's order).
     shuffle_rows: bool = True
+    #: What a frame with more detections than ``max_detections`` (or targets than ``max_targets``)
+    #: does: ``"drop"`` keeps the rows fixed, drops the surplus and counts it in ``info``
+    #: (``dropped_detections``, ``dropped_targets``; warned once per episode); ``"grow"`` doubles
+    #: the rows until they fit, rebuilds ``observation_space`` and ``action_space`` (warned).
+    overflow: str = "drop"
     #: The sensor's drift over an episode (:mod:`track_envs.envs.drift`); None: it stays nominal.
     drift: SensorDrift | None = None
     _drift_process: DriftProcess | None = None
@@ -132,10 +137,26 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         self.position_shape = position_shape or (spec.dim,)
         self.detection_shape = detection_shape or (spec.dim,)
         self.truth_extra_shapes = truth_extra_shapes or {}
+        self._obs_bounds = (np.asarray(obs_low, dtype=np.float32), np.asarray(obs_high, dtype=np.float32))
+        self._build_spaces(spec)
+        self._frame = -1
+        self._mask = np.zeros(spec.max_detections, dtype=np.int8)
+        self._current_truth: Truth | None = None
+        self._last_report: Report | None = None
+        self._last_detections: NDArray[Any] = np.zeros((0, *self.detection_shape))
+        self._dropped_detections = 0
+        self._dropped_targets = 0
+        self._window: Any = None
+        # (snapshot, detections, report, frame index) of the frame render() draws
+        self._render_frame: tuple[Any, NDArray, Report | None, int] | None = None
+
+    def _build_spaces(self, spec: SensorSpec) -> None:
+        """The observation and action spaces of ``spec`` (its rows), and the clutter box."""
+        self.sensor_spec = spec
         det_shape = (spec.max_detections, *self.detection_shape)
         # the bounds always contain 0: padding rows are zero
-        self._obs_low = np.broadcast_to(np.minimum(np.asarray(obs_low, dtype=np.float32), 0), det_shape)
-        self._obs_high = np.broadcast_to(np.maximum(np.asarray(obs_high, dtype=np.float32), 0), det_shape)
+        self._obs_low = np.broadcast_to(np.minimum(self._obs_bounds[0], 0), det_shape)
+        self._obs_high = np.broadcast_to(np.maximum(self._obs_bounds[1], 0), det_shape)
         self._row_low = np.ascontiguousarray(self._obs_low[0].reshape(-1), dtype=np.float64)
         self._row_high = np.ascontiguousarray(self._obs_high[0].reshape(-1), dtype=np.float64)
         self.observation_space = spaces.Dict(
@@ -155,16 +176,22 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
             np.maximum(hi + span, 0),
             spec.max_detections,
         )
-        self._frame = -1
-        self._mask = np.zeros(spec.max_detections, dtype=np.int8)
-        self._current_truth: Truth | None = None
-        self._last_report: Report | None = None
-        self._last_detections: NDArray[Any] = np.zeros((0, *self.detection_shape))
-        self._dropped_detections = 0
-        self._dropped_targets = 0
-        self._window: Any = None
-        # (snapshot, detections, report, frame index) of the frame render() draws
-        self._render_frame: tuple[Any, NDArray, Report | None, int] | None = None
+
+    def _grow_detection_rows(self, needed: int) -> None:
+        """Double ``max_detections`` until ``needed`` rows fit, and rebuild the spaces (warned)."""
+        old = self.sensor_spec.max_detections
+        rows = old
+        while rows < needed:
+            rows *= 2
+        warnings.warn(
+            f"{needed} detections in frame {self._frame} exceed max_detections={old}; the observation "
+            f"grows to {rows} rows and observation_space / action_space are rebuilt with them (pass "
+            f"max_detections >= {needed}, or overflow='drop' to keep the rows fixed)",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+        self._build_spaces(replace(self.sensor_spec, max_detections=rows))
+        self._mask = np.zeros(rows, dtype=np.int8)
 
     def _set_drift(self, drift: SensorDrift | Any) -> None:
         """Let the sensor drift (:func:`track_envs.envs.drift.resolve_drift` checks ``drift``)."""
@@ -328,6 +355,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
             truth = self._truth()
             z, source = self._sense(truth)
         order = self.np_random.permutation(len(z)) if self.shuffle_rows else np.arange(len(z))
+        if len(order) > spec.max_detections and self.overflow == "grow":
+            self._grow_detection_rows(len(order))
+            spec = self.sensor_spec
         if len(order) > spec.max_detections:
             if not self._dropped_detections:
                 warnings.warn(
@@ -375,6 +405,17 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
 
     def _pack_truth(self, truth: Truth) -> dict[str, NDArray]:
         m = len(truth.ids)
+        if m > self.max_targets and self.overflow == "grow":
+            rows = self.max_targets
+            while rows < m:
+                rows *= 2
+            warnings.warn(
+                f"{m} targets in frame {self._frame} exceed max_targets={self.max_targets}; the rows of "
+                f"info['truth'] grow to {rows} (pass max_targets >= {m} to keep them fixed)",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+            self.max_targets = rows
         cap = self.max_targets
         if m > cap:
             if not self._dropped_targets:

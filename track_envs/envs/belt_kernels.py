@@ -73,15 +73,38 @@ def belt_friction(
 
 @njit(cache=True)
 def take_parked(truth: NDArray[np.int64], row_kind: NDArray[np.int64], kinds: NDArray[np.int64]) -> NDArray:
-    """Rows of parked bodies for new particles of ``kinds`` (in order), or ``-1`` where none is left."""
+    """Rows of parked bodies for new particles of ``kinds`` (in order), or ``-1`` where none is left.
+
+    The ``j``-th new particle of a kind takes the ``j``-th parked row of that kind (rows ascending),
+    found in one pass over the rows: linear in rows + particles.
+    """
     out = np.full(len(kinds), -1, dtype=np.int64)
-    taken = np.zeros(len(truth), dtype=np.bool_)
+    if len(kinds) == 0:
+        return out
+    n_kinds = kinds.max() + 1
+    need = np.zeros(n_kinds, np.int64)
     for i in range(len(kinds)):
-        for r in range(len(truth)):
-            if truth[r] == PARKED and row_kind[r] == kinds[i] and not taken[r]:
-                taken[r] = True
-                out[i] = r
-                break
+        need[kinds[i]] += 1
+    first = np.zeros(n_kinds + 1, np.int64)  # kind k's rows: slots[first[k]:first[k] + found[k]]
+    for k in range(n_kinds):
+        first[k + 1] = first[k] + need[k]
+    slots = np.empty(first[n_kinds], np.int64)
+    found = np.zeros(n_kinds, np.int64)
+    missing = len(kinds)
+    for r in range(len(truth)):
+        if missing == 0:
+            break
+        k = row_kind[r]
+        if truth[r] == PARKED and k < n_kinds and found[k] < need[k]:
+            slots[first[k] + found[k]] = r
+            found[k] += 1
+            missing -= 1
+    used = np.zeros(n_kinds, np.int64)
+    for i in range(len(kinds)):
+        k = kinds[i]
+        if used[k] < found[k]:
+            out[i] = slots[first[k] + used[k]]
+        used[k] += 1
     return out
 
 

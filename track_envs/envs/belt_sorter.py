@@ -12,8 +12,22 @@ from numpy.typing import NDArray
 
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
-from track_envs.envs.belt_physics import BOX_ROUNDING, PARTICLE_KINDS, BeltParams, BeltWorld, resolve_mixture
-from track_envs.envs.blobs import MAX_MERGED, MERGE_TOLERANCE, merge_blobs, merged_rows, silhouette_table
+from track_envs.envs.belt_physics import (
+    BOX_ROUNDING,
+    PARTICLE_KINDS,
+    BeltParams,
+    BeltWorld,
+    resolve_mixture,
+    scene_rows,
+)
+from track_envs.envs.blobs import (
+    MAX_MERGE_TOLERANCE,
+    MAX_MERGED,
+    MERGE_TOLERANCE,
+    merge_blobs,
+    merged_rows,
+    silhouette_table,
+)
 from track_envs.envs.drift import SensorDrift
 from track_envs.envs.nozzle import (
     DEFAULT_NOZZLE_OFFSET,
@@ -104,15 +118,27 @@ class BeltSorterEnv(TrackingEnv):
       std replaces ``noise_std`` as the noise added, and ``sensor_spec`` keeps the nominal values.
       ``info["sensor"]`` holds each frame's true ``noise_std``, ``p_detect``, ``clutter_rate``.
       Default None (no drift).
-    - ``max_detections``: detection rows (default 256); ``max_tracks``: report rows (default 256);
-      ``max_targets``: truth rows in ``info`` (default 256).
+    - ``max_detections``: detection rows; ``max_tracks``: report rows; ``max_targets``: truth rows
+      in ``info``. Each defaults to the rows the scene needs in a burst
+      (:func:`~track_envs.envs.belt_physics.scene_rows`: the mean count in view from the feed rate
+      and the particles' residence in the window, with margin, at least 256): 256 on the default
+      belt, ≈17,700 on :meth:`BeltParams.industrial() <track_envs.envs.belt_physics.BeltParams.industrial>`.
+    - ``overflow``: what a frame with more detections than ``max_detections`` or more particles
+      in view than ``max_targets`` does. ``"grow"`` (default): the rows double until they fit,
+      ``observation_space`` and ``action_space`` are rebuilt with them and a ``RuntimeWarning``
+      names the count and the old and new sizes (nothing is dropped; an env under a vector env,
+      whose spaces are fixed, should pass sizes that fit or ``"drop"``). ``"drop"``: the rows stay
+      fixed, the surplus is dropped and counted in ``info["dropped_detections"]`` /
+      ``info["dropped_targets"]``, warned once per episode.
     - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
-    - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else.
+    - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else;
+      ``BeltParams.industrial()`` is an industrial-width belt (2 m wide, a 4 m window, ≈12,000
+      particles in view: ``gym.make("BeltSorter-v0", physics=BeltParams.industrial())``).
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
     - ``merge_touching``: touching particles give one detection at their area-weighted centroid
       (default ``True``); ``False`` senses every particle on its own, as the first release did.
     - ``merge_tolerance``: largest gap in metres between silhouettes that still counts as
-      touching (default 1e-4).
+      touching, in ``[0, 0.01]`` (default 1e-4).
     - ``nozzle_offset``: distance in metres from the end of the camera window to the nozzle bar,
       in ``(0, 0.25]`` (default 0.05); ``None``: no nozzle bar (no crossings, no
       ``sorting_line``, particles removed ``exit_margin`` past the window as before).
@@ -156,6 +182,10 @@ class BeltSorterEnv(TrackingEnv):
       stream departs from the earlier one after a few dozen frames (the statistics do not
       change). ``nozzle_offset=None`` gives the earlier streams bit for bit.
     - v0, drift: the optional ``drift`` (default None: every stream as before).
+    - v0, sizes from the scene: ``max_detections``, ``max_tracks`` and ``max_targets`` default to
+      the rows the scene needs (256 on the default belt, as before) and an overfull frame grows
+      the rows (``overflow="grow"``) where it used to drop the surplus (``overflow="drop"``); the
+      pinned streams below never overflow and are unchanged. ``BeltParams.industrial()``.
     - v0, pinned: the streams above (merging on, nozzle bar at 0.05 m) are the streams of v0, pinned
       by the stream digest test (docs/architecture.md); a change of what this id emits needs
       BeltSorter-v1, and v0 keeps these streams.
@@ -172,9 +202,9 @@ class BeltSorterEnv(TrackingEnv):
         p_detect: float = 1.0,
         clutter_rate: float = 0.0,
         drift: SensorDrift | Mapping[str, Any] | str | None = None,
-        max_detections: int = 256,
-        max_tracks: int = 256,
-        max_targets: int = 256,
+        max_detections: int | None = None,
+        max_tracks: int | None = None,
+        max_targets: int | None = None,
         feed_rate: float | None = None,
         belt_speed: float | None = None,
         physics: BeltParams | None = None,
@@ -182,6 +212,7 @@ class BeltSorterEnv(TrackingEnv):
         merge_touching: bool = True,
         merge_tolerance: float = MERGE_TOLERANCE,
         nozzle_offset: float | None = DEFAULT_NOZZLE_OFFSET,
+        overflow: str = "grow",
         render_mode: str | None = None,
     ):
         self.nozzle_offset = check_nozzle_offset(nozzle_offset)
@@ -195,13 +226,24 @@ class BeltSorterEnv(TrackingEnv):
         )
         self.kinds = resolve_mixture(particle_kind)
         self.kind_names = list(self.kinds)
-        max_detections = check_int("max_detections", max_detections, 1)
-        max_tracks = check_int("max_tracks", max_tracks, 1)
+        rows = scene_rows(self.physics, self.kinds)
+        max_detections = check_int("max_detections", rows if max_detections is None else max_detections, 1)
+        max_tracks = check_int("max_tracks", rows if max_tracks is None else max_tracks, 1)
+        max_targets = check_int("max_targets", rows if max_targets is None else max_targets, 1)
         self.gospa_c = check_positive("gospa_c", gospa_c)
         if not isinstance(merge_touching, bool | np.bool_):
             raise ValueError(f"merge_touching must be True or False, got {merge_touching!r}")
         self.merge_touching = bool(merge_touching)
         self.merge_tolerance = check_non_negative("merge_tolerance", merge_tolerance)
+        if self.merge_tolerance > MAX_MERGE_TOLERANCE:
+            raise ValueError(
+                f"merge_tolerance must be a gap in [0, {MAX_MERGE_TOLERANCE}] m between silhouettes that "
+                "still counts as touching (a larger one joins particles that are apart), "
+                f"got {merge_tolerance!r}"
+            )
+        if overflow not in ("grow", "drop"):
+            raise ValueError(f"overflow must be 'grow' or 'drop', got {overflow!r}")
+        self.overflow = overflow
         self._silhouettes = silhouette_table(
             [
                 (PARTICLE_KINDS[k].shape, PARTICLE_KINDS[k].length, PARTICLE_KINDS[k].width)

@@ -21,8 +21,10 @@ is at most ``ρ_i + ρ_j + tol``; the core distance is exact (0 when the cores o
 separating axis theorem, else the least distance of a corner of one core to the other). ``tol`` (default
 0.1 mm, about a camera pixel) absorbs pymunk's contact slop and the gap a segmentation cannot
 resolve. Only pairs whose centres are closer than the sum of the circumradii plus ``tol`` are
-tested (particles are bucketed along the belt into cells as wide as the largest such sum, and
-each is compared with the rest of its cell and the next one).
+tested: particles are bucketed in a grid over ``(x, y)`` with cells as wide as the largest such
+sum (:func:`~track_envs.infra.spatial.build_grid`), and each is compared with the rest of its cell
+and the neighbouring cells ahead of it, so a frame costs ``O(n)`` at a bounded density whatever
+the belt's width and length.
 
 **Groups** are the connected components of the touching relation (three in a row make one
 blob), found by union–find. A blob's centroid is
@@ -44,11 +46,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.compiled import njit
+from track_envs.infra.spatial import build_grid
 
 #: Truth ids listed per merged detection in ``info["detection_ids_merged"]``.
 MAX_MERGED = 8
 #: Default touching tolerance in metres.
 MERGE_TOLERANCE = 1e-4
+#: The largest touching tolerance (m): a particle's length; a larger one joins particles far apart.
+MAX_MERGE_TOLERANCE = 0.01
 
 
 def silhouette_table(shapes: list[tuple[str, float, float]], box_rounding: float) -> NDArray[np.float64]:
@@ -169,55 +174,52 @@ def touching_groups(
         inner[i] = min(table[k, 0], table[k, 1]) + table[k, 2]
     if n < 2:
         return parent
-    # cells along the belt at least as wide as the largest reach of a pair: a touching pair is in
-    # one cell or in two neighbouring ones (a counting sort, no comparison sort)
+    # a grid over (x, y) with cells at least as wide as the largest reach of a pair: a touching
+    # pair lies in one cell or in two neighbouring ones; each cell is compared with itself and
+    # with the four neighbours ahead of it, so every pair once. The test is symmetric in i and j
+    # bit for bit and a group's root is always its lowest index (parent[max] = min), so the
+    # labels do not depend on the order in which the pairs are visited
     width = 2.0 * reach.max() + tol
-    lo = positions[0, 0]
-    for i in range(n):
-        lo = min(lo, positions[i, 0])
-    cell = np.empty(n, np.int64)
-    n_cells = 1
-    for i in range(n):
-        cell[i] = int((positions[i, 0] - lo) / width)
-        n_cells = max(n_cells, cell[i] + 1)
-    start = np.zeros(n_cells + 2, np.int64)
-    for i in range(n):
-        start[cell[i] + 1] += 1
-    for c in range(n_cells + 1):
-        start[c + 1] += start[c]
-    fill = start.copy()
-    members = np.empty(n, np.int64)
-    for i in range(n):
-        members[fill[cell[i]]] = i
-        fill[cell[i]] += 1
-    for c in range(n_cells):
-        for a in range(start[c], start[c + 1]):
-            i = members[a]
-            # the rest of its own cell, then the whole next cell
-            for b in range(a + 1, start[c + 2]):
-                j = members[b]
-                dx = positions[j, 0] - positions[i, 0]
-                dy = positions[j, 1] - positions[i, 1]
-                d2 = dx * dx + dy * dy
-                if d2 > (reach[i] + reach[j] + tol) ** 2:
-                    continue
-                ki, kj = kinds[i], kinds[j]
-                touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
-                if not touch:
-                    for q in (i, j):
-                        if not turned[q]:
-                            cos[q] = math.cos(angles[q])
-                            sin[q] = math.sin(angles[q])
-                            turned[q] = True
-                    gap = _core_distance(
-                        positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
-                        positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
-                    )  # fmt: skip
-                    touch = gap <= table[ki, 2] + table[kj, 2] + tol
-                if touch:
-                    ri, rj = _find(parent, i), _find(parent, j)
-                    if ri != rj:
-                        parent[max(ri, rj)] = min(ri, rj)
+    grid = build_grid(positions, 2, width * (1.0 + 1e-9) + 1e-12)
+    n_x, n_y = grid.shape[0], grid.shape[1]
+    start, members = grid.start, grid.order
+    step_x = np.array([0, 0, 1, 1, 1])  # the cell itself, then the four neighbours ahead
+    step_y = np.array([0, 1, -1, 0, 1])
+    for cx in range(n_x):
+        for cy in range(n_y):
+            c = cx * n_y + cy
+            for a in range(start[c], start[c + 1]):
+                i = members[a]
+                for s in range(5):
+                    nx, ny = cx + step_x[s], cy + step_y[s]
+                    if nx >= n_x or ny < 0 or ny >= n_y:
+                        continue
+                    d = nx * n_y + ny
+                    # the rest of its own cell, the whole of a neighbour
+                    for b in range(a + 1 if s == 0 else start[d], start[d + 1]):
+                        j = members[b]
+                        dx = positions[j, 0] - positions[i, 0]
+                        dy = positions[j, 1] - positions[i, 1]
+                        d2 = dx * dx + dy * dy
+                        if d2 > (reach[i] + reach[j] + tol) ** 2:
+                            continue
+                        ki, kj = kinds[i], kinds[j]
+                        touch = d2 <= (inner[i] + inner[j] + tol) ** 2  # the inscribed discs touch
+                        if not touch:
+                            for q in (i, j):
+                                if not turned[q]:
+                                    cos[q] = math.cos(angles[q])
+                                    sin[q] = math.sin(angles[q])
+                                    turned[q] = True
+                            gap = _core_distance(
+                                positions[i, 0], positions[i, 1], cos[i], sin[i], table[ki, 0], table[ki, 1],
+                                positions[j, 0], positions[j, 1], cos[j], sin[j], table[kj, 0], table[kj, 1],
+                            )  # fmt: skip
+                            touch = gap <= table[ki, 2] + table[kj, 2] + tol
+                        if touch:
+                            ri, rj = _find(parent, i), _find(parent, j)
+                            if ri != rj:
+                                parent[max(ri, rj)] = min(ri, rj)
     for i in range(n):
         parent[i] = _find(parent, i)
     return parent
@@ -320,20 +322,43 @@ def merged_rows(
     """``info["detection_ids_merged"]`` (max_detections, K): each detection row's truth ids.
 
     Column 0 is ``detection_ids``; a row whose id is the primary of a merged blob (``merged[g, 0]``)
-    lists the blob's members; every other entry is −1.
+    lists the blob's members; every other entry is −1. Linear time: the primaries are found through
+    a table over their id span (a binary search when the span is sparse).
     """
     m = len(detection_ids)
     out = np.full((m, max_merged), -1, np.int64)
+    for r in range(m):
+        out[r, 0] = detection_ids[r]
+    g = len(merged)
+    if g == 0:
+        return out
+    lowest, highest = merged[0, 0], merged[0, 0]
+    for q in range(g):
+        lowest = min(lowest, merged[q, 0])
+        highest = max(highest, merged[q, 0])
+    span = highest - lowest + 1
+    if span <= 4 * (m + g) + 64:
+        # primary ids are truth ids of particles in view, nearly consecutive: a table by id
+        group = np.full(span, -1, np.int64)
+        for q in range(g):
+            group[merged[q, 0] - lowest] = q
+        for r in range(m):
+            d = detection_ids[r]
+            if d >= 0 and lowest <= d <= highest:
+                q = group[d - lowest]
+                if q >= 0:
+                    for k in range(1, max_merged):
+                        out[r, k] = merged[q, k]
+        return out
     order = np.argsort(merged[:, 0])
     primaries = merged[order, 0]
     for r in range(m):
         d = detection_ids[r]
-        out[r, 0] = d
-        if d < 0 or len(primaries) == 0:
+        if d < 0:
             continue
         at = np.searchsorted(primaries, d)
         if at < len(primaries) and primaries[at] == d:
-            g = order[at]
+            q = order[at]
             for k in range(1, max_merged):
-                out[r, k] = merged[g, k]
+                out[r, k] = merged[q, k]
     return out

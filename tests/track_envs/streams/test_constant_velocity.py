@@ -145,3 +145,34 @@ def test_bad_arguments_are_named(kwargs, name):
 def test_rng_must_be_a_generator():
     with pytest.raises(ValueError, match="rng"):
         constant_velocity_stream(42)  # type: ignore[arg-type]
+
+
+def test_constant_density_at_the_default_count_is_the_default_stream():
+    from track_envs.streams.constant_velocity import constant_density
+
+    assert constant_density(150) == {"n_targets": 150.0, "size": (0.5, 0.3), "clutter_rate": 5.0}
+    a = constant_velocity_stream(np.random.default_rng(3), frames=5, **constant_density(150))
+    b = constant_velocity_stream(np.random.default_rng(3), frames=5)
+    for x, y in zip(a.observations, b.observations, strict=True):
+        np.testing.assert_array_equal(x["detections"], y["detections"])
+    with pytest.raises(ValueError, match="n_targets"):
+        constant_density(0.0)
+
+
+def test_a_hundred_thousand_targets_in_view_at_the_default_density():
+    from track_envs.streams.constant_velocity import constant_density
+
+    kwargs = constant_density(100_000)
+    s = np.sqrt(100_000 / 150)
+    np.testing.assert_allclose(kwargs["size"], (0.5 * s, 0.3 * s))
+    assert kwargs["clutter_rate"] == pytest.approx(5 * 100_000 / 150)
+    stream = constant_velocity_stream(np.random.default_rng(0), frames=3, **kwargs)
+    for t in range(3):
+        n = len(stream.truth_ids[t])
+        assert abs(n - 100_000) < 5 * np.sqrt(100_000)  # Poisson(N)
+        detected = int((stream.detection_ids[t] >= 0).sum())
+        clutter = int(stream.observations[t]["mask"].sum()) - detected
+        assert abs(detected - 0.9 * n) < 5 * np.sqrt(0.09 * n)
+        assert abs(clutter - kwargs["clutter_rate"]) < 5 * np.sqrt(kwargs["clutter_rate"])
+    # the density of the default scene: ≈150 targets per 0.15 m²
+    assert stream.spec.region_high == pytest.approx((0.5 * s, 0.3 * s))
