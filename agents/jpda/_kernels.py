@@ -26,7 +26,8 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
    event where both ``a`` and ``b`` take ``j`` and neither takes any other detection.
 
 3. **Clusters.** Union–find over tracks and detections linked by an admissible pair or a
-   merged-blob hypothesis; events factorise over them.
+   merged-blob hypothesis (the connected components of that sparse graph); events factorise
+   over them.
 
 4. **Exact marginals per cluster** by dynamic programming over its detections with the set ``A``
    of tracks already used as a bitmask (the recursion of :mod:`agents.jpda.exact`, with the
@@ -60,8 +61,25 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
 
    which the PDA update of the predictor takes (:class:`predictors.base.MixtureUpdate`).
 
+**Candidates, linear in the scene.** No step tests all pairs. Every gate lies inside an
+axis-aligned box — the χ² ellipse ``(z − μ)ᵀ C⁻¹ (z − μ) ≤ γ`` inside ``|z_k − μ_k| ≤ sqrt(γ C_kk)``
+(``d² ≥ Δ_k² / C_kk``) — and the candidates of every box come from the uniform-grid spatial index
+of :mod:`track_envs.infra.spatial` over the first two axes: the detections of a track's gate
+(box ``sqrt(γ S_i,kk)``) and of a blob's gate (box ``sqrt(γ C_e,kk)``) from one grid of the frame's
+detections, the candidate blob pairs from a grid of the mergeable predictions (box ``extent``),
+and the blob splits' pieces (:func:`_split_candidates`) from grids of the free detections. Each
+box is widened by :data:`BOX_MARGIN` so that rounding never drops a pair the exact test keeps;
+the exact tests then decide as before. For gates of bounded size a frame costs ``O(n + m)`` plus
+the clusters' own cost (step 4), whatever the size of the scene.
+
+The hypotheses are listed in the order of a sweep along the first axis — a track's detections,
+the blob pairs and each blob's detections by ascending first coordinate, equal coordinates in the
+order of numba's ``np.argsort`` (a quicksort: its rank is computed only when two candidates'
+coordinates are equal) — since the sums of steps 4 and 5 and their ties run in that order.
+
 Each step is a compiled function of its own, called in order by :func:`jpda_frame`: 1.
-:func:`_track_factors` and :func:`_gated_pairs`; 2. :func:`_merged_hypotheses` (each pair's blob by
+:func:`_track_factors`, :func:`_detection_grid` and :func:`_gated_pairs`; 2.
+:func:`_merged_hypotheses` (the pairs by :func:`_blob_pairs`, each pair's blob by
 :func:`_blob_gaussian`); 3. :func:`_roots` and :func:`_clusters`; 4. and 5. per cluster
 :func:`_associate_clusters`: :func:`_single_track` for a lone track, else :func:`_cluster_weights`,
 :func:`_cluster_marginals` and :func:`_cluster_mixtures`.
