@@ -670,7 +670,10 @@ def _blob_pairs(mean: FloatArray, extent: float, mergeable: NDArray[np.bool_]) -
     """
     n, D = mean.shape
     K = min(D, 2)
+    # the mergeable predictions in the grid's cell order (a counting sort): neighbouring queries
+    # read neighbouring memory; the pairs are sorted below, so this order does not show
     idx = np.flatnonzero(mergeable)
+    idx = idx[build_grid(mean[idx], K, 2.0 * extent).order]
     pts = np.empty((len(idx), D))
     half = np.empty((len(idx), K))
     for r in range(len(idx)):
