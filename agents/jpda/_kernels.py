@@ -26,7 +26,8 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
    event where both ``a`` and ``b`` take ``j`` and neither takes any other detection.
 
 3. **Clusters.** Union–find over tracks and detections linked by an admissible pair or a
-   merged-blob hypothesis; events factorise over them.
+   merged-blob hypothesis (the connected components of that sparse graph); events factorise
+   over them.
 
 4. **Exact marginals per cluster** by dynamic programming over its detections with the set ``A``
    of tracks already used as a bitmask (the recursion of :mod:`agents.jpda.exact`, with the
@@ -60,8 +61,25 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
 
    which the PDA update of the predictor takes (:class:`predictors.base.MixtureUpdate`).
 
+**Candidates, linear in the scene.** No step tests all pairs. Every gate lies inside an
+axis-aligned box — the χ² ellipse ``(z − μ)ᵀ C⁻¹ (z − μ) ≤ γ`` inside ``|z_k − μ_k| ≤ sqrt(γ C_kk)``
+(``d² ≥ Δ_k² / C_kk``) — and the candidates of every box come from the uniform-grid spatial index
+of :mod:`track_envs.infra.spatial` over the first two axes: the detections of a track's gate
+(box ``sqrt(γ S_i,kk)``) and of a blob's gate (box ``sqrt(γ C_e,kk)``) from one grid of the frame's
+detections, the candidate blob pairs from a grid of the mergeable predictions (box ``extent``),
+and the blob splits' pieces (:func:`_split_candidates`) from grids of the free detections. Each
+box is widened by :data:`BOX_MARGIN` so that rounding never drops a pair the exact test keeps;
+the exact tests then decide as before. For gates of bounded size a frame costs ``O(n + m)`` plus
+the clusters' own cost (step 4), whatever the size of the scene.
+
+The hypotheses are listed in the order of a sweep along the first axis — a track's detections,
+the blob pairs and each blob's detections by ascending first coordinate, equal coordinates in the
+order of numba's ``np.argsort`` (a quicksort: its rank is computed only when two candidates'
+coordinates are equal) — since the sums of steps 4 and 5 and their ties run in that order.
+
 Each step is a compiled function of its own, called in order by :func:`jpda_frame`: 1.
-:func:`_track_factors` and :func:`_gated_pairs`; 2. :func:`_merged_hypotheses` (each pair's blob by
+:func:`_track_factors`, :func:`_detection_grid` and :func:`_gated_pairs`; 2.
+:func:`_merged_hypotheses` (the pairs by :func:`_blob_pairs`, each pair's blob by
 :func:`_blob_gaussian`); 3. :func:`_roots` and :func:`_clusters`; 4. and 5. per cluster
 :func:`_associate_clusters`: :func:`_single_track` for a lone track, else :func:`_cluster_weights`,
 :func:`_cluster_marginals` and :func:`_cluster_mixtures`.
@@ -77,6 +95,7 @@ from numpy.typing import NDArray
 
 from agents.tracking._kernels import cholesky_lower
 from track_envs.infra.compiled import njit
+from track_envs.infra.spatial import GridIndex, box_candidates, build_grid, query_grid
 from track_envs.values.types import FloatArray
 
 IntArray = NDArray[np.int64]
@@ -84,6 +103,11 @@ IntArray = NDArray[np.int64]
 #: Largest cluster (tracks) whose merged-blob hypotheses are kept; a larger cluster's marginals
 #: are computed without them, over the smaller of its sides.
 MAX_MERGE_CLUSTER = 8
+#: Relative widening of every candidate box of the spatial index over its exact bound: rounding
+#: never leaves out a pair that the exact test keeps (the test, not the box, decides).
+BOX_MARGIN = 1e-7
+#: Half-width of a box that holds every point (a gate of infinite or NaN size).
+BOX_ALL = 1e300
 #: Status of :func:`jpda_frame`: every covariance positive definite.
 FRAME_OK = 0
 #: Status: the predicted covariance of track ``bad`` is not positive definite.
@@ -468,15 +492,89 @@ def _track_factors(cov: FloatArray, chol: FloatArray, lnorm: FloatArray) -> int:
 
 
 @njit(cache=True)
-def _sorted_first_axis(z: FloatArray) -> tuple[IntArray, FloatArray]:
-    """The detections in ascending first coordinate, ``(order, z[order, 0])``: the gates of steps
-    1 and 2 are windows of that axis found by binary search."""
-    m = z.shape[0]
-    z_order = np.argsort(z[:, 0])
-    zx = np.empty(m)
-    for q in range(m):
-        zx[q] = z[z_order[q], 0]
-    return z_order, zx
+def _widen(h: float, centre: float) -> float:
+    """A box half-width ``h`` widened by :data:`BOX_MARGIN` (and a few ulps of the centre), so
+    that rounding never leaves out a point the exact test keeps; not finite: a box holding every
+    point (the test then decides alone, as a scan of all points would)."""
+    w = h * (1.0 + BOX_MARGIN) + 1e-12 * abs(centre)
+    if not w < BOX_ALL:
+        return BOX_ALL
+    return w
+
+
+@njit(cache=True)
+def _first_axis_rank(x: FloatArray) -> FloatArray:
+    """Every element's place in ``np.argsort(x)`` (as floats, exact): the order of the first
+    coordinates, equal ones in the order of numba's (unstable) quicksort."""
+    order = np.argsort(x)
+    rank = np.empty(len(x))
+    for q in range(len(x)):
+        rank[order[q]] = q
+    return rank
+
+
+@njit(cache=True)
+def _sort_run(idx: IntArray, val: FloatArray, lo: int, hi: int, key: FloatArray) -> bool:
+    """Sort ``idx[lo:hi]`` (and ``val[lo:hi]`` alongside) by ``key[idx]``, stably, in place.
+
+    Returns:
+        Whether two of the run's keys are equal (the caller then orders it by rank).
+    """
+    k = hi - lo
+    if k < 2:
+        return False
+    if k <= 32:
+        for a in range(lo + 1, hi):
+            v, w = idx[a], val[a]
+            kv = key[v]
+            b = a - 1
+            while b >= lo and key[idx[b]] > kv:
+                idx[b + 1], val[b + 1] = idx[b], val[b]
+                b -= 1
+            idx[b + 1], val[b + 1] = v, w
+    else:
+        keys = np.empty(k)
+        for a in range(k):
+            keys[a] = key[idx[lo + a]]
+        perm = np.argsort(keys, kind="mergesort")
+        i2, v2 = idx[lo:hi].copy(), val[lo:hi].copy()
+        for a in range(k):
+            idx[lo + a], val[lo + a] = i2[perm[a]], v2[perm[a]]
+    tie = False
+    for a in range(lo + 1, hi):
+        tie |= key[idx[a]] == key[idx[a - 1]]
+    return tie
+
+
+@njit(cache=True)
+def _in_first_axis_order(
+    idx: IntArray, val: FloatArray, lo: int, hi: int, first: FloatArray, rank: FloatArray, x: FloatArray
+) -> FloatArray:
+    """Order the run ``idx[lo:hi]`` (points, ``val`` alongside) by ascending first coordinate
+    ``first`` as ``np.argsort(x)`` lists them (``first = x``): by value, and where two are equal
+    by their place in that argsort, ``rank`` (computed here on first need, else as given)."""
+    if _sort_run(idx, val, lo, hi, first):
+        if len(rank) != len(x):
+            rank = _first_axis_rank(x)
+        _sort_run(idx, val, lo, hi, rank)
+    return rank
+
+
+@njit(cache=True)
+def _detection_grid(
+    mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float
+) -> tuple[GridIndex, FloatArray]:
+    """The spatial index of the detections (:mod:`track_envs.infra.spatial`) and every track's
+    gate box ``h_ik = sqrt(γ S_i,kk)`` on the first ``K = min(D, 2)`` axes, widened (:func:`_widen`),
+    (n, K); the grid's cells are the median box width."""
+    n, D = mean.shape
+    K = min(D, 2)
+    half = np.empty((n, K))
+    for i in range(n):
+        for k in range(K):
+            half[i, k] = _widen(math.sqrt(gate * cov[i, k, k]), mean[i, k])
+    cell = 2.0 * float(np.median(half)) if n else 1.0
+    return build_grid(z, K, cell), half
 
 
 @njit(cache=True)
@@ -488,19 +586,24 @@ def _gated_pairs(
     lnorm: FloatArray,
     gate: float,
     log_ratio: float,
-    z_order: IntArray,
-    zx: FloatArray,
+    grid: GridIndex,
+    half: FloatArray,
+    z_rank: FloatArray,
     diff: FloatArray,
     work: FloatArray,
-) -> tuple[IntArray, IntArray, FloatArray, int]:
+) -> tuple[IntArray, IntArray, FloatArray, int, FloatArray]:
     """Step 1: the admissible (track, detection) pairs, ``d²_ij ≤ γ``, and their log weights.
 
-    A pair farther along the first axis than ``sqrt(γ S_00)`` is outside the gate
-    (``d² ≥ Δ₀² / S_00``), so track ``i`` tests only the detections of that window of ``zx``.
+    A pair outside the box ``|z_k − ŷ_ik| ≤ sqrt(γ S_i,kk)`` is outside the gate
+    (``d² ≥ Δ_k² / S_kk``), so track ``i`` tests only the detections of its box, found in the
+    grid ``grid`` (``half``: the widened boxes of :func:`_detection_grid`): ``O(n + m)`` for gates of
+    bounded size. Of those it keeps the window ``ŷ_i0 − r ≤ z_0 ≤ ŷ_i0 + r``, ``r = sqrt(γ S_i,00)``
+    (the same numbers as the exact bound), then the full gate.
 
     Returns:
-        ``(e_t, e_d, e_w, ne)``: track, detection and ``log w_ij`` in the first ``ne`` rows
-        (tracks ascending, each track's detections in ``z_order``).
+        ``(e_t, e_d, e_w, ne, z_rank)``: track, detection and ``log w_ij`` in the first ``ne``
+        rows, tracks ascending, each track's detections by ascending first coordinate (equal ones
+        as ``np.argsort(z[:, 0])`` lists them: ``z_rank``, computed on first need).
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -509,14 +612,16 @@ def _gated_pairs(
     e_d = np.empty(cap, np.int64)
     e_w = np.empty(cap)
     ne = 0
-    reach = np.empty(n)
+    found = query_grid(grid, z, mean, half)
+    zx = z[:, 0].copy()
     for i in range(n):
-        reach[i] = math.sqrt(gate * cov[i, 0, 0])
-    for i in range(n):
-        lo = np.searchsorted(zx, mean[i, 0] - reach[i])
-        hi = np.searchsorted(zx, mean[i, 0] + reach[i], side="right")
-        for q in range(lo, hi):
-            j = z_order[q]
+        reach = math.sqrt(gate * cov[i, 0, 0])
+        lo_x, hi_x = mean[i, 0] - reach, mean[i, 0] + reach
+        row = ne
+        for q in range(found.ptr[i], found.ptr[i + 1]):
+            j = found.cols[q]
+            if not (zx[j] >= lo_x and zx[j] <= hi_x):
+                continue
             for d in range(D):
                 diff[d] = z[j, d] - mean[i, d]
             d2 = _mahalanobis(chol[i], diff, work)
@@ -527,7 +632,8 @@ def _gated_pairs(
                     e_w = np.concatenate((e_w, np.empty(len(e_w))))
                 e_t[ne], e_d[ne], e_w[ne] = i, j, log_ratio - 0.5 * d2 + lnorm[i]
                 ne += 1
-    return e_t, e_d, e_w, ne
+        z_rank = _in_first_axis_order(e_d, e_w, row, ne, zx, z_rank, zx)
+    return e_t, e_d, e_w, ne, z_rank
 
 
 @njit(cache=True)
@@ -553,6 +659,78 @@ def _blob_gaussian(
 
 
 @njit(cache=True)
+def _blob_pairs(mean: FloatArray, extent: float, mergeable: NDArray[np.bool_]) -> tuple[IntArray, IntArray]:
+    """Step 2's candidate pairs: mergeable tracks ``(a, b)`` predicted at most ``extent`` apart
+    (``‖ŷ_a − ŷ_b‖² ≤ extent²``), found in the spatial index of the mergeable predictions with
+    boxes of half-width ``extent``.
+
+    Each pair once, ``a`` before ``b`` in ascending first coordinate (equal ones as
+    ``np.argsort(ŷ[:, 0])`` lists them), the pairs in that order of ``a`` then of ``b``: the
+    order of a sweep of the sorted predictions.
+    """
+    n, D = mean.shape
+    K = min(D, 2)
+    # the mergeable predictions in the grid's cell order (a counting sort): neighbouring queries
+    # read neighbouring memory; the pairs are sorted below, so this order does not show
+    idx = np.flatnonzero(mergeable)
+    idx = idx[build_grid(mean[idx], K, 2.0 * extent).order]
+    pts = np.empty((len(idx), D))
+    half = np.empty((len(idx), K))
+    for r in range(len(idx)):
+        for d in range(D):
+            pts[r, d] = mean[idx[r], d]
+        for k in range(K):
+            half[r, k] = _widen(extent, pts[r, k])
+    found = box_candidates(pts, half, pts)
+    ext2 = extent * extent
+    mx = mean[:, 0].copy()
+    rank = np.empty(0)
+    pa = []
+    pb = []
+    for r in range(len(idx)):
+        a = idx[r]
+        for q in range(found.ptr[r], found.ptr[r + 1]):
+            b = idx[found.cols[q]]
+            if b == a or mx[b] < mx[a]:
+                continue
+            if mx[b] == mx[a]:  # as the argsort of the first coordinates lists them
+                if len(rank) != n:
+                    rank = _first_axis_rank(mx)
+                if rank[b] < rank[a]:
+                    continue
+            if mx[b] - mx[a] > extent:
+                continue
+            dist2 = 0.0
+            for d in range(D):
+                dist2 += (mean[a, d] - mean[b, d]) ** 2
+            if dist2 > ext2:
+                continue
+            pa.append(a)
+            pb.append(b)
+    npair = len(pa)
+    first = np.empty(npair, np.int64)
+    second = np.empty(npair, np.int64)
+    if npair == 0:
+        return first, second
+    # rank the tracks of the pairs by first coordinate (argsort's rank where two are equal)
+    members = np.unique(np.array(pa + pb))
+    place = np.zeros(len(members))
+    tie = _sort_run(members, place, 0, len(members), mx)
+    if tie and len(rank) != n:
+        rank = _first_axis_rank(mx)
+    pos = np.empty(n, np.int64)
+    for q in range(len(members)):
+        pos[members[q]] = int(rank[members[q]]) if tie else q
+    key = np.empty(npair, np.int64)
+    for p in range(npair):
+        key[p] = pos[pa[p]] * n + pos[pb[p]]
+    order = np.argsort(key)
+    for p in range(npair):
+        first[p], second[p] = pa[order[p]], pb[order[p]]
+    return first, second
+
+
+@njit(cache=True)
 def _merged_hypotheses(
     mean: FloatArray,
     cov: FloatArray,
@@ -564,23 +742,27 @@ def _merged_hypotheses(
     area_var: float,
     log_merge_odds: float,
     mergeable: NDArray[np.bool_],
-    z_order: IntArray,
-    zx: FloatArray,
+    grid: GridIndex,
+    z_rank: FloatArray,
     diff: FloatArray,
     work: FloatArray,
-) -> tuple[IntArray, IntArray, IntArray, FloatArray, int]:
+) -> tuple[IntArray, IntArray, IntArray, FloatArray, int, FloatArray]:
     """Step 2: the merged-blob hypotheses, every pair of mergeable tracks at most ``extent``
-    apart with every detection inside its blob's gate (none when ``extent`` is 0).
+    apart (:func:`_blob_pairs`) with every detection inside its blob's gate (none when
+    ``extent`` is 0).
 
-    The pairs are swept in ascending first coordinate of their predictions; a blob's detections
-    are the window ``|z_0 − μ_0| ≤ sqrt(γ C_00)`` of ``zx``, then the full gate.
+    A blob's detections are those of the box ``|z_k − μ_k| ≤ sqrt(γ C_kk)`` (the detections'
+    ``grid``), in the window ``|z_0 − μ_0| ≤ sqrt(γ C_00)``, then inside the full gate; pairs in
+    the order of :func:`_blob_pairs`, each pair's detections by ascending first coordinate
+    (``z_rank`` as in :func:`_gated_pairs`).
 
     Returns:
-        ``(g_a, g_b, g_d, g_w, ng)``: the smaller and larger track, the detection and
+        ``(g_a, g_b, g_d, g_w, ng, z_rank)``: the smaller and larger track, the detection and
         ``log w_ej`` in the first ``ng`` rows.
     """
     n, D = mean.shape
     m = z.shape[0]
+    K = grid.shape.shape[0]
     mcap = 16
     g_a = np.empty(mcap, np.int64)
     g_b = np.empty(mcap, np.int64)
@@ -588,50 +770,49 @@ def _merged_hypotheses(
     g_w = np.empty(mcap)
     ng = 0
     if not (extent > 0.0 and n > 1 and m > 0):
-        return g_a, g_b, g_d, g_w, ng
+        return g_a, g_b, g_d, g_w, ng, z_rank
+    pa, pb = _blob_pairs(mean, extent, mergeable)
+    npair = len(pa)
+    mu = np.zeros((npair, D))
+    cls = np.zeros((npair, D, D))
+    half = np.zeros((npair, K))
+    lnorm = np.zeros(npair)
+    reach = np.zeros(npair)
     cm = np.zeros((D, D))
-    cl = np.zeros((D, D))
-    mu = np.zeros(D)
-    ext2 = extent * extent
-    order = np.argsort(mean[:, 0])
-    for oa in range(n):
-        a = order[oa]
-        if not mergeable[a]:
+    for p in range(npair):
+        _blob_gaussian(mean, cov, pa[p], pb[p], noise_cov, area_var, mu[p], cm)
+        if not cholesky_lower(cm, cls[p]):
+            mu[p, 0] = np.nan  # no gate: no detection in its box
             continue
-        for ob in range(oa + 1, n):
-            b = order[ob]
-            if mean[b, 0] - mean[a, 0] > extent:
-                break
-            if not mergeable[b]:
+        lnorm[p] = _log_norm(cls[p])
+        reach[p] = math.sqrt(gate * cm[0, 0])
+        for k in range(K):
+            half[p, k] = _widen(math.sqrt(gate * cm[k, k]), mu[p, k])
+    found = query_grid(grid, z, mu, half)
+    zx = z[:, 0].copy()
+    for p in range(npair):
+        a, b = pa[p], pb[p]
+        lo, hi = (a, b) if a < b else (b, a)
+        lo_x, hi_x = mu[p, 0] - reach[p], mu[p, 0] + reach[p]
+        row = ng
+        for q in range(found.ptr[p], found.ptr[p + 1]):
+            j = found.cols[q]
+            if not (zx[j] >= lo_x and zx[j] <= hi_x):
                 continue
-            dist2 = 0.0
             for d in range(D):
-                dist2 += (mean[a, d] - mean[b, d]) ** 2
-            if dist2 > ext2:
-                continue
-            _blob_gaussian(mean, cov, a, b, noise_cov, area_var, mu, cm)
-            if not cholesky_lower(cm, cl):
-                continue
-            ln = _log_norm(cl)
-            lo, hi = (a, b) if a < b else (b, a)
-            r0 = math.sqrt(gate * cm[0, 0])
-            q0 = np.searchsorted(zx, mu[0] - r0)
-            q1 = np.searchsorted(zx, mu[0] + r0, side="right")
-            for q in range(q0, q1):
-                j = z_order[q]
-                for d in range(D):
-                    diff[d] = z[j, d] - mu[d]
-                d2 = _mahalanobis(cl, diff, work)
-                if d2 <= gate:
-                    if ng == len(g_a):
-                        g_a = np.concatenate((g_a, np.empty(len(g_a), np.int64)))
-                        g_b = np.concatenate((g_b, np.empty(len(g_b), np.int64)))
-                        g_d = np.concatenate((g_d, np.empty(len(g_d), np.int64)))
-                        g_w = np.concatenate((g_w, np.empty(len(g_w))))
-                    g_a[ng], g_b[ng], g_d[ng] = lo, hi, j
-                    g_w[ng] = log_ratio + log_merge_odds - 0.5 * d2 + ln
-                    ng += 1
-    return g_a, g_b, g_d, g_w, ng
+                diff[d] = z[j, d] - mu[p, d]
+            d2 = _mahalanobis(cls[p], diff, work)
+            if d2 <= gate:
+                if ng == len(g_a):
+                    g_a = np.concatenate((g_a, np.empty(len(g_a), np.int64)))
+                    g_b = np.concatenate((g_b, np.empty(len(g_b), np.int64)))
+                    g_d = np.concatenate((g_d, np.empty(len(g_d), np.int64)))
+                    g_w = np.concatenate((g_w, np.empty(len(g_w))))
+                g_a[ng], g_b[ng], g_d[ng] = lo, hi, j
+                g_w[ng] = log_ratio + log_merge_odds - 0.5 * d2 + lnorm[p]
+                ng += 1
+        z_rank = _in_first_axis_order(g_d, g_w, row, ng, zx, z_rank, zx)
+    return g_a, g_b, g_d, g_w, ng, z_rank
 
 
 @njit(cache=True)
@@ -964,24 +1145,14 @@ def jpda_frame(
             np.zeros(0, np.int64), np.zeros(n, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
             FRAME_NOT_PD, bad,
         )  # fmt: skip
-    z_order, zx = _sorted_first_axis(z)
-    e_t, e_d, e_w, ne = _gated_pairs(mean, cov, z, chol, lnorm, gate, log_ratio, z_order, zx, diff, work)
-    g_a, g_b, g_d, g_w, ng = _merged_hypotheses(
-        mean,
-        cov,
-        z,
-        gate,
-        log_ratio,
-        extent,
-        noise_cov,
-        area_var,
-        log_merge_odds,
-        mergeable,
-        z_order,
-        zx,
-        diff,
-        work,
+    grid, half = _detection_grid(mean, cov, z, gate)
+    e_t, e_d, e_w, ne, z_rank = _gated_pairs(
+        mean, cov, z, chol, lnorm, gate, log_ratio, grid, half, np.empty(0), diff, work
     )
+    g_a, g_b, g_d, g_w, ng, _ = _merged_hypotheses(
+        mean, cov, z, gate, log_ratio, extent, noise_cov, area_var, log_merge_odds, mergeable,
+        grid, z_rank, diff, work,
+    )  # fmt: skip
     cl = _clusters(_roots(n, m, e_t, e_d, ne, g_a, g_b, g_d, ng), n)
     cluster_of = np.empty(n, np.int64)
     for i in range(n):
@@ -1131,8 +1302,18 @@ def _split_candidates(
     extent: float,
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray]:
     """The admissible split hypotheses of :func:`split_blobs`: ``(track, j, k, d²)`` for every
-    unseen track and pair of free detections ``j < k`` (in ``free`` order) that pass the gate."""
-    n, D = mean.shape
+    unseen track and pair of free detections ``j < k`` that pass the gate, in ascending track,
+    then ``j``, then ``k``.
+
+    Both pieces come from spatial indexes of the free detections (:mod:`track_envs.infra.spatial`):
+    the first piece ``j`` of track ``i`` lies within ``extent`` of ``ŷ_i`` on the first axis (the
+    hypothesis's condition), and on the second within ``sqrt(γ C̄_11) + extent / 2`` with
+    ``C̄_11 = S_i,11 − ½ R_11 + σ_w² extent²`` (the midpoint's gate, ``d² ≥ (c_1 − ŷ_1)² / C_11``
+    and ``C_11 ≤ C̄_11``, and ``|z_j1 − c_1| = |Δ_1| / 2``); the second piece ``k`` lies within
+    ``extent`` of ``j`` on both axes. A frame costs ``O(n + m)`` for gates of bounded size.
+    """
+    D = mean.shape[1]
+    K = min(D, 2)
     cand_t = np.empty(0, np.int64)
     cand_j = np.empty(0, np.int64)
     cand_k = np.empty(0, np.int64)
@@ -1141,32 +1322,59 @@ def _split_candidates(
     Lc = np.zeros((D, D))
     diff = np.zeros(D)
     work = np.zeros(D)
+    if not extent >= 0.0:
+        return cand_t, cand_j, cand_k, cand_d
     free_idx = np.flatnonzero(free)
+    tracks = np.flatnonzero(unseen)
+    nf = len(free_idx)
+    zf = np.empty((nf, D))
+    near_half = np.empty((nf, K))
+    for a in range(nf):
+        for d in range(D):
+            zf[a, d] = z[free_idx[a], d]
+        for k in range(K):
+            near_half[a, k] = _widen(extent, zf[a, k])
+    centres = np.empty((len(tracks), D))
+    first_half = np.empty((len(tracks), K))
+    spread = max(area_var, 0.0) * extent * extent
+    for r in range(len(tracks)):
+        i = tracks[r]
+        for d in range(D):
+            centres[r, d] = mean[i, d]
+        first_half[r, 0] = _widen(extent, centres[r, 0])
+        for k in range(1, K):
+            c_kk = max(cov[i, k, k] - 0.5 * noise_cov[k, k] + spread, 0.0)
+            first_half[r, k] = _widen(math.sqrt(gate * c_kk) + 0.5 * extent, centres[r, k])
+    first = box_candidates(centres, first_half, zf)
+    near = box_candidates(zf, near_half, zf)
     ts = []
     js = []
     ks = []
     ds = []
-    for i in range(n):
-        if not unseen[i]:
-            continue
-        for a in range(len(free_idx)):
+    for r in range(len(tracks)):
+        i = tracks[r]
+        for qa in range(first.ptr[r], first.ptr[r + 1]):
+            a = first.cols[qa]
             j = free_idx[a]
             if abs(z[j, 0] - mean[i, 0]) > extent:
                 continue
-            for b in range(a + 1, len(free_idx)):
+            for qb in range(near.ptr[a], near.ptr[a + 1]):
+                b = near.cols[qb]
+                if b <= a:
+                    continue
                 k = free_idx[b]
                 sep2 = 0.0
                 for d in range(D):
                     sep2 += (z[j, d] - z[k, d]) ** 2
                 if sep2 > extent * extent:
                     continue
-                for r in range(D):
-                    diff[r] = 0.5 * (z[j, r] + z[k, r]) - mean[i, r]
+                for r2 in range(D):
+                    diff[r2] = 0.5 * (z[j, r2] + z[k, r2]) - mean[i, r2]
                     for c in range(D):
-                        C[r, c] = (
-                            cov[i, r, c]
-                            - 0.5 * noise_cov[r, c]
-                            + area_var * (z[j, r] - z[k, r]) * (z[j, c] - z[k, c])
+                        C[r2, c] = (
+                            cov[i, r2, c]
+                            - 0.5 * noise_cov[r2, c]
+                            + area_var * (z[j, r2] - z[k, r2]) * (z[j, c] - z[k, c])
                         )
                 if not cholesky_lower(C, Lc):
                     continue

@@ -34,6 +34,7 @@ from agents.tracking.second_chance import SecondChance
 from agents.tracking.tracker import PointTracker
 from predictors.base import Capability, Predictor, capability
 from track_envs.infra.arguments import check_int, check_non_negative, check_positive
+from track_envs.infra.spatial import candidate_pairs
 from track_envs.values.types import Gaussian, SensorSpec
 
 #: Default floor of the clutter rate (detections per frame) for sensors that declare none.
@@ -284,14 +285,21 @@ class JpdaAssociator:
 
     def _approximate(self, jf: _kernels.JpdaFrame, frame: FrameContext) -> None:
         """Marginals of the clusters above ``max_exact`` by loopy belief propagation (no merged
-        blobs), written into ``jf``'s per-track arrays."""
+        blobs), written into ``jf``'s per-track arrays: over those clusters' tracks and the
+        detections inside their gates (``n_big × m_big`` weights, one propagation)."""
         tracks = jf.big
         prediction, z, gate = frame.prediction, frame.z, frame.gate
         sub = Gaussian(prediction.mean[tracks], prediction.cov[tracks])
-        loglik, d2 = gaussian_log_likelihood(sub, z)
-        weights = jpda_log_weights(loglik, d2 <= gate, self.p_detect, self.clutter_density, frame.p_gate)
-        dets = np.flatnonzero((d2 <= gate).any(axis=0))
-        pairs, _, clutter = lbp_marginals(weights.log_pair[:, dets], weights.log_miss)
+        # the likelihoods of the detections inside the tracks' gate boxes only (spatial index)
+        cand = np.unique(_gate_candidates(sub, z, gate))
+        loglik, d2 = gaussian_log_likelihood(sub, z[cand])
+        in_gate = d2 <= gate
+        keep = in_gate.any(axis=0)
+        dets = cand[keep]
+        weights = jpda_log_weights(
+            loglik[:, keep], in_gate[:, keep], self.p_detect, self.clutter_density, frame.p_gate
+        )
+        pairs, _, clutter = lbp_marginals(weights.log_pair, weights.log_miss)
         zd = z[dets]
         p = pairs.sum(axis=1)
         safe = np.where(p > 0, p, 1.0)
@@ -323,3 +331,17 @@ class JpdaAssociator:
             full[rows] = offset
             state = self._translate.translate(state, full)
         return state
+
+
+def _gate_candidates(prediction: Gaussian, z: NDArray[np.float64], gate: float) -> NDArray[np.int64]:
+    """The detections inside some track's gate box ``|z_k − ŷ_k| ≤ sqrt(γ S_kk)`` (first two axes,
+    widened as the compiled gates' boxes; with repeats), from the spatial index: a superset of
+    the detections with ``d² ≤ γ``."""
+    mean = np.asarray(prediction.mean, dtype=np.float64)
+    K = min(mean.shape[1], 2)
+    var = np.diagonal(np.asarray(prediction.cov, dtype=np.float64), axis1=1, axis2=2)[:, :K]
+    with np.errstate(invalid="ignore", over="ignore"):
+        half = np.sqrt(gate * var) * (1.0 + _kernels.BOX_MARGIN) + 1e-12 * np.abs(mean[:, :K])
+    half = np.where(half < _kernels.BOX_ALL, half, _kernels.BOX_ALL)
+    _, cols = candidate_pairs(mean, half, z, what="track")
+    return cols

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import jpda_reference  # the first-axis sweeps the compiled steps replaced
 import numpy as np
 from test_jpda_clusters import bfs_components  # the components of a gate graph, searched directly
 
@@ -38,13 +39,15 @@ def test_gated_pairs_are_every_pair_inside_the_gate_with_its_log_weight() -> Non
         chol, lnorm = np.zeros((n, 2, 2)), np.zeros(n)
         assert _kernels._track_factors(cov, chol, lnorm) == -1
         np.testing.assert_allclose(chol @ chol.transpose(0, 2, 1), cov, rtol=1e-12, atol=1e-20)
-        z_order, zx = _kernels._sorted_first_axis(z)
-        np.testing.assert_array_equal(zx, np.sort(z[:, 0]))
-        e_t, e_d, e_w, ne = _kernels._gated_pairs(
-            mean, cov, z, chol, lnorm, gate, log_ratio, z_order, zx, np.zeros(2), np.zeros(2)
+        grid, half = _kernels._detection_grid(mean, cov, z, gate)
+        e_t, e_d, e_w, ne, _ = _kernels._gated_pairs(
+            mean, cov, z, chol, lnorm, gate, log_ratio, grid, half, np.empty(0), np.zeros(2), np.zeros(2)
         )
         got = {(int(e_t[k]), int(e_d[k])): float(e_w[k]) for k in range(ne)}
         assert len(got) == ne
+        assert np.all(np.diff(e_t[:ne]) >= 0)  # tracks ascending, each by ascending first coordinate
+        same = np.diff(e_t[:ne]) == 0
+        assert np.all(np.diff(z[e_d[:ne], 0])[same] >= 0)
         want = {}
         for i in range(n):
             for j in range(m):
@@ -66,27 +69,15 @@ def test_merged_hypotheses_are_the_pairs_blob_gaussian() -> None:
     cov = np.stack([np.eye(2) * 1e-6] * 3)
     noise = np.eye(2) * 1e-8
     z = np.array([[0.01125, 0.0051], [0.020, 0.005]])
-    z_order, zx = _kernels._sorted_first_axis(z)
+    grid, _ = _kernels._detection_grid(mean, cov, z, 9.21)
 
     def hypotheses(extent: float, mergeable: np.ndarray) -> tuple:
         return _kernels._merged_hypotheses(
-            mean,
-            cov,
-            z,
-            9.21,
-            2.0,
-            extent,
-            noise,
-            0.01,
-            -1.0,
-            mergeable,
-            z_order,
-            zx,
-            np.zeros(2),
-            np.zeros(2),
-        )
+            mean, cov, z, 9.21, 2.0, extent, noise, 0.01, -1.0, mergeable,
+            grid, np.empty(0), np.zeros(2), np.zeros(2),
+        )  # fmt: skip
 
-    g_a, g_b, g_d, g_w, ng = hypotheses(5e-3, np.ones(3, np.bool_))
+    g_a, g_b, g_d, g_w, ng, _ = hypotheses(5e-3, np.ones(3, np.bool_))
     assert ng == 1 and (g_a[0], g_b[0], g_d[0]) == (0, 1, 0)  # track 2 is too far for a blob
     delta = mean[0] - mean[1]
     blob_cov = 0.25 * (cov[0] + cov[1]) + 0.5 * noise + 0.01 * np.outer(delta, delta)
@@ -146,3 +137,70 @@ def test_split_candidates_are_greedy_by_distance_each_track_and_detection_once()
         int(keep[track == t[first]][0]),
         int(other[track == t[first]][0]),
     }
+
+
+def _scene(rng: np.random.Generator, n: int, m: int, ties: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tracks and detections on a 5 cm square; ``ties``: coordinates on a coarse lattice, so that
+    many first coordinates are equal (the order of equal ones is numba's argsort's)."""
+    mean = rng.uniform(0.0, 0.05, (n, 2))
+    a = rng.normal(size=(n, 2, 2)) * 3e-3
+    cov = a @ a.transpose(0, 2, 1) + np.eye(2) * 1e-6
+    near = min(m // 2, n)
+    z = np.concatenate(
+        [
+            mean[rng.integers(0, n, near)] + rng.normal(size=(near, 2)) * 2e-3,
+            rng.uniform(0, 0.05, (m - near, 2)),
+        ]
+    )
+    if ties:
+        mean, z = np.round(mean, 2), np.round(z, 3)
+    return mean, cov, np.ascontiguousarray(z)
+
+
+def test_steps_list_the_hypotheses_of_the_first_axis_sweeps_in_their_order() -> None:
+    """The spatial index finds exactly the gated pairs, merged blobs and blob splits of the
+    first-axis sweeps it replaced (``jpda_reference``), in the same order and with the same bits,
+    whole frames included; equal first coordinates (lattice scenes) in argsort's order."""
+    rng = np.random.default_rng(3)
+    noise = np.eye(2) * 1e-7
+    for it in range(300):
+        n, m = int(rng.integers(1, 40)), int(rng.integers(0, 50))
+        mean, cov, z = _scene(rng, n, m, ties=it % 3 == 0)
+        if it % 10 == 0:
+            cov[0] *= 1e305  # an unbounded gate: every detection is a candidate
+        mergeable = rng.random(n) < 0.8
+        extent = (0.0, 0.004, 0.01)[it % 3]
+        args = (mean, cov, z, 9.21, 2.0, math.log(0.1), extent, noise, 0.01, -0.5, 12, mergeable)
+        got, want = _kernels.jpda_frame(*args), jpda_reference.reference_frame(*args)
+        for name, a, b in zip(want._fields, got, want, strict=True):
+            assert np.array_equal(np.asarray(a), np.asarray(b)), (it, name)
+        unseen, free = rng.random(n) < 0.5, rng.random(m) < 0.7
+        split = (mean, cov, z, unseen, free, 9.21, noise, (0.0, 0.01)[it % 2], 0.004)
+        want_split = jpda_reference._split_candidates(*split)
+        for a, b in zip(_kernels._split_candidates(*split), want_split, strict=True):
+            assert np.array_equal(a, b), it
+
+
+def test_equal_first_coordinates_are_ordered_as_numbas_argsort() -> None:
+    """A track's pairs and a blob's detections list equal first coordinates in the order of
+    ``np.argsort(z[:, 0])`` (numba's quicksort, not stable), computed only when two are equal."""
+    rng = np.random.default_rng(4)
+    mean = np.array([[0.02, 0.02], [0.0205, 0.0201]])
+    cov = np.stack([np.eye(2) * 1e-4] * 2)
+    z = np.ascontiguousarray(np.round(rng.uniform(0.0, 0.04, (60, 2)), 2))
+    chol, lnorm = np.zeros((2, 2, 2)), np.zeros(2)
+    _kernels._track_factors(cov, chol, lnorm)
+    grid, half = _kernels._detection_grid(mean, cov, z, 9.21)
+    e_t, e_d, _, ne, rank = _kernels._gated_pairs(
+        mean, cov, z, chol, lnorm, 9.21, 0.0, grid, half, np.empty(0), np.zeros(2), np.zeros(2)
+    )
+    assert ne > 10 and len(rank) == len(z)
+    order = _kernels._first_axis_rank(z[:, 0])
+    for i in range(2):
+        d = e_d[:ne][e_t[:ne] == i]
+        assert np.all(np.diff(order[d]) > 0)
+    g = _kernels._merged_hypotheses(
+        mean, cov, z, 9.21, 0.0, 0.01, np.eye(2) * 1e-7, 0.0, 0.0, np.ones(2, np.bool_),
+        grid, np.empty(0), np.zeros(2), np.zeros(2),
+    )  # fmt: skip
+    assert g[4] > 10 and np.all(np.diff(order[g[2][: g[4]]]) > 0)
