@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.metrics.hota_matching import column_sums, frame_matches, row_sums
+from track_envs.metrics.hota_matching import column_sums, frame_matches, row_sums, unique_inverse
 
 #: The 19 localisation thresholds α = 0.05, 0.10, …, 0.95 (the same floats as TrackEval's).
 ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
@@ -64,6 +64,11 @@ _EPS = float(np.finfo(float).eps)
 #: ``max(1, (n + m)/1024)``), far above the rounding of scipy's solver on the dense matrix
 #: (about ``(n + m) ε``); see :mod:`~track_envs.metrics.hota_matching`.
 _TIE_MARGIN = 2.0**-30
+
+#: A frame with a (near) tie is solved on its dense matrix, as TrackEval solves it, when the matrix
+#: has at most this many entries (a 2,048 × 2,048 frame, 32 MiB); a larger frame's ties are broken
+#: component by component (:mod:`~track_envs.metrics.hota_matching`).
+DENSE_LIMIT = 2048 * 2048
 
 #: Matched pairs: dense truth ids, dense tracker ids, frame counts per dense truth and tracker id,
 #: number of tracker ids, similarities.
@@ -223,7 +228,7 @@ class HotaAccumulator:
             loc_hist = np.bincount(passes, weights=pair_sim, minlength=n_alpha + 1).astype(np.float64)
             loc_sum = np.cumsum(loc_hist[::-1])[::-1][1:]
             # c_α(g, k): TP counts per id pair and α.
-            keys, key_of = np.unique(gt_dense * n_tr_ids + tr_dense, return_inverse=True)
+            keys, key_of = unique_inverse(gt_dense * n_tr_ids + tr_dense)
             by_pass = np.zeros((keys.size, n_alpha + 1))
             np.add.at(by_pass, (key_of, passes), 1.0)
             counts = np.cumsum(by_pass[:, ::-1], axis=1)[:, ::-1][:, 1:]  # (pairs, α)
@@ -280,8 +285,8 @@ class HotaAccumulator:
         gt_sizes = np.fromiter((f.size for f in self._gt_ids), np.int64, self._frames)
         tr_sizes = np.fromiter((f.size for f in self._tr_ids), np.int64, self._frames)
         entries = np.fromiter((f.size for f in self._sims), np.int64, self._frames)
-        gt_values, gt_dense_rows = np.unique(np.concatenate(self._gt_ids), return_inverse=True)
-        tr_values, tr_dense_rows = np.unique(np.concatenate(self._tr_ids), return_inverse=True)
+        gt_values, gt_dense_rows = unique_inverse(np.concatenate(self._gt_ids))
+        tr_values, tr_dense_rows = unique_inverse(np.concatenate(self._tr_ids))
         n_tr_ids = tr_values.size
         gt_count = np.bincount(gt_dense_rows, minlength=gt_values.size).astype(np.float64)
         tr_count = np.bincount(tr_dense_rows, minlength=n_tr_ids).astype(np.float64)
@@ -294,7 +299,7 @@ class HotaAccumulator:
         k = tr_dense_rows[tr_start[frame] + cols]
         # Global alignment A(g, k) over the id pairs that ever have a non-zero similarity; the
         # soft counts are summed in frame order (bincount adds in input order).
-        keys, key_of = np.unique(g * n_tr_ids + k, return_inverse=True)
+        keys, key_of = unique_inverse(g * n_tr_ids + k)
         soft_count = np.bincount(key_of, weights=np.concatenate(self._soft), minlength=keys.size)
         alignment = soft_count / (gt_count[keys // n_tr_ids] + tr_count[keys % n_tr_ids] - soft_count)
         score = alignment[key_of] * sims
@@ -302,7 +307,9 @@ class HotaAccumulator:
         # with a (near) tie is solved on its dense matrix as TrackEval solves it.
         entry_start = np.concatenate(([0], np.cumsum(entries)))
         tol = _TIE_MARGIN * max(1.0, float(gt_sizes.max() + tr_sizes.max()) / 1024.0)
-        take, dense_frames = frame_matches(entry_start, rows, cols, score, gt_sizes, tr_sizes, tol)
+        take, dense_frames = frame_matches(
+            entry_start, rows, cols, score, gt_sizes, tr_sizes, tol, DENSE_LIMIT
+        )
         for t in np.flatnonzero(dense_frames):
             lo, hi = entry_start[t], entry_start[t + 1]
             take[lo:hi] = False

@@ -28,7 +28,13 @@ non-zero entries (plus ``n + m``), with the same floating-point results.
   that contains ``M`` and more is better than the optimum). A frame with a
   (near) tie, or with a score ``≤ tol`` (an entry whose similarity is so small that its soft
   match vanished), is returned as *dense*: the caller solves that frame's whole matrix as
-  TrackEval does, so the result equals TrackEval's also there.
+  TrackEval does, so the result equals TrackEval's also there — up to a size: a frame of more
+  than ``dense_limit`` matrix entries (:data:`~track_envs.metrics.hota.DENSE_LIMIT`, a
+  2,048 × 2,048 matrix; TrackEval's dense solve of it takes seconds and gigabytes at 10⁴ targets)
+  is always solved component by component, its (near) ties broken as the compiled solver breaks
+  them on the component's own block and every positive-score pair of a one-pair component taken.
+  Then only where a frame has two optimal matchings (to ``tol``) may the pairs differ from
+  TrackEval's, by another of its optima.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ from numpy.typing import NDArray
 
 from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
 from track_envs.infra.compiled import njit
+from track_envs.metrics.key_table import hash_slot
 
 #: numpy's pairwise summation: a block of at most this many numbers is summed with eight
 #: interleaved partial sums (``PW_BLOCKSIZE`` of numpy's ``loops_utils.h``).
@@ -84,19 +91,17 @@ def _block_sum(pos: NDArray[np.int64], val: NDArray[np.float64], a: int, b: int,
 
 
 @njit(cache=True)
-def _pairwise(pos: NDArray[np.int64], val: NDArray[np.float64], a: int, b: int, n: int) -> float:
+def _pairwise(
+    pos: NDArray[np.int64], val: NDArray[np.float64], a: int, b: int, n: int, stack: NDArray[np.int64]
+) -> float:
     """numpy's ``pairwise_sum`` of a run of ``n`` numbers whose non-zeros are ``val[a:b]`` at the
     ascending positions ``pos[a:b]``: a run longer than 128 is the sum of its halves, split at a
-    multiple of 8 (an explicit stack instead of recursion; a run without non-zeros sums to 0)."""
-    depth = 2 * 64 + 2
-    s_lo = np.empty(depth, np.int64)
-    s_n = np.empty(depth, np.int64)
-    s_a = np.empty(depth, np.int64)
-    s_b = np.empty(depth, np.int64)
-    s_open = np.zeros(depth, np.bool_)
-    results = np.empty(depth, np.float64)
+    multiple of 8 (an explicit stack, ``stack`` (5, 130) scratch, instead of recursion; a run
+    without non-zeros sums to 0)."""
+    s_lo, s_n, s_a, s_b, s_open = stack[0], stack[1], stack[2], stack[3], stack[4]
+    results = np.empty(stack.shape[1], np.float64)
     top, n_res = 0, 0
-    s_lo[0], s_n[0], s_a[0], s_b[0], s_open[0] = 0, n, a, b, False
+    s_lo[0], s_n[0], s_a[0], s_b[0], s_open[0] = 0, n, a, b, 0
     top = 1
     while top > 0:
         t = top - 1
@@ -115,11 +120,11 @@ def _pairwise(pos: NDArray[np.int64], val: NDArray[np.float64], a: int, b: int, 
             split = ea
             while split < eb and pos[split] < lo + n2:
                 split += 1
-            s_open[t] = True
+            s_open[t] = 1
             # the right half below the left one: the left is summed first
             s_lo[top], s_n[top], s_a[top], s_b[top] = lo + n2, m - n2, split, eb
             s_lo[top + 1], s_n[top + 1], s_a[top + 1], s_b[top + 1] = lo, n2, ea, split
-            s_open[top] = s_open[top + 1] = False
+            s_open[top] = s_open[top + 1] = 0
             top += 2
     return results[0]
 
@@ -131,13 +136,19 @@ def row_sums(
     """``S.sum(1)`` of the (n_rows, n_cols) matrix whose non-zeros are the row-major entries
     ``(rows, cols, values)``, bit for bit as numpy sums the dense rows (module docstring)."""
     out = np.zeros(n_rows)
+    stack = np.zeros((5, 2 * 64 + 2), np.int64)
     e = 0
     n = len(rows)
     while e < n:
         f = e
         while f < n and rows[f] == rows[e]:
             f += 1
-        out[rows[e]] = 0.0 + _pairwise(cols, values, e, f, n_cols)
+        if f - e == 1:  # zeros add exactly: one or two non-zeros sum alike in any order
+            out[rows[e]] = values[e]
+        elif f - e == 2:
+            out[rows[e]] = values[e] + values[e + 1]
+        else:
+            out[rows[e]] = 0.0 + _pairwise(cols, values, e, f, n_cols, stack)
         e = f
     return out
 
@@ -181,11 +192,14 @@ def _component(
     score: NDArray[np.float64],
     tol: float,
     take: NDArray[np.bool_],
+    exact: bool,
 ) -> bool:
-    """Match one component (its entry numbers ``entries``) into ``take``; False on a (near) tie."""
+    """Match one component (its entry numbers ``entries``) into ``take``; False on a (near) tie
+    when ``exact`` (else ties are broken as the solver on the component's block breaks them, and
+    only pairs of positive score are taken)."""
     k = len(entries)
     if k == 1:
-        take[entries[0]] = True
+        take[entries[0]] = score[entries[0]] > 0.0
         return True
     # the component's rows and columns, numbered locally in ascending order
     rs = np.unique(rows[entries])
@@ -195,16 +209,17 @@ def _component(
         for e in entries:
             if best < 0 or score[e] > score[best]:
                 best = e
-        for e in entries:
-            if e != best and not score[best] - score[e] > tol:
-                return False
-        take[best] = True
+        if exact:
+            for e in entries:
+                if e != best and not score[best] - score[e] > tol:
+                    return False
+        take[best] = score[best] > 0.0
         return True
     block = np.zeros((len(rs), len(cs)))
     for e in entries:
         block[np.searchsorted(rs, rows[e]), np.searchsorted(cs, cols[e])] = -score[e]
     value, rr, cc = _block_value(block)
-    for t in range(len(rr)):
+    for t in range(len(rr) if exact else 0):
         held = block[rr[t], cc[t]]
         block[rr[t], cc[t]] = 0.0
         without, _, _ = _block_value(block)
@@ -238,6 +253,7 @@ def frame_matches(
     n_rows: NDArray[np.int64],
     n_cols: NDArray[np.int64],
     tol: float,
+    dense_limit: int,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Each frame's optimal matching, component by component (module docstring).
 
@@ -249,6 +265,8 @@ def frame_matches(
         n_rows: (frames,) rows (truth) per frame.
         n_cols: (frames,) columns (tracker) per frame.
         tol: The uniqueness margin.
+        dense_limit: A frame of more than this many matrix entries (``n m``) is never returned
+            as dense: its ties are broken component by component.
 
     Returns:
         ``(take, dense)``: per entry, whether its pair is matched; per frame, whether it must be
@@ -276,7 +294,8 @@ def frame_matches(
         if not repeats and positive:  # every pair alone in its row and column: all matched
             take[lo:hi] = True
             continue
-        if low_score:
+        exact = nr * nc <= dense_limit
+        if low_score and exact:
             dense[t] = True
             continue
         # components over the nodes 0..nr-1 (rows) and nr..nr+nc-1 (columns)
@@ -286,17 +305,68 @@ def frame_matches(
             b = _find(parent, nr + cols[e])
             if a != b:
                 parent[max(a, b)] = min(a, b)
+        # the entries grouped by component (a counting sort by root row, entry order kept)
+        start = np.zeros(nr + 1, np.int64)
         root = np.empty(hi - lo, np.int64)
         for e in range(lo, hi):
             root[e - lo] = _find(parent, rows[e])
-        order = np.argsort(root, kind="mergesort") + lo
-        s = 0
-        while s < hi - lo:
-            f = s
-            while f < hi - lo and root[order[f] - lo] == root[order[s] - lo]:
-                f += 1
-            if not _component(order[s:f], rows, cols, score, tol, take):
+            start[root[e - lo] + 1] += 1
+        for i in range(nr):
+            start[i + 1] += start[i]
+        order = np.empty(hi - lo, np.int64)
+        fill = start[:-1].copy()
+        for e in range(lo, hi):
+            order[fill[root[e - lo]]] = e
+            fill[root[e - lo]] += 1
+        for i in range(nr):
+            a, b = start[i], start[i + 1]
+            if b == a:
+                continue
+            if b - a == 1:
+                take[order[a]] = score[order[a]] > 0.0
+            elif not _component(order[a:b], rows, cols, score, tol, take, exact):
                 dense[t] = True
                 break
-            s = f
     return take, dense
+
+
+@njit(cache=True)
+def _first_seen_groups(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Group equal keys with an open-addressing hash (load ≤ ½): the group of each key, numbered
+    in order of first appearance, and the first position of each group."""
+    n = len(keys)
+    n_slots = 2
+    while n_slots < 2 * n:
+        n_slots *= 2
+    mask = n_slots - 1
+    slot_group = np.full(n_slots, -1, np.int64)
+    group_of = np.empty(n, np.int64)
+    first = np.empty(n, np.int64)
+    n_groups = 0
+    for t in range(n):
+        s = hash_slot(keys[t], 0, mask)
+        while True:
+            g = slot_group[s]
+            if g < 0:
+                slot_group[s] = n_groups
+                first[n_groups] = t
+                group_of[t] = n_groups
+                n_groups += 1
+                break
+            if keys[first[g]] == keys[t]:
+                group_of[t] = g
+                break
+            s = (s + 1) & mask
+    return group_of, first[:n_groups]
+
+
+def unique_inverse(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``np.unique(keys, return_inverse=True)`` of int64 keys in ``O(n + u log u)`` (``u`` distinct
+    keys): grouped by a hash, then only the distinct keys sorted."""
+    keys = np.ascontiguousarray(keys, dtype=np.int64)
+    group_of, first = _first_seen_groups(keys)
+    distinct = keys[first]
+    order = np.argsort(distinct, kind="stable")
+    rank = np.empty(order.size, np.int64)
+    rank[order] = np.arange(order.size)
+    return distinct[order], rank[group_of]
