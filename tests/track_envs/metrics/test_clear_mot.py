@@ -327,3 +327,36 @@ def test_component_matching_of_the_rest_equals_the_dense_motmetrics_problem(seed
     got = _match_the_rest(ptr, cols, d, row_taken, col_taken)
     want = _assign_like_motmetrics(ptr, cols, d, row_taken, col_taken, n)
     assert got.tolist() == want.tolist()
+
+
+def test_box_clear_mot_on_overlapping_pairs_equals_the_dense_matrix():
+    """BoxClearMot's spatial candidates give the events of the dense 1 − IoU matrix, ties included
+    (integer boxes, duplicated reports, a non-finite box)."""
+    from track_envs.metrics.boxes import BoxClearMot, iou_distances
+
+    rng = np.random.default_rng(4)
+    sparse, dense = BoxClearMot(0.5), BoxClearMot(0.5)
+    boxes = np.column_stack([rng.integers(0, 300, (80, 2)), rng.integers(5, 30, (80, 2))]).astype(float)
+    for _ in range(20):
+        boxes[:, :2] += rng.integers(-3, 4, (80, 2))
+        reported = np.concatenate([boxes[:60] + rng.integers(-2, 3, (60, 4)), boxes[:10]])
+        reported[3] = [np.nan, 0, 1, 1]
+        visible = rng.random(80) < 0.9
+        truth = {"ids": np.arange(80), "positions": boxes[:, :2], "visible": visible, "boxes": boxes}
+        report = {
+            "ids": rng.permutation(200)[:70],
+            "positions": reported[:, :2],
+            "detection": np.full(70, -1),
+            "mask": (rng.random(70) < 0.95).astype(np.int8),
+            "boxes": reported,
+        }
+        sparse.update(truth, np.full(1, -1), report)
+        live = report["mask"] == 1
+        dense.update_distances(
+            np.arange(80)[visible], report["ids"][live], iou_distances(boxes[visible], reported[live], 0.5)
+        )
+    assert sparse.compute() == dense.compute() or all(
+        (a == b) or (np.isnan(a) and np.isnan(b))
+        for a, b in zip(sparse.compute().values(), dense.compute().values(), strict=True)
+    )
+    assert sparse.compute()["num_detections"] > 500
