@@ -360,3 +360,33 @@ def test_box_clear_mot_on_overlapping_pairs_equals_the_dense_matrix():
         for a, b in zip(sparse.compute().values(), dense.compute().values(), strict=True)
     )
     assert sparse.compute()["num_detections"] > 500
+
+
+def test_frames_above_the_dense_limit_break_ties_within_components():
+    """A frame larger than the dense limit never builds motmetrics' matrix: a duplicated report
+    (a tie) and a seven-point pile (over 4,096 matchings) are matched within their components."""
+    from track_envs.metrics.clear_mot_events import DENSE_LIMIT
+
+    side = 47  # 2,209 truths on a grid of unit spacing
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2).astype(float)
+    assert len(grid) ** 2 > DENSE_LIMIT
+    truth_pos = grid.copy()
+    truth_pos[:7] = [0.0, 0.0]  # a pile: seven truths on one point...
+    reports = np.concatenate([truth_pos, truth_pos[100:101]])  # ...and a duplicated report
+    metric = ClearMot(threshold=0.3)
+    truth = {
+        "ids": np.arange(len(truth_pos)),
+        "positions": truth_pos,
+        "visible": np.ones(len(truth_pos), bool),
+    }
+    report = {
+        "ids": np.arange(len(reports)) + 10_000,
+        "positions": reports,
+        "detection": np.full(len(reports), -1),
+        "mask": np.ones(len(reports), np.int8),
+    }
+    metric.update(truth, np.full(1, -1), report)
+    out = metric.compute()
+    assert out["num_matches"] == len(truth_pos)
+    assert out["num_false_positives"] == 1 and out["num_misses"] == 0
+    assert out["motp"] == 0.0
