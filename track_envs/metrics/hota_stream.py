@@ -14,6 +14,14 @@ environments add is the similarity between the visible truth and the reported tr
 * :class:`PoseHota`, poses: ``S`` the object keypoint similarity (OKS, COCO's, with the truth
   area ``area_factor · scale²`` as :class:`~track_envs.metrics.keypoints.PoseOks` uses).
 
+Only the non-zero similarities are computed and kept: :class:`Hota` takes the pairs closer than
+``τ`` and :class:`BoxHota` the overlapping boxes from a spatial index
+(:func:`~track_envs.metrics.hota_similarity.point_similarity_entries`,
+:func:`~track_envs.metrics.hota_similarity.box_iou_entries`), and the accumulator matches each
+frame per connected component (:mod:`~track_envs.metrics.hota_matching`), so a frame costs time
+linear in the targets; the figures are those of the dense matrices, bit for bit. (:class:`PoseHota`
+still builds the dense OKS matrix: OKS is positive for every pair.)
+
 The keys of :meth:`Hota.compute` are :data:`HOTA_KEYS`' values: ``hota``, ``det_a``, ``ass_a``,
 ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr`` (the α-averaged figures; 0, and
 ``loc_a`` 1, before any truth or report row).
