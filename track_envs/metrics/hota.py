@@ -50,7 +50,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from track_envs.metrics.hota_matching import column_sums, frame_matches, row_sums, unique_inverse
+from track_envs.metrics.hota_matching import (
+    column_sums,
+    distinct_count,
+    frame_matches,
+    row_sums,
+    unique_inverse,
+)
 
 #: The 19 localisation thresholds α = 0.05, 0.10, …, 0.95 (the same floats as TrackEval's).
 ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
@@ -338,8 +344,8 @@ def _ids(values: ArrayLike, name: str) -> NDArray[np.int64]:
         raise ValueError(f"{name} must be 1-D; got shape {ids.shape}")
     if ids.size and ids.dtype.kind not in "iu":
         raise ValueError(f"{name} must be integers; got dtype {ids.dtype}")
-    ids = ids.astype(np.int64, copy=False)
-    if ids.size > 1:
+    ids = np.ascontiguousarray(ids, dtype=np.int64)
+    if ids.size > 1 and distinct_count(ids) < ids.size:  # (a hash: linear; the sort names the id)
         ordered = np.sort(ids)
         repeated = ordered[1:][ordered[1:] == ordered[:-1]]
         if repeated.size:

@@ -360,6 +360,11 @@ def _first_seen_groups(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDAr
     return group_of, first[:n_groups]
 
 
+def distinct_count(keys: NDArray[np.int64]) -> int:
+    """How many distinct values the int64 ``keys`` hold (a hash, ``O(n)``)."""
+    return len(_first_seen_groups(keys)[1])
+
+
 def unique_inverse(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """``np.unique(keys, return_inverse=True)`` of int64 keys in ``O(n + u log u)`` (``u`` distinct
     keys): grouped by a hash, then only the distinct keys sorted."""
