@@ -390,3 +390,31 @@ def test_frames_above_the_dense_limit_break_ties_within_components():
     assert out["num_matches"] == len(truth_pos)
     assert out["num_false_positives"] == 1 and out["num_misses"] == 0
     assert out["motp"] == 0.0
+
+
+def test_a_larger_tie_heavy_point_stream_matches_motmetrics():
+    """Hundreds of points on a 0.5 grid (ties everywhere, pairs exactly at the threshold) through
+    the spatial candidates: the events of motmetrics on the full cdist matrix."""
+    from scipy.spatial.distance import cdist
+
+    rng = np.random.default_rng(8)
+    acc, ours = mm.MOTAccumulator(auto_id=True), ClearMot(threshold=1.0)
+    for _ in range(12):
+        m, n = 300, 280
+        truth = {
+            "ids": rng.choice(400, m, replace=False).astype(np.int64),
+            "positions": rng.integers(0, 40, (m, 2)) * 0.5,
+            "visible": rng.random(m) < 0.9,
+        }
+        report = {
+            "ids": rng.choice(400, n, replace=False).astype(np.int64) + 1000,
+            "positions": rng.integers(0, 40, (n, 2)) * 0.5,
+            "detection": np.full(n, -1, np.int64),
+            "mask": np.ones(n, np.int8),
+        }
+        ours.update(truth, np.full(1, -1), report)
+        live = truth["visible"]
+        d = cdist(truth["positions"][live], report["positions"])
+        d[d > 1.0] = np.nan
+        acc.update(truth["ids"][live], report["ids"], d)
+    assert_same(ours.compute(), motmetrics_summary(acc))

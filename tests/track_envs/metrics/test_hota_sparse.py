@@ -259,3 +259,46 @@ def test_streaming_hota_equals_the_dense_similarity_path():
 def test_bad_sparse_frames_are_named(rows, cols, values, message):
     with pytest.raises(ValueError, match=message):
         HotaAccumulator().add_sparse_frame([1, 2], [7, 8], rows, cols, values)
+
+
+def test_a_larger_tie_heavy_stream_matches_trackeval():
+    """The streaming metric on integer points (ties, pairs exactly at τ) against TrackEval's HOTA
+    on the dense similarity matrices."""
+    trackeval = pytest.importorskip("trackeval")
+    rng = np.random.default_rng(9)
+    metric = Hota(threshold=2.0)
+    frames = []
+    truth_pos = np.round(rng.uniform(0, 40, (200, 2)))
+    for _ in range(15):
+        truth_pos += np.round(rng.normal(0, 0.5, truth_pos.shape))
+        report_pos = np.concatenate(
+            [truth_pos[:180] + np.round(rng.normal(0, 0.7, (180, 2))), truth_pos[:20]]
+        )
+        ids, tracks = (
+            np.arange(200),
+            np.concatenate([np.arange(180), 500 + rng.choice(50, 20, replace=False)]),
+        )
+        truth = {"ids": ids, "positions": truth_pos, "visible": np.ones(200, bool)}
+        report = {
+            "ids": tracks,
+            "positions": report_pos,
+            "detection": np.full(200, -1),
+            "mask": np.ones(200, np.int8),
+        }
+        metric.update(truth, np.full(1, -1), report)
+        frames.append((ids, tracks, point_similarity(truth_pos, report_pos, 2.0)))
+    gt_values = np.unique(np.concatenate([f[0] for f in frames]))
+    tr_values = np.unique(np.concatenate([f[1] for f in frames]))
+    data = {
+        "num_gt_dets": sum(f[0].size for f in frames),
+        "num_tracker_dets": sum(f[1].size for f in frames),
+        "num_gt_ids": gt_values.size,
+        "num_tracker_ids": tr_values.size,
+        "gt_ids": [np.searchsorted(gt_values, f[0]) for f in frames],
+        "tracker_ids": [np.searchsorted(tr_values, f[1]) for f in frames],
+        "similarity_scores": [f[2] for f in frames],
+    }
+    theirs = trackeval.metrics.HOTA({"PRINT_CONFIG": False}).eval_sequence(data)
+    arrays = metric._acc.compute_arrays()
+    for key in ("HOTA", "DetA", "AssA", "LocA", "DetRe", "DetPr", "AssRe", "AssPr"):
+        np.testing.assert_allclose(arrays[key], theirs[key], rtol=0, atol=1e-9)
