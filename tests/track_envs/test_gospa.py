@@ -123,3 +123,46 @@ def test_bad_parameters_are_named():
         gospa(np.zeros((1, 2)), np.zeros((1, 2)), c=1.0, p=0.5)
     with pytest.raises(ValueError, match="same D"):
         gospa(np.zeros((1, 2)), np.zeros((1, 3)), c=1.0)
+
+
+def _one_problem_core(x, y, c, p):
+    """gospa_core with every competing row in one ``[C | M]`` problem (the path before components)."""
+    from track_envs.infra.assignment.lone_pairs import split_sparse
+    from track_envs.metrics.close_pairs import close_pairs
+    from track_envs.metrics.gospa import _assign_rest
+
+    cp = c**p
+    ptr, cols, dist = close_pairs(x, y, c * (1.0 + 1e-9))
+    keep = (dist**2 if p == 2.0 else dist**p) <= cp
+    rows = np.repeat(np.arange(len(x)), np.diff(ptr))[keep]
+    cols, dist = cols[keep], dist[keep]
+    ptr = np.zeros(len(x) + 1, np.int64)
+    np.cumsum(np.bincount(rows, minlength=len(x)), out=ptr[1:])
+    cost = dist * dist if p == 2.0 else dist**p
+    col_of, rest_rows, rest_cols = split_sparse(ptr, cols, len(y))
+    if len(rest_rows):
+        _assign_rest(ptr, cols, cost, rest_rows, rest_cols, len(y), cp, col_of)
+    loc, n_close = 0.0, 0
+    for i in range(len(x)):
+        for e in range(ptr[i], ptr[i + 1]):
+            if col_of[i] >= 0 and cols[e] == col_of[i]:
+                if dist[e] < c:
+                    loc += cost[e]
+                    n_close += 1
+                break
+    return loc, n_close
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_components_give_the_one_problem_assignment(seed):
+    """Solving the competing rows per connected component (falling back on a tie) gives exactly
+    the localisation and pairs of one problem over all of them, also with integer coordinates."""
+    from track_envs.metrics.gospa import gospa_core
+
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 20, (300, 2))
+    y = np.concatenate([x[:200] + rng.normal(0, 0.4, (200, 2)), rng.uniform(0, 20, (80, 2))])
+    if seed % 2:
+        x, y = np.round(x), np.round(y)
+    for c, p in ((1.0, 2.0), (2.0, 1.0)):
+        assert gospa_core(x, y, c, p, c**p) == _one_problem_core(x, y, c, p)

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from track_envs.metrics.base import MetricTraits
 from track_envs.metrics.clear_mot import ClearMot
-from track_envs.metrics.hota_similarity import box_iou
+from track_envs.metrics.hota_similarity import box_iou, box_iou_entries
 
 
 def iou_distances(a: ArrayLike, b: ArrayLike, min_iou: float = 0.5) -> NDArray[np.float64]:
@@ -34,6 +34,24 @@ def iou_distances(a: ArrayLike, b: ArrayLike, min_iou: float = 0.5) -> NDArray[n
     test motmetrics' ``iou_matrix(max_iou=1 − min_iou)`` makes, rounding included)."""
     dist = 1.0 - box_iou(a, b)
     return np.where(dist > 1.0 - float(min_iou), np.nan, dist)
+
+
+def iou_distance_entries(
+    a: ArrayLike, b: ArrayLike, min_iou: float = 0.5
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """The finite entries of :func:`iou_distances` as compressed sparse rows ``(ptr, cols, dist)``,
+    at a cost linear in the boxes: a match needs ``IoU >= min_iou > 0``, so only overlapping boxes
+    (:func:`~track_envs.metrics.hota_similarity.box_iou_entries`, a spatial index) are candidates,
+    and the same ``1 − IoU > 1 − min_iou`` test drops the rest."""
+    ta = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    tb = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    rows, cols, iou = box_iou_entries(ta, tb)
+    dist = 1.0 - iou
+    keep = ~(dist > 1.0 - float(min_iou))
+    rows, cols, dist = rows[keep], cols[keep], dist[keep]
+    ptr = np.zeros(len(ta) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=len(ta)), out=ptr[1:])
+    return ptr, cols, dist
 
 
 class BoxClearMot(ClearMot):
@@ -66,8 +84,7 @@ class BoxClearMot(ClearMot):
         live_report = np.asarray(report["mask"]) == 1
         truth_boxes = np.asarray(truth["boxes"], dtype=np.float64)[live_truth]
         report_boxes = np.asarray(report["boxes"], dtype=np.float64)[live_report]
-        self.update_distances(
-            np.asarray(truth["ids"])[live_truth],
-            np.asarray(report["ids"])[live_report],
-            iou_distances(truth_boxes, report_boxes, self.min_iou),
+        ptr, cols, dist = iou_distance_entries(truth_boxes, report_boxes, self.min_iou)
+        self.update_entries(
+            np.asarray(truth["ids"])[live_truth], np.asarray(report["ids"])[live_report], ptr, cols, dist
         )

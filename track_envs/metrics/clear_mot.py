@@ -278,7 +278,32 @@ class ClearMot:
         no, nh = len(oids), len(hids)
         d = np.ascontiguousarray(np.atleast_2d(np.asarray(dist_matrix, dtype=np.float64)).reshape(no, nh))
         ptr, cols, dist = finite_entries(d)
-        self._truths.reserve(no)
+        self.update_entries(oids, hids, ptr, cols, dist)
+
+    def update_entries(
+        self,
+        truth_ids: ArrayLike,
+        track_ids: ArrayLike,
+        ptr: NDArray[np.int64],
+        cols: NDArray[np.int64],
+        dist: NDArray[np.float64],
+    ) -> None:
+        """Add one frame from ids and its possible pairs only, row-major: truth ``i``'s possible
+        tracks are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) at distances ``dist[ptr[i]:ptr[i + 1]]``
+        (finite); every other pair is impossible. The same frame as :meth:`update_distances` of the
+        matrix holding those distances and NaN elsewhere, at a cost linear in the pairs.
+        """
+        oids = np.ascontiguousarray(truth_ids, dtype=np.int64).reshape(-1)
+        hids = np.ascontiguousarray(track_ids, dtype=np.int64).reshape(-1)
+        ptr = np.ascontiguousarray(ptr, dtype=np.int64)
+        cols = np.ascontiguousarray(cols, dtype=np.int64)
+        dist = np.ascontiguousarray(dist, dtype=np.float64)
+        if ptr.shape != (len(oids) + 1,) or cols.shape != dist.shape or ptr[-1] != len(cols):
+            raise ValueError(
+                f"ptr must be ({len(oids) + 1},) ending at len(cols) = len(dist); got ptr {ptr.shape}, "
+                f"cols {cols.shape}, dist {dist.shape}"
+            )
+        self._truths.reserve(len(oids))
         self._pairs.reserve(len(cols))
         frame_events(
             oids,

@@ -17,8 +17,13 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
    Otherwise (a tie, or a component with more than 4,096 matchings) the matrix motmetrics
    builds is solved by the same algorithm (:mod:`~track_envs.infra.assignment.shortest_augmenting_path`),
-   so ties are broken as motmetrics breaks them. In row order, a match whose truth was last
-   matched to another id is an ID switch.
+   so ties are broken as motmetrics breaks them — in a frame whose matrix has at most
+   :data:`DENSE_LIMIT` entries (2,048 × 2,048). A larger frame (motmetrics' dense solve of it
+   takes seconds at 10⁴ targets and does not fit in memory at 10⁵) stays linear: a (near) tie is
+   broken within its component (the first best matching of the enumeration; a component of more
+   than 4,096 matchings is solved on its own block, priced as motmetrics prices the matrix), so
+   only there may the matching differ from motmetrics', by another of its optima. In row
+   order, a match whose truth was last matched to another id is an ID switch.
 3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
    missed since its previous match is a fragmentation.
 
@@ -69,6 +74,9 @@ _LAST, _MATCHED, _GAP, _SEEN = 2, 3, 4, 5
 _TOGETHER = 2
 # a connected component of free pairs with more matchings than this is solved on the dense matrix
 _MAX_MATCHINGS = 4096
+# a (near) tie is solved on motmetrics' whole dense matrix when it has at most this many entries
+# (2,048 × 2,048, 32 MiB); a larger frame breaks it within the component (module docstring)
+DENSE_LIMIT = 2048 * 2048
 
 
 @njit(cache=True)
@@ -221,6 +229,7 @@ def _unique_component_optimum(
     comp_rows: NDArray[np.int64],
     tol: float,
     partner: NDArray[np.int64],
+    exact: bool = True,
 ) -> bool:
     """Step 2 on one connected component of the free pairs, when its optimum is unique.
 
@@ -229,7 +238,7 @@ def _unique_component_optimum(
     distance). When every other matching with that many pairs is longer by more than ``tol``,
     the best one's columns go into ``partner`` and the result is True; on a (near) tie, or when
     the component has more than :data:`_MAX_MATCHINGS` matchings, nothing is written and the
-    result is False.
+    result is False. Not ``exact``: a tie is not refused (the first best matching found is kept).
     """
     k = len(comp_rows)
     choice = np.full(k, -2, dtype=np.int64)  # per depth: the list position tried, −1 = no pair
@@ -283,12 +292,58 @@ def _unique_component_optimum(
         depth += 1
         if depth < k:
             choice[depth] = -2
-    if not second - best_cost > tol:
+    if exact and not second - best_cost > tol:
         return False
     for a in range(k):
         if best_choice[a] >= 0:
             partner[comp_rows[a]] = cols[best_choice[a]]
     return True
+
+
+@njit(cache=True)
+def _assign_component_block(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    dist: NDArray[np.float64],
+    col_taken: NDArray[np.bool_],
+    comp_rows: NDArray[np.int64],
+    partner: NDArray[np.int64],
+) -> None:
+    """Step 2 on one component's own block, priced as motmetrics prices its matrix (the most
+    pairs, then the least summed distance), into ``partner``: for a component too large to
+    enumerate in a frame too large for the dense matrix."""
+    n_local = 0
+    for i in comp_rows:
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                n_local += 1
+    block_cols = np.empty(n_local, np.int64)
+    n_local = 0
+    for i in comp_rows:
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                block_cols[n_local] = cols[e]
+                n_local += 1
+    block_cols = np.unique(block_cols)
+    k, n_block = len(comp_rows), len(block_cols)
+    costs = np.full((k, n_block), np.nan)
+    largest = 0.0
+    for a in range(k):
+        i = comp_rows[a]
+        for e in range(ptr[i], ptr[i + 1]):
+            if not col_taken[cols[e]]:
+                costs[a, np.searchsorted(block_cols, cols[e])] = dist[e]
+                largest = max(largest, abs(dist[e]))
+    large = float(2 * min(k, n_block)) * (largest + 1.0) + 1.0
+    possible = ~np.isnan(costs)
+    for a in range(k):
+        for b in range(n_block):
+            if not possible[a, b]:
+                costs[a, b] = large
+    rows, picked = linear_sum_assignment(costs)
+    for t in range(len(rows)):
+        if possible[rows[t], picked[t]]:
+            partner[comp_rows[rows[t]]] = block_cols[picked[t]]
 
 
 @njit(cache=True)
@@ -309,9 +364,12 @@ def _match_components(
     unique by more than the rounding scipy's solver can make on the dense matrix (a margin of
     ``2⁻³⁰`` of its largest entry, about 10⁷ of its rounding units), that union is what
     motmetrics gets. Returns False (``partner`` then partly written) when some component's
-    optimum is not so certainly unique.
+    optimum is not so certainly unique — only in a frame of at most :data:`DENSE_LIMIT` matrix
+    entries: a larger frame keeps the component's first best matching (or solves a component of
+    more than :data:`_MAX_MATCHINGS` matchings on its own block) and returns True.
     """
     m, n = len(row_taken), len(col_taken)
+    exact = m * n <= DENSE_LIMIT
     largest = 0.0  # over every free pair, as motmetrics' price of an impossible pair takes it
     for i in range(m):
         if row_taken[i]:
@@ -360,8 +418,10 @@ def _match_components(
                         queue[size] = r
                         size += 1
         comp = np.sort(queue[:size])
-        if not _unique_component_optimum(ptr, cols, dist, col_taken, comp, tol, partner):
-            return False
+        if not _unique_component_optimum(ptr, cols, dist, col_taken, comp, tol, partner, exact):
+            if exact:
+                return False
+            _assign_component_block(ptr, cols, dist, col_taken, comp, partner)
     return True
 
 

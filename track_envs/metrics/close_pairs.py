@@ -1,12 +1,13 @@
 """The pairs of two point sets within a distance, as a sparse row-major (CSR) list, for numba kernels.
 
 Tracking metrics only ever look at truth–track pairs closer than a threshold (CLEAR MOT's match
-threshold, GOSPA's cut-off), and at ≈150 × 150 points a handful of pairs per truth qualify. Instead
-of the full (m, n) distance matrix, the second set is bucketed along its first coordinate into
-cells at least as wide as the search radius (a counting sort, ``O(n)``), and each point of the
-first set computes distances only to the points of its own and the two neighbouring cells:
-``O(m + n + candidates)`` instead of ``m · n``. (At most ``4 n + 1`` cells: a sparse, widely spread
-set gets wider cells, which only adds candidates.)
+threshold, GOSPA's cut-off), and only a handful of pairs per truth qualify. Instead of the full
+(m, n) distance matrix, the candidates are the points of the second set inside the box
+``|y_k − x_k| ≤ r`` around each point of the first (the uniform grid of
+:func:`track_envs.infra.spatial.box_candidates` over the first two coordinates, the box widened
+by a relative ``10⁻⁹`` so that rounding never drops a pair the exact test keeps), and distances
+are computed for those only: ``O(m + n + candidates)`` per frame whatever the extent of the scene.
+(A radius that is not finite falls back to buckets along the first coordinate.)
 
 Distances are computed exactly as ``scipy.spatial.distance.cdist(x, y)`` computes them,
 ``d = sqrt(Σ_k (x_k − y_k)²)`` summed in coordinate order, so a pair exactly at the radius is
@@ -19,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.compiled import njit
+from track_envs.infra.spatial import box_candidates
 
 # cells are widened by this relative margin so that rounding in d or in the cell index can never
 # drop a pair that the exact test d <= radius keeps (|x₀ − y₀| <= d up to a few ulps)
@@ -85,6 +87,49 @@ def close_pairs(
     x: NDArray[np.float64], y: NDArray[np.float64], radius: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
     """Every pair ``(i, j)`` with ``d(x_i, y_j) <= radius``, row-major.
+
+    Args:
+        x: Points (m, D), float64.
+        y: Points (n, D), same D.
+        radius: Largest distance kept, > 0.
+
+    Returns:
+        ``(ptr, cols, dist)``: row ``i``'s pairs are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with
+        distances ``dist[ptr[i]:ptr[i + 1]]``.
+    """
+    m, n = x.shape[0], y.shape[0]
+    ptr = np.zeros(m + 1, dtype=np.int64)
+    if m == 0 or n == 0:
+        return ptr, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64)
+    half = radius * (1.0 + _CELL_MARGIN)
+    if not (np.isfinite(half) and half >= 0.0):
+        return _close_pairs_strips(x, y, radius)
+    found = box_candidates(x, np.full((m, min(x.shape[1], 2)), half), y)
+    cols = np.empty(len(found.cols), dtype=np.int64)
+    dist = np.empty(len(found.cols), dtype=np.float64)
+    n_dims = x.shape[1]
+    nnz = 0
+    for i in range(m):
+        # branch-free scan: every candidate is written, and kept by advancing nnz when close
+        for t in range(found.ptr[i], found.ptr[i + 1]):
+            j = found.cols[t]
+            sq = 0.0  # Σ_k (x_k − y_k)², in coordinate order as cdist sums it
+            for k in range(n_dims):
+                step = x[i, k] - y[j, k]
+                sq += step * step
+            d = np.sqrt(sq)
+            cols[nnz] = j
+            dist[nnz] = d
+            nnz += d <= radius
+        ptr[i + 1] = nnz
+    return ptr, cols[:nnz], dist[:nnz]
+
+
+@njit(cache=True)
+def _close_pairs_strips(
+    x: NDArray[np.float64], y: NDArray[np.float64], radius: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """:func:`close_pairs` by buckets along the first coordinate (any radius, also not finite).
 
     Args:
         x: Points (m, D), float64.

@@ -25,7 +25,12 @@ row and its column (a *lone pair*) gains ``c^p − d^p >= 0`` and blocks nothing
 it is; only the rows and columns left with several admissible partners go to a dense min-cost
 assignment with one miss column per row (``[C | diag(c^p)]``,
 :func:`track_envs.infra.assignment.lone_pairs.rest_problem`), solved by the compiled
-:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`. Track
+:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment` — one
+connected component of the admissible pairs at a time, which is the same assignment wherever
+each component's optimum is unique (by a margin ``2⁻²⁰ c^p`` far above the solver's
+rounding; checked by solving the component once more without each of its assigned pairs). On a
+(near) tie the rest rows are solved as one problem, as before, so that ties break as they always
+did; a frame costs ``O(m + n)`` for components of bounded size. Track
 identities play no part (in a report they are unique and non-negative within a frame by the
 report contract, :func:`track_envs.contracts.report.validate_report`).
 """
@@ -62,6 +67,109 @@ class GospaResult:
     localisation: float
     missed: int
     false: int
+
+
+@njit(cache=True)
+def _component_gain(
+    local_cost: NDArray[np.float64], cp: float
+) -> tuple[float, NDArray[np.int64], NDArray[np.int64]]:
+    """Optimal assignment with misses of one component's (k, l) block (``inf``: no admissible
+    pair): its gain ``Σ (c^p − C)`` and its admissible pairs (block indices)."""
+    k, n_cols = local_cost.shape
+    rows_idx = np.arange(k)
+    cols_idx = np.arange(n_cols)
+    rows, picked = linear_sum_assignment(rest_problem(local_cost, cp, rows_idx, cols_idx))
+    none = np.zeros(0, dtype=np.int64)
+    got_rows, got_cols = merge_solution(local_cost, cp, none, none, rows_idx, cols_idx, rows, picked)
+    gain = 0.0
+    for t in range(len(got_rows)):
+        gain += cp - local_cost[got_rows[t], got_cols[t]]
+    return gain, got_rows, got_cols
+
+
+@njit(cache=True)
+def _assign_components(
+    ptr: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    cost: NDArray[np.float64],
+    rest_rows: NDArray[np.int64],
+    n_cols: int,
+    cp: float,
+    col_of: NDArray[np.int64],
+) -> bool:
+    """The rest rows assigned component by component of their admissible pairs, into ``col_of``,
+    where each component's optimum is unique: for every pair ``e`` of the optimum (gain ``G``), the
+    component without ``e`` gains less than ``G − tol``. Returns False (``col_of`` then partly
+    written) on a (near) tie, for the caller to solve the whole rest as one problem."""
+    m = len(ptr) - 1
+    tol = abs(cp) * 2.0**-20
+    # union-find over rows 0..m-1 and columns m..m+n_cols-1
+    parent = np.arange(m + n_cols)
+    for i in rest_rows:
+        for e in range(ptr[i], ptr[i + 1]):
+            a, b = i, m + cols[e]
+            while parent[a] != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            while parent[b] != b:
+                parent[b] = parent[parent[b]]
+                b = parent[b]
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    root = np.empty(len(rest_rows), np.int64)
+    for t in range(len(rest_rows)):
+        a = rest_rows[t]
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        root[t] = a
+    order = np.argsort(root, kind="mergesort")
+    col_local = np.full(n_cols, -1, np.int64)
+    s = 0
+    while s < len(order):
+        f = s
+        while f < len(order) and root[order[f]] == root[order[s]]:
+            f += 1
+        comp_rows = rest_rows[order[s:f]]  # ascending: rest_rows ascend, the sort is stable
+        n_local = 0
+        comp_cols = np.empty(0, np.int64)
+        for i in comp_rows:
+            for e in range(ptr[i], ptr[i + 1]):
+                if col_local[cols[e]] < 0:
+                    col_local[cols[e]] = 0
+                    n_local += 1
+        comp_cols = np.empty(n_local, np.int64)
+        n_local = 0
+        for i in comp_rows:
+            for e in range(ptr[i], ptr[i + 1]):
+                if col_local[cols[e]] == 0:
+                    col_local[cols[e]] = 1
+                    comp_cols[n_local] = cols[e]
+                    n_local += 1
+        comp_cols.sort()
+        for b in range(n_local):
+            col_local[comp_cols[b]] = b
+        local_cost = np.full((len(comp_rows), n_local), np.inf)
+        for a in range(len(comp_rows)):
+            i = comp_rows[a]
+            for e in range(ptr[i], ptr[i + 1]):
+                local_cost[a, col_local[cols[e]]] = cost[e]
+                if not cp - cost[e] > tol:  # a pair that gains (next to) nothing: taken or not
+                    return False
+        for b in range(n_local):
+            col_local[comp_cols[b]] = -1
+        gain, got_rows, got_cols = _component_gain(local_cost, cp)
+        for t in range(len(got_rows)):
+            held = local_cost[got_rows[t], got_cols[t]]
+            local_cost[got_rows[t], got_cols[t]] = np.inf
+            without, _, _ = _component_gain(local_cost, cp)
+            local_cost[got_rows[t], got_cols[t]] = held
+            if not gain - without > tol:
+                return False
+        for t in range(len(got_rows)):
+            col_of[comp_rows[got_rows[t]]] = comp_cols[got_cols[t]]
+        s = f
+    return True
 
 
 @njit(cache=True)
@@ -118,7 +226,10 @@ def gospa_core(
     # lone pairs (alone in their row and their column) are assigned as they are
     col_of, rest_rows, rest_cols = split_sparse(ptr, cols, n)
     if len(rest_rows):
-        _assign_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
+        lone = col_of.copy()
+        if not _assign_components(ptr, cols, cost, rest_rows, n, cp, col_of):
+            col_of = lone
+            _assign_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
     # Σ d^p over the assigned pairs closer than c, in row order
     loc = 0.0
     n_close = 0

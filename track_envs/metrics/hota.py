@@ -50,6 +50,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from track_envs.metrics.hota_matching import (
+    column_sums,
+    distinct_count,
+    frame_matches,
+    row_sums,
+    unique_inverse,
+)
+
 #: The 19 localisation thresholds α = 0.05, 0.10, …, 0.95 (the same floats as TrackEval's).
 ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
 
@@ -57,6 +65,16 @@ ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
 HOTA_FIELDS: tuple[str, ...] = ("HOTA", "DetA", "AssA", "LocA", "DetRe", "DetPr", "AssRe", "AssPr")
 
 _EPS = float(np.finfo(float).eps)
+
+#: A frame's optimum is taken component by component when unique by this margin (times
+#: ``max(1, (n + m)/1024)``), far above the rounding of scipy's solver on the dense matrix
+#: (about ``(n + m) ε``); see :mod:`~track_envs.metrics.hota_matching`.
+_TIE_MARGIN = 2.0**-30
+
+#: A frame with a (near) tie is solved on its dense matrix, as TrackEval solves it, when the matrix
+#: has at most this many entries (a 2,048 × 2,048 frame, 32 MiB); a larger frame's ties are broken
+#: component by component (:mod:`~track_envs.metrics.hota_matching`).
+DENSE_LIMIT = 2048 * 2048
 
 #: Matched pairs: dense truth ids, dense tracker ids, frame counts per dense truth and tracker id,
 #: number of tracker ids, similarities.
@@ -70,9 +88,12 @@ class HotaAccumulator:
 
     Ids are any integers (unique within a frame); similarities are in [0, 1]. Memory grows with
     the number of non-zero similarities (and of rows) seen, not with the number of ids squared.
-    :meth:`compute` solves an assignment (scipy's ``linear_sum_assignment``) only in the frames
-    where some row or column has two non-zero similarities (elsewhere the optimum takes every
-    non-zero pair) and counts the 19 thresholds at once from each matched pair's similarity.
+    :meth:`compute` matches each frame component by component of its non-zero similarities
+    where the optimum is unique, and solves the frame's dense matrix with scipy's
+    ``linear_sum_assignment`` only on a (near) tie, so the pairs are TrackEval's
+    (:mod:`~track_envs.metrics.hota_matching`); it counts the 19 thresholds at once from each
+    matched pair's similarity. :meth:`add_sparse_frame` takes a frame as its non-zero entries
+    (the streaming metrics build them through a spatial index), at a cost linear in them.
 
     Example::
 
@@ -125,12 +146,71 @@ class HotaAccumulator:
         # Soft match S / (column sum + row sum − S), 0 where that denominator is <= eps (the
         # operations in TrackEval's order, so P sums the very same floats).
         denominator = sim.sum(0)[cols] + sim.sum(1)[rows] - values
+        rows64, cols64 = rows.astype(np.int64, copy=False), cols.astype(np.int64, copy=False)
+        self._store(gt, tr, rows64, cols64, values, denominator)
+
+    def add_sparse_frame(
+        self, gt_ids: ArrayLike, tracker_ids: ArrayLike, rows: ArrayLike, cols: ArrayLike, values: ArrayLike
+    ) -> None:
+        """Add one frame given by its non-zero similarities: the same as :meth:`add_frame` of the
+        (n, m) matrix that holds ``values`` at ``(rows, cols)`` and 0 elsewhere, bit for bit, at a
+        cost linear in the entries and ids (:mod:`~track_envs.metrics.hota_matching`).
+
+        Args:
+            gt_ids: (n,) integer truth ids present in the frame, unique.
+            tracker_ids: (m,) integer tracker ids present in the frame, unique.
+            rows: (e,) row of each entry (into ``gt_ids``), row-major: ``(rows, cols)`` strictly
+                ascending in lexicographic order.
+            cols: (e,) column of each entry (into ``tracker_ids``).
+            values: (e,) similarities in [0, 1] (zeros are dropped).
+        """
+        gt = _ids(gt_ids, "gt_ids")
+        tr = _ids(tracker_ids, "tracker_ids")
+        r = np.ascontiguousarray(rows, dtype=np.int64)
+        c = np.ascontiguousarray(cols, dtype=np.int64)
+        v = np.ascontiguousarray(values, dtype=np.float64)
+        if not (r.ndim == c.ndim == v.ndim == 1 and r.size == c.size == v.size):
+            raise ValueError(
+                f"rows, cols and values must be 1-D of one length; got {r.shape}, {c.shape}, {v.shape}"
+            )
+        if r.size:
+            if r.min() < 0 or r.max() >= gt.size or c.min() < 0 or c.max() >= tr.size:
+                raise ValueError(
+                    f"entries must lie in the ({gt.size}, {tr.size}) matrix; got rows in "
+                    f"[{int(r.min())}, {int(r.max())}] and cols in [{int(c.min())}, {int(c.max())}]"
+                )
+            flat = r * tr.size + c
+            if np.any(flat[1:] <= flat[:-1]):
+                at = int(np.flatnonzero(flat[1:] <= flat[:-1])[0]) + 1
+                raise ValueError(
+                    f"entries must be row-major without repeats; entry {at} ({int(r[at])}, {int(c[at])}) "
+                    f"follows ({int(r[at - 1])}, {int(c[at - 1])})"
+                )
+            if not (v.min() >= 0.0 and v.max() <= 1.0):  # NaN fails both
+                bad = v[~((v >= 0.0) & (v <= 1.0))][0]
+                raise ValueError(f"similarity values must be in [0, 1]; got {float(bad)}")
+            nonzero = v != 0.0
+            if not nonzero.all():
+                r, c, v = r[nonzero], c[nonzero], v[nonzero]
+        denominator = column_sums(c, v, tr.size)[c] + row_sums(r, c, v, gt.size, tr.size)[r] - v
+        self._store(gt, tr, r, c, v, denominator)
+
+    def _store(
+        self,
+        gt: NDArray[np.int64],
+        tr: NDArray[np.int64],
+        rows: NDArray[np.int64],
+        cols: NDArray[np.int64],
+        values: NDArray[np.float64],
+        denominator: NDArray[np.float64],
+    ) -> None:
+        """Keep a frame's non-zero entries and their soft matches (0 where the denominator <= eps)."""
         ok = denominator > _EPS
         soft = np.divide(values, denominator, out=np.zeros_like(values), where=ok)
         self._gt_ids.append(gt)
         self._tr_ids.append(tr)
-        self._rows.append(rows.astype(np.int64, copy=False))
-        self._cols.append(cols.astype(np.int64, copy=False))
+        self._rows.append(rows)
+        self._cols.append(cols)
         self._sims.append(values)
         self._soft.append(soft)
         self._frames += 1
@@ -154,7 +234,7 @@ class HotaAccumulator:
             loc_hist = np.bincount(passes, weights=pair_sim, minlength=n_alpha + 1).astype(np.float64)
             loc_sum = np.cumsum(loc_hist[::-1])[::-1][1:]
             # c_α(g, k): TP counts per id pair and α.
-            keys, key_of = np.unique(gt_dense * n_tr_ids + tr_dense, return_inverse=True)
+            keys, key_of = unique_inverse(gt_dense * n_tr_ids + tr_dense)
             by_pass = np.zeros((keys.size, n_alpha + 1))
             np.add.at(by_pass, (key_of, passes), 1.0)
             counts = np.cumsum(by_pass[:, ::-1], axis=1)[:, ::-1][:, 1:]  # (pairs, α)
@@ -211,8 +291,8 @@ class HotaAccumulator:
         gt_sizes = np.fromiter((f.size for f in self._gt_ids), np.int64, self._frames)
         tr_sizes = np.fromiter((f.size for f in self._tr_ids), np.int64, self._frames)
         entries = np.fromiter((f.size for f in self._sims), np.int64, self._frames)
-        gt_values, gt_dense_rows = np.unique(np.concatenate(self._gt_ids), return_inverse=True)
-        tr_values, tr_dense_rows = np.unique(np.concatenate(self._tr_ids), return_inverse=True)
+        gt_values, gt_dense_rows = unique_inverse(np.concatenate(self._gt_ids))
+        tr_values, tr_dense_rows = unique_inverse(np.concatenate(self._tr_ids))
         n_tr_ids = tr_values.size
         gt_count = np.bincount(gt_dense_rows, minlength=gt_values.size).astype(np.float64)
         tr_count = np.bincount(tr_dense_rows, minlength=n_tr_ids).astype(np.float64)
@@ -225,41 +305,36 @@ class HotaAccumulator:
         k = tr_dense_rows[tr_start[frame] + cols]
         # Global alignment A(g, k) over the id pairs that ever have a non-zero similarity; the
         # soft counts are summed in frame order (bincount adds in input order).
-        keys, key_of = np.unique(g * n_tr_ids + k, return_inverse=True)
+        keys, key_of = unique_inverse(g * n_tr_ids + k)
         soft_count = np.bincount(key_of, weights=np.concatenate(self._soft), minlength=keys.size)
         alignment = soft_count / (gt_count[keys // n_tr_ids] + tr_count[keys % n_tr_ids] - soft_count)
         score = alignment[key_of] * sims
-        # Frames where every row and column has at most one non-zero entry, all with a positive
-        # score, need no assignment: the optimum takes every such pair.
-        row_dup = _frames_with_repeats(gt_start[frame] + rows, frame, self._frames)
-        col_dup = _frames_with_repeats(tr_start[frame] + cols, frame, self._frames)
-        entry_start = np.concatenate(([0], np.cumsum(entries)[:-1]))
-        zero_score = np.zeros(self._frames, dtype=bool)
-        zero_score[frame[score <= 0.0]] = True
-        hard = row_dup | col_dup | zero_score
-        take = ~hard[frame]
-        for t in np.flatnonzero(hard):
-            lo, hi = entry_start[t], entry_start[t] + entries[t]
-            r, c = rows[lo:hi], cols[lo:hi]
-            dense = np.zeros((gt_sizes[t], tr_sizes[t]))
-            dense[r, c] = score[lo:hi]
-            match_rows, match_cols = linear_sum_assignment(-dense)
-            # Keep the assigned pairs that are stored entries (non-zero similarity).
-            lookup = np.full((gt_sizes[t], tr_sizes[t]), -1, dtype=np.int64)
-            lookup[r, c] = np.arange(lo, hi)
-            chosen = lookup[match_rows, match_cols]
-            take[chosen[chosen >= 0]] = True
+        # Each frame's matching, component by component where the optimum is unique; a frame
+        # with a (near) tie is solved on its dense matrix as TrackEval solves it.
+        entry_start = np.concatenate(([0], np.cumsum(entries)))
+        tol = _TIE_MARGIN * max(1.0, float(gt_sizes.max() + tr_sizes.max()) / 1024.0)
+        take, dense_frames = frame_matches(
+            entry_start, rows, cols, score, gt_sizes, tr_sizes, tol, DENSE_LIMIT
+        )
+        for t in np.flatnonzero(dense_frames):
+            lo, hi = entry_start[t], entry_start[t + 1]
+            take[lo:hi] = False
+            take[_dense_matches(rows[lo:hi], cols[lo:hi], score[lo:hi], gt_sizes[t], tr_sizes[t]) + lo] = True
         return g[take], k[take], gt_count, tr_count, n_tr_ids, sims[take]
 
 
-def _frames_with_repeats(
-    keys: NDArray[np.int64], frame: NDArray[np.int64], n_frames: int
-) -> NDArray[np.bool_]:
-    """(n_frames,) True for the frames in which some key (a row or a column) occurs twice."""
-    _, first, counts = np.unique(keys, return_index=True, return_counts=True)
-    repeats = np.zeros(n_frames, dtype=bool)
-    repeats[frame[first[counts > 1]]] = True
-    return repeats
+def _dense_matches(
+    rows: NDArray[np.int64], cols: NDArray[np.int64], score: NDArray[np.float64], n_rows: int, n_cols: int
+) -> NDArray[np.int64]:
+    """The entries (positions in ``rows``) matched by scipy's assignment of the frame's dense
+    ``−score`` matrix (zeros off the entries), as TrackEval matches a frame."""
+    dense = np.zeros((n_rows, n_cols))
+    dense[rows, cols] = score
+    match_rows, match_cols = linear_sum_assignment(-dense)
+    lookup = np.full((n_rows, n_cols), -1, dtype=np.int64)
+    lookup[rows, cols] = np.arange(rows.size)
+    chosen = lookup[match_rows, match_cols]
+    return chosen[chosen >= 0]
 
 
 def _ids(values: ArrayLike, name: str) -> NDArray[np.int64]:
@@ -269,8 +344,8 @@ def _ids(values: ArrayLike, name: str) -> NDArray[np.int64]:
         raise ValueError(f"{name} must be 1-D; got shape {ids.shape}")
     if ids.size and ids.dtype.kind not in "iu":
         raise ValueError(f"{name} must be integers; got dtype {ids.dtype}")
-    ids = ids.astype(np.int64, copy=False)
-    if ids.size > 1:
+    ids = np.ascontiguousarray(ids, dtype=np.int64)
+    if ids.size > 1 and distinct_count(ids) < ids.size:  # (a hash: linear; the sort names the id)
         ordered = np.sort(ids)
         repeated = ordered[1:][ordered[1:] == ordered[:-1]]
         if repeated.size:

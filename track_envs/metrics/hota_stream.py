@@ -14,6 +14,14 @@ environments add is the similarity between the visible truth and the reported tr
 * :class:`PoseHota`, poses: ``S`` the object keypoint similarity (OKS, COCO's, with the truth
   area ``area_factor · scale²`` as :class:`~track_envs.metrics.keypoints.PoseOks` uses).
 
+Only the non-zero similarities are computed and kept: :class:`Hota` takes the pairs closer than
+``τ`` and :class:`BoxHota` the overlapping boxes from a spatial index
+(:func:`~track_envs.metrics.hota_similarity.point_similarity_entries`,
+:func:`~track_envs.metrics.hota_similarity.box_iou_entries`), and the accumulator matches each
+frame per connected component (:mod:`~track_envs.metrics.hota_matching`), so a frame costs time
+linear in the targets; the figures are those of the dense matrices, bit for bit. (:class:`PoseHota`
+still builds the dense OKS matrix: OKS is positive for every pair.)
+
 The keys of :meth:`Hota.compute` are :data:`HOTA_KEYS`' values: ``hota``, ``det_a``, ``ass_a``,
 ``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr`` (the α-averaged figures; 0, and
 ``loc_a`` 1, before any truth or report row).
@@ -28,7 +36,7 @@ from numpy.typing import NDArray
 
 from track_envs.metrics.base import MetricTraits, live_report, live_truth
 from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
-from track_envs.metrics.hota_similarity import box_iou, point_similarity
+from track_envs.metrics.hota_similarity import box_iou_entries, point_similarity_entries
 from track_envs.metrics.keypoints import oks, report_poses, truth_poses
 
 #: HOTA's figure names (:data:`~track_envs.metrics.hota.HOTA_FIELDS`) and the metric keys they
@@ -96,7 +104,8 @@ class Hota(_StreamingHota):
                 "Hota scores point reports (max_tracks, D) against truth (max_targets, D); got report "
                 f"positions {np.shape(report['positions'])} and truth {np.shape(truth['positions'])}"
             )
-        self._acc.add_frame(truth_ids, report_ids, point_similarity(x, y, self.threshold))
+        rows, cols, values = point_similarity_entries(x, y, self.threshold)
+        self._acc.add_sparse_frame(truth_ids, report_ids, rows, cols, values)
 
 
 class BoxHota(_StreamingHota):
@@ -118,10 +127,10 @@ class BoxHota(_StreamingHota):
         live_r = np.asarray(report["mask"]) == 1
         a = np.asarray(truth["boxes"], dtype=np.float64)[live_t]
         b = np.asarray(report["boxes"], dtype=np.float64)[live_r]
-        similarity = (
-            np.nan_to_num(box_iou(a, b), nan=0.0) if len(a) and len(b) else np.zeros((len(a), len(b)))
+        rows, cols, values = box_iou_entries(a.reshape(-1, 4), b.reshape(-1, 4))
+        self._acc.add_sparse_frame(
+            np.asarray(truth["ids"])[live_t], np.asarray(report["ids"])[live_r], rows, cols, values
         )
-        self._acc.add_frame(np.asarray(truth["ids"])[live_t], np.asarray(report["ids"])[live_r], similarity)
 
 
 class PoseHota(_StreamingHota):

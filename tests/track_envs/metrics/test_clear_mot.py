@@ -327,3 +327,94 @@ def test_component_matching_of_the_rest_equals_the_dense_motmetrics_problem(seed
     got = _match_the_rest(ptr, cols, d, row_taken, col_taken)
     want = _assign_like_motmetrics(ptr, cols, d, row_taken, col_taken, n)
     assert got.tolist() == want.tolist()
+
+
+def test_box_clear_mot_on_overlapping_pairs_equals_the_dense_matrix():
+    """BoxClearMot's spatial candidates give the events of the dense 1 − IoU matrix, ties included
+    (integer boxes, duplicated reports, a non-finite box)."""
+    from track_envs.metrics.boxes import BoxClearMot, iou_distances
+
+    rng = np.random.default_rng(4)
+    sparse, dense = BoxClearMot(0.5), BoxClearMot(0.5)
+    boxes = np.column_stack([rng.integers(0, 300, (80, 2)), rng.integers(5, 30, (80, 2))]).astype(float)
+    for _ in range(20):
+        boxes[:, :2] += rng.integers(-3, 4, (80, 2))
+        reported = np.concatenate([boxes[:60] + rng.integers(-2, 3, (60, 4)), boxes[:10]])
+        reported[3] = [np.nan, 0, 1, 1]
+        visible = rng.random(80) < 0.9
+        truth = {"ids": np.arange(80), "positions": boxes[:, :2], "visible": visible, "boxes": boxes}
+        report = {
+            "ids": rng.permutation(200)[:70],
+            "positions": reported[:, :2],
+            "detection": np.full(70, -1),
+            "mask": (rng.random(70) < 0.95).astype(np.int8),
+            "boxes": reported,
+        }
+        sparse.update(truth, np.full(1, -1), report)
+        live = report["mask"] == 1
+        dense.update_distances(
+            np.arange(80)[visible], report["ids"][live], iou_distances(boxes[visible], reported[live], 0.5)
+        )
+    assert sparse.compute() == dense.compute() or all(
+        (a == b) or (np.isnan(a) and np.isnan(b))
+        for a, b in zip(sparse.compute().values(), dense.compute().values(), strict=True)
+    )
+    assert sparse.compute()["num_detections"] > 500
+
+
+def test_frames_above_the_dense_limit_break_ties_within_components():
+    """A frame larger than the dense limit never builds motmetrics' matrix: a duplicated report
+    (a tie) and a seven-point pile (over 4,096 matchings) are matched within their components."""
+    from track_envs.metrics.clear_mot_events import DENSE_LIMIT
+
+    side = 47  # 2,209 truths on a grid of unit spacing
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2).astype(float)
+    assert len(grid) ** 2 > DENSE_LIMIT
+    truth_pos = grid.copy()
+    truth_pos[:7] = [0.0, 0.0]  # a pile: seven truths on one point...
+    reports = np.concatenate([truth_pos, truth_pos[100:101]])  # ...and a duplicated report
+    metric = ClearMot(threshold=0.3)
+    truth = {
+        "ids": np.arange(len(truth_pos)),
+        "positions": truth_pos,
+        "visible": np.ones(len(truth_pos), bool),
+    }
+    report = {
+        "ids": np.arange(len(reports)) + 10_000,
+        "positions": reports,
+        "detection": np.full(len(reports), -1),
+        "mask": np.ones(len(reports), np.int8),
+    }
+    metric.update(truth, np.full(1, -1), report)
+    out = metric.compute()
+    assert out["num_matches"] == len(truth_pos)
+    assert out["num_false_positives"] == 1 and out["num_misses"] == 0
+    assert out["motp"] == 0.0
+
+
+def test_a_larger_tie_heavy_point_stream_matches_motmetrics():
+    """Hundreds of points on a 0.5 grid (ties everywhere, pairs exactly at the threshold) through
+    the spatial candidates: the events of motmetrics on the full cdist matrix."""
+    from scipy.spatial.distance import cdist
+
+    rng = np.random.default_rng(8)
+    acc, ours = mm.MOTAccumulator(auto_id=True), ClearMot(threshold=1.0)
+    for _ in range(12):
+        m, n = 300, 280
+        truth = {
+            "ids": rng.choice(400, m, replace=False).astype(np.int64),
+            "positions": rng.integers(0, 40, (m, 2)) * 0.5,
+            "visible": rng.random(m) < 0.9,
+        }
+        report = {
+            "ids": rng.choice(400, n, replace=False).astype(np.int64) + 1000,
+            "positions": rng.integers(0, 40, (n, 2)) * 0.5,
+            "detection": np.full(n, -1, np.int64),
+            "mask": np.ones(n, np.int8),
+        }
+        ours.update(truth, np.full(1, -1), report)
+        live = truth["visible"]
+        d = cdist(truth["positions"][live], report["positions"])
+        d[d > 1.0] = np.nan
+        acc.update(truth["ids"][live], report["ids"], d)
+    assert_same(ours.compute(), motmetrics_summary(acc))
