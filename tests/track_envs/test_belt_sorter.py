@@ -358,3 +358,13 @@ def test_a_belt_world_alone_refuses_to_pickle_and_names_the_env_instead():
         pickle.dumps(world)
     with pytest.raises(TypeError, match="BeltSorterEnv"):
         copy.deepcopy(world)
+
+
+def test_a_preset_name_stands_for_its_belt():
+    """``physics="industrial"`` is ``BeltParams.industrial()``; an unknown name is an error naming
+    the valid names."""
+    env = gym.make("BeltSorter-v0", physics="industrial")
+    assert env.unwrapped.physics == BeltParams.industrial()
+    assert gym.make("BeltSorter-v0", physics="default").unwrapped.physics == BeltParams()
+    with pytest.raises(ValueError, match=r"one of \['default', 'industrial'\].*'wide'"):
+        gym.make("BeltSorter-v0", physics="wide")

@@ -271,6 +271,23 @@ class BeltParams:
 #: The feed rate (particles/s) of :meth:`BeltParams.industrial`.
 INDUSTRIAL_FEED_RATE = 4300.0
 
+#: The belts a name stands for (``gym.make("BeltSorter-v0", physics="industrial")``, a suite's
+#: ``env_kwargs = { physics = "industrial" }``).
+BELT_PRESETS = ("default", "industrial")
+
+
+def belt_preset(name: str) -> BeltParams:
+    """The :class:`BeltParams` of a preset name in :data:`BELT_PRESETS`.
+
+    Raises:
+        ValueError: naming the unknown preset and the valid names.
+    """
+    if name == "default":
+        return BeltParams()
+    if name == "industrial":
+        return BeltParams.industrial()
+    raise ValueError(f"physics preset must be one of {list(BELT_PRESETS)} or a BeltParams, got {name!r}")
+
 
 def window_residence(params: BeltParams, kind: ParticleKind) -> float:
     """Mean time (s) a particle of ``kind`` spends in the camera window, from the belt's kinematics.

@@ -13,10 +13,12 @@ from numpy.typing import NDArray
 from track_envs.envs.base import TrackingEnv, Truth
 from track_envs.envs.belt_kernels import padded_state
 from track_envs.envs.belt_physics import (
+    BELT_PRESETS,
     BOX_ROUNDING,
     PARTICLE_KINDS,
     BeltParams,
     BeltWorld,
+    belt_preset,
     resolve_mixture,
     scene_rows,
 )
@@ -133,7 +135,9 @@ class BeltSorterEnv(TrackingEnv):
     - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
     - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else;
       ``BeltParams.industrial()`` is an industrial-width belt (2 m wide, a 4 m window, ≈12,000
-      particles in view: ``gym.make("BeltSorter-v0", physics=BeltParams.industrial())``).
+      particles in view: ``gym.make("BeltSorter-v0", physics=BeltParams.industrial())``), also
+      asked for by name (``physics="industrial"``: :data:`~track_envs.envs.belt_physics.BELT_PRESETS`,
+      e.g. from a bench suite's ``env_kwargs``).
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
     - ``merge_touching``: touching particles give one detection at their area-weighted centroid
       (default ``True``); ``False`` senses every particle on its own, as the first release did.
@@ -207,7 +211,7 @@ class BeltSorterEnv(TrackingEnv):
         max_targets: int | None = None,
         feed_rate: float | None = None,
         belt_speed: float | None = None,
-        physics: BeltParams | None = None,
+        physics: BeltParams | str | None = None,
         gospa_c: float = 0.005,
         merge_touching: bool = True,
         merge_tolerance: float = MERGE_TOLERANCE,
@@ -216,9 +220,13 @@ class BeltSorterEnv(TrackingEnv):
         render_mode: str | None = None,
     ):
         self.nozzle_offset = check_nozzle_offset(nozzle_offset)
-        params = physics if physics is not None else BeltParams()
+        params = belt_preset(physics) if isinstance(physics, str) else physics
+        params = params if params is not None else BeltParams()
         if not isinstance(params, BeltParams):
-            raise ValueError(f"physics must be a BeltParams, got {type(params).__name__}")
+            raise ValueError(
+                f"physics must be a BeltParams or a preset name {list(BELT_PRESETS)}, "
+                f"got {type(params).__name__}"
+            )
         self.physics = replace(
             params,
             feed_rate=params.feed_rate if feed_rate is None else check_non_negative("feed_rate", feed_rate),
