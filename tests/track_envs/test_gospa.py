@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.distance import cdist
 
-from track_envs.metrics.gospa import gospa
+from track_envs.metrics.gospa import DENSE_LIMIT, gospa
 
 
 def brute_force(x, y, c, p):
@@ -166,3 +166,18 @@ def test_components_give_the_one_problem_assignment(seed):
         x, y = np.round(x), np.round(y)
     for c, p in ((1.0, 2.0), (2.0, 1.0)):
         assert gospa_core(x, y, c, p, c**p) == _one_problem_core(x, y, c, p)
+
+
+def test_a_tie_in_a_frame_above_the_dense_limit_is_broken_inside_its_component():
+    """1,100 squares of two truths and two estimates, all four distances 1 (two optimal matchings
+    each): 2,200 rest rows x 2,200 estimates exceed DENSE_LIMIT, so no frame-wide matrix is built;
+    the value is the optimum's, as on a small frame of the same squares."""
+    k = 1100
+    corner = 10.0 * np.arange(k)[:, None] * np.array([[1.0, 0.0]])
+    truth = np.concatenate([corner, corner + [1.0, 1.0]])
+    estimates = np.concatenate([corner + [1.0, 0.0], corner + [0.0, 1.0]])
+    assert len(truth) * len(estimates) > DENSE_LIMIT
+    big = gospa(truth, estimates, c=2.0)
+    assert (big.localisation, big.missed, big.false) == (2.0 * k, 0, 0)
+    small = gospa(truth[[0, k]], estimates[[0, k]], c=2.0)
+    assert (small.localisation, small.missed, small.false) == (2.0, 0, 0)

@@ -30,7 +30,9 @@ connected component of the admissible pairs at a time, which is the same assignm
 each component's optimum is unique (by a margin ``2⁻²⁰ c^p`` far above the solver's
 rounding; checked by solving the component once more without each of its assigned pairs). On a
 (near) tie the rest rows are solved as one problem, as before, so that ties break as they always
-did; a frame costs ``O(m + n)`` for components of bounded size. Track
+did — up to :data:`DENSE_LIMIT` entries (rest rows × estimates); above it a tie is broken inside its
+component (another optimum: the same GOSPA value, its split into localisation and cardinality may
+differ). A frame costs ``O(m + n)`` for components of bounded size. Track
 identities play no part (in a report they are unique and non-negative within a frame by the
 report contract, :func:`track_envs.contracts.report.validate_report`).
 """
@@ -69,6 +71,10 @@ class GospaResult:
     false: int
 
 
+#: The largest tie-breaking problem (rest rows × estimates) solved as one matrix (2048², 32 MB):
+#: larger frames break a tie inside its component.
+DENSE_LIMIT = 2048 * 2048
+
 @njit(cache=True)
 def _component_gain(
     local_cost: NDArray[np.float64], cp: float
@@ -96,11 +102,13 @@ def _assign_components(
     n_cols: int,
     cp: float,
     col_of: NDArray[np.int64],
+    check_unique: bool = True,
 ) -> bool:
     """The rest rows assigned component by component of their admissible pairs, into ``col_of``,
     where each component's optimum is unique: for every pair ``e`` of the optimum (gain ``G``), the
     component without ``e`` gains less than ``G − tol``. Returns False (``col_of`` then partly
-    written) on a (near) tie, for the caller to solve the whole rest as one problem."""
+    written) on a (near) tie, for the caller to solve the whole rest as one problem; with
+    ``check_unique=False`` every component takes its solver's optimum (ties broken inside it)."""
     m = len(ptr) - 1
     tol = abs(cp) * 2.0**-20
     # union-find over rows 0..m-1 and columns m..m+n_cols-1
@@ -154,12 +162,12 @@ def _assign_components(
             i = comp_rows[a]
             for e in range(ptr[i], ptr[i + 1]):
                 local_cost[a, col_local[cols[e]]] = cost[e]
-                if not cp - cost[e] > tol:  # a pair that gains (next to) nothing: taken or not
+                if check_unique and not cp - cost[e] > tol:  # a pair that gains (next to) nothing
                     return False
         for b in range(n_local):
             col_local[comp_cols[b]] = -1
         gain, got_rows, got_cols = _component_gain(local_cost, cp)
-        for t in range(len(got_rows)):
+        for t in range(len(got_rows) if check_unique else 0):
             held = local_cost[got_rows[t], got_cols[t]]
             local_cost[got_rows[t], got_cols[t]] = np.inf
             without, _, _ = _component_gain(local_cost, cp)
@@ -229,7 +237,10 @@ def gospa_core(
         lone = col_of.copy()
         if not _assign_components(ptr, cols, cost, rest_rows, n, cp, col_of):
             col_of = lone
-            _assign_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
+            if len(rest_rows) * n <= DENSE_LIMIT:
+                _assign_rest(ptr, cols, cost, rest_rows, rest_cols, n, cp, col_of)
+            else:  # a tie in a frame too large for one matrix: broken inside its component
+                _assign_components(ptr, cols, cost, rest_rows, n, cp, col_of, False)
     # Σ d^p over the assigned pairs closer than c, in row order
     loc = 0.0
     n_close = 0
