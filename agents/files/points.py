@@ -3,7 +3,9 @@
 :func:`run_agent` is the loop of the tracking contract without an environment: it packs each
 frame's detections into an observation (:func:`track_envs.contracts.observation.pack_observation`, rows in
 the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
-block of frames at a time into one array (no per-frame allocation), and the reports' arrays
+block of frames at a time into one array (no per-frame allocation; a block holds about
+``BLOCK_ROWS`` rows, :func:`block_frames`, so that at 10^5 detections a frame it is one frame and
+the loop's memory stays that of a frame or two, not of the stream padded), and the reports' arrays
 (not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
 10 µs a frame) are turned into :class:`~track_envs.values.tracks.Tracks` a block at a time (one
 vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
@@ -43,6 +45,17 @@ from track_envs.values.types import SensorSpec
 #: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
 #: per-block costs are spread over many frames of small reports, and large reports stay in cache.
 BLOCK_ROWS = 32768
+#: Most frames in a block (small reports).
+MAX_BLOCK_FRAMES = 4096
+
+
+def block_frames(spec: SensorSpec) -> int:
+    """Frames per block of :func:`run_agent`'s loop: ``BLOCK_ROWS`` rows of the larger of an
+    observation and a report, between 1 and ``MAX_BLOCK_FRAMES`` frames — so that the block's
+    packed observations and kept reports take ``O(BLOCK_ROWS + max_detections + max_tracks)``
+    memory, a frame or two at 10^5 detections a frame, never the whole stream padded."""
+    rows = max(spec.max_tracks, spec.max_detections, 1)
+    return int(np.clip(BLOCK_ROWS // rows, 1, MAX_BLOCK_FRAMES))
 
 
 def packed_block(
@@ -239,7 +252,7 @@ def _run(
     covariances = declared.track_covariances if declared is not None else None
     bar = _progress(stream.n_frames, progress)
     act = agent.act
-    block = int(np.clip(BLOCK_ROWS // spec.max_tracks, 64, 4096))
+    block = block_frames(spec)
     parts: list[Tracks] = []
     try:
         for start in range(0, stream.n_frames, block):

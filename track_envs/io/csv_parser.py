@@ -13,7 +13,10 @@ Every reader of :mod:`track_envs.io` parses numbers through this module:
   is the text scanned again, with :mod:`csv`, to name the first cell that is not a number
   (:func:`locate_text`);
 * :func:`format_rows` writes the inverse: ``repr`` of every float (the shortest string that reads
-  back as the same double), so a written file reads back bit for bit;
+  back as the same double), so a written file reads back bit for bit; the writers format
+  :data:`CHUNK_ROWS` rows at a time (:func:`chunks`) and write each chunk as it is formatted
+  (:func:`write_chunks`), so that writing a file of any length holds one chunk's text, not the
+  file's;
 * :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
   and ragged rows (missing trailing cells read as NaN), for the detection, track and crossing
   readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
@@ -34,7 +37,7 @@ import itertools
 import os
 import re
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,10 +47,12 @@ import pandas as pd
 from numpy.typing import NDArray
 
 __all__ = [
+    "CHUNK_ROWS",
     "NA_TOKENS",
     "DetectionFileError",
     "Table",
     "TrackFileError",
+    "chunks",
     "field_counts",
     "first_bad",
     "format_rows",
@@ -58,7 +63,11 @@ __all__ = [
     "read_bytes",
     "read_float_frame",
     "read_table",
+    "write_chunks",
 ]
+
+#: Rows a writer formats at a time (the text of one chunk is all a writer holds).
+CHUNK_ROWS = 1 << 16
 
 #: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
 NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
@@ -280,6 +289,21 @@ def format_rows(flat: NDArray[np.float64], na_rep: str) -> str:
         lines.append(",".join(cells))
     lines.append("")  # final newline
     return "\n".join(lines)
+
+
+def chunks(n: int, size: int = CHUNK_ROWS) -> Iterator[tuple[int, int]]:
+    """``(lo, hi)`` ranges of at most ``size`` (>= 1) rows covering ``0..n`` in order."""
+    size = max(int(size), 1)
+    for lo in range(0, n, size):
+        yield lo, min(lo + size, n)
+
+
+def write_chunks(path: str | os.PathLike[str], texts: Iterable[str]) -> None:
+    """Write ``texts`` one after the other as an ASCII file (as ``Path.write_text`` writes one
+    string: the file holds their concatenation), each written as soon as it is made."""
+    with open(path, "w", encoding="ascii") as handle:
+        for text in texts:
+            handle.write(text)
 
 
 # --------------------------------------------------------------------------------------------------
