@@ -18,7 +18,9 @@ Every reader of :mod:`track_envs.io` parses numbers through this module:
   (:func:`write_chunks`), so that writing a file of any length holds one chunk's text, not the
   file's;
 * :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
-  and ragged rows (missing trailing cells read as NaN), for the detection, track and crossing
+  and ragged rows (missing trailing cells read as NaN), parsed :data:`PARSE_CELLS` cells at a
+  time into one float64 array (the parser's buffers hold one chunk, not the file), for the
+  detection, track and crossing
   readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
   layout on the same field counts.
 
@@ -68,6 +70,9 @@ __all__ = [
 
 #: Rows a writer formats at a time (the text of one chunk is all a writer holds).
 CHUNK_ROWS = 1 << 16
+
+#: Cells :func:`read_table` parses at a time.
+PARSE_CELLS = 1 << 22
 
 #: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
 NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
@@ -432,19 +437,24 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
     first_row = 2 if has_header else 1
     if not body:
         raise DetectionFileError(f"{label}: the file has a header but no data rows")
-    counts = field_counts(body, label, delimiter=delimiter, first_row=first_row, error=DetectionFileError)[2]
+    starts, ends, counts = field_counts(
+        body, label, delimiter=delimiter, first_row=first_row, error=DetectionFileError
+    )
     n_columns = int(counts.max())
     if names is not None:
         n_columns = max(n_columns, len(names))
-    values = parse_floats(
-        body,
-        label,
-        first_row=first_row,
-        delimiter=delimiter,
-        error=DetectionFileError,
-        expected="a number",
-        names=list(range(n_columns)),
-    )
+    values = np.empty((len(starts), n_columns))
+    # a chunk of lines at a time into the one array: the parser's own buffers hold one chunk
+    for lo, hi in chunks(len(starts), max(PARSE_CELLS // n_columns, 1)):
+        values[lo:hi] = parse_floats(
+            body[starts[lo] : ends[hi - 1]],
+            label,
+            first_row=first_row + lo,
+            delimiter=delimiter,
+            error=DetectionFileError,
+            expected="a number",
+            names=list(range(n_columns)),
+        )
     return Table(values, names, first_row, label, body, delimiter)
 
 

@@ -155,7 +155,8 @@ def read_mot_rows(
     n_frames = int(frames.max())
     keep = slice(None) if min_confidence is None else _confident(table.label, confidence, min_confidence)
     frame = frames[keep].astype(np.int64) - 1
-    order = np.argsort(frame, kind="stable")
+    # rows already in frame order (as files are written) are kept as they are, without a copy
+    order = slice(None) if np.all(frame[1:] >= frame[:-1]) else np.argsort(frame, kind="stable")
     return MotRows(
         frame=frame[order],
         ids=table.integers(1)[keep][order],

@@ -174,15 +174,13 @@ def _write_wide(path: str | os.PathLike[str], tracks: Tracks) -> None:
     chunk holds at most ``CHUNK_ROWS`` cells or one frame."""
     unique, column = np.unique(tracks.ids, return_inverse=True)
     column = column.reshape(-1)
-    order = np.argsort(tracks.frame, kind="stable")
-    frame = tracks.frame[order]
-    bounds = np.searchsorted(frame, np.arange(tracks.n_frames + 1))
+    bounds = np.searchsorted(tracks.frame, np.arange(tracks.n_frames + 1))  # rows are by frame
     d = tracks.positions.shape[1]
     per_chunk = max(CHUNK_ROWS // len(unique), 1)
 
     def grids() -> Iterator[NDArray[np.float64]]:
         for lo, hi in chunks(tracks.n_frames, per_chunk):
-            rows = order[bounds[lo] : bounds[hi]]
+            rows = slice(bounds[lo], bounds[hi])
             grid = np.full((hi - lo, len(unique), d), np.nan)
             grid[tracks.frame[rows] - lo, column[rows]] = tracks.positions[rows]
             yield grid
