@@ -230,7 +230,7 @@ def test_more_detections_than_report_rows_grow_the_report_and_drop_nothing():
     frames = [np.arange(2 * k, dtype=float).reshape(k, 2) / 100 for k in (3, 12, 5)]
     spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 12, 4)
     with pytest.warns(
-        RuntimeWarning, match=r"12 live tracks did not fit a report of max_tracks=4; .*max_tracks=24"
+        RuntimeWarning, match=r"12 live tracks did not fit a report of max_tracks=4; the reports grew"
     ):
         tracks = run_agent("detections", frames, spec)
     np.testing.assert_array_equal(tracks.positions, np.concatenate(frames).astype(np.float32))
@@ -256,3 +256,25 @@ def test_track_run_writes_in_chunks_the_bytes_of_one_pass(tmp_path, monkeypatch)
     for fmt in ("mot", "long", "wide"):
         assert main([*argv, f"--format={fmt}", f"--out={tmp_path / ('t.' + fmt)}"]) == 0
         assert (tmp_path / f"t.{fmt}").read_bytes() == (tmp_path / f"one.{fmt}").read_bytes(), fmt
+
+
+def test_a_grown_report_gives_the_tracks_of_a_large_enough_one_in_one_run():
+    from track_envs.contracts.report import ReportOverflowError, pack_report
+
+    rng = np.random.default_rng(4)
+    frames = [rng.uniform(0, 1, (rng.integers(5, 30), 2)) for _ in range(40)]
+    small = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 30, 8)
+    large = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 30, 400)
+    reference = run_agent(make_agent("gnn", predictor="kf-cv"), frames, large, covariance=True)
+    agent = make_agent("gnn", predictor="kf-cv")
+    resets = []
+    reset = agent.reset
+    agent.reset = lambda spec, seed=None: (resets.append(spec.max_tracks), reset(spec, seed=seed))[1]
+    with pytest.warns(RuntimeWarning, match=r"the reports grew to hold them \(as a run with max_tracks=\d+"):
+        grown = run_agent(agent, frames, small, covariance=True)
+    assert resets == [8]  # one run, not one per doubling of the report
+    assert grown.equals(reference) and np.array_equal(grown.detection, reference.detection)
+    with pytest.raises(ReportOverflowError, match="do not fit a report of max_tracks=8"):
+        run_agent(make_agent("gnn", predictor="kf-cv"), frames, small, grow=False)
+    with pytest.raises(ReportOverflowError):  # an environment's report never grows
+        pack_report(np.arange(3), np.zeros((3, 2)), np.zeros(3, np.int64), 2)

@@ -334,3 +334,32 @@ def test_nan_pairs_are_no_detections_and_do_not_size_the_spec(tmp_path):
     d = read_wide_detections(path)
     np.testing.assert_array_equal(d.counts, [1, 2])
     assert detection_sensor_spec(d, dt=0.1, max_detections=2).max_detections == 2
+
+
+def test_wide_tables_parsed_as_one_column_of_cells_give_the_values_and_errors_of_columns(
+    tmp_path, monkeypatch
+):
+    import track_envs.io.csv_parser as csv_parser
+
+    rng = np.random.default_rng(6)
+    lines = []
+    for _ in range(40):  # ragged rows, empty and NaN cells, a trailing delimiter, awkward doubles
+        cells = [
+            repr(float(v)) for v in rng.normal(size=rng.integers(1, 90)) * 10.0 ** rng.integers(-300, 300)
+        ]
+        for k in rng.integers(0, len(cells), 5):
+            cells[k] = str(rng.choice(["", "NaN", "nan", " 1.5 ", "-0.0", "5e-324"]))
+        lines.append(",".join(cells) + ("," if rng.random() < 0.3 else ""))
+    path = write(tmp_path / "wide.csv", "\n".join(lines) + "\n")
+    by_columns = csv_parser.read_table(path).values
+    monkeypatch.setattr(csv_parser, "WIDE_COLUMNS", 4)
+    monkeypatch.setattr(csv_parser, "PARSE_CELLS", 200)  # a few rows a chunk
+    by_cells = csv_parser.read_table(path).values
+    assert by_cells.shape == by_columns.shape
+    assert np.array_equal(by_cells, by_columns, equal_nan=True)
+    assert np.array_equal(np.signbit(by_cells), np.signbit(by_columns))
+    lines[25] += ",12x"
+    with pytest.raises(
+        DetectionFileError, match=rf"row 26, column index {lines[25].count(',')} holds text '12x'"
+    ):
+        csv_parser.read_table(write(tmp_path / "bad.csv", "\n".join(lines)))

@@ -19,7 +19,8 @@ Every reader of :mod:`track_envs.io` parses numbers through this module:
   file's;
 * :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
   and ragged rows (missing trailing cells read as NaN), parsed :data:`PARSE_CELLS` cells at a
-  time into one float64 array (the parser's buffers hold one chunk, not the file), for the
+  time into one float64 array (the parser's buffers hold one chunk, not the file; a table
+  wider than :data:`WIDE_COLUMNS` as one column of cells, without pandas' per-column cost), for the
   detection, track and crossing
   readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
   layout on the same field counts.
@@ -69,10 +70,13 @@ __all__ = [
 ]
 
 #: Rows a writer formats at a time (the text of one chunk is all a writer holds).
-CHUNK_ROWS = 1 << 16
+CHUNK_ROWS = 1 << 14
 
 #: Cells :func:`read_table` parses at a time.
-PARSE_CELLS = 1 << 22
+PARSE_CELLS = 1 << 20
+
+#: Tables wider than this are parsed as one column of cells (:func:`_parse_cells`).
+WIDE_COLUMNS = 64
 
 #: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
 NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
@@ -446,8 +450,11 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
     values = np.empty((len(starts), n_columns))
     # a chunk of lines at a time into the one array: the parser's own buffers hold one chunk
     for lo, hi in chunks(len(starts), max(PARSE_CELLS // n_columns, 1)):
+        chunk = body[starts[lo] : ends[hi - 1]]
+        if n_columns > WIDE_COLUMNS and _parse_cells(chunk, counts[lo:hi], delimiter, values[lo:hi]):
+            continue
         values[lo:hi] = parse_floats(
-            body[starts[lo] : ends[hi - 1]],
+            chunk,
             label,
             first_row=first_row + lo,
             delimiter=delimiter,
@@ -456,6 +463,29 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
             names=list(range(n_columns)),
         )
     return Table(values, names, first_row, label, body, delimiter)
+
+
+def _parse_cells(chunk: bytes, counts: NDArray[np.intp], delimiter: str, out: NDArray[np.float64]) -> bool:
+    """Parse the lines of ``chunk`` (``counts`` fields each) into ``out`` (rows, columns; cells
+    past a line's end NaN) as one column: each cell a line of its own, so that pandas' parser
+    keeps no per-column state (a frame of 10^5 x, y pairs is 2·10^5 columns: the per-column
+    parse takes kilobytes a column). The same parser reads each cell, so the values are those
+    of :func:`parse_floats`. False (``out`` unspecified) when the cells are not all numbers or
+    missing: the caller parses the chunk again by columns, which locates the bad cell."""
+    text = chunk.replace(delimiter.encode("ascii", errors="replace"), b"\n")
+    if text.endswith(b"\n"):  # the last cell is empty: a line of its own, not the file's end
+        text += b"\n"
+    try:
+        cells = read_float_frame(text, names=[0], sep=delimiter)[0].to_numpy(dtype=np.float64)
+    except (ValueError, UnicodeDecodeError):
+        return False
+    if len(cells) != int(counts.sum()):
+        return False
+    row = np.repeat(np.arange(len(counts)), counts)
+    column = np.arange(len(cells)) - np.repeat(np.cumsum(counts) - counts, counts)
+    out[:] = np.nan
+    out[row, column] = cells
+    return True
 
 
 def first_bad(bad: NDArray[np.bool_]) -> tuple[int, int]:
