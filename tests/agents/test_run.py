@@ -278,3 +278,21 @@ def test_a_grown_report_gives_the_tracks_of_a_large_enough_one_in_one_run():
         run_agent(make_agent("gnn", predictor="kf-cv"), frames, small, grow=False)
     with pytest.raises(ReportOverflowError):  # an environment's report never grows
         pack_report(np.arange(3), np.zeros((3, 2)), np.zeros(3, np.int64), 2)
+
+
+def test_the_progress_bar_is_shown_on_a_terminal_only(monkeypatch):
+    import argparse
+    import sys
+
+    from agents.cli.run import show_progress
+
+    class Terminal:
+        def __init__(self, tty: bool) -> None:
+            self.tty = tty
+
+        def isatty(self) -> bool:
+            return self.tty
+
+    for tty, hidden, shown in ((True, False, True), (True, True, False), (False, False, False)):
+        monkeypatch.setattr(sys, "stderr", Terminal(tty))
+        assert show_progress(argparse.Namespace(no_progress=hidden)) is shown
