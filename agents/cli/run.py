@@ -12,8 +12,6 @@ import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from agents import available_agents, make_agent
 from agents.base import agent_takes_predictor, warm_up
 from agents.cli import arguments, run_pose, sensor_model, sorting
@@ -256,7 +254,7 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
-    from agents.sensor_model.diagnostics import run_figures, run_warnings
+    from agents.sensor_model.diagnostics import count_distinct, run_figures, run_warnings
     from agents.sensor_model.summary import write_sidecar
     from track_envs.io.poses import is_pose_file
     from track_envs.io.tracks import write_tracks
@@ -280,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
         f"(read in {read_s:.2f} s) -> "
-        f"{len(tracks)} track rows, {len(np.unique(tracks.ids))} ids -> {args.out} ({args.format}, "
+        f"{len(tracks)} track rows, {count_distinct(tracks.ids)} ids -> {args.out} ({args.format}, "
         f"written in {write_s:.2f} s)",
         file=sys.stderr,
     )

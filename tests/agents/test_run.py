@@ -296,3 +296,11 @@ def test_the_progress_bar_is_shown_on_a_terminal_only(monkeypatch):
     for tty, hidden, shown in ((True, False, True), (True, True, False), (False, False, False)):
         monkeypatch.setattr(sys, "stderr", Terminal(tty))
         assert show_progress(argparse.Namespace(no_progress=hidden)) is shown
+
+
+def test_ids_are_counted_by_sorting_as_numpy_unique_counts_them():
+    from agents.sensor_model.diagnostics import count_distinct
+
+    rng = np.random.default_rng(1)
+    for ids in (np.zeros(0, np.int64), np.array([7]), rng.integers(0, 50, 1000), rng.permutation(10**5)):
+        assert count_distinct(ids) == len(np.unique(ids))
