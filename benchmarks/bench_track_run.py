@@ -276,10 +276,10 @@ def scale_stage(stage: str, folder: Path, n: int) -> dict[str, float]:
         raise ValueError(f"unknown stage {stage!r}; stages: {SCALE_STAGES}")
     _warm_up(stage, folder)
     with PeakMemory() as memory:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         work()
-        seconds = time.perf_counter() - start
-    return {"seconds": seconds, "peak_mb": memory.above_start}
+        seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
+    return {"seconds": seconds, "cpu_seconds": cpu, "peak_mb": memory.above_start}
 
 
 def _quiet(fn: Callable[..., Any], *args: Any) -> Any:
@@ -339,8 +339,8 @@ def scale(sizes: Sequence[int], stages: Sequence[str]) -> None:
 
     print(f"\n## track run's file stages at scale ({SCALE_FRAMES} frames, detections agent)")
     print("N targets in view; µs and bytes per detection of the file (about 0.93 N a frame)")
-    print("| N targets | stage | s | µs / detection | peak MB above start | bytes / detection |")
-    print("|---|---|---|---|---|---|")
+    print("| N targets | stage | wall s | CPU s | CPU µs / detection | peak MB | bytes / detection |")
+    print("|---|---|---|---|---|---|---|")
     for n in sizes:
         total = len(scale_stream(n))
         with tempfile.TemporaryDirectory() as name:
@@ -348,11 +348,12 @@ def scale(sizes: Sequence[int], stages: Sequence[str]) -> None:
                 command = [sys.executable, __file__, "--stage", stage, "--folder", name, "--n", str(n)]
                 done = subprocess.run(command, capture_output=True, text=True, check=False)
                 if done.returncode:
-                    print(f"| {n} | {stage} | failed: {done.stderr.strip().splitlines()[-1:]} | | | |")
+                    print(f"| {n} | {stage} | failed: {done.stderr.strip().splitlines()[-1:]} | | | | |")
                     continue
                 r = json.loads(done.stdout.strip().splitlines()[-1])
                 print(
-                    f"| {n:,} | {stage} | {r['seconds']:.3f} | {1e6 * r['seconds'] / total:.2f} | "
+                    f"| {n:,} | {stage} | {r['seconds']:.3f} | {r['cpu_seconds']:.3f} | "
+                    f"{1e6 * r['cpu_seconds'] / total:.2f} | "
                     f"{r['peak_mb']:.0f} | {1e6 * r['peak_mb'] / total:.0f} |",
                     flush=True,
                 )
