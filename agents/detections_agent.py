@@ -35,11 +35,14 @@ class DetectionsAgent:
         Raises:
             ValueError: for an observation that breaks the contract (see
                 :func:`~track_envs.contracts.observation.check_observation`).
+            ReportOverflowError: more detections than ``spec.max_tracks`` report rows (none is
+                dropped silently; :func:`agents.files.points.run_agent` grows the report).
         """
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
         rows, positions = check_observation(obs, self._spec)
-        n = min(len(rows), self._spec.max_tracks)
+        n = len(rows)
         ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
+        report = pack_report(ids, positions, rows, self._spec.max_tracks)
         self._next_id += n
-        return pack_report(ids, positions[:n], rows[:n], self._spec.max_tracks)
+        return report

@@ -66,6 +66,9 @@ frame), HOTA, DetA, AssA, LocA, DetRe, DetPr, AssRe, AssPr (similarity
 max(0, 1 - d / threshold)), and e1 / e2 when the detection file carries truth ids. --match
 auto (default) matches boxes by IoU >= --min-iou (0.5, as MOTChallenge) when the tracks and the
 ground truth both have boxes, else centres within --threshold; the line "matching: ..." says which.
+Large files: the detections are read, and the tracks written, a chunk of rows at a time; the
+frames are tracked one block at a time (one frame at 10^5 detections a frame), with a progress
+bar on stderr when it is a terminal (--no-progress hides it).
 Sorting: --sorting-line X writes each track's predicted crossing of the nozzle bar x = X (past the
 camera window) to OUT.sorting.csv; --sorting-check line=L,cut=C checks such predictions without
 truth: a virtual line L inside the window, predicted from the detections at x <= C, scored
@@ -251,7 +254,7 @@ def format_metrics(metrics: dict[str, float]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of :func:`main`)."""
-    from agents.sensor_model.diagnostics import run_figures, run_warnings
+    from agents.sensor_model.diagnostics import count_distinct, run_figures, run_warnings
     from agents.sensor_model.summary import write_sidecar
     from track_envs.io.poses import is_pose_file
     from track_envs.io.tracks import write_tracks
@@ -269,11 +272,14 @@ def run(args: argparse.Namespace) -> int:
     warm_up(agent)  # compile / load the kernels before the first frame
     read_s = time.perf_counter() - start - calibration_s
     tracks, crossings = _track(args, agent, detections, spec)
+    write_start = time.perf_counter()
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
+    write_s = time.perf_counter() - write_start
     print(
         f"{args.prog}: {detections.n_frames} frames, {len(detections)} detections "
         f"(read in {read_s:.2f} s) -> "
-        f"{len(tracks)} track rows, {len(set(tracks.ids.tolist()))} ids -> {args.out} ({args.format})",
+        f"{len(tracks)} track rows, {count_distinct(tracks.ids)} ids -> {args.out} ({args.format}, "
+        f"written in {write_s:.2f} s)",
         file=sys.stderr,
     )
     if crossings is not None:
@@ -382,7 +388,7 @@ def _track(
             spec,
             seed=args.seed,
             covariance=args.covariance,
-            progress=not args.no_progress,
+            progress=show_progress(args),
             sorting_line=args.sorting_line,
         )
     for w in caught:
@@ -476,6 +482,12 @@ def check_out_file(path: str, flag: str = "--out") -> None:
         raise ValueError(f"{flag} {path}: the directory {folder} does not exist")
     if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise ValueError(f"{flag} {path} is not writable")
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Whether the run shows its progress bar: not with ``--no-progress``, and only on a terminal
+    (a run whose stderr goes to a file or a pipe logs no bar)."""
+    return not args.no_progress and sys.stderr.isatty()
 
 
 def coasting_rows(args: argparse.Namespace, detections: Any) -> str:

@@ -3,7 +3,9 @@
 :func:`run_agent` is the loop of the tracking contract without an environment: it packs each
 frame's detections into an observation (:func:`track_envs.contracts.observation.pack_observation`, rows in
 the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
-block of frames at a time into one array (no per-frame allocation), and the reports' arrays
+block of frames at a time into one array (no per-frame allocation; a block holds about
+``BLOCK_ROWS`` rows, :func:`block_frames`, so that at 10^5 detections a frame it is one frame and
+the loop's memory stays that of a frame or two, not of the stream padded), and the reports' arrays
 (not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
 10 µs a frame) are turned into :class:`~track_envs.values.tracks.Tracks` a block at a time (one
 vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
@@ -23,9 +25,10 @@ The command-line front end is ``track run`` (:mod:`agents.cli.run`).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, overload
 
 import numpy as np
@@ -34,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from agents.base import AgentCapability, agent_capability, agent_declares
 from agents.files.kinds import check_file_agent
 from agents.sorting.collect import SortingCollector, sorting_spec
-from track_envs.contracts.report import ReportOverflowError
+from track_envs.contracts.report import ReportOverflowError, growable_reports
 from track_envs.io.crossings import PredictedCrossings
 from track_envs.values.detections import Detections
 from track_envs.values.tracks import Tracks, carried_boxes
@@ -43,6 +46,17 @@ from track_envs.values.types import SensorSpec
 #: Report rows (frames × max_tracks) per block of frames packed and gathered at once: the
 #: per-block costs are spread over many frames of small reports, and large reports stay in cache.
 BLOCK_ROWS = 32768
+#: Most frames in a block (small reports).
+MAX_BLOCK_FRAMES = 4096
+
+
+def block_frames(spec: SensorSpec) -> int:
+    """Frames per block of :func:`run_agent`'s loop: ``BLOCK_ROWS`` rows of the larger of an
+    observation and a report, between 1 and ``MAX_BLOCK_FRAMES`` frames — so that the block's
+    packed observations and kept reports take ``O(BLOCK_ROWS + max_detections + max_tracks)``
+    memory, a frame or two at 10^5 detections a frame, never the whole stream padded."""
+    rows = max(spec.max_tracks, spec.max_detections, 1)
+    return int(np.clip(BLOCK_ROWS // rows, 1, MAX_BLOCK_FRAMES))
 
 
 def packed_block(
@@ -122,12 +136,17 @@ def run_agent(
             agent that does not declare it.
         progress: Show a tqdm progress bar (frames) on stderr.
         reset: Call ``agent.reset(spec, seed=seed)`` first (False: the caller has).
-        grow: When the agent has more live tracks than ``spec.max_tracks`` report rows (a
-            :class:`~track_envs.contracts.report.ReportOverflowError`), warn and run the stream again from
-            the start with ``max_tracks`` doubled (at least twice the tracks that overflowed),
-            so that a report size never makes a valid stream fail. The rows of a report do not
-            change the tracks of a deterministic agent, so the result is the run a large enough
-            report gives. Needs ``reset`` (an agent that was reset by the caller cannot be run again).
+        grow: When the agent has more live tracks than ``spec.max_tracks`` report rows, the
+            report grows to hold them (the loop runs within
+            :func:`~track_envs.contracts.report.growable_reports`: an agent that packs its report
+            with :func:`~track_envs.contracts.report.pack_report` goes on with every track), and a
+            warning names the most rows a report had; with a ``sorting_line``, or for an agent that raises
+            :class:`~track_envs.contracts.report.ReportOverflowError` itself, the agent is run again from the
+            start with ``max_tracks`` doubled (at least twice the tracks that overflowed; needs
+            ``reset``: an agent that was reset by the caller cannot be run again). So a report
+            size never makes a valid stream fail, and as the rows of a report do not change the
+            tracks of a deterministic agent, the result is the run a large enough report gives.
+            ``False``: the agent's ``ReportOverflowError`` is raised.
         calibrate: Estimate the measurement noise, the process noise, the velocity prior and
             the coasting length from ``detections`` first
             (:func:`agents.sensor_model.estimate`, as ``track run`` does when no noise is
@@ -181,7 +200,10 @@ def run_agent(
         if reset:
             agent.reset(spec, seed=seed)
         try:
-            return _run(agent, stream, spec, sorting, covariance=covariance, progress=progress)
+            # a sorting channel has max_tracks rows: a run that collects one grows by running again
+            growable = grow and sorting_line is None
+            with growable_reports() if growable else contextlib.nullcontext():
+                return _run(agent, stream, spec, sorting, covariance=covariance, progress=progress)
         except ReportOverflowError as exc:
             if not (grow and reset):
                 raise
@@ -239,39 +261,71 @@ def _run(
     covariances = declared.track_covariances if declared is not None else None
     bar = _progress(stream.n_frames, progress)
     act = agent.act
-    block = int(np.clip(BLOCK_ROWS // spec.max_tracks, 64, 4096))
+    block = block_frames(spec)
     parts: list[Tracks] = []
+    most = spec.max_tracks  # the most rows a report had (more than max_tracks: grown)
     try:
         for start in range(0, stream.n_frames, block):
             stop = min(start + block, stream.n_frames)
             det, mask = packed_block(stream, start, stop, spec)
-            ids: list[NDArray] = []
-            positions: list[NDArray] = []
-            rows: list[NDArray] = []
-            live: list[NDArray] = []
-            covs: list[NDArray | None] | None = [] if covariances is not None else None
-            for frame_detections, frame_mask in zip(det, mask, strict=True):
+            kept = _Kept(covariances is not None, start)
+            for t, (frame_detections, frame_mask) in enumerate(zip(det, mask, strict=True)):
                 report = act({"detections": frame_detections, "mask": frame_mask})
-                ids.append(report["ids"])
-                positions.append(report["positions"])
-                rows.append(report["detection"])
-                live.append(report["mask"])
-                if covs is not None:
-                    covs.append(covariances())  # type: ignore[misc]
+                rows = len(report["mask"])
+                if rows != kept.rows and kept.frames:  # a grown report: the frames before are gathered
+                    parts.append(kept.tracks())
+                    kept = _Kept(covariances is not None, start + t)
+                kept.add(report, covariances)
+                most = max(most, rows)
                 if sorting is not None:
                     sorting.add(report)
             if sorting is not None:
                 sorting.gather()
-            parts.append(Tracks.from_columns(ids, positions, rows, live, covariances=covs, first_frame=start))
+            parts.append(kept.tracks())
             if bar is not None:
                 bar.update(stop - start)
     finally:
         if bar is not None:
             bar.close()
+    if most > spec.max_tracks:
+        warnings.warn(
+            f"{most} live tracks did not fit a report of max_tracks={spec.max_tracks}; the reports grew "
+            f"to hold them (as a run with max_tracks={most} reports them)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
     tracks = Tracks.concatenate(parts, stream.n_frames)
     if stream.boxes is not None and tracks.detection is not None:
         tracks = tracks.with_boxes(carried_boxes(tracks, stream.boxes, stream.offsets))
     return tracks if sorting is None else (tracks, sorting.result())
+
+
+class _Kept:
+    """The reports' arrays of consecutive frames of one report size, from frame ``first`` on,
+    kept by reference until :meth:`tracks` gathers them (one vectorised gather)."""
+
+    def __init__(self, covariance: bool, first: int) -> None:
+        self.first, self.rows, self.frames = first, -1, 0
+        self.ids: list[NDArray] = []
+        self.positions: list[NDArray] = []
+        self.detection: list[NDArray] = []
+        self.live: list[NDArray] = []
+        self.covs: list[NDArray | None] | None = [] if covariance else None
+
+    def add(self, report: Mapping[str, NDArray], covariances: Any) -> None:
+        self.ids.append(report["ids"])
+        self.positions.append(report["positions"])
+        self.detection.append(report["detection"])
+        self.live.append(report["mask"])
+        if self.covs is not None:
+            self.covs.append(covariances())
+        self.rows = len(report["mask"])
+        self.frames += 1
+
+    def tracks(self) -> Tracks:
+        return Tracks.from_columns(
+            self.ids, self.positions, self.detection, self.live, covariances=self.covs, first_frame=self.first
+        )
 
 
 def _progress(total: int, enabled: bool) -> Any:

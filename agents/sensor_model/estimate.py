@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.sensor_model.coasting import coasting_radii, reappearance_gaps
+from agents.sensor_model.diagnostics import count_distinct
 from agents.sensor_model.noise import NoiseEstimate, estimate_noise
 from agents.sensor_model.scales import DataScales, data_scales
 from predictors import make_predictor
@@ -536,7 +537,8 @@ def _iterate(
             break
         new, noise = found
         new = _with_given(new, given)
-        n_tracks = len(np.unique(confident(labels)[confident(labels) >= 0]))
+        sure = confident(labels)
+        n_tracks = count_distinct(sure[sure >= 0])
         history.append((new.noise_std, new.q))
         change = max(
             abs(math.log(new.noise_std / settings.noise_std)) if settings.noise_std > 0 else math.inf,

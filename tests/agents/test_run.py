@@ -200,3 +200,107 @@ def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys
     ]
     assert main([*argv, "--format=wide", "--no-progress"]) == 0
     assert read_tracks(tmp_path / "w.csv").n_frames == 60
+
+
+def test_a_block_of_the_loop_holds_a_bounded_number_of_rows():
+    from agents.files.points import BLOCK_ROWS, MAX_BLOCK_FRAMES, block_frames
+
+    def spec(max_detections: int, max_tracks: int) -> SensorSpec:
+        return SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), max_detections, max_tracks)
+
+    assert block_frames(spec(4, 8)) == MAX_BLOCK_FRAMES
+    assert block_frames(spec(1000, 2000)) == BLOCK_ROWS // 2000
+    assert block_frames(spec(100_000, 16)) == 1  # an observation as large as a report counts
+    assert block_frames(spec(100_000, 300_000)) == 1  # 10^5 detections a frame: one frame a block
+
+
+def test_the_loop_gives_the_same_tracks_whatever_its_blocks(monkeypatch):
+    import agents.files.points as points
+
+    rng = np.random.default_rng(2)
+    frames = [rng.uniform(0, 1, (rng.integers(0, 30), 2)) for _ in range(50)]
+    spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 40, 200)
+    whole = run_agent(make_agent("gnn", predictor="kf-cv"), frames, spec, seed=0, covariance=True)
+    monkeypatch.setattr(points, "BLOCK_ROWS", 1)  # one frame a block
+    split = run_agent(make_agent("gnn", predictor="kf-cv"), frames, spec, seed=0, covariance=True)
+    assert split.equals(whole) and np.array_equal(split.detection, whole.detection)
+
+
+def test_more_detections_than_report_rows_grow_the_report_and_drop_nothing():
+    frames = [np.arange(2 * k, dtype=float).reshape(k, 2) / 100 for k in (3, 12, 5)]
+    spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 12, 4)
+    with pytest.warns(
+        RuntimeWarning, match=r"12 live tracks did not fit a report of max_tracks=4; the reports grew"
+    ):
+        tracks = run_agent("detections", frames, spec)
+    np.testing.assert_array_equal(tracks.positions, np.concatenate(frames).astype(np.float32))
+    np.testing.assert_array_equal(tracks.frame, np.repeat([0, 1, 2], [3, 12, 5]))
+    assert len(np.unique(tracks.ids)) == 20
+
+
+def test_track_run_writes_in_chunks_the_bytes_of_one_pass(tmp_path, monkeypatch):
+    import track_envs.io.csv_parser as csv_parser
+    import track_envs.io.detections as detection_io
+    import track_envs.io.tracks as track_io
+    from track_envs.io.detections import write_mot_detections
+
+    rng = np.random.default_rng(7)
+    frames = [np.cumsum(rng.uniform(0.05, 0.1, (8, 2)), axis=0) + 0.01 * t for t in range(25)]
+    write_mot_detections(tmp_path / "det.txt", Detections.from_frames(frames), box_size=0.02)
+    argv = [str(tmp_path / "det.txt"), "--dt=0.01", "--declared-noise-std=0.002", "--no-progress"]
+    for fmt in ("mot", "long", "wide"):
+        assert main([*argv, f"--format={fmt}", f"--out={tmp_path / ('one.' + fmt)}"]) == 0
+    for module in (csv_parser, detection_io, track_io):
+        monkeypatch.setattr(module, "CHUNK_ROWS", 3, raising=False)
+    monkeypatch.setattr(csv_parser, "PARSE_CELLS", 20)
+    for fmt in ("mot", "long", "wide"):
+        assert main([*argv, f"--format={fmt}", f"--out={tmp_path / ('t.' + fmt)}"]) == 0
+        assert (tmp_path / f"t.{fmt}").read_bytes() == (tmp_path / f"one.{fmt}").read_bytes(), fmt
+
+
+def test_a_grown_report_gives_the_tracks_of_a_large_enough_one_in_one_run():
+    from track_envs.contracts.report import ReportOverflowError, pack_report
+
+    rng = np.random.default_rng(4)
+    frames = [rng.uniform(0, 1, (rng.integers(5, 30), 2)) for _ in range(40)]
+    small = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 30, 8)
+    large = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 30, 400)
+    reference = run_agent(make_agent("gnn", predictor="kf-cv"), frames, large, covariance=True)
+    agent = make_agent("gnn", predictor="kf-cv")
+    resets = []
+    reset = agent.reset
+    agent.reset = lambda spec, seed=None: (resets.append(spec.max_tracks), reset(spec, seed=seed))[1]
+    with pytest.warns(RuntimeWarning, match=r"the reports grew to hold them \(as a run with max_tracks=\d+"):
+        grown = run_agent(agent, frames, small, covariance=True)
+    assert resets == [8]  # one run, not one per doubling of the report
+    assert grown.equals(reference) and np.array_equal(grown.detection, reference.detection)
+    with pytest.raises(ReportOverflowError, match="do not fit a report of max_tracks=8"):
+        run_agent(make_agent("gnn", predictor="kf-cv"), frames, small, grow=False)
+    with pytest.raises(ReportOverflowError):  # an environment's report never grows
+        pack_report(np.arange(3), np.zeros((3, 2)), np.zeros(3, np.int64), 2)
+
+
+def test_the_progress_bar_is_shown_on_a_terminal_only(monkeypatch):
+    import argparse
+    import sys
+
+    from agents.cli.run import show_progress
+
+    class Terminal:
+        def __init__(self, tty: bool) -> None:
+            self.tty = tty
+
+        def isatty(self) -> bool:
+            return self.tty
+
+    for tty, hidden, shown in ((True, False, True), (True, True, False), (False, False, False)):
+        monkeypatch.setattr(sys, "stderr", Terminal(tty))
+        assert show_progress(argparse.Namespace(no_progress=hidden)) is shown
+
+
+def test_ids_are_counted_by_sorting_as_numpy_unique_counts_them():
+    from agents.sensor_model.diagnostics import count_distinct
+
+    rng = np.random.default_rng(1)
+    for ids in (np.zeros(0, np.int64), np.array([7]), rng.integers(0, 50, 1000), rng.permutation(10**5)):
+        assert count_distinct(ids) == len(np.unique(ids))

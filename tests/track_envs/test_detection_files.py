@@ -248,3 +248,118 @@ def test_missing_file_and_bad_arguments_are_named(tmp_path: Path) -> None:
         read_wide_detections(path, scale=-1)
     with pytest.raises(ValueError, match="format must be one of"):
         read_detections(path, "xml")
+
+
+# ------------------------------------------------------------------------------------ at scale
+
+
+def small_chunks(monkeypatch: pytest.MonkeyPatch, rows: int) -> None:
+    """Every writer formats ``rows`` rows (or cells of a wide row) at a time; tables parse
+    ``rows`` cells at a time."""
+    import track_envs.io.csv_parser as csv_parser
+    import track_envs.io.detections as detections
+    import track_envs.io.tracks as tracks
+    import track_envs.io.wide_tracks as wide_tracks
+
+    for module in (csv_parser, detections, tracks, wide_tracks):
+        monkeypatch.setattr(module, "CHUNK_ROWS", rows, raising=False)
+    monkeypatch.setattr(csv_parser, "PARSE_CELLS", rows)
+
+
+def reference_mot_text(d: Detections, box_size: float = 0.0) -> str:
+    """The MOTChallenge rows as one string, row by row (the writer's output before it wrote in chunks)."""
+    lines = []
+    for t in range(d.n_frames):
+        for k in range(d.offsets[t], d.offsets[t + 1]):
+            x, y = d.points[k].tolist()
+            if d.boxes is not None:
+                x, y, w, h = d.boxes[k].tolist()
+            else:
+                x, y, w, h = (
+                    (x - box_size / 2, y - box_size / 2, box_size, box_size) if box_size else (x, y, 0.0, 0.0)
+                )
+            lines.append(f"{t + 1},{d.ids[k]},{x!r},{y!r},{w!r},{h!r},1.0,-1,-1,-1\n")
+    return "".join(lines)
+
+
+@pytest.mark.parametrize("rows", [1, 3, 1 << 16])
+def test_writers_write_in_chunks_the_bytes_of_one_pass(tmp_path, monkeypatch, rows):
+    d = stream(seed=4, ids=True)
+    write_mot_detections(tmp_path / "one.txt", d, box_size=0.25)
+    write_wide_detections(tmp_path / "one.csv", d)
+    small_chunks(monkeypatch, rows)
+    write_mot_detections(tmp_path / "d.txt", d, box_size=0.25)
+    write_wide_detections(tmp_path / "d.csv", d)
+    write_wide_detections(tmp_path / "bare.csv", Detections(d.points, d.offsets), header=False, na_rep="")
+    assert (
+        (tmp_path / "d.txt").read_text() == reference_mot_text(d, 0.25) == (tmp_path / "one.txt").read_text()
+    )
+    assert (tmp_path / "d.csv").read_bytes() == (tmp_path / "one.csv").read_bytes()
+    assert read_wide_detections(tmp_path / "d.csv", time_column="time").equals(
+        Detections(d.points, d.offsets, first_frame=0, times=d.times)
+    )
+    back = read_wide_detections(tmp_path / "bare.csv", header=False)
+    np.testing.assert_array_equal(back.points, d.points)
+    np.testing.assert_array_equal(back.offsets, d.offsets)
+    boxes = read_mot_detections(tmp_path / "d.txt")
+    assert boxes.boxes is not None and np.array_equal(boxes.offsets, d.offsets)
+
+
+def test_tables_parse_in_chunks_the_values_and_errors_of_one_pass(tmp_path, monkeypatch):
+    d = stream(seed=5, ids=True)
+    write_mot_detections(tmp_path / "d.txt", d, box_size=0.5)
+    whole = read_mot_detections(tmp_path / "d.txt")
+    lines = (tmp_path / "d.txt").read_text().splitlines()
+    lines[40] = lines[40].replace(",1.0,", ",high,", 1)
+    write(tmp_path / "bad.txt", "\n".join(lines) + "\n")
+    small_chunks(monkeypatch, 7)  # a chunk of a 10-column MOT file is one row
+    chunked = read_mot_detections(tmp_path / "d.txt")
+    assert chunked.equals(whole) and np.array_equal(chunked.boxes, whole.boxes)
+    with pytest.raises(DetectionFileError, match=r"bad.txt: row 41, column index 6 holds text 'high'"):
+        read_mot_detections(tmp_path / "bad.txt")
+
+
+def test_mot_rows_out_of_frame_order_are_grouped_by_frame(tmp_path):
+    text = "2,-1,1,1,0,0\n1,-1,5,5,0,0\n2,-1,2,2,0,0\n1,-1,6,6,0,0\n"
+    d = read_mot_detections(write(tmp_path / "d.txt", text))
+    np.testing.assert_array_equal(d.offsets, [0, 2, 4])
+    np.testing.assert_array_equal(d.points, [[5, 5], [6, 6], [1, 1], [2, 2]])
+
+
+def test_nan_pairs_are_no_detections_and_do_not_size_the_spec(tmp_path):
+    path = write(
+        tmp_path / "d.csv",
+        "frame,count,x0,y0,x1,y1,x2,y2\n0,1,NaN,NaN,0.5,0.5,,\n1,2,0.1,0.1,nan,nan,0.2,0.2\n",
+    )
+    d = read_wide_detections(path)
+    np.testing.assert_array_equal(d.counts, [1, 2])
+    assert detection_sensor_spec(d, dt=0.1, max_detections=2).max_detections == 2
+
+
+def test_wide_tables_parsed_as_one_column_of_cells_give_the_values_and_errors_of_columns(
+    tmp_path, monkeypatch
+):
+    import track_envs.io.csv_parser as csv_parser
+
+    rng = np.random.default_rng(6)
+    lines = []
+    for _ in range(40):  # ragged rows, empty and NaN cells, a trailing delimiter, awkward doubles
+        cells = [
+            repr(float(v)) for v in rng.normal(size=rng.integers(1, 90)) * 10.0 ** rng.integers(-300, 300)
+        ]
+        for k in rng.integers(0, len(cells), 5):
+            cells[k] = str(rng.choice(["", "NaN", "nan", " 1.5 ", "-0.0", "5e-324"]))
+        lines.append(",".join(cells) + ("," if rng.random() < 0.3 else ""))
+    path = write(tmp_path / "wide.csv", "\n".join(lines) + "\n")
+    by_columns = csv_parser.read_table(path).values
+    monkeypatch.setattr(csv_parser, "WIDE_COLUMNS", 4)
+    monkeypatch.setattr(csv_parser, "PARSE_CELLS", 200)  # a few rows a chunk
+    by_cells = csv_parser.read_table(path).values
+    assert by_cells.shape == by_columns.shape
+    assert np.array_equal(by_cells, by_columns, equal_nan=True)
+    assert np.array_equal(np.signbit(by_cells), np.signbit(by_columns))
+    lines[25] += ",12x"
+    with pytest.raises(
+        DetectionFileError, match=rf"row 26, column index {lines[25].count(',')} holds text '12x'"
+    ):
+        csv_parser.read_table(write(tmp_path / "bad.csv", "\n".join(lines)))

@@ -140,3 +140,30 @@ def test_ids_beyond_two_to_the_53_survive(tmp_path: Path, fmt: str, name: str) -
     tracks = Tracks(np.array([0, 0, 1]), np.array([2**62 - 1, 2**53 + 1, 7]), np.zeros((3, 2)), 2)
     write_tracks(tmp_path / name, tracks, fmt)
     np.testing.assert_array_equal(read_tracks(tmp_path / name).ids, tracks.ids)
+
+
+@pytest.mark.parametrize("rows", [1, 5, 1 << 16])
+def test_track_writers_write_in_chunks_the_bytes_of_one_pass(tmp_path, monkeypatch, rows):
+    import track_envs.io.csv_parser as csv_parser
+    import track_envs.io.tracks as track_io
+    import track_envs.io.wide_tracks as wide_tracks
+    from track_envs.io.wide_tracks import write_track_csv
+
+    base = random_tracks(seed=3, cov=True)
+    rng = np.random.default_rng(3)
+    boxes = rng.uniform(0, 1, (len(base), 4))
+    boxes[rng.random(len(base)) < 0.3] = np.nan  # rows without a box: empty cells
+    detection = rng.integers(-1, 4, len(base))
+    tracks = Tracks(base.frame, base.ids, base.positions, base.n_frames + 3, base.cov, detection, boxes)
+    for fmt in ("mot", "long", "wide"):
+        write_tracks(tmp_path / f"one.{fmt}", tracks, fmt)
+    write_track_csv(tmp_path / "reference.wide", tracks.to_wide()[0])
+    for module in (csv_parser, track_io, wide_tracks):
+        monkeypatch.setattr(module, "CHUNK_ROWS", rows, raising=False)
+    for fmt in ("mot", "long", "wide"):
+        write_tracks(tmp_path / f"t.{fmt}", tracks, fmt)
+        assert (tmp_path / f"t.{fmt}").read_bytes() == (tmp_path / f"one.{fmt}").read_bytes(), fmt
+    assert (tmp_path / "t.wide").read_bytes() == (tmp_path / "reference.wide").read_bytes()
+    back = read_tracks(tmp_path / "t.long", n_frames=tracks.n_frames)
+    np.testing.assert_array_equal(back.boxes, boxes)
+    assert back.equals(tracks)

@@ -27,7 +27,9 @@ Every sample of :func:`report_space` is a valid report, because
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any
 
@@ -146,21 +148,45 @@ class ReportOverflowError(ValueError):
         self.max_tracks = int(max_tracks)
 
 
+_GROWABLE: ContextVar[bool] = ContextVar("growable_reports", default=False)
+
+
+@contextmanager
+def growable_reports() -> Iterator[None]:
+    """Within this context :func:`pack_report` grows a report to its ``n`` live tracks where they
+    exceed ``max_tracks``, instead of raising :class:`ReportOverflowError`.
+
+    For loops that gather the reports themselves, frame by frame, whatever their size
+    (:func:`agents.files.points.run_agent`): a tracker then goes on with every track and a
+    recorded file never has to be tracked again with a larger report. An environment's action
+    space has ``max_tracks`` rows; outside this context a report never has more.
+    """
+    token = _GROWABLE.set(True)
+    try:
+        yield
+    finally:
+        _GROWABLE.reset(token)
+
+
 def pack_report(
     ids: NDArray[np.integer],
     positions: NDArray[np.floating],
     detection: NDArray[np.integer],
     max_tracks: int,
 ) -> dict[str, NDArray]:
-    """Pad ``n`` live tracks into a report of ``max_tracks`` rows.
+    """Pad ``n`` live tracks into a report of ``max_tracks`` rows (``n`` rows where ``n >
+    max_tracks`` within :func:`growable_reports`).
 
     Raises:
-        ReportOverflowError: if ``n > max_tracks`` (no track is dropped silently; a ValueError).
+        ReportOverflowError: if ``n > max_tracks`` (no track is dropped silently; a ValueError),
+            outside :func:`growable_reports`.
         ValueError: if the arrays disagree.
     """
     n = len(ids)
     if n > max_tracks:
-        raise ReportOverflowError(n, max_tracks)
+        if not _GROWABLE.get():
+            raise ReportOverflowError(n, max_tracks)
+        max_tracks = n
     positions = np.asarray(positions)
     if positions.shape[0] != n or len(detection) != n:
         raise ValueError(

@@ -13,9 +13,15 @@ Every reader of :mod:`track_envs.io` parses numbers through this module:
   is the text scanned again, with :mod:`csv`, to name the first cell that is not a number
   (:func:`locate_text`);
 * :func:`format_rows` writes the inverse: ``repr`` of every float (the shortest string that reads
-  back as the same double), so a written file reads back bit for bit;
+  back as the same double), so a written file reads back bit for bit; the writers format
+  :data:`CHUNK_ROWS` rows at a time (:func:`chunks`) and write each chunk as it is formatted
+  (:func:`write_chunks`), so that writing a file of any length holds one chunk's text, not the
+  file's;
 * :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
-  and ragged rows (missing trailing cells read as NaN), for the detection, track and crossing
+  and ragged rows (missing trailing cells read as NaN), parsed :data:`PARSE_CELLS` cells at a
+  time into one float64 array (the parser's buffers hold one chunk, not the file; a table
+  wider than :data:`WIDE_COLUMNS` as one column of cells, without pandas' per-column cost), for the
+  detection, track and crossing
   readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
   layout on the same field counts.
 
@@ -34,7 +40,7 @@ import itertools
 import os
 import re
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,10 +50,12 @@ import pandas as pd
 from numpy.typing import NDArray
 
 __all__ = [
+    "CHUNK_ROWS",
     "NA_TOKENS",
     "DetectionFileError",
     "Table",
     "TrackFileError",
+    "chunks",
     "field_counts",
     "first_bad",
     "format_rows",
@@ -58,7 +66,17 @@ __all__ = [
     "read_bytes",
     "read_float_frame",
     "read_table",
+    "write_chunks",
 ]
+
+#: Rows a writer formats at a time (the text of one chunk is all a writer holds).
+CHUNK_ROWS = 1 << 14
+
+#: Cells :func:`read_table` parses at a time.
+PARSE_CELLS = 1 << 20
+
+#: Tables wider than this are parsed as one column of cells (:func:`_parse_cells`).
+WIDE_COLUMNS = 64
 
 #: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
 NA_TOKENS: tuple[str, ...] = ("", "NaN", "nan")
@@ -282,6 +300,21 @@ def format_rows(flat: NDArray[np.float64], na_rep: str) -> str:
     return "\n".join(lines)
 
 
+def chunks(n: int, size: int = CHUNK_ROWS) -> Iterator[tuple[int, int]]:
+    """``(lo, hi)`` ranges of at most ``size`` (>= 1) rows covering ``0..n`` in order."""
+    size = max(int(size), 1)
+    for lo in range(0, n, size):
+        yield lo, min(lo + size, n)
+
+
+def write_chunks(path: str | os.PathLike[str], texts: Iterable[str]) -> None:
+    """Write ``texts`` one after the other as an ASCII file (as ``Path.write_text`` writes one
+    string: the file holds their concatenation), each written as soon as it is made."""
+    with open(path, "w", encoding="ascii") as handle:
+        for text in texts:
+            handle.write(text)
+
+
 # --------------------------------------------------------------------------------------------------
 # tables
 
@@ -408,20 +441,51 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
     first_row = 2 if has_header else 1
     if not body:
         raise DetectionFileError(f"{label}: the file has a header but no data rows")
-    counts = field_counts(body, label, delimiter=delimiter, first_row=first_row, error=DetectionFileError)[2]
+    starts, ends, counts = field_counts(
+        body, label, delimiter=delimiter, first_row=first_row, error=DetectionFileError
+    )
     n_columns = int(counts.max())
     if names is not None:
         n_columns = max(n_columns, len(names))
-    values = parse_floats(
-        body,
-        label,
-        first_row=first_row,
-        delimiter=delimiter,
-        error=DetectionFileError,
-        expected="a number",
-        names=list(range(n_columns)),
-    )
+    values = np.empty((len(starts), n_columns))
+    # a chunk of lines at a time into the one array: the parser's own buffers hold one chunk
+    for lo, hi in chunks(len(starts), max(PARSE_CELLS // n_columns, 1)):
+        chunk = body[starts[lo] : ends[hi - 1]]
+        if n_columns > WIDE_COLUMNS and _parse_cells(chunk, counts[lo:hi], delimiter, values[lo:hi]):
+            continue
+        values[lo:hi] = parse_floats(
+            chunk,
+            label,
+            first_row=first_row + lo,
+            delimiter=delimiter,
+            error=DetectionFileError,
+            expected="a number",
+            names=list(range(n_columns)),
+        )
     return Table(values, names, first_row, label, body, delimiter)
+
+
+def _parse_cells(chunk: bytes, counts: NDArray[np.intp], delimiter: str, out: NDArray[np.float64]) -> bool:
+    """Parse the lines of ``chunk`` (``counts`` fields each) into ``out`` (rows, columns; cells
+    past a line's end NaN) as one column: each cell a line of its own, so that pandas' parser
+    keeps no per-column state (a frame of 10^5 x, y pairs is 2·10^5 columns: the per-column
+    parse takes kilobytes a column). The same parser reads each cell, so the values are those
+    of :func:`parse_floats`. False (``out`` unspecified) when the cells are not all numbers or
+    missing: the caller parses the chunk again by columns, which locates the bad cell."""
+    text = chunk.replace(delimiter.encode("ascii", errors="replace"), b"\n")
+    if text.endswith(b"\n"):  # the last cell is empty: a line of its own, not the file's end
+        text += b"\n"
+    try:
+        cells = read_float_frame(text, names=[0], sep=delimiter)[0].to_numpy(dtype=np.float64)
+    except (ValueError, UnicodeDecodeError):
+        return False
+    if len(cells) != int(counts.sum()):
+        return False
+    row = np.repeat(np.arange(len(counts)), counts)
+    column = np.arange(len(cells)) - np.repeat(np.cumsum(counts) - counts, counts)
+    out[:] = np.nan
+    out[row, column] = cells
+    return True
 
 
 def first_bad(bad: NDArray[np.bool_]) -> tuple[int, int]:

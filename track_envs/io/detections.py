@@ -42,6 +42,7 @@ each float, so a file written and read back gives the same detections bit for bi
 
 from __future__ import annotations
 
+import itertools
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -50,7 +51,16 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.io.csv_parser import DetectionFileError, Table, first_bad, format_rows, read_table
+from track_envs.io.csv_parser import (
+    CHUNK_ROWS,
+    DetectionFileError,
+    Table,
+    chunks,
+    first_bad,
+    format_rows,
+    read_table,
+    write_chunks,
+)
 from track_envs.values.detections import Detections
 
 __all__ = [
@@ -145,7 +155,8 @@ def read_mot_rows(
     n_frames = int(frames.max())
     keep = slice(None) if min_confidence is None else _confident(table.label, confidence, min_confidence)
     frame = frames[keep].astype(np.int64) - 1
-    order = np.argsort(frame, kind="stable")
+    # rows already in frame order (as files are written) are kept as they are, without a copy
+    order = slice(None) if np.all(frame[1:] >= frame[:-1]) else np.argsort(frame, kind="stable")
     return MotRows(
         frame=frame[order],
         ids=table.integers(1)[keep][order],
@@ -253,6 +264,25 @@ def write_mot_rows(
     size = float(box_size)
     if not (np.isfinite(size) and size >= 0):
         raise ValueError(f"box_size must be a finite number >= 0, got {box_size!r}")
+    end = "," + ",".join(tail) + "\n"
+
+    def text(lo: int, hi: int) -> str:
+        columns = _box_columns(points[lo:hi], size, None if boxes is None else boxes[lo:hi])
+        return "".join(
+            f"{f},{i},{x!r},{y!r},{w!r},{h!r}{end}"
+            for f, i, (x, y, w, h) in zip(
+                frame[lo:hi].tolist(), ids[lo:hi].tolist(), columns.tolist(), strict=True
+            )
+        )
+
+    write_chunks(path, (text(lo, hi) for lo, hi in chunks(len(points))))
+
+
+def _box_columns(
+    points: NDArray[np.float64], size: float, boxes: NDArray[np.float64] | None
+) -> NDArray[np.float64]:
+    """(n, 4) ``left, top, width, height`` of MOTChallenge rows: the row's box where it is finite,
+    else a ``size`` box about the point."""
     half = size / 2
     left = points[:, 0] - half if size else points[:, 0]
     top = points[:, 1] - half if size else points[:, 1]
@@ -261,13 +291,7 @@ def write_mot_rows(
     if boxes is not None:
         given = np.isfinite(boxes).all(axis=1)
         columns[given] = boxes[given]
-    end = "," + ",".join(tail)
-    lines = [
-        f"{f},{i},{x!r},{y!r},{w!r},{h!r}{end}"
-        for f, i, (x, y, w, h) in zip(frame.tolist(), ids.tolist(), columns.tolist(), strict=True)
-    ]
-    lines.append("")
-    Path(path).write_text("\n".join(lines), encoding="ascii")
+    return columns
 
 
 # -------------------------------------------------------------------------------------------- wide
@@ -390,24 +414,28 @@ def write_wide_detections(
     if detections.dim != 2:
         raise ValueError(f"wide detection files hold 2-d points; these detections are {detections.dim}-d")
     n, width = detections.n_frames, max(detections.max_per_frame, 1)
-    counts = detections.counts
-    grid = np.full((n, width, 2), np.nan)
-    slot = np.arange(len(detections)) - np.repeat(detections.offsets[:-1], counts)
-    grid[detections.frame_index(), slot] = detections.points
-    body = format_rows(grid.reshape(n, -1), na_rep).split("\n")
-    lead_cols = [np.arange(n) + detections.first_frame, counts]
+    counts, offsets = detections.counts, detections.offsets
     names = ["frame", "count"]
     if detections.times is not None:
         names.append("time")
-    lines = []
-    if header:
-        lines.append(",".join(names + [f"{a}{k}" for k in range(width) for a in "xy"]))
-    times = detections.times.tolist() if detections.times is not None else None
-    for t, (f, c) in enumerate(zip(lead_cols[0].tolist(), lead_cols[1].tolist(), strict=True)):
-        lead = f"{f},{c}" if times is None else f"{f},{c},{times[t]!r}"
-        lines.append(f"{lead},{body[t]}")
-    lines.append("")
-    Path(path).write_text("\n".join(lines), encoding="ascii")
+    head = ",".join(names + [f"{a}{k}" for k in range(width) for a in "xy"]) + "\n" if header else ""
+
+    def text(lo: int, hi: int) -> str:  # frames lo:hi, padded to the widest frame
+        grid = np.full((hi - lo, width, 2), np.nan)
+        frame = np.repeat(np.arange(hi - lo), counts[lo:hi])
+        slot = np.arange(offsets[lo], offsets[hi]) - np.repeat(offsets[lo:hi], counts[lo:hi])
+        grid[frame, slot] = detections.points[offsets[lo] : offsets[hi]]
+        body = format_rows(grid.reshape(hi - lo, -1), na_rep).split("\n")
+        frames = (np.arange(lo, hi) + detections.first_frame).tolist()
+        times = detections.times[lo:hi].tolist() if detections.times is not None else None
+        lines = []
+        for t, (f, c) in enumerate(zip(frames, counts[lo:hi].tolist(), strict=True)):
+            lead = f"{f},{c}" if times is None else f"{f},{c},{times[t]!r}"
+            lines.append(f"{lead},{body[t]}\n")
+        return "".join(lines)
+
+    frames_per_chunk = max(CHUNK_ROWS // width, 1)
+    write_chunks(path, itertools.chain([head], (text(lo, hi) for lo, hi in chunks(n, frames_per_chunk))))
 
 
 # -------------------------------------------------------------------------------------- dispatch

@@ -27,14 +27,18 @@ keeps no ids other than the column order, and no covariance).
 
 from __future__ import annotations
 
+import itertools
 import os
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from track_envs.io.csv_parser import DetectionFileError, read_table
+from track_envs.io.csv_parser import CHUNK_ROWS, DetectionFileError, chunks, read_table, write_chunks
 from track_envs.io.detections import read_mot_rows, write_mot_rows
-from track_envs.io.wide_tracks import load_track_csv, write_track_csv
+from track_envs.io.wide_tracks import load_track_csv, write_track_chunks
 from track_envs.values.tracks import Tracks
 
 TRACK_FORMATS = ("mot", "wide", "long")
@@ -75,8 +79,7 @@ def write_tracks(
     elif format == "wide":
         if not len(tracks):
             raise ValueError("the wide track layout needs at least one track (one column pair)")
-        grid, _ = tracks.to_wide()
-        write_track_csv(path, grid)
+        _write_wide(path, tracks)
     else:
         _write_long(path, tracks)
 
@@ -136,7 +139,7 @@ def track_format(path: str | os.PathLike[str], format: str = "auto") -> str:
 
 
 def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
-    columns: dict[str, object] = {
+    columns: dict[str, NDArray[Any]] = {
         "frame": tracks.frame,
         "id": tracks.ids,
         "x": tracks.positions[:, 0],
@@ -148,17 +151,41 @@ def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
         columns["detection"] = tracks.detection
     if tracks.boxes is not None:
         columns |= dict(zip(BOX_COLUMNS, tracks.boxes.T, strict=True))
-    text = [
-        list(map(repr, np.asarray(v).tolist()))
-        if name not in ("frame", "id", "detection")
-        else list(map(str, np.asarray(v).tolist()))
-        for name, v in columns.items()
-    ]
-    if tracks.boxes is not None:  # a row without a box: empty cells
-        for k in range(len(text) - 4, len(text)):
-            text[k] = ["" if cell == "nan" else cell for cell in text[k]]
-    lines = [",".join(columns), *map(",".join, zip(*text, strict=True)), ""]
-    Path(path).write_text("\n".join(lines), encoding="ascii")
+    integers = ("frame", "id", "detection")
+    boxes = set(BOX_COLUMNS) if tracks.boxes is not None else set()
+
+    def text(lo: int, hi: int) -> str:
+        cells = []
+        for name, v in columns.items():
+            values = np.asarray(v[lo:hi]).tolist()
+            cell = list(map(str if name in integers else repr, values))
+            if name in boxes:  # a row without a box: empty cells
+                cell = ["" if c == "nan" else c for c in cell]
+            cells.append(cell)
+        return "".join(line + "\n" for line in map(",".join, zip(*cells, strict=True)))
+
+    head = ",".join(columns) + "\n"
+    write_chunks(path, itertools.chain([head], (text(lo, hi) for lo, hi in chunks(len(tracks)))))
+
+
+def _write_wide(path: str | os.PathLike[str], tracks: Tracks) -> None:
+    """The wide layout (``tracks.to_wide()`` written by :func:`write_track_csv`), built and
+    written a chunk of frames at a time: one frame's row is as wide as the ids are many, so a
+    chunk holds at most ``CHUNK_ROWS`` cells or one frame."""
+    unique, column = np.unique(tracks.ids, return_inverse=True)
+    column = column.reshape(-1)
+    bounds = np.searchsorted(tracks.frame, np.arange(tracks.n_frames + 1))  # rows are by frame
+    d = tracks.positions.shape[1]
+    per_chunk = max(CHUNK_ROWS // len(unique), 1)
+
+    def grids() -> Iterator[NDArray[np.float64]]:
+        for lo, hi in chunks(tracks.n_frames, per_chunk):
+            rows = slice(bounds[lo], bounds[hi])
+            grid = np.full((hi - lo, len(unique), d), np.nan)
+            grid[tracks.frame[rows] - lo, column[rows]] = tracks.positions[rows]
+            yield grid
+
+    write_track_chunks(path, grids())
 
 
 def _read_long(path: str | os.PathLike[str]) -> Tracks:

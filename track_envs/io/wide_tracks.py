@@ -29,17 +29,21 @@ module only when parsing fails, to locate the offending cell.
 
 from __future__ import annotations
 
+import contextlib
 import operator
 import os
 import zipfile
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from track_envs.io.csv_parser import (
+    CHUNK_ROWS,
     NA_TOKENS,
     TrackFileError,
+    chunks,
     field_counts,
     format_rows,
     normalise,
@@ -47,7 +51,7 @@ from track_envs.io.csv_parser import (
     read_bytes,
 )
 
-__all__ = ["TrackFileError", "load_track_csv", "write_track_csv"]
+__all__ = ["TrackFileError", "load_track_csv", "write_track_chunks", "write_track_csv"]
 
 _LOW_MEMORY_BYTES = 1 << 30  # parse bigger inputs in chunks
 
@@ -117,27 +121,56 @@ def write_track_csv(path: str | os.PathLike[str], positions: ArrayLike, *, na_re
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 3 or pos.shape[2] != 2 or pos.shape[0] < 1 or pos.shape[1] < 1:
         raise ValueError(f"positions must have shape (n_frames >= 1, n_particles >= 1, 2), got {pos.shape}")
+    _check_positions(pos, 0)  # before the file is made
+    per_chunk = max(CHUNK_ROWS // pos.shape[1], 1)
+    write_track_chunks(path, (pos[lo:hi] for lo, hi in chunks(len(pos), per_chunk)), na_rep=na_rep)
+
+
+def write_track_chunks(
+    path: str | os.PathLike[str], positions: Iterable[NDArray[np.float64]], *, na_rep: str = "NaN"
+) -> None:
+    """:func:`write_track_csv` of the frames of ``positions``, given as consecutive chunks of
+    frames (each ``(k, n_particles, 2)``, the same ``n_particles``), each chunk checked,
+    formatted and written before the next is asked for: a file of any length is written with
+    one chunk in memory. Errors name frames from the first chunk's first frame."""
+    if na_rep not in NA_TOKENS:
+        raise ValueError(f"na_rep must be one of {NA_TOKENS!r}, got {na_rep!r}")
+    target = Path(path)
+    with contextlib.ExitStack() as stack:
+        if target.suffix.lower() == ".zip":
+            archive = stack.enter_context(zipfile.ZipFile(target, "w", compression=zipfile.ZIP_DEFLATED))
+            handle = stack.enter_context(archive.open(target.stem + ".csv", "w", force_zip64=True))
+        else:
+            handle = stack.enter_context(open(target, "wb"))
+        first, width = 0, None
+        for chunk in positions:
+            pos = np.asarray(chunk, dtype=np.float64)
+            if width is None:
+                width = pos.shape[1] if pos.ndim == 3 else -1
+            if pos.ndim != 3 or pos.shape[2] != 2 or pos.shape[1] != width or width < 1:
+                raise ValueError(
+                    f"positions must have shape (n_frames >= 1, n_particles >= 1, 2), got {pos.shape}"
+                )
+            _check_positions(pos, first)
+            handle.write(format_rows(pos.reshape(pos.shape[0], -1), na_rep).encode("ascii"))
+            first += len(pos)
+        if width is None:
+            raise ValueError("positions must have shape (n_frames >= 1, n_particles >= 1, 2), got no frame")
+
+
+def _check_positions(pos: NDArray[np.float64], first: int) -> None:
+    """Raise ``ValueError`` at the first infinity or half-NaN pair (frames counted from ``first``)."""
     nan = np.isnan(pos)
     if np.isinf(pos).any():
         frame, particle, _ = np.argwhere(np.isinf(pos))[0]
-        raise ValueError(f"positions hold an infinity (frame {frame}, particle {particle})")
+        raise ValueError(f"positions hold an infinity (frame {first + frame}, particle {particle})")
     half = nan[..., 0] != nan[..., 1]
     if half.any():
         frame, particle = np.argwhere(half)[0]
         raise ValueError(
-            f"positions have a pair with exactly one NaN (frame {frame}, particle {particle}); "
+            f"positions have a pair with exactly one NaN (frame {first + frame}, particle {particle}); "
             "x and y must be both numbers or both NaN"
         )
-
-    payload_text = format_rows(pos.reshape(pos.shape[0], -1), na_rep)
-    payload = payload_text.encode("ascii")
-
-    target = Path(path)
-    if target.suffix.lower() == ".zip":
-        with zipfile.ZipFile(target, "w", compression=zipfile.ZIP_DEFLATED) as archive:
-            archive.writestr(target.stem + ".csv", payload)
-    else:
-        target.write_bytes(payload)
 
 
 # --------------------------------------------------------------------------------------------------
