@@ -306,6 +306,7 @@ PUBLIC: dict[str, list[str]] = {
         "ConstantVelocityStream",
         "EventScores",
         "MergeEventStream",
+        "constant_density",
         "constant_velocity_stream",
         "merge_event_streams",
         "score_events",

@@ -174,8 +174,9 @@ def test_a_tie_in_a_frame_above_the_dense_limit_is_broken_inside_its_component()
     the value is the optimum's, as on a small frame of the same squares."""
     k = 1100
     corner = 10.0 * np.arange(k)[:, None] * np.array([[1.0, 0.0]])
-    truth = np.concatenate([corner, corner + [1.0, 1.0]])
-    estimates = np.concatenate([corner + [1.0, 0.0], corner + [0.0, 1.0]])
+    right, up = np.array([1.0, 0.0]), np.array([0.0, 1.0])
+    truth = np.concatenate([corner, corner + right + up])
+    estimates = np.concatenate([corner + right, corner + up])
     assert len(truth) * len(estimates) > DENSE_LIMIT
     big = gospa(truth, estimates, c=2.0)
     assert (big.localisation, big.missed, big.false) == (2.0 * k, 0, 0)

@@ -75,6 +75,7 @@ class GospaResult:
 #: larger frames break a tie inside its component.
 DENSE_LIMIT = 2048 * 2048
 
+
 @njit(cache=True)
 def _component_gain(
     local_cost: NDArray[np.float64], cp: float

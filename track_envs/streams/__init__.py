@@ -11,6 +11,7 @@ from track_envs.infra.lazy import lazy_exports
 if TYPE_CHECKING:
     from track_envs.streams.constant_velocity import (
         ConstantVelocityStream,
+        constant_density,
         constant_velocity_stream,
         score_tracker,
     )
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
 #: the package stays light.
 _LAZY: dict[str, str] = {
     "ConstantVelocityStream": "track_envs.streams.constant_velocity",
+    "constant_density": "track_envs.streams.constant_velocity",
     "constant_velocity_stream": "track_envs.streams.constant_velocity",
     "score_tracker": "track_envs.streams.constant_velocity",
     "MergeEventStream": "track_envs.streams.merge_events",
@@ -33,6 +35,7 @@ __all__ = [
     "ConstantVelocityStream",
     "EventScores",
     "MergeEventStream",
+    "constant_density",
     "constant_velocity_stream",
     "merge_event_streams",
     "score_events",
