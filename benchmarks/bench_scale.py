@@ -319,7 +319,11 @@ def main() -> None:
     parser.add_argument("--compare-only", action="store_true")
     parser.add_argument("--out", type=Path, default=Path("results/scale"))
     parser.add_argument("--figure", type=Path, default=None, help="the log-log figure (PNG)")
+    parser.add_argument("--redraw", type=Path, default=None, help="draw --figure from a scale.json and stop")
     args = parser.parse_args()
+    if args.redraw is not None:
+        _figure(json.loads(args.redraw.read_text()), args.figure or args.redraw.with_suffix(".png"))
+        return
 
     records: list[dict[str, Any]] = []
     if not args.compare_only:
@@ -362,25 +366,22 @@ def _figure(records: list[dict[str, Any]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    labels = sorted({(r["kind"], r["label"]) for r in records if "us_per_target" in r})
-    for kind, label in labels:
-        pts = sorted(
-            (r["in_view"], r["us_per_target"]) for r in records if (r["kind"], r["label"]) == (kind, label)
-        )
-        x, y = zip(*pts, strict=True)
-        ax.plot(
-            x,
-            y,
-            "o-" if kind == "tracker" else "s--",
-            label=f"{label}" if kind == "tracker" else f"{label} (metric)",
-        )
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    styles = {"tracker": ("o-", "{}"), "metric": ("s--", "{} (metric)"), "env": ("^:", "{} (generation)")}
+    for kind, label in sorted({(r["kind"], r["label"]) for r in records if "us_per_target" in r}):
+        mine = [r for r in records if (r["kind"], r["label"]) == (kind, label)]
+        x, y = zip(*sorted((r["in_view"], r["us_per_target"]) for r in mine), strict=True)
+        style, name = styles[kind]
+        ax.plot(x, y, style, label=name.format(label))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("targets in view")
     ax.set_ylabel("µs per target and frame")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.set_title(
+        "Cost per target: the constant-velocity stream at its default density, one thread", fontsize=9
+    )
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
