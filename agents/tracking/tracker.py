@@ -27,6 +27,11 @@ predictor rolled forward from the track's state without further measurements
 up, see :meth:`PointTracker._rollout_steps`). A deleted track has coasted since its last update,
 and coasting is that roll-out, so the prediction is the one from the last update.
 
+The sizes follow the scene: an observation with more rows than the spec's ``max_detections`` (an
+env with ``overflow="grow"`` that grew its rows) is read as it is, and more live tracks than
+``max_tracks`` grow the report (doubled until they fit, a ``RuntimeWarning`` once per episode; the
+env follows the report's rows), as ``track run``'s reports grow — no track is dropped.
+
 All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
 steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
 are each one compiled loop (numba: :mod:`predictors.kalman._kernels`,
@@ -39,7 +44,9 @@ stream does not pause on its first frames.
 from __future__ import annotations
 
 import copy
+import warnings
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -56,7 +63,7 @@ from agents.tracking.warm_up import warm_up_stream
 from predictors.base import Capability, Predictor, capability, reset_predictor
 from predictors.registry import resolve_predictor
 from track_envs.contracts.observation import check_observation
-from track_envs.contracts.report import pack_report
+from track_envs.contracts.report import pack_report, reports_may_grow
 from track_envs.contracts.sorting_channel import empty_sorting, pack_sorting
 from track_envs.infra.registry import missing_methods
 from track_envs.values.types import Gaussian, SensorSpec
@@ -241,6 +248,7 @@ class PointTracker:
         self.last_prediction_ids = np.zeros(0, dtype=np.int64)
         self.last_prediction_detection = np.zeros(0, dtype=np.int64)
         self._frame = 0
+        self._grew = False
         sorting = spec.sorting_line is not None and self.predict_sorting
         self._no_sorting = empty_sorting(spec.max_tracks) if sorting else None
         self._sorting = self._no_sorting
@@ -287,6 +295,7 @@ class PointTracker:
         """Consume one observation and report the live tracks."""
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
+        self._follow_observation_rows(obs)
         rows, z = check_observation(obs, self._spec)
         if len(self._ids) == 0:
             self._initiate(z, rows, np.zeros(0, dtype=np.bool_), 0, np.zeros(0, dtype=np.int64), self._last)
@@ -353,9 +362,49 @@ class PointTracker:
         """The predicted ``state`` corrected by the associator with this frame's association."""
         return self.associator.update(self.predictor, state, association, seen)
 
+    def _follow_observation_rows(self, obs: Mapping[str, NDArray]) -> None:
+        """An observation with more rows than ``max_detections`` (an env that grew its rows for a
+        frame with more detections) makes them this tracker's ``max_detections``."""
+        assert self._spec is not None
+        shape = np.shape(obs.get("detections", ()))
+        if len(shape) == 2 and shape[0] > self._spec.max_detections:
+            self._spec = replace(self._spec, max_detections=int(shape[0]))
+
+    def _grow_report_rows(self, n: int) -> None:
+        """More live tracks than ``max_tracks``: the report (and its sorting channel) grows from
+        now on — doubled until the ``n`` tracks fit (an env with ``overflow="grow"`` follows the
+        report's rows), or to ``n`` rows inside ``track run``'s
+        :func:`~track_envs.contracts.report.growable_reports` —, warned once per episode."""
+        assert self._spec is not None
+        rows = self._spec.max_tracks
+        if reports_may_grow():
+            rows = n
+        else:
+            while rows < n:
+                rows *= 2
+            if not self._grew:
+                warnings.warn(
+                    f"{n} live tracks exceed the report's max_tracks={self._spec.max_tracks}; the report "
+                    f"grows to {rows} rows (pass max_tracks >= {n} to the env, or delete tracks sooner)",
+                    RuntimeWarning,
+                    stacklevel=3,
+                )
+        self._grew = True
+        n = rows
+        self._spec = replace(self._spec, max_tracks=n)
+        if self._no_sorting is not None:
+            self._no_sorting = empty_sorting(n)
+        if self._sorting is not None:
+            grown = empty_sorting(n)
+            for key, value in self._sorting.items():
+                grown[key][: len(value)] = value
+            self._sorting = grown
+
     def _report(self) -> dict[str, NDArray]:
         """The report of the live tracks, with the sorting channel when the sensor has a nozzle bar."""
         assert self._spec is not None
+        if len(self._ids) > self._spec.max_tracks:
+            self._grow_report_rows(len(self._ids))
         report = pack_report(self._ids, self._last, self._detection_rows, self._spec.max_tracks)
         self._frame += 1
         if self._sorting is not None:

@@ -168,6 +168,11 @@ def growable_reports() -> Iterator[None]:
         _GROWABLE.reset(token)
 
 
+def reports_may_grow() -> bool:
+    """Whether :func:`pack_report` grows reports here (inside :func:`growable_reports`)."""
+    return _GROWABLE.get()
+
+
 def pack_report(
     ids: NDArray[np.integer],
     positions: NDArray[np.floating],

@@ -193,6 +193,23 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         self._build_spaces(replace(self.sensor_spec, max_detections=rows))
         self._mask = np.zeros(rows, dtype=np.int8)
 
+    def _follow_report_rows(self, action: Any) -> None:
+        """With ``overflow="grow"``, a report with more rows than ``max_tracks`` (a tracker that
+        outgrew it, :class:`~agents.tracking.tracker.PointTracker`) makes them ``max_tracks``:
+        the action space is rebuilt and a ``RuntimeWarning`` names the sizes."""
+        mask = action.get("mask") if isinstance(action, dict) else None
+        rows = int(np.shape(mask)[0]) if mask is not None and np.ndim(mask) == 1 else 0
+        old = self.sensor_spec.max_tracks
+        if self.overflow != "grow" or rows <= old:
+            return
+        warnings.warn(
+            f"a report of {rows} rows in frame {self._frame} exceeds max_tracks={old}; max_tracks grows to "
+            f"{rows} and action_space is rebuilt (pass max_tracks >= {rows} to keep it fixed)",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+        self._build_spaces(replace(self.sensor_spec, max_tracks=rows))
+
     def _set_drift(self, drift: SensorDrift | Any) -> None:
         """Let the sensor drift (:func:`track_envs.envs.drift.resolve_drift` checks ``drift``)."""
         self.drift = resolve_drift(drift)
@@ -331,6 +348,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     ) -> tuple[dict[str, NDArray], float, bool, bool, dict[str, Any]]:
         if self._frame < 0 or self._current_truth is None:
             raise RuntimeError("step() called before reset(); call env.reset(seed=...) first")
+        self._follow_report_rows(action)
         report = validate_report(action, self.sensor_spec.max_tracks, self.position_shape, self._mask)
         reward = float(self._score(self._current_truth, report))
         self._last_report = report
