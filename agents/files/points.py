@@ -25,7 +25,6 @@ The command-line front end is ``track run`` (:mod:`agents.cli.run`).
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
@@ -37,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from agents.base import AgentCapability, agent_capability, agent_declares
 from agents.files.kinds import check_file_agent
 from agents.sorting.collect import SortingCollector, sorting_spec
-from track_envs.contracts.report import ReportOverflowError, growable_reports
+from track_envs.contracts.report import ReportOverflowError, fixed_reports, growable_reports
 from track_envs.io.crossings import PredictedCrossings
 from track_envs.values.detections import Detections
 from track_envs.values.tracks import Tracks, carried_boxes
@@ -202,7 +201,7 @@ def run_agent(
         try:
             # a sorting channel has max_tracks rows: a run that collects one grows by running again
             growable = grow and sorting_line is None
-            with growable_reports() if growable else contextlib.nullcontext():
+            with growable_reports() if growable else fixed_reports():
                 return _run(agent, stream, spec, sorting, covariance=covariance, progress=progress)
         except ReportOverflowError as exc:
             if not (grow and reset):

@@ -63,7 +63,7 @@ from agents.tracking.warm_up import warm_up_stream
 from predictors.base import Capability, Predictor, capability, reset_predictor
 from predictors.registry import resolve_predictor
 from track_envs.contracts.observation import check_observation
-from track_envs.contracts.report import pack_report, reports_may_grow
+from track_envs.contracts.report import pack_report, report_growth
 from track_envs.contracts.sorting_channel import empty_sorting, pack_sorting
 from track_envs.infra.registry import missing_methods
 from track_envs.values.types import Gaussian, SensorSpec
@@ -366,6 +366,8 @@ class PointTracker:
         """An observation with more rows than ``max_detections`` (an env that grew its rows for a
         frame with more detections) makes them this tracker's ``max_detections``."""
         assert self._spec is not None
+        if not isinstance(obs, Mapping):
+            return  # check_observation names what is wrong
         shape = np.shape(obs.get("detections", ()))
         if len(shape) == 2 and shape[0] > self._spec.max_detections:
             self._spec = replace(self._spec, max_detections=int(shape[0]))
@@ -374,10 +376,14 @@ class PointTracker:
         """More live tracks than ``max_tracks``: the report (and its sorting channel) grows from
         now on — doubled until the ``n`` tracks fit (an env with ``overflow="grow"`` follows the
         report's rows), or to ``n`` rows inside ``track run``'s
-        :func:`~track_envs.contracts.report.growable_reports` —, warned once per episode."""
+        :func:`~track_envs.contracts.report.growable_reports` —, warned once per episode; never
+        inside :func:`~track_envs.contracts.report.fixed_reports` (the report then raises)."""
         assert self._spec is not None
+        growth = report_growth()
+        if growth == "fixed":  # pack_report raises ReportOverflowError, as a fixed report must
+            return
         rows = self._spec.max_tracks
-        if reports_may_grow():
+        if growth == "exact":
             rows = n
         else:
             while rows < n:

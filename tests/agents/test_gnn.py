@@ -114,11 +114,23 @@ def test_wrong_observation_shape_or_dtype_is_named():
         agent.act({"detections": np.zeros((8, 2), np.float32)})
 
 
-def test_more_live_tracks_than_the_report_holds_is_an_error():
+def test_more_live_tracks_than_the_report_holds_grow_it():
+    """12 live tracks in a report of 8 rows: the report doubles to 16 rows (warned once) and holds
+    every track; inside fixed_reports() it is an error, as a fixed-size report must be."""
+    from track_envs.contracts.report import fixed_reports
+
     agent = make_agent("gnn", max_misses=10)
     agent.reset(SPEC)
     agent.act(observation(np.linspace([0.1, 0.1], [0.9, 0.1], 6)))
-    with pytest.raises(ValueError, match="do not fit a report of max_tracks=8"):
+    with pytest.warns(
+        RuntimeWarning, match="12 live tracks exceed the report's max_tracks=8; the report grows to 16"
+    ):
+        report = agent.act(observation(np.linspace([0.1, 0.8], [0.9, 0.8], 6)))
+    assert report["mask"].shape == (16,) and report["mask"].sum() == 12
+    assert len(set(report["ids"][report["mask"] == 1].tolist())) == 12
+    agent.reset(SPEC)
+    agent.act(observation(np.linspace([0.1, 0.1], [0.9, 0.1], 6)))
+    with fixed_reports(), pytest.raises(ValueError, match="do not fit a report of max_tracks=8"):
         agent.act(observation(np.linspace([0.1, 0.8], [0.9, 0.8], 6)))
 
 

@@ -148,7 +148,8 @@ class ReportOverflowError(ValueError):
         self.max_tracks = int(max_tracks)
 
 
-_GROWABLE: ContextVar[bool] = ContextVar("growable_reports", default=False)
+#: True inside :func:`growable_reports`, False inside :func:`fixed_reports`, None elsewhere.
+_GROWABLE: ContextVar[bool | None] = ContextVar("growable_reports", default=None)
 
 
 @contextmanager
@@ -168,9 +169,25 @@ def growable_reports() -> Iterator[None]:
         _GROWABLE.reset(token)
 
 
-def reports_may_grow() -> bool:
-    """Whether :func:`pack_report` grows reports here (inside :func:`growable_reports`)."""
-    return _GROWABLE.get()
+@contextmanager
+def fixed_reports() -> Iterator[None]:
+    """Within this context a report keeps ``max_tracks`` rows: a tracker that would grow its report
+    (:class:`~agents.tracking.tracker.PointTracker`) lets :func:`pack_report` raise
+    :class:`ReportOverflowError` instead (``run_agent(grow=False)``, a run that collects a fixed-size
+    sorting channel)."""
+    token = _GROWABLE.set(False)
+    try:
+        yield
+    finally:
+        _GROWABLE.reset(token)
+
+
+def report_growth() -> str:
+    """How a tracker's report grows here: ``"exact"`` (to its live tracks, inside
+    :func:`growable_reports`), ``"fixed"`` (never, inside :func:`fixed_reports`) or ``"double"``
+    (elsewhere: a point tracker doubles its rows until its tracks fit, and warns)."""
+    state = _GROWABLE.get()
+    return "double" if state is None else ("exact" if state else "fixed")
 
 
 def pack_report(
