@@ -160,33 +160,13 @@ def _general_costs(mean: FloatArray, cov: FloatArray, z: FloatArray, cost: Float
     """
     n, D = mean.shape
     m = z.shape[0]
+    factors, bad = _general_factors(cov)  # every L⁻¹ (S = L Lᵀ)
+    if bad >= 0:
+        return bad
     zt = np.ascontiguousarray(z.T)  # detections by coordinate: contiguous inner loops
-    L = np.zeros((D, D))
-    inv = np.zeros((D, D))
     y = np.empty(m)
     for i in range(n):
-        # S = L Lᵀ
-        for c in range(D):
-            s = cov[i, c, c]
-            for k in range(c):
-                s -= L[c, k] * L[c, k]
-            if not s > 0.0:
-                return i
-            lcc = np.sqrt(s)
-            L[c, c] = lcc
-            for r in range(c + 1, D):
-                s = cov[i, r, c]
-                for k in range(c):
-                    s -= L[r, k] * L[c, k]
-                L[r, c] = s / lcc
-        # L⁻¹ (lower triangular), column by column
-        for c in range(D):
-            inv[c, c] = 1.0 / L[c, c]
-            for r in range(c + 1, D):
-                s = 0.0
-                for k in range(c, r):
-                    s -= L[r, k] * inv[k, c]
-                inv[r, c] = s / L[r, r]
+        inv = factors[i]
         row = cost[i]
         row[:] = 0.0
         for r in range(D):
@@ -255,8 +235,9 @@ def _planar_factors(cov: FloatArray) -> tuple[FloatArray, int]:
 
 @njit(cache=True)
 def _general_factors(cov: FloatArray) -> tuple[FloatArray, int]:
-    """Every ``L⁻¹`` (n, D, D), lower triangular (:func:`_general_costs`'s expressions); and −1,
-    or the first track whose covariance is not positive definite."""
+    """Every ``L⁻¹`` (n, D, D), lower triangular: the Cholesky factor ``S_i = L Lᵀ`` row by row,
+    then its inverse column by column; and −1, or the first track whose covariance is not
+    positive definite."""
     n, D = cov.shape[0], cov.shape[1]
     L = np.zeros((D, D))
     inv = np.zeros((n, D, D))

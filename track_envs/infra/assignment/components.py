@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from track_envs.infra.assignment.lone_pairs import split_sparse
+from track_envs.infra.assignment.lone_pairs import partner_pairs, split_sparse
 from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
 from track_envs.infra.assignment.sparse_path import solve_with_misses
 from track_envs.infra.compiled import njit
@@ -247,15 +247,4 @@ def solve_sparse(
                 b = sol_cols[t]
                 if b < n_local and problem[sol_rows[t], b] <= gate:
                     partner[row_members[row_start[c] + sol_rows[t]]] = col_members[col_start[c] + b]
-    n_pairs = 0
-    for i in range(n):
-        n_pairs += partner[i] >= 0
-    out_rows = np.empty(n_pairs, dtype=np.int64)
-    out_cols = np.empty(n_pairs, dtype=np.int64)
-    t = 0
-    for i in range(n):
-        if partner[i] >= 0:
-            out_rows[t] = i
-            out_cols[t] = partner[i]
-            t += 1
-    return out_rows, out_cols
+    return partner_pairs(partner)

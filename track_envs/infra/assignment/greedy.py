@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.assignment.lone_pairs import partner_pairs
 from track_envs.infra.compiled import njit
 
 IntArray = NDArray[np.int64]
@@ -59,20 +60,10 @@ def greedy_sparse(
     order = np.argsort(key, kind="mergesort")  # stable: equal costs stay row-major
     partner = np.full(n, -1, dtype=np.int64)
     col_taken = np.zeros(n_cols, dtype=np.bool_)
-    n_taken = 0
     for t in range(n_ok):
         i = pair_row[order[t]]
         j = pair_col[order[t]]
         if partner[i] < 0 and not col_taken[j]:
             partner[i] = j
             col_taken[j] = True
-            n_taken += 1
-    out_rows = np.empty(n_taken, dtype=np.int64)
-    out_cols = np.empty(n_taken, dtype=np.int64)
-    t = 0
-    for i in range(n):
-        if partner[i] >= 0:
-            out_rows[t] = i
-            out_cols[t] = partner[i]
-            t += 1
-    return out_rows, out_cols
+    return partner_pairs(partner)
