@@ -41,6 +41,7 @@ from agents import make_agent
 from track_envs.envs.belt_physics import BeltParams
 from track_envs.envs.belt_sorter import _BELT_GREY, _WALL, _WINDOW, _box_corners
 from track_envs.envs.rendering import footer_height, identity_colors
+from track_envs.infra.atomic import write_with
 
 FEED_RATE = 470.0  # particles/s that keep ≈150 cylinders in the window with a steady feed
 
@@ -160,8 +161,8 @@ def main() -> None:
 
         out = Path(args.png_dir)
         out.mkdir(parents=True, exist_ok=True)
-        Image.fromarray(frame).save(out / "render_pillow.png")
-        Image.fromarray(ref_frame).save(out / "render_matplotlib.png")
+        write_with(out / "render_pillow.png", Image.fromarray(frame).save)
+        write_with(out / "render_matplotlib.png", Image.fromarray(ref_frame).save)
     print(
         f"BeltSorter-v0 frame {frame.shape[1]}x{frame.shape[0]}: {in_window} particles in the window "
         f"({len(snapshot.ids)} on the belt), {len(detections)} detections, {len(report)} tracks"

@@ -42,6 +42,8 @@ from typing import Any
 
 import numpy as np
 
+from track_envs.infra.atomic import save_figure, write_text
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 #: Targets in view of the sizes the issue names.
@@ -341,7 +343,7 @@ def main() -> None:
             print(_line(r), flush=True)
         records += recs
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "scale.json").write_text(json.dumps(records, indent=1))
+    write_text(args.out / "scale.json", json.dumps(records, indent=1))
     print(f"records: {args.out / 'scale.json'}")
     if args.figure is not None:
         _figure(records, args.figure)
@@ -384,7 +386,7 @@ def _figure(records: list[dict[str, Any]], path: Path) -> None:
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     print(f"figure: {path}")
 
 

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from track_envs.infra.atomic import save_figure
+
 #: Table II of Okada et al. (2020): (label, aleatoric, epistemic, L) → (MOTA total, num_switches).
 PAPER = {
     ("both", 15): (66.1, 232),
@@ -130,7 +132,7 @@ def main(argv: list[str] | None = None) -> None:
         fig.suptitle("okada2020 ablation on KeypointWalkers-v0 (mean ± std over seeds)")
         fig.tight_layout()
         args.plot.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(args.plot, dpi=100)
+        save_figure(fig, args.plot, dpi=100)
         print(f"wrote {args.plot}")
 
 

@@ -20,6 +20,7 @@ import numpy as np
 
 import agents.tuning
 from agents.tuning import FixedPolicy, episode_errors, knob_ranges
+from track_envs.io import save_figure
 
 #: The best fixed setting of the 168-setting grid on training seeds 0-4 (docs/gate_tuning.md).
 BEST_FIXED = {"p_gate": 0.7, "recovery_inflation": 1.0, "noise_scale": 32.0}
@@ -67,7 +68,7 @@ def plot(traces: dict[str, dict[str, np.ndarray]], path: Path, seed: int) -> Non
         ax.legend(fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.reproductions import jung2019 as exp
+from track_envs.io import atomic_write, save_figure
 
 P_VALUES = np.round(np.arange(1, 11) * 0.1, 2)
 SIGMA_VALUES = np.arange(1, 9) * 0.25
@@ -87,7 +88,7 @@ def heatmaps(
             ax.text(j, i, text, ha="center", va="center", fontsize=7, color="w" if dark else "k")
         fig.colorbar(im, ax=ax, label="gain (%)" if gain else "log10 mean error")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
@@ -110,7 +111,7 @@ def track_panel(ax: Any, batch: exp.Batch, frames: slice, title: str, equal: boo
 
 def save(fig: Any, path: Path) -> None:
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
@@ -497,7 +498,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     emit("\n## Claims of the paper and what these runs show\n\n| claim | paper | ours |\n|---|---|---|")
     for row in res["claims"]:
         emit("| " + " | ".join(row) + " |")
-    (args.out / "tables.md").write_text("\n".join(lines) + "\n")
+    with atomic_write(args.out / "tables.md") as f:
+        f.write("\n".join(lines) + "\n")
     res["files"] = sorted(str(p) for p in args.out.glob("*.png"))
     return res
 

@@ -25,7 +25,7 @@ from agents import make_agent
 from agents.sorting import SortingCheck, check_sorting
 from track_envs import Detections, detection_sensor_spec
 from track_envs.envs import SAMPLE_NOISE_STD, SAMPLE_READ_OPTIONS, sample_detections_path
-from track_envs.io import read_detections
+from track_envs.io import read_detections, save_figure
 
 LINE, CUT = 0.35, 0.30
 DISTANCES = (0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14)
@@ -232,7 +232,7 @@ def plot(
     )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 

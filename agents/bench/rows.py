@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from agents.bench.cells import Cell
+from track_envs.infra import atomic
 
 
 def params_text(params: Sequence[tuple[str, Any]]) -> str:
@@ -98,6 +99,8 @@ def save_figure(fig: Any, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        atomic.save_figure(fig, path, dpi=100)
+    finally:
+        plt.close(fig)
     return path

@@ -35,7 +35,6 @@ import math
 import os
 import platform
 import socket
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterable, Sequence
@@ -56,6 +55,7 @@ from agents import make_agent
 from agents.bench.cells import NO_PREDICTOR, Cell
 from agents.bench.progress import CellBar
 from agents.episode import run_episode
+from track_envs.infra.atomic import atomic_write
 from track_envs.wrappers import TrackingMetrics
 
 SCHEMA = 1
@@ -206,20 +206,13 @@ def run_cell(cell: Cell) -> dict[str, Any]:
 
 
 def write_record(out_dir: str | os.PathLike[str], record: dict[str, Any]) -> Path:
-    """Write ``record`` atomically (temporary file in ``out_dir``, fsync, ``os.replace``)."""
+    """Write ``record`` atomically (:func:`track_envs.infra.atomic.atomic_write`: a temporary file in
+    ``out_dir``, fsync, ``os.replace``)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = out / Cell.from_dict(record["cell"]).filename
-    fd, tmp = tempfile.mkstemp(dir=out, prefix=".tmp-", suffix=".part")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(record, fh, indent=1, allow_nan=False)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(target) as fh:
+        json.dump(record, fh, indent=1, allow_nan=False)
     return target
 
 

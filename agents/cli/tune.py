@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.cli import arguments
+from track_envs.infra.atomic import write_text
 
 PROG = "track tune"
 
@@ -58,7 +59,7 @@ def cmd_grid_suite(args: argparse.Namespace) -> int:
 
     text = grid_suite(args.seeds, args.steps, drift=None if args.no_drift else args.drift)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    write_text(args.out, text)
     print(f"wrote {args.out}: run it with track bench run --suite {args.out} --out <dir>")
     return 0
 
@@ -171,7 +172,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             print(format_comparison(a, b, r))
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+        write_text(args.out, json.dumps(result, indent=2) + "\n")
     return 0
 
 

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from agents.tuning.policy import FixedPolicy, SettingChooser
 from track_envs.envs.drift import DRIFT_PRESETS, SensorValues
+from track_envs.infra.atomic import write_text
 
 #: The sensor parameters of a state, in the table's axis order.
 SENSOR_AXES = SensorValues._fields  # ("noise_std", "p_detect", "clutter_rate")
@@ -150,7 +151,7 @@ class SensorTable:
         """Write the table as JSON; returns the path."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+        write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
         return path
 
     @classmethod

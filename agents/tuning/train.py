@@ -15,6 +15,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from track_envs.infra.atomic import atomic_path
+
 SB3_HINT = 'training needs stable-baselines3: pip install "track-envs[rl]"'
 
 
@@ -138,7 +140,10 @@ def train(
     }
     meta = {"training": summary, "env_kwargs": dict(config.env_kwargs), "versions": versions}
     export_policy(model, policy_out if policy_out is not None else out / "policy", meta=meta)
-    model.save(out / "ppo_final")
+    with atomic_path(
+        out / "ppo_final.zip", keep_suffix=True
+    ) as tmp:  # SB3 keeps a name ending in .zip as it is
+        model.save(tmp)
     return model, summary
 
 

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from scipy.optimize import isotonic_regression
 from scipy.stats import chi2
 
+from track_envs.infra.atomic import save_figure
 from track_envs.metrics.prediction import Reliability
 
 FloatArray = NDArray[np.float64]
@@ -140,5 +141,7 @@ def plot_reliability(
     ax.set_title(title or "reliability (χ² of squared Mahalanobis distances)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=120)
+    finally:
+        plt.close(fig)

@@ -38,6 +38,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.atomic import write_bytes, write_text
+
 #: Value of the sidecar's ``format`` key.
 FORMAT = "track-envs-model"
 #: Current sidecar format version.
@@ -82,8 +84,9 @@ def save_model(path: str | os.PathLike[str], model: ModelFile) -> tuple[Path, Pa
 
     The sidecar records each tensor's shape, so a loader can check the weights before using them.
     Both files are written as any file is (permissions from the umask, e.g. 0644): the tensors are
-    serialised in memory and written with ``Path.write_bytes``, since safetensors' ``save_file``
-    writes through a private temporary file (0600).
+    serialised in memory and each file is written atomically (:mod:`track_envs.infra.atomic`: a
+    temporary file beside it, renamed; a failed write leaves the old model), not with safetensors'
+    ``save_file`` (a private 0600 file).
     """
     from safetensors.numpy import save
 
@@ -99,8 +102,8 @@ def save_model(path: str | os.PathLike[str], model: ModelFile) -> tuple[Path, Pa
         "tensors": {name: list(a.shape) for name, a in arrays.items()},
         **{k: v for k, v in model.meta.items() if k not in _RESERVED},
     }
-    tensor_path.write_bytes(save(arrays, metadata={"kind": model.kind}))
-    sidecar_path.write_text(json.dumps(sidecar, indent=2, sort_keys=False, default=_json_default) + "\n")
+    write_bytes(tensor_path, save(arrays, metadata={"kind": model.kind}))
+    write_text(sidecar_path, json.dumps(sidecar, indent=2, sort_keys=False, default=_json_default) + "\n")
     return tensor_path, sidecar_path
 
 

@@ -48,7 +48,9 @@ def test_new_file_gets_umask_default_not_0600(tmp_path: Path) -> None:
 
 
 def test_atomic_path_for_libraries_keeps_suffix(tmp_path: Path) -> None:
-    with atomic_path(tmp_path / "fig.png") as tmp:
+    with atomic_path(tmp_path / "rec.json") as tmp:
+        assert tmp.name.startswith(".rec.json.") and tmp.suffix == ".part"  # not *.json
+    with atomic_path(tmp_path / "fig.png", keep_suffix=True) as tmp:
         assert tmp.suffix == ".png" and tmp.parent == tmp_path
         tmp.write_bytes(b"png")
     assert (tmp_path / "fig.png").read_bytes() == b"png"

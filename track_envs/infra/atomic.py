@@ -28,6 +28,7 @@ __all__ = [
     "atomic_path",
     "atomic_write",
     "check_writable",
+    "save_figure",
     "write_bytes",
     "write_text",
     "write_with",
@@ -132,11 +133,13 @@ def _atomic(target: Path, mode: str, encoding: str, newline: str | None) -> Iter
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> Iterator[Path]:
     """A temporary path beside ``path`` for writers that want a file name (``np.save``,
     ``safetensors``, ``matplotlib``): whatever the block writes there is renamed onto ``path`` when
-    it ends without error; otherwise removed. Keeps the target's suffix, so libraries that pick a
-    format from the name (``savefig``) still do.
+    it ends without error; otherwise removed. The temporary name is hidden and ends in ``.part``
+    (so a directory scan for ``*.json`` never sees a write in progress); ``keep_suffix=True`` adds
+    the target's suffix after it, for libraries that pick a format from the name (``savefig``,
+    Pillow) or add one when it is missing (stable-baselines3's ``.zip``).
 
     Raises:
         FileWriteError: naming ``path``, when the temporary file cannot be made or written, or the
@@ -145,7 +148,9 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     target = Path(path)
     try:
         fd, name = tempfile.mkstemp(
-            dir=target.parent, prefix=f".{target.name}.", suffix=".part" + target.suffix
+            dir=target.parent,
+            prefix=f".{target.name}.",
+            suffix=".part" + (target.suffix if keep_suffix else ""),
         )
     except OSError as exc:
         raise _error(target, exc) from exc
@@ -194,7 +199,16 @@ def write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
 
 
 def write_with(path: str | os.PathLike[str], writer: Callable[[Path], object]) -> Path:
-    """Call ``writer(tmp)`` to write a file at a temporary path, then rename it onto ``path``."""
-    with atomic_path(path) as tmp:
+    """Call ``writer(tmp)`` to write a file at a temporary path (with ``path``'s suffix, for
+    writers that pick a format from it), then rename it onto ``path``."""
+    with atomic_path(path, keep_suffix=True) as tmp:
         writer(tmp)
+    return Path(path)
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], **savefig_kwargs: Any) -> Path:
+    """``fig.savefig(path, **savefig_kwargs)`` for a matplotlib figure, atomically (the format
+    follows ``path``'s suffix, as savefig's does); returns the path."""
+    with atomic_path(path, keep_suffix=True) as tmp:
+        fig.savefig(tmp, **savefig_kwargs)
     return Path(path)

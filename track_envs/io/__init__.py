@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 from track_envs.infra.lazy import lazy_exports
 
 if TYPE_CHECKING:
+    from track_envs.infra.atomic import FileWriteError, atomic_path, atomic_write, check_writable, save_figure
     from track_envs.io.crossings import CROSSING_COLUMNS, PredictedCrossings, read_crossings, write_crossings
     from track_envs.io.csv_parser import DetectionFileError, TrackFileError
     from track_envs.io.detections import (
@@ -39,6 +40,11 @@ _LAZY: dict[str, str] = {
     "PredictedCrossings": "track_envs.io.crossings",
     "read_crossings": "track_envs.io.crossings",
     "write_crossings": "track_envs.io.crossings",
+    "FileWriteError": "track_envs.infra.atomic",
+    "atomic_path": "track_envs.infra.atomic",
+    "atomic_write": "track_envs.infra.atomic",
+    "check_writable": "track_envs.infra.atomic",
+    "save_figure": "track_envs.infra.atomic",
     "DetectionFileError": "track_envs.io.csv_parser",
     "TrackFileError": "track_envs.io.csv_parser",
     "MotRows": "track_envs.io.detections",
@@ -69,9 +75,13 @@ __all__ = [
     "POSE_FORMATS",
     "TRACK_FORMATS",
     "DetectionFileError",
+    "FileWriteError",
     "MotRows",
     "PredictedCrossings",
     "TrackFileError",
+    "atomic_path",
+    "atomic_write",
+    "check_writable",
     "detection_format",
     "is_pose_file",
     "json_pose_format",
@@ -83,6 +93,7 @@ __all__ = [
     "read_pose_file",
     "read_tracks",
     "read_wide_detections",
+    "save_figure",
     "track_format",
     "write_coco_results",
     "write_crossings",

@@ -22,6 +22,7 @@ import numpy as np
 
 from agents.bench.figures import age_scatter_figure, age_series, box_figure, box_stats, reliability_figure
 from agents.bench.rows import Row, aggregate, save_figure
+from track_envs.infra.atomic import write_text
 
 NAME = "pollithy2020"
 ENV = "BeltSorter-v0"
@@ -616,5 +617,5 @@ def write_claims(
     lines += ["", "## Table I: aleatoric area over the added noise", "", *table1(rows)]
     lines += ["", "## Where our belt differs, and why we think it does", "", *DISCUSSION, ""]
     path = out / f"{NAME}.md"
-    path.write_text("\n".join(lines))
+    write_text(path, "\n".join(lines))
     return [path, *figs.values()]
