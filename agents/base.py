@@ -22,6 +22,10 @@ An agent (a tracker) turns each observation of an env into a report of its track
   - ``takes_predictor: bool = False`` — built with a ``predictor=`` argument (a registered
     Gaussian predictor's name or object, :func:`predictors.resolve_predictor`): the bench runs it
     once per predictor, ``track run --predictor`` passes one.
+  - ``keeps_identities: bool = True`` — ``False`` for a reference that keeps no identity from one
+    frame to the next (the no-tracking ``detections`` floor, whose e1 and so e_mean are 0 by
+    construction). Tables rank only trackers (:func:`agent_is_ranked`): neither such a reference
+    nor an oracle that reads the truth (``needs_truth``) is ever marked best.
 
 Optional capabilities
 ---------------------
@@ -209,12 +213,14 @@ class AgentTraits:
         position_rank: 1 for point targets (D,), 2 for poses (17, 2).
         max_targets: The most targets tracked at once, ``None`` for any number.
         takes_predictor: Built with a ``predictor=`` argument.
+        keeps_identities: ``False`` for a reference that keeps no identity across frames.
     """
 
     needs_truth: bool = False
     position_rank: int = 1
     max_targets: int | None = None
     takes_predictor: bool = False
+    keeps_identities: bool = True
 
 
 #: The traits of a class that declares none.
@@ -265,6 +271,16 @@ def agent_applies_to(name: str, position_shape: tuple[int, ...], max_targets: in
 def agent_takes_predictor(name: str) -> bool:
     """Whether agent ``name`` declares ``takes_predictor`` (is built with ``predictor=``)."""
     return agent_traits(AGENTS.factory(name)).takes_predictor
+
+
+def agent_is_ranked(name: str) -> bool:
+    """Whether agent ``name`` competes in the results tables: a tracker that keeps identities
+    (``keeps_identities``) and sees no truth (not ``needs_truth``). A name not registered here (a
+    record from an agent of your own) is ranked."""
+    if name not in AGENTS.names():
+        return True
+    traits = agent_traits(AGENTS.factory(name))
+    return traits.keeps_identities and not traits.needs_truth
 
 
 def make_agent(name: str, **kwargs: Any) -> Agent:

@@ -30,6 +30,7 @@ Files written into the out dir by :func:`write_report`:
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import os
 import sys
@@ -41,15 +42,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents.base import agent_is_ranked
 from agents.bench.cells import Cell
 from agents.bench.figures import predictor_figures
 from agents.bench.rows import Row, aggregate, params_text, row_label, save_figure
+from track_envs.infra.atomic import atomic_write, write_text
 
 # Row, aggregate and params_text live in agents.bench.rows and are importable from here as before.
 
 #: Metrics shown in the tables and plots, in this order, where an env reports them.
 HEADLINE = (
-    *("e_mean", "mota", "idf1", "hota", "det_a", "ass_a", "id_switches", "gospa"),
+    *("e_mean", "e1", "e2", "mota", "idf1", "hota", "det_a", "ass_a", "id_switches", "gospa"),
     *("mean_error", "rmse", "lost", "oks_mean"),
     *("sorting_hit_rate", "sorting_time_p95_ms", "sorting_lateral_p95_mm"),
 )
@@ -81,10 +84,14 @@ def headline(rows: Sequence[Row]) -> list[str]:
 
 
 def best_rows(rows: Sequence[Row], metric: str) -> set[int]:
-    """Indices (into ``rows``) of the best value of ``metric`` within each (env, setting)."""
+    """Indices (into ``rows``) of the best value of ``metric`` within each (env, setting), among
+    the trackers only (:func:`agents.base.agent_is_ranked`): the no-tracking ``detections``
+    reference (e1 = 0, so e_mean = 0, by construction) and truth-reading oracles are never best."""
     if metric not in LOWER_IS_BETTER | HIGHER_IS_BETTER:
         return set()
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
+    ranked = {name: agent_is_ranked(name) for name in {r.agent for r in rows}}
+    rows = [r if ranked[r.agent] else dataclasses.replace(r, mean={}) for r in rows]
     best: dict[tuple[Any, ...], float] = {}
     for r in rows:
         v = r.mean.get(metric, math.nan)
@@ -139,13 +146,21 @@ def terminal_table(rows: Sequence[Row], color: bool | None = None) -> str:
                     f"\033[1m{c}\033[0m" if v.endswith("*") else c for c, v in zip(cells, b, strict=True)
                 ]
             lines.append("  ".join(cells).rstrip())
-    lines.append("\n* best per env and setting (lower is better for errors, higher for MOTA/IDF1/HOTA/OKS)")
+    lines.append(
+        "\n* best tracker per env and setting (lower is better for errors, higher for MOTA/IDF1/HOTA/OKS);"
+        " references (detections, one-step) are not ranked"
+    )
     return "\n".join(lines)
 
 
 def markdown_table(rows: Sequence[Row]) -> str:
     """The headline tables as markdown; the best value per metric in bold."""
-    parts = ["# track bench results", "", "Mean ± std over seeds; **bold**: best per env and setting."]
+    parts = [
+        "# track bench results",
+        "",
+        "Mean ± std over seeds; **bold**: best tracker per env and setting (the references, detections"
+        " and one-step, are not ranked).",
+    ]
     for env_id, header, body, best in _env_tables(rows):
         for j, winners in enumerate(best):
             for i in winners:
@@ -158,7 +173,7 @@ def markdown_table(rows: Sequence[Row]) -> str:
 
 def write_csvs(records: Sequence[dict[str, Any]], rows: Sequence[Row], out: Path) -> None:
     """``summary.csv`` (long form aggregates) and ``records.csv`` (one row per cell)."""
-    with open(out / "summary.csv", "w", newline="") as fh:
+    with atomic_write(out / "summary.csv", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["env_id", "params", "agent", "predictor", "n", "metric", "mean", "std"])
         for r in rows:
@@ -166,7 +181,7 @@ def write_csvs(records: Sequence[dict[str, Any]], rows: Sequence[Row], out: Path
                 w.writerow([r.env_id, r.params_label, r.agent, r.predictor, r.n, k, r.mean[k], r.std[k]])
     metric_keys = list(dict.fromkeys(k for rec in records for k in rec["metrics"]))
     fixed = ["env_id", "params", "agent", "predictor", "seed", "episodes", "steps", "wall_s", "frames_per_s"]
-    with open(out / "records.csv", "w", newline="") as fh:
+    with atomic_write(out / "records.csv", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(fixed + metric_keys)
         for rec in records:
@@ -353,7 +368,7 @@ def write_report(records: Sequence[dict[str, Any]], out_dir: str | os.PathLike[s
     """Write ``results.md``, ``summary.csv``, ``records.csv`` and ``plots/*.png``; return their paths."""
     out = Path(out_dir)
     rows = aggregate(records)
-    (out / "results.md").write_text(markdown_table(rows))
+    write_text(out / "results.md", markdown_table(rows))
     write_csvs(records, rows, out)
     paths = [out / "results.md", out / "summary.csv", out / "records.csv"]
     plots = out / "plots"
