@@ -74,6 +74,7 @@ COVERED: dict[str, str] = {
     "--out tracks.csv --sorting-check line=0.35,cut=0.3": "tests/agents/test_sorting_check.py",
     "DATA=$(python -c": "tests/agents/test_run_boxes.py",
     "track run $DATA/test.txt": "tests/agents/test_run_boxes.py",
+    "python examples/score_with_motmetrics.py $DATA/gt.txt": "tests/test_examples.py",
     "track run det.json --agent pose-baseline --gt gt.json --metrics --out tracks.json": (
         "tests/agents/test_run_pose.py"
     ),

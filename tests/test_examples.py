@@ -352,3 +352,17 @@ def test_the_extending_section_links_a_tested_example_for_each_extension_point()
     assert linked == sorted(p.stem for p in EXAMPLES.glob("extend_*.py")) and len(linked) == 6
     tests = Path(__file__).read_text()
     assert all(f'load("{name}")' in tests for name in linked)
+
+
+def test_score_with_motmetrics_runs_as_the_docs_write_it_and_both_scorers_agree(capsys):
+    """The py-motmetrics recipe of docs/track_run.md on today's numpy (the np.asfarray shim)."""
+    mm = pytest.importorskip("motmetrics")
+    data = Path(mm.__file__).parent / "data" / "TUD-Campus"
+    out = load("score_with_motmetrics").main([str(data / "gt.txt"), str(data / "test.txt")])
+    theirs, ours = out["motmetrics"], out["track_envs"]
+    # motmetrics' own figures for its tracker output (its test_motchallenge_files)
+    assert theirs["mota"] == pytest.approx(0.526462, abs=1e-6) and theirs["num_switches"] == 7
+    assert theirs["idf1"] == pytest.approx(0.557659, abs=1e-6)
+    for key in ("mota", "idf1", "motp", "num_switches"):
+        assert ours[key] == pytest.approx(theirs[key], abs=1e-12), key
+    assert "py-motmetrics" in capsys.readouterr().out
