@@ -160,6 +160,8 @@ def calibrated(
     from agents.files.points import takes_calibration
     from agents.sensor_model import estimate_sensor_model
 
+    if typed(args.p_detect) and not 0.0 < args.p_detect <= 1.0:
+        raise ValueError(f"--p-detect must be in (0, 1], got {args.p_detect!r}")
     predictor = args.predictor or "kf-ca"
     gnn_kwargs = {k: v for k, v in agent_kwargs.items() if args.agent == "gnn"}
     clutter_given = typed(args.clutter_rate) or args.clutter_density is not None

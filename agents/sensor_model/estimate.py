@@ -175,7 +175,9 @@ class SensorModelEstimate:
         its ``merge_extent`` (or ``merge_model=False`` where none was found)."""
         merge: dict[str, Any] = {}
         if agent == "jpda":
-            merge = {"merge_model": False} if self.merge_extent is None else {"merge_extent": self.merge_extent}
+            merge = (
+                {"merge_model": False} if self.merge_extent is None else {"merge_extent": self.merge_extent}
+            )
         if kinematics(self.predictor) is None:
             return merge
         kwargs: dict[str, Any] = merge | {"q": self.q, "max_misses": self.max_misses}

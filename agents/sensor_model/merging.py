@@ -76,7 +76,9 @@ def closest_approaches(detections: Detections, labels: NDArray[np.int64]) -> NDA
     return dist[first]
 
 
-def merge_extent(detections: Detections, labels: NDArray[np.int64], length: float) -> tuple[float | None, str]:
+def merge_extent(
+    detections: Detections, labels: NDArray[np.int64], length: float
+) -> tuple[float | None, str]:
     """The merge extent (module docstring) and the rule that gave it (``"boxes"``,
     ``"closest approaches"`` or ``"none"``)."""
     floor = MIN_EXTENT_SHARE * length

@@ -54,7 +54,8 @@ def calibration_lines(cal: SensorModelEstimate) -> list[str]:
         f"{100 * cal.reappearing:.0f}% of track ends re-appear)",
         f"  detection probability p_D {cal.p_detect:.4g} ({tag('p_detect')}"
         + (f"; from {cal.n_gaps} gaps of the confident tracks)" if tag("p_detect") == "estimated" else ")"),
-        f"  clutter density {cal.clutter_density:.4g} per input unit{area_unit} and frame ({tag('clutter_density')}"
+        f"  clutter density {cal.clutter_density:.4g} per input unit{area_unit} and frame "
+        f"({tag('clutter_density')}"
         + (
             f"; {cal.n_unclaimed} detections no track of 3 claims, over {cal.clutter_area:.4g} input "
             f"unit{area_unit})"
