@@ -32,8 +32,10 @@ from track_envs.values.detections import Detections
 
 #: Quantile of the track pairs' closest approaches that is the extent (points only).
 MERGE_QUANTILE = 0.05
-#: Frames (evenly spaced) the closest approaches are looked for in, at most.
+#: Frames (evenly spaced) the closest approaches are looked for in, at most ...
 MAX_FRAMES = 1000
+#: ... and detections in those frames, at most (fewer frames of a crowded stream).
+MAX_DETECTIONS = 200_000
 #: Least extent, as a share of the stream's nearest-neighbour distance.
 MIN_EXTENT_SHARE = 1e-3
 
@@ -48,11 +50,12 @@ def box_size(boxes: NDArray[np.float64]) -> float | None:
 def closest_approaches(detections: Detections, labels: NDArray[np.int64]) -> NDArray[np.float64]:
     """Each pair of confident tracks' (``labels >= 0``) smallest distance in a frame where both
     are detected and one is the other's nearest confident neighbour (over at most ``MAX_FRAMES``
-    frames, evenly spaced)."""
+    frames, evenly spaced, holding about ``MAX_DETECTIONS`` detections at most)."""
     counts = detections.counts
     frames = np.flatnonzero(counts >= 2)
-    if len(frames) > MAX_FRAMES:
-        frames = frames[np.linspace(0, len(frames) - 1, MAX_FRAMES).round().astype(np.int64)]
+    most = min(MAX_FRAMES, max(1, int(MAX_DETECTIONS * len(frames) / max(int(counts[frames].sum()), 1))))
+    if len(frames) > most:
+        frames = frames[np.linspace(0, len(frames) - 1, most).round().astype(np.int64)]
     pairs, dists = [], []
     for t in frames:
         lo, hi = detections.offsets[t], detections.offsets[t + 1]
