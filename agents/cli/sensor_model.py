@@ -45,8 +45,9 @@ def add_arguments(group: Any) -> None:
         "--calibrate",
         choices=["auto", "on", "off"],
         default="auto",
-        help="estimate the noise, process noise, velocity prior and coasting from the detections: auto "
-        "(default) when --declared-noise-std is not given, on, off",
+        help="estimate the noise, process noise, velocity prior, coasting, detection probability, "
+        "clutter density and jpda's merge extent from the detections: auto (default) when "
+        "--declared-noise-std is not given, on, off",
     )
     group.add_argument(
         "--process-noise",
