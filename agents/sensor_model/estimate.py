@@ -580,14 +580,20 @@ def _normalised(
 def _check_detection_model(p_detect: Any, clutter_density: Any, merge_extent: Any) -> None:
     """Raise ``ValueError`` naming a given ``p_detect``, ``clutter_density`` or ``merge_extent``
     out of its range."""
-    if p_detect is not None and not (isinstance(p_detect, int | float) and 0.0 < p_detect <= 1.0):
+    if p_detect is not None and not (
+        isinstance(p_detect, int | float | np.floating) and 0.0 < p_detect <= 1.0
+    ):
         raise ValueError(f"p_detect must be a probability in (0, 1], got {p_detect!r}")
     if clutter_density is not None and not (
-        isinstance(clutter_density, int | float) and math.isfinite(clutter_density) and clutter_density >= 0
+        isinstance(clutter_density, int | float | np.floating)
+        and math.isfinite(clutter_density)
+        and clutter_density >= 0
     ):
         raise ValueError(f"clutter_density must be a finite number >= 0, got {clutter_density!r}")
     if merge_extent is not None and not (
-        isinstance(merge_extent, int | float) and math.isfinite(merge_extent) and merge_extent > 0
+        isinstance(merge_extent, int | float | np.floating)
+        and math.isfinite(merge_extent)
+        and merge_extent > 0
     ):
         raise ValueError(f"merge_extent must be a finite number > 0, got {merge_extent!r}")
 

@@ -103,7 +103,7 @@ def test_merge_extent_from_boxes_and_closest_approaches():
     labels = np.array([0, 1, 2, 0, 1, 2])
     np.testing.assert_allclose(np.sort(closest_approaches(det, labels)), [1.0, 47.0])
     extent, rule = merge_extent(det, labels, length=10.0)
-    assert rule == "closest approaches" and 1.0 <= extent < 47.0
+    assert rule == "closest approaches" and extent is not None and 1.0 <= extent < 47.0
     assert merge_extent(det, np.full(6, -1), length=10.0) == (None, "none")
     boxed = Detections(det.points, det.offsets, boxes=np.tile([0.0, 0, 2, 8], (6, 1)))
     assert merge_extent(boxed, labels, length=10.0) == (4.0, "boxes")
@@ -153,7 +153,7 @@ def test_given_detection_model_is_kept_and_told_to_the_tracker():
         spec,
         predictor="kf-cv",
         p_detect=0.8,
-        clutter_density=7.0 / np.prod(spec.region_size),
+        clutter_density=7.0 / float(np.prod(spec.region_size)),
         merge_extent=0.002,
     )
     assert (cal.p_detect, cal.merge_extent, cal.merge_rule) == (0.8, 0.002, "given")
