@@ -407,9 +407,11 @@ def estimate_sensor_model(
         q: A given process noise intensity, kept instead of estimated.
         velocity_mean: A given velocity prior mean (input units per second), kept as given.
         velocity_std: A given velocity prior std (input units per second), kept as given.
-        p_detect: A given detection probability in (0, 1], kept (and told to every tracking run).
+        p_detect: A given detection probability in (0, 1], kept (and told to every tracking run);
+            None: ``spec.p_detect`` where the spec declares one (below 1), else estimated.
         clutter_density: A given clutter density (detections per unit area, input units^D, and
-            frame), >= 0, kept (and told to every tracking run).
+            frame), >= 0, kept (and told to every tracking run); None: the spec's (its
+            ``clutter_rate`` over its region) where it declares clutter, else estimated.
         merge_extent: A given jpda merge extent (input units), > 0, kept.
         agent_kwargs: Other gnn keywords of the tracking runs (e.g. ``p_gate``, ``max_misses``);
             a ``q``, ``initial_velocity`` or ``initial_velocity_std`` among them counts as given.
@@ -425,6 +427,10 @@ def estimate_sensor_model(
     """
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+    if p_detect is None and 0.0 < spec.p_detect < 1.0:  # a spec that declares misses
+        p_detect = float(spec.p_detect)
+    if clutter_density is None and spec.clutter_rate > 0:  # a spec that declares clutter
+        clutter_density = float(spec.clutter_rate) / float(np.prod(spec.region_size))
     _check_detection_model(p_detect, clutter_density, merge_extent)
     agent_kwargs = dict(agent_kwargs or {})
     given = _given_settings(noise_std, q, velocity_mean, velocity_std, agent_kwargs)
