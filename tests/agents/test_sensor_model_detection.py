@@ -185,7 +185,7 @@ def test_summary_lines_and_atomic_sidecar(accuracy, tmp_path):
     assert written["clutter_density"] == cal.clutter_density
     with pytest.raises(FileWriteError, match="nowhere"):
         write_sidecar(tmp_path / "nowhere" / "t.txt", {})
-    assert not list(tmp_path.glob("*.tmp*"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.txt.calibration.json"]  # no temporary left
 
 
 # -- track run: the same tracks in metres and in 1/K metres, gnn and jpda ------------------------
