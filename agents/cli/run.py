@@ -55,10 +55,12 @@ added to the detections; --noise-std is its deprecated alias), --region (or
 the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame; a
 report too small for the live tracks is grown, never an error).
 Self-calibration (--calibrate auto, the default, when --declared-noise-std is not given): the
-measurement noise, the Kalman process noise q, the velocity prior and how long a track coasts are
-estimated from the detections, in their own units (pixels or metres alike), printed and written to
+measurement noise, the Kalman process noise q, the velocity prior, how long a track coasts, the
+detection probability, the clutter density and jpda's merge extent are estimated from the
+detections, in their own units (pixels or metres alike), printed and written to
 OUT.calibration.json; --declared-noise-std, --process-noise, --initial-velocity,
---initial-velocity-std and max_misses in --agent-kwargs override their estimates. A run that looks
+--initial-velocity-std, --p-detect, --clutter-rate / --clutter-density, --merge-extent and
+max_misses in --agent-kwargs override their estimates. A run that looks
 wrong (most detections start a track, most tracks 1-2 frames long) is warned about.
 With --gt and --metrics, the point envs' metrics table: MOTA, IDF1, ID switches, GOSPA (match
 distance and cut-off --threshold, default half the median nearest-neighbour distance within a
@@ -156,10 +158,6 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     arguments.add_declared_noise(g)
     g.set_defaults(declared_noise_std=None)  # not given: the run calibrates itself (--calibrate auto)
     sensor_model.add_arguments(g)
-    g.add_argument("--p-detect", type=float, default=1.0, help="declared detection probability (default 1)")
-    g.add_argument(
-        "--clutter-rate", type=float, default=0.0, help="declared clutter detections per frame (default 0)"
-    )
     g.add_argument(
         "--region", type=_region, help="XLOW,YLOW,XHIGH,YHIGH (default: the detections' bounding box)"
     )
@@ -354,7 +352,7 @@ def _agent_settings(
     from agents.sensor_model.estimate import live_track_bound
     from agents.sensor_model.summary import calibration_lines
 
-    agent_kwargs = dict(args.agent_kwargs)
+    spec, agent_kwargs = sensor_model.declared(args, spec, dict(args.agent_kwargs))
     calibration = None
     calibration_s = 0.0
     if sensor_model.wanted(args):

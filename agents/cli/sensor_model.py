@@ -3,7 +3,12 @@
 With ``--calibrate auto`` (the default) a run without ``--declared-noise-std`` calibrates itself
 (:func:`agents.sensor_model.estimate`); ``--calibrate on`` calibrates whatever is not given
 (``--declared-noise-std``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
-``max_misses`` in ``--agent-kwargs`` each override their estimate), ``off`` never.
+``--p-detect``, ``--clutter-rate`` or ``--clutter-density``, ``--merge-extent`` and ``max_misses``
+in ``--agent-kwargs`` each override their estimate), ``off`` never.
+
+Declared against estimated: a flag that is typed is kept as typed, in a calibrated run too (its
+source reads ``given``); one that is not typed is estimated by a calibrated run, and takes its
+default in a run that does not calibrate (``p_D`` 1, no clutter, jpda's ``merge_extent``).
 """
 
 from __future__ import annotations
@@ -24,14 +29,25 @@ def _vector(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"bad --initial-velocity {text!r}: use VX,VY") from None
 
 
+class Untyped(float):
+    """A flag's default value that remembers the flag was not typed (it behaves as the float)."""
+
+
+def typed(value: object) -> bool:
+    """Whether a flag's value was typed (not its :class:`Untyped` default, not None)."""
+    return value is not None and not isinstance(value, Untyped)
+
+
 def add_arguments(group: Any) -> None:
-    """``--calibrate``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``."""
+    """``--calibrate``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
+    ``--p-detect``, ``--clutter-rate``, ``--clutter-density``, ``--merge-extent``."""
     group.add_argument(
         "--calibrate",
         choices=["auto", "on", "off"],
         default="auto",
-        help="estimate the noise, process noise, velocity prior and coasting from the detections: auto "
-        "(default) when --declared-noise-std is not given, on, off",
+        help="estimate the noise, process noise, velocity prior, coasting, detection probability, "
+        "clutter density and jpda's merge extent from the detections: auto (default) when "
+        "--declared-noise-std is not given, on, off",
     )
     group.add_argument(
         "--process-noise",
@@ -52,12 +68,78 @@ def add_arguments(group: Any) -> None:
         metavar="STD",
         help="velocity std of a new track, units/s (overrides its estimate)",
     )
+    group.add_argument(
+        "--p-detect",
+        type=float,
+        default=Untyped(1.0),
+        metavar="P",
+        help="detection probability p_D the tracker is told (gnn's clutter test, jpda's weights), in "
+        "(0, 1]: kept as given; not given, a calibrated run estimates it from the gaps of its "
+        "confident tracks, any other run takes 1",
+    )
+    group.add_argument(
+        "--clutter-rate",
+        type=float,
+        default=Untyped(0.0),
+        metavar="R",
+        help="clutter detections per frame over --region the tracker is told, >= 0: kept as given; "
+        "not given (nor --clutter-density), a calibrated run estimates the clutter density from the "
+        "detections no track of 3 claims, any other run takes 0",
+    )
+    group.add_argument(
+        "--clutter-density",
+        type=float,
+        metavar="L",
+        help="the clutter as a density: detections per unit area (the detections' units after "
+        "--scale, squared) and frame, >= 0; as --clutter-rate, not with it",
+    )
+    group.add_argument(
+        "--merge-extent",
+        type=float,
+        metavar="E",
+        help="jpda: largest distance of two tracks' predictions that may be one merged blob, in the "
+        "detections' units, > 0: kept as given; not given, a calibrated run estimates it (the "
+        "boxes' median size, or a low quantile of the closest approaches of confident track "
+        "pairs), any other run takes jpda's default (0.006, metres)",
+    )
 
 
 def wanted(args: argparse.Namespace) -> bool:
     """Whether this point-file run calibrates itself (pose files are tracked by pose agents, which
     ``track run`` sends elsewhere before this is asked, and point agents only reach here)."""
     return args.calibrate == "on" or (args.calibrate == "auto" and args.declared_noise_std is None)
+
+
+def declared(
+    args: argparse.Namespace, spec: SensorSpec, agent_kwargs: dict[str, Any]
+) -> tuple[SensorSpec, dict[str, Any]]:
+    """The spec and agent keywords with the declared sensor flags every run takes, calibrated or
+    not: ``--clutter-density`` as the spec's clutter rate over its region, ``--merge-extent`` as
+    jpda's keyword.
+
+    Raises:
+        ValueError: ``--clutter-rate`` with ``--clutter-density``, a negative density, a merge
+            extent not > 0, or ``--merge-extent`` for an agent other than jpda.
+    """
+    import math
+
+    from agents.sensor_model.estimate import with_detection_model
+
+    density = args.clutter_density
+    if density is not None:
+        if typed(args.clutter_rate):
+            raise ValueError("give --clutter-rate or --clutter-density, not both")
+        if not (math.isfinite(density) and density >= 0):
+            raise ValueError(f"--clutter-density must be a finite number >= 0, got {density!r}")
+        spec = with_detection_model(spec, spec.p_detect, density)
+    extent = args.merge_extent
+    if extent is not None:
+        if args.agent != "jpda":
+            raise ValueError(f"--merge-extent is jpda's; agent {args.agent!r} has no merge model")
+        if not (math.isfinite(extent) and extent > 0):
+            raise ValueError(f"--merge-extent must be a finite number > 0, got {extent!r}")
+        agent_kwargs = agent_kwargs | {"merge_extent": extent}
+    return spec, agent_kwargs
 
 
 def given_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -79,8 +161,12 @@ def calibrated(
     from agents.files.points import takes_calibration
     from agents.sensor_model import estimate_sensor_model
 
+    if typed(args.p_detect) and not 0.0 < args.p_detect <= 1.0:
+        raise ValueError(f"--p-detect must be in (0, 1], got {args.p_detect!r}")
     predictor = args.predictor or "kf-ca"
     gnn_kwargs = {k: v for k, v in agent_kwargs.items() if args.agent == "gnn"}
+    clutter_given = typed(args.clutter_rate) or args.clutter_density is not None
+    merge = agent_kwargs.get("merge_extent") if args.agent == "jpda" else None
     cal = estimate_sensor_model(
         detections,
         spec,
@@ -91,9 +177,12 @@ def calibrated(
         if args.initial_velocity is None
         else np.asarray(args.initial_velocity, np.float64),
         velocity_std=args.initial_velocity_std,
+        p_detect=float(args.p_detect) if typed(args.p_detect) else None,
+        clutter_density=spec.clutter_rate / float(np.prod(spec.region_size)) if clutter_given else None,
+        merge_extent=None if merge is None else float(merge),
         agent_kwargs=gnn_kwargs,
     )
     kwargs = dict(agent_kwargs)
     if takes_calibration(args.agent):  # empty for a predictor without a kinematic model
-        kwargs = cal.agent_kwargs() | kwargs
+        kwargs = cal.agent_kwargs(args.agent) | kwargs
     return cal.sensor_spec(spec), kwargs, cal

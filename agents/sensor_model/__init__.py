@@ -1,10 +1,13 @@
-"""The sensor model from the data: noise, motion, velocity prior and coasting from the detections.
+"""The sensor model from the data: noise, motion, velocity prior, coasting, detection probability,
+clutter and merges from the detections.
 
 :func:`estimate_sensor_model` (:mod:`agents.sensor_model.estimate`) estimates the measurement
-noise, the process noise, the velocity prior and the coasting length of a Kalman tracker from its
-own confident tracks (what ``track run`` does when no noise is declared, ``run_agent(...,
-calibrate=True)``); :mod:`agents.sensor_model.diagnostics` names the figures of a run that looks
-wrong and :mod:`agents.sensor_model.summary` prints and writes the estimate.
+noise, the process noise, the velocity prior and the coasting length of a Kalman tracker, the
+detection probability and the clutter density (:mod:`agents.sensor_model.detection`) and jpda's
+merge extent (:mod:`agents.sensor_model.merging`) from its own confident tracks (what ``track
+run`` does when no noise is declared, ``run_agent(..., calibrate=True)``);
+:mod:`agents.sensor_model.diagnostics` names the figures of a run that looks wrong and
+:mod:`agents.sensor_model.summary` prints and writes the estimate.
 
 Words: *calibration* in this project is a learned model's stated uncertainty made to match its
 errors (:mod:`predictors.training.calibration`); estimating the sensor from a file is the *sensor

@@ -12,13 +12,21 @@
    least squares on the differenced detections (:mod:`agents.sensor_model.noise`; Odelson,
    Rajamani and Rawlings 2006), and the velocity prior — median and robust spread of each track's
    first velocity — and, for the constant-acceleration model, the spread of the first accelerations;
-4. **repeat** 2–3 with the new settings until ``r`` and ``q`` change by less than ``SETTLED``
-   (relative) or ``max_iterations`` runs were made.
+4. **estimate** from the same confident tracks the detection probability ``p_D`` (their gaps)
+   and the clutter density ``λ`` (the detections none of them claims, per unit area and frame):
+   :mod:`agents.sensor_model.detection`; the next run's sensor is told them, so that gnn's
+   second chance weighs a coasting track against clutter, ``(p_D − a) N(z) ≥ (1 − p_D) λ``;
+5. **repeat** 2–4 with the new settings until ``r`` and ``q`` change by less than ``SETTLED``
+   (relative) or ``max_iterations`` runs were made;
+6. from the last run: the coasting length (:mod:`agents.sensor_model.coasting`) and jpda's merge
+   extent (:mod:`agents.sensor_model.merging`: the boxes' size, or the closest approaches of the
+   confident track pairs).
 
 The tracking runs work on the detections divided by a power of two near the stream's length
 ``ℓ`` (exact in floating point), so the filters' absolute floors (``R >= 1e-12``) never meet the
 data, and every estimate is a second moment of positions: positions × k give ``σ`` × k, ``q`` × k²,
-velocities × k — the same tracks in pixels and in metres.
+velocities × k, ``λ`` × k^−D, the merge extent × k and ``p_D`` as it is — the same tracks in
+pixels and in metres.
 
 Floors, relative to the data: ``σ >= 1e-3 ℓ`` and a process noise whose one-frame position variance
 is at least ``MIN_PROCESS_SHARE`` of ``r`` (a filter that believes its targets never deviate from
@@ -38,7 +46,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents.sensor_model.coasting import coasting_radii, reappearance_gaps
+from agents.sensor_model.detection import DetectionModel, detection_model
 from agents.sensor_model.diagnostics import count_distinct
+from agents.sensor_model.merging import merge_extent as estimate_merge_extent
 from agents.sensor_model.noise import NoiseEstimate, estimate_noise
 from agents.sensor_model.scales import DataScales, data_scales
 from predictors import make_predictor
@@ -116,6 +126,14 @@ class SensorModelEstimate:
         reappearing: That share; ``reappearance_gaps``: the gaps seen (frames).
         iterations: Tracking runs made; ``settled``: whether ``r`` and ``q`` settled.
         n_tracks: Confident tracks of the last estimate; ``n_differences``: differences it used.
+        p_detect: ``p_D``, the detection probability (:mod:`agents.sensor_model.detection`: from
+            the ``n_gaps`` gaps of the confident tracks; 1 without any).
+        clutter_density: ``λ``, clutter detections per unit area (input units^D) and frame: the
+            ``n_unclaimed`` detections no confident track claims over ``clutter_area`` (the area
+            the detections cover, input units^D) and the frames; 0 without an area.
+        merge_extent: jpda's merge extent (input units; :mod:`agents.sensor_model.merging`), by
+            ``merge_rule`` (``"boxes"``, ``"closest approaches"``, ``"given"``); None: no merge
+            model (rule ``"none"``).
         sources: For each setting, ``"estimated"`` or ``"given"``.
         history: ``(σ, q)`` after each run.
     """
@@ -140,16 +158,29 @@ class SensorModelEstimate:
     settled: bool
     n_tracks: int
     n_differences: int
+    p_detect: float = 1.0
+    n_gaps: int = 0
+    clutter_density: float = 0.0
+    n_unclaimed: int = 0
+    clutter_area: float = 0.0
+    merge_extent: float | None = None
+    merge_rule: str = "none"
     sources: dict[str, str] = field(default_factory=dict)
     history: tuple[tuple[float, float], ...] = ()
 
-    def agent_kwargs(self) -> dict[str, Any]:
-        """``make_agent("gnn", predictor=..., **kwargs)`` keywords that carry the settings (the
-        measurement noise goes in the sensor spec, :meth:`sensor_spec`); empty for a predictor
-        without a kinematic model (:func:`kinematics`)."""
+    def agent_kwargs(self, agent: str = "gnn") -> dict[str, Any]:
+        """``make_agent(agent, predictor=..., **kwargs)`` keywords that carry the settings (the
+        measurement noise, ``p_D`` and ``λ`` go in the sensor spec, :meth:`sensor_spec`); empty
+        for a predictor without a kinematic model (:func:`kinematics`). For ``agent="jpda"`` also
+        its ``merge_extent`` (or ``merge_model=False`` where none was found)."""
+        merge: dict[str, Any] = {}
+        if agent == "jpda":
+            merge = (
+                {"merge_model": False} if self.merge_extent is None else {"merge_extent": self.merge_extent}
+            )
         if kinematics(self.predictor) is None:
-            return {}
-        kwargs: dict[str, Any] = {"q": self.q, "max_misses": self.max_misses}
+            return merge
+        kwargs: dict[str, Any] = merge | {"q": self.q, "max_misses": self.max_misses}
         if self.model != "random-walk":
             kwargs |= {
                 "initial_velocity": np.array(self.velocity_mean),
@@ -161,8 +192,12 @@ class SensorModelEstimate:
         return kwargs
 
     def sensor_spec(self, spec: SensorSpec) -> SensorSpec:
-        """``spec`` with the calibrated measurement noise std."""
-        return dataclasses.replace(spec, noise_std=self.noise_std)
+        """``spec`` with the calibrated measurement noise std, ``p_detect`` and the clutter rate of
+        density ``λ`` over ``spec``'s region (``λ`` × its volume: trackers read ``λ`` as
+        ``clutter_rate`` / the region's volume)."""
+        return with_detection_model(
+            dataclasses.replace(spec, noise_std=self.noise_std), self.p_detect, self.clutter_density
+        )
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (units: those of the input, seconds)."""
@@ -172,6 +207,16 @@ class SensorModelEstimate:
         out["history"] = [list(h) for h in self.history]
         out["units"] = "input units (positions as given after --scale), seconds"
         return out
+
+
+def with_detection_model(spec: SensorSpec, p_detect: float, clutter_density: float) -> SensorSpec:
+    """``spec`` telling ``p_detect`` and clutter of density ``clutter_density`` over its region
+    (its own ``clutter_rate`` kept where it already tells that density, so that a declared rate
+    is not rounded through the density)."""
+    rate = clutter_density * float(np.prod(spec.region_size))
+    if math.isclose(rate, spec.clutter_rate, rel_tol=1e-12, abs_tol=0.0):
+        rate = spec.clutter_rate
+    return dataclasses.replace(spec, p_detect=float(p_detect), clutter_rate=float(rate))
 
 
 @functools.lru_cache(maxsize=16)
@@ -344,6 +389,9 @@ def estimate_sensor_model(
     q: float | None = None,
     velocity_mean: NDArray[np.floating] | None = None,
     velocity_std: float | None = None,
+    p_detect: float | None = None,
+    clutter_density: float | None = None,
+    merge_extent: float | None = None,
     agent_kwargs: Mapping[str, Any] | None = None,
     max_iterations: int = 5,
 ) -> SensorModelEstimate:
@@ -359,6 +407,12 @@ def estimate_sensor_model(
         q: A given process noise intensity, kept instead of estimated.
         velocity_mean: A given velocity prior mean (input units per second), kept as given.
         velocity_std: A given velocity prior std (input units per second), kept as given.
+        p_detect: A given detection probability in (0, 1], kept (and told to every tracking run);
+            None: ``spec.p_detect`` where the spec declares one (below 1), else estimated.
+        clutter_density: A given clutter density (detections per unit area, input units^D, and
+            frame), >= 0, kept (and told to every tracking run); None: the spec's (its
+            ``clutter_rate`` over its region) where it declares clutter, else estimated.
+        merge_extent: A given jpda merge extent (input units), > 0, kept.
         agent_kwargs: Other gnn keywords of the tracking runs (e.g. ``p_gate``, ``max_misses``);
             a ``q``, ``initial_velocity`` or ``initial_velocity_std`` among them counts as given.
         max_iterations: Most tracking runs, >= 1.
@@ -368,10 +422,16 @@ def estimate_sensor_model(
 
     Raises:
         ValueError: a stream without two consecutive frames holding detections (nothing to
-            estimate from), ``max_iterations < 1``, or an unknown predictor name.
+            estimate from), ``max_iterations < 1``, an unknown predictor name, or a given
+            ``p_detect``, ``clutter_density`` or ``merge_extent`` out of its range.
     """
     if not (isinstance(max_iterations, int) and max_iterations >= 1):
         raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+    if p_detect is None and 0.0 < spec.p_detect < 1.0:  # a spec that declares misses
+        p_detect = float(spec.p_detect)
+    if clutter_density is None and spec.clutter_rate > 0:  # a spec that declares clutter
+        clutter_density = float(spec.clutter_rate) / float(np.prod(spec.region_size))
+    _check_detection_model(p_detect, clutter_density, merge_extent)
     agent_kwargs = dict(agent_kwargs or {})
     given = _given_settings(noise_std, q, velocity_mean, velocity_std, agent_kwargs)
     given_misses = agent_kwargs.get("max_misses")
@@ -387,6 +447,14 @@ def estimate_sensor_model(
     unit = _power_of_two(scales.length)
     normal, normal_spec = _normalised(detections, spec, agent_kwargs, unit)
     first = _with_given(first_settings(scales, dt, order), given)
+    declared_density = float(spec.clutter_rate) / float(np.prod(spec.region_size))
+    sensor = _SensorGiven(
+        p_detect,
+        clutter_density,
+        float(spec.p_detect) if p_detect is None else p_detect,
+        declared_density if clutter_density is None else clutter_density,
+        int(given_misses) if given_misses is not None else MIN_MAX_MISSES,
+    )
     runs = _iterate(
         detections,
         normal,
@@ -398,8 +466,19 @@ def estimate_sensor_model(
         unit,
         max_iterations,
         scales.length,
+        sensor,
     )
     settings = runs.settings
+    found = runs.detection
+    p_hat = p_detect if p_detect is not None else (found.p_detect if found.p_detect is not None else 1.0)
+    lam = clutter_density
+    if lam is None:
+        lam = found.clutter_density if found.clutter_density is not None else 0.0
+    extent, rule = (
+        (float(merge_extent), "given")
+        if merge_extent is not None
+        else estimate_merge_extent(detections, confident(runs.labels), scales.length)
+    )
     p_gate = float(agent_kwargs.get("p_gate", DEFAULT_P_GATE))
     radii = coasting_radii(
         kinematic, dt, settings.q, settings.noise_std**2, p_gate, detections.dim, MAX_MAX_MISSES
@@ -407,7 +486,12 @@ def estimate_sensor_model(
     gaps, reappearing = _reappearances(detections, runs.labels, dt, radii, scales.length)
     coast = int(gaps.max()) if len(gaps) and reappearing >= REAPPEAR_SHARE else MIN_MAX_MISSES
     max_misses = int(given_misses) if given_misses is not None else max(MIN_MAX_MISSES, coast)
-    given["max_misses"] = given_misses
+    given |= {
+        "max_misses": given_misses,
+        "p_detect": p_detect,
+        "clutter_density": clutter_density,
+        "merge_extent": merge_extent,
+    }
     sources = {k: ("given" if v is not None else "estimated") for k, v in given.items()}
     return SensorModelEstimate(
         dt=float(dt),
@@ -430,6 +514,13 @@ def estimate_sensor_model(
         settled=runs.settled,
         n_tracks=runs.n_tracks,
         n_differences=0 if runs.noise is None else runs.noise.n_differences,
+        p_detect=float(p_hat),
+        n_gaps=found.n_gaps,
+        clutter_density=float(lam),
+        n_unclaimed=found.n_unclaimed,
+        clutter_area=found.area,
+        merge_extent=extent,
+        merge_rule=rule,
         sources=sources,
         history=tuple(runs.history),
     )
@@ -492,6 +583,39 @@ def _normalised(
     return normal, normal_spec
 
 
+def _check_detection_model(p_detect: Any, clutter_density: Any, merge_extent: Any) -> None:
+    """Raise ``ValueError`` naming a given ``p_detect``, ``clutter_density`` or ``merge_extent``
+    out of its range."""
+    if p_detect is not None and not (
+        isinstance(p_detect, int | float | np.floating) and 0.0 < p_detect <= 1.0
+    ):
+        raise ValueError(f"p_detect must be a probability in (0, 1], got {p_detect!r}")
+    if clutter_density is not None and not (
+        isinstance(clutter_density, int | float | np.floating)
+        and math.isfinite(clutter_density)
+        and clutter_density >= 0
+    ):
+        raise ValueError(f"clutter_density must be a finite number >= 0, got {clutter_density!r}")
+    if merge_extent is not None and not (
+        isinstance(merge_extent, int | float | np.floating)
+        and math.isfinite(merge_extent)
+        and merge_extent > 0
+    ):
+        raise ValueError(f"merge_extent must be a finite number > 0, got {merge_extent!r}")
+
+
+@dataclass(frozen=True)
+class _SensorGiven:
+    """The detection model of the tracking runs: the given ``p_D`` and ``λ`` (None: estimated),
+    those of the first run (the given or the spec's), and ``K``, the runs' ``max_misses``."""
+
+    p_detect: float | None
+    clutter_density: float | None
+    first_p_detect: float
+    first_clutter_density: float
+    max_gap: int
+
+
 @dataclass(frozen=True)
 class _Runs:
     """What the tracking runs of :func:`_iterate` left: the last settings, the labels of the last
@@ -500,6 +624,7 @@ class _Runs:
     settings: Settings
     labels: NDArray[np.int64]
     noise: NoiseEstimate | None
+    detection: DetectionModel
     n_tracks: int
     runs: int
     settled: bool
@@ -517,11 +642,16 @@ def _iterate(
     unit: float,
     max_iterations: int,
     length: float,
+    sensor: _SensorGiven,
 ) -> _Runs:
-    """Steps 2–4 of the module docstring: track ``normal`` (``detections`` / ``unit``) with
-    ``settings``, estimate new ones from the run's confident tracks (``length``: the stream's
-    scale), until they settle or ``max_iterations`` runs were made."""
+    """Steps 2–5 of the module docstring: track ``normal`` (``detections`` / ``unit``) with
+    ``settings`` and the ``sensor``'s ``p_D`` and ``λ``, estimate new ones from the run's
+    confident tracks (``length``: the stream's scale), until they settle or ``max_iterations``
+    runs were made."""
     dt, order = normal_spec.dt, tracking_model(predictor)[1].order
+    frames = detections.frame_index()
+    p_detect, density = sensor.first_p_detect, sensor.first_clutter_density
+    found_model: DetectionModel | None = None
     history: list[tuple[float, float]] = []
     settled = False
     noise: NoiseEstimate | None = None
@@ -529,9 +659,17 @@ def _iterate(
     runs = 0
     labels = np.full(len(detections), -1, np.int64)
     for _ in range(max_iterations):
-        tracks = _run_gnn(normal, normal_spec, predictor, settings.scaled(1 / unit), agent_kwargs)
+        run_spec = with_detection_model(normal_spec, p_detect, density * unit**detections.dim)
+        tracks = _run_gnn(normal, run_spec, predictor, settings.scaled(1 / unit), agent_kwargs)
         runs += 1
         labels = detection_labels(normal, tracks)
+        found_model = detection_model(
+            detections.points, frames, detections.n_frames, labels, sensor.max_gap, MIN_TRACK_LENGTH
+        )
+        if sensor.p_detect is None and found_model.p_detect is not None:
+            p_detect = found_model.p_detect
+        if sensor.clutter_density is None and found_model.clutter_density is not None:
+            density = found_model.clutter_density
         found = estimate_settings(detections, labels, dt, order, length, settings)
         if found is None:
             break
@@ -548,7 +686,8 @@ def _iterate(
         if change < SETTLED:
             settled = True
             break
-    return _Runs(settings, labels, noise, n_tracks, runs, settled, history)
+    assert found_model is not None  # max_iterations >= 1
+    return _Runs(settings, labels, noise, found_model, n_tracks, runs, settled, history)
 
 
 def _reappearances(
