@@ -152,14 +152,21 @@ def with_keypoint(j, values):
         ),
         (
             coco_record(keypoints=with_keypoint(1, ["a", 1.0, 2])),
-            r"annotation 1 \(image id \d+\): keypoint 'left_eye': x is not a number \(or beyond any float\): 'a'",
+            r"annotation 1 \(image id \d+\): keypoint 'left_eye': "
+            r"x is not a number \(or beyond any float\): 'a'",
         ),
         (
             coco_record(scores=[0.5] * 16 + [1.5]),
             r"annotation 1 \(image id \d+\): keypoint 'right_ankle': score = 1\.5 is not in \[0, 1\]",
         ),
-        (coco_record(scores=[0.5] * 3), r"annotation 1 \(image id \d+\): 'scores' must hold 17 keypoint confidences"),
-        (coco_record(score="high"), r"annotation 1 \(image id \d+\): 'score' must be a finite number, got 'high'"),
+        (
+            coco_record(scores=[0.5] * 3),
+            r"annotation 1 \(image id \d+\): 'scores' must hold 17 keypoint confidences",
+        ),
+        (
+            coco_record(score="high"),
+            r"annotation 1 \(image id \d+\): 'score' must be a finite number, got 'high'",
+        ),
         (coco_record(image_id="1"), r"annotation 1: 'image_id' must be an integer, got '1'"),
     ],
 )
