@@ -269,3 +269,16 @@ def test_odd_values_cover_the_issue_cases():
     """The cases the fuzz draws from include those a user met (strings, non-finite, 1e300)."""
     assert "12.5" in ODD_VALUES and 1e300 in ODD_VALUES
     assert any(isinstance(v, float) and math.isnan(v) for v in ODD_VALUES)
+
+
+@settings(FUZZ, max_examples=30)
+@given(raw=mutated_bytes(posetrack_file()))
+def test_track_run_on_fuzzed_posetrack_detections_exits_cleanly(raw):
+    _track_run(raw, None)
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=400)
+@given(raw=mutated_bytes(coco_file()), gt=st.one_of(st.none(), mutated_bytes(posetrack_file())))
+def test_track_run_on_fuzzed_files_more_cases(raw, gt):
+    _track_run(raw, gt)
