@@ -292,9 +292,14 @@ def _image_ids(records: list[Any], path: str | os.PathLike[str]) -> NDArray[np.i
     for i, r in enumerate(records):
         if not isinstance(r, dict):
             raise PoseFileError(f"{path}: annotation {i} must be an object, got {r!r:.80}")
+    values = [r.get("image_id") for r in records]
+    if set(map(type, values)) <= {int}:  # the common case, one conversion
+        try:
+            return np.array(values, np.int64)
+        except OverflowError:
+            pass
     return np.array(
-        [_integer(r.get("image_id"), f"{path}: annotation {i}: 'image_id'") for i, r in enumerate(records)],
-        np.int64,
+        [_integer(v, f"{path}: annotation {i}: 'image_id'") for i, v in enumerate(values)], np.int64
     )
 
 
