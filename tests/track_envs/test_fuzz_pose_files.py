@@ -28,6 +28,9 @@ from hypothesis import strategies as st
 from agents.cli.run import main
 from track_envs.io.poses import PoseFileError, image_list, read_pose_file
 
+# repeated poses are read with a PoseFileWarning (tested in test_pose_file_checks)
+pytestmark = pytest.mark.filterwarnings("ignore::track_envs.io.poses.PoseFileWarning")
+
 FRAMES, PEOPLE, K = 4, 2, 17
 
 #: Values a field or a keypoint value is replaced with.
