@@ -124,43 +124,50 @@ def with_keypoint(j, values):
     [
         (
             coco_record(keypoints=with_keypoint(5, [10.0, 20.0, 3])),
-            r"annotation 1: keypoint 'left_shoulder': v = 3\.0 is not a COCO visibility",
+            r"annotation 1 \(image id \d+\): keypoint 'left_shoulder': v = 3\.0 is not a COCO visibility",
         ),
         (
             coco_record(keypoints=with_keypoint(0, [10.0, 20.0, 0.87])),
-            r"annotation 1: keypoint 'nose': v = 0\.87 is not a COCO",
+            r"annotation 1 \(image id \d+\): keypoint 'nose': v = 0\.87 is not a COCO",
         ),
         (
             coco_record(keypoints=with_keypoint(16, [-4.0, 20.0, 1])),
-            r"annotation 1: keypoint 'right_ankle': x = -4\.0 is negative",
+            r"annotation 1 \(image id \d+\): keypoint 'right_ankle': x = -4\.0 is negative",
         ),
         (
             coco_record(keypoints=with_keypoint(9, [4.0, -0.5, 2])),
-            r"annotation 1: keypoint 'left_wrist': y = -0\.5 is negative",
+            r"annotation 1 \(image id \d+\): keypoint 'left_wrist': y = -0\.5 is negative",
         ),
         (
             coco_record(keypoints=with_keypoint(2, [float("nan"), 1.0, 2])),
-            r"annotation 1: keypoint 'right_eye': x = nan is not finite",
+            r"annotation 1 \(image id \d+\): keypoint 'right_eye': x = nan is not finite",
         ),
         (
             coco_record(keypoints=with_keypoint(2, [1.0, 1.0, float("inf")])),
-            r"annotation 1: keypoint 'right_eye': v = inf is not finite",
+            r"annotation 1 \(image id \d+\): keypoint 'right_eye': v = inf is not finite",
         ),
         (
             coco_record(keypoints=[1.0] * 50),
-            r"annotation 1: 'keypoints' must hold 51 values \(17 × x, y, v\), got 50 values",
+            r"annotation 1 \(image id \d+\): 'keypoints' must hold 51 values \(17 × x, y, v\), got 50 values",
         ),
         (
             coco_record(keypoints=with_keypoint(1, ["a", 1.0, 2])),
-            r"annotation 1: keypoint 1 value x is not a number: 'a'",
+            r"annotation 1 \(image id \d+\): keypoint 'left_eye': "
+            r"x is not a number \(or beyond any float\): 'a'",
         ),
         (
             coco_record(scores=[0.5] * 16 + [1.5]),
-            r"annotation 1: keypoint 'right_ankle': score = 1\.5 is not in \[0, 1\]",
+            r"annotation 1 \(image id \d+\): keypoint 'right_ankle': score = 1\.5 is not in \[0, 1\]",
         ),
-        (coco_record(scores=[0.5] * 3), r"annotation 1: 'scores' must hold 17 keypoint confidences"),
-        (coco_record(score="high"), r"annotation 1: 'score' must be a finite number, got 'high'"),
-        (coco_record(image_id="1"), r"annotation 1 needs an integer 'image_id'"),
+        (
+            coco_record(scores=[0.5] * 3),
+            r"annotation 1 \(image id \d+\): 'scores' must hold 17 keypoint confidences",
+        ),
+        (
+            coco_record(score="high"),
+            r"annotation 1 \(image id \d+\): 'score' must be a finite number, got 'high'",
+        ),
+        (coco_record(image_id="1"), r"annotation 1: 'image_id' must be an integer, got '1'"),
     ],
 )
 def test_bad_coco_values_are_named(tmp_path, record, message):
@@ -191,18 +198,18 @@ def posetrack_file(annotations, images=None):
     [
         (
             posetrack_file([coco_record(track_id=-2)]),
-            r"annotation 0: 'track_id' must be an integer >= 0, got -2",
+            r"annotation 0 \(image id \d+\): 'track_id' must be an integer >= 0 \(64 bits\), got -2",
         ),
         (
             posetrack_file([coco_record(bbox_head=[1, 2, -3, 4])]),
-            r"annotation 0: 'bbox_head' must be 4 finite numbers",
+            r"annotation 0 \(image id \d+\): 'bbox_head' must be 4 finite numbers",
         ),
         (
             posetrack_file([coco_record(image_id=7)]),
             r"annotation 0 has image_id 7, which is not among the 1 frames",
         ),
         (posetrack_file([], images=[{"id": 1}, {"id": 1}]), r"image id 1 is listed twice"),
-        (posetrack_file([], images=[{"file_name": "x.jpg"}]), r"images\[0\] needs an integer 'id'"),
+        (posetrack_file([], images=[{"file_name": "x.jpg"}]), r"images\[0\]: 'id' must be an integer"),
         ({"annotations": []}, r"neither COCO keypoint results .* nor PoseTrack"),
     ],
 )

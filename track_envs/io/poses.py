@@ -8,7 +8,7 @@ else by sorted image id.
 
 **PoseTrack 2018** (``format="posetrack"``; Andriluka et al., "PoseTrack: A Benchmark for Human
 Pose Estimation and Tracking", CVPR 2018): one JSON object per video with ``"images"`` (``id``,
-``file_name``, optionally ``vid_id``; the frames, in the listed order), ``"annotations"``
+``file_name``, optionally ``frame_id`` and ``vid_id``; the frames), ``"annotations"``
 (``image_id``, ``track_id``, ``keypoints`` (x, y, v) * K, and for ground truth ``bbox_head``
 x, y, w, h; for results ``scores`` and ``score``) and ``"categories"`` (the keypoint names). An
 annotation without ``keypoints`` has none labelled.
@@ -20,7 +20,27 @@ error naming the file, the annotation's index, the keypoint and the value. A key
 is its ``scores`` entry (in [0, 1]) where the record has ``scores``, else 1 for a labelled keypoint;
 0 for an unlabelled one.
 
-**Writing** (:func:`write_posetrack`): the PoseTrack results layout the ``poseval`` tool reads:
+**Frame order.** The frames of a PoseTrack file (and of a frame list, :func:`image_list`) follow
+the images' ``frame_id`` where they have one, else the natural order of their ``file_name``
+(``…/000009.jpg`` before ``…/000010.jpg``, as PoseTrack numbers its frames), else their ``id`` —
+never the order the ``images`` list happens to have: a shuffled list reads as the ordered one.
+Some images with a ``frame_id`` and some without, a ``frame_id`` or an image ``id`` listed twice
+are errors.
+
+**Errors.** Every problem of a file is a :class:`PoseFileError` (a
+:class:`~track_envs.io.csv_parser.TrackFileError`, so a ``ValueError``) whose message starts with
+the file's path and names the annotation (its index in the file, from 0), the image id, the
+keypoint and the value: a file that is not UTF-8 JSON text (binary, another encoding, cut short),
+a value of the wrong type (a keypoint written as a string, ``null``, a nested list), a labelled
+coordinate that is not finite or beyond ``MAX_COORDINATE`` px (no image is that large), an integer
+id beyond 64 bits. Ground truth read with ``ground_truth=True`` is checked completely: every
+annotation needs a ``track_id`` and a ``bbox_head``, and no track id may appear twice in one
+image. Detections that repeat another of the same image exactly are read, with a
+:class:`PoseFileWarning` giving their count.
+
+**Writing** (:func:`write_posetrack`, :func:`write_coco_results`; atomically, through
+:func:`track_envs.infra.atomic.atomic_write`: a failed write leaves the old file): the PoseTrack
+results layout the ``poseval`` tool reads:
 per video ``images``, ``annotations`` (``track_id``, ``keypoints`` (x, y, v) with the stream's
 visibility, ``0, 0, 0`` for a keypoint not labelled, ``scores``, ``score``) and ``categories``.
 poseval requires track ids in 0–999: :func:`posetrack_track_ids` renumbers the tracks 0, 1, … by
@@ -34,8 +54,11 @@ COCO's names unless they are renamed to the ground truth's (``track run --gt`` d
 from __future__ import annotations
 
 import heapq
+import itertools
 import json
 import os
+import re
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -43,6 +66,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.atomic import atomic_write
+from track_envs.io.csv_parser import TrackFileError
 from track_envs.values.keypoints import KEYPOINT_NAMES, SKELETON_EDGES
 from track_envs.values.poses import PoseStream
 
@@ -52,17 +77,55 @@ POSE_FORMATS = ("coco", "posetrack")
 #: Track ids the poseval tool accepts: 0 … MAX_TRACK_IDS − 1.
 MAX_TRACK_IDS = 1000
 
+#: Largest magnitude of a labelled keypoint coordinate or a head box value, px (no image is larger).
+MAX_COORDINATE = 1e12
+
+_INT64 = np.iinfo(np.int64)
+
+
+class PoseFileError(TrackFileError):
+    """A pose file that cannot be read as COCO keypoint results or PoseTrack JSON; the message
+    starts with the file's path and names the annotation, the keypoint and the value."""
+
+
+class PoseFileWarning(UserWarning):
+    """A pose file read, with something a user should know (e.g. repeated detections, counted)."""
+
 
 # ------------------------------------------------------------------------------------------ format
 
 
 def load_json(path: str | os.PathLike[str]) -> Any:
-    """The JSON value of ``path`` (ValueError naming the file and the position of a syntax error)."""
+    """The JSON value of ``path``; a :class:`PoseFileError` naming the file for a file that cannot
+    be read, is not UTF-8 text (naming the byte and its position) or not JSON (naming the position
+    of the syntax error). A UTF-8 byte-order mark is allowed."""
     try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise PoseFileError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return _parse_json(raw, path)
+
+
+def _parse_json(raw: bytes, path: str | os.PathLike[str]) -> Any:
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise PoseFileError(
+            f"{path}: not a UTF-8 JSON text file (byte 0x{raw[exc.start]:02x} at position {exc.start}; "
+            "a binary file or another encoding)"
+        ) from None
+    if "\x00" in text:
+        at = text.index("\x00")
+        raise PoseFileError(f"{path}: not a JSON text file (a NUL byte at position {at}: a binary file)")
+    try:
+        return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc})") from None
+        cut = " (the file ends early: cut short?)" if exc.pos >= len(text.rstrip()) else ""
+        raise PoseFileError(
+            f"{path}: not JSON: {exc.msg} at line {exc.lineno} column {exc.colno}{cut}"
+        ) from None
+    except RecursionError:
+        raise PoseFileError(f"{path}: not a pose file: its JSON nests too deeply") from None
 
 
 def json_pose_format(data: Any, path: str | os.PathLike[str] = "<json>") -> str:
@@ -73,7 +136,7 @@ def json_pose_format(data: Any, path: str | os.PathLike[str] = "<json>") -> str:
     if isinstance(data, dict) and "images" in data and "annotations" in data:
         return "posetrack"
     found = sorted(data)[:8] if isinstance(data, dict) else type(data).__name__
-    raise ValueError(
+    raise PoseFileError(
         f"{path}: neither COCO keypoint results (a list of pose records) nor PoseTrack (an object with "
         f"'images' and 'annotations'); found {found}"
     )
@@ -95,6 +158,7 @@ def read_pose_file(
     frames: Sequence[int] | None = None,
     file_names: Sequence[str] | None = None,
     num_keypoints: int = len(KEYPOINT_NAMES),
+    ground_truth: bool = False,
 ) -> PoseStream:
     """Read a COCO keypoint results file or a PoseTrack 2018 file (module docstring).
 
@@ -104,57 +168,139 @@ def read_pose_file(
         frames: COCO: the image ids in frame order (default: the sorted ids of the records).
         file_names: COCO: one file name per entry of ``frames``.
         num_keypoints: COCO: keypoints per pose ``K`` (17).
+        ground_truth: Check the file completely as ground truth to score against: every
+            annotation has a ``track_id`` and a ``bbox_head``, no track id twice in one image.
 
     Raises:
-        ValueError: a malformed file or value (named, see the module docstring).
+        PoseFileError: a malformed file or value (named, see the module docstring).
     """
     data = load_json(path)
     fmt = json_pose_format(data, path) if format == "auto" else format
     if fmt == "coco":
         if not isinstance(data, list):
-            raise ValueError(f"{path}: COCO keypoint results must be a JSON list of pose records")
-        return _coco(data, path, frames, file_names, num_keypoints)
+            raise PoseFileError(f"{path}: COCO keypoint results must be a JSON list of pose records")
+        return _coco(data, path, frames, file_names, num_keypoints, ground_truth)
     if fmt == "posetrack":
         if not isinstance(data, dict):
-            raise ValueError(
+            raise PoseFileError(
                 f"{path}: a PoseTrack file must be a JSON object with 'images' and 'annotations', got a "
                 f"{type(data).__name__} (COCO keypoint results are a list: --input-format coco)"
             )
         json_pose_format(data, path)
-        return _posetrack(data, path)
+        return _posetrack(data, path, ground_truth)
     raise ValueError(f"pose format must be one of {['auto', *POSE_FORMATS]}, got {format!r}")
 
 
 def image_list(path: str | os.PathLike[str]) -> tuple[list[int], list[str] | None]:
-    """Frame order from a file: a JSON object with ``"images"`` (``id`` and ``file_name``, in
-    the listed order: a PoseTrack or COCO annotation file) or a text file of image ids, one a line."""
+    """Frame order from a file: a JSON object with ``"images"`` (a PoseTrack or COCO annotation
+    file; in the order of their ``frame_id``, else ``file_name``, else ``id``: module docstring)
+    or a text file of image ids, one a line, in the listed order."""
     p = Path(path)
     if p.suffix.lower() == ".json":
         data = load_json(p)
         if not (isinstance(data, dict) and isinstance(data.get("images"), list)):
-            raise ValueError(f"{path}: a frame list must be a JSON object with 'images'")
-        images = data["images"]
-        ids = [_image_id(im, path, i) for i, im in enumerate(images)]
-        names = [str(im.get("file_name", "")) for im in images]
-        return ids, names if all(names) else None
-    ids = []
-    for line_no, line in enumerate(p.read_text().splitlines(), 1):
+            raise PoseFileError(f"{path}: a frame list must be a JSON object with 'images'")
+        order, names = _frame_order(data["images"], path)
+        return order.tolist(), names
+    try:
+        text = p.read_bytes().decode("utf-8-sig")
+    except OSError as exc:
+        raise PoseFileError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise PoseFileError(
+            f"{path}: not a UTF-8 text file of image ids (byte at position {exc.start})"
+        ) from None
+    ids: list[int] = []
+    for line_no, line in enumerate(text.splitlines(), 1):
         if line.strip():
             try:
-                ids.append(int(line))
+                value = int(line)
             except ValueError:
-                raise ValueError(f"{path}, line {line_no}: not an image id: {line.strip()!r}") from None
+                raise PoseFileError(
+                    f"{path}, line {line_no}: not an image id: {line.strip()[:40]!r}"
+                ) from None
+            if not _INT64.min <= value <= _INT64.max:
+                raise PoseFileError(f"{path}, line {line_no}: image id {value} is beyond 64 bits")
+            ids.append(value)
     return ids, None
 
 
+def _frame_order(
+    images: list[Any], path: str | os.PathLike[str]
+) -> tuple[NDArray[np.int64], list[str] | None]:
+    """The image ids (and file names, where every image has one) of ``images`` in frame order:
+    by ``frame_id``, else by the natural order of ``file_name``, else by ``id`` (module docstring)."""
+    ids = np.array([_image_id(im, path, i) for i, im in enumerate(images)], np.int64)
+    names = [str(im.get("file_name") or "") for im in images]
+    has_frame = np.array(["frame_id" in im for im in images], bool)
+    if has_frame.any():
+        if not has_frame.all():
+            i = int(np.argmin(has_frame))
+            raise PoseFileError(
+                f"{path}: images[{i}] (id {ids[i]}) has no 'frame_id' while {int(has_frame.sum())} of the "
+                f"{len(images)} images have one: the frame order would be ambiguous"
+            )
+        key = np.array(
+            [
+                _integer(im["frame_id"], f"{path}: images[{i}] (id {ids[i]}): 'frame_id'")
+                for i, im in enumerate(images)
+            ],
+            np.int64,
+        )
+        _unique(key, path, "frame_id")
+        order = np.argsort(key, kind="stable")
+    elif all(names):
+        natural = [
+            tuple((0, int(p), "") if p.isdigit() else (1, 0, p) for p in re.split(r"(\d+)", n)) for n in names
+        ]
+        order = np.array(sorted(range(len(names)), key=natural.__getitem__), np.int64)
+    else:
+        order = np.argsort(ids, kind="stable")
+    _unique(ids, path, "image id")
+    return ids[order], [names[i] for i in order.tolist()] if all(names) else None
+
+
+def _unique(values: NDArray[np.int64], path: str | os.PathLike[str], what: str) -> None:
+    ordered = np.sort(values)
+    twice = ordered[1:][ordered[1:] == ordered[:-1]]
+    if len(twice):
+        raise PoseFileError(
+            f"{path}: {len(values) - len(np.unique(values))} images repeat the {what} of another "
+            f"(e.g. {what} {int(twice[0])} is listed twice); each frame must be listed once"
+        )
+
+
+def _integer(value: Any, where: str) -> int:
+    if not _is_int(value):
+        raise PoseFileError(f"{where} must be an integer, got {value!r:.80}")
+    if not _INT64.min <= value <= _INT64.max:
+        raise PoseFileError(f"{where} = {value} is beyond 64 bits")
+    return int(value)
+
+
 def _image_id(image: Any, path: str | os.PathLike[str], i: int) -> int:
-    if not isinstance(image, dict) or not _is_int(image.get("id")):
-        raise ValueError(f"{path}: images[{i}] needs an integer 'id', got {image!r:.80}")
-    return int(image["id"])
+    if not isinstance(image, dict):
+        raise PoseFileError(f"{path}: images[{i}] must be an object with an integer 'id', got {image!r:.80}")
+    return _integer(image.get("id"), f"{path}: images[{i}]: 'id'")
 
 
 def _is_int(value: Any) -> bool:
     return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def _image_ids(records: list[Any], path: str | os.PathLike[str]) -> NDArray[np.int64]:
+    for i, r in enumerate(records):
+        if not isinstance(r, dict):
+            raise PoseFileError(f"{path}: annotation {i} must be an object, got {r!r:.80}")
+    values = [r.get("image_id") for r in records]
+    if set(map(type, values)) <= {int}:  # the common case, one conversion
+        try:
+            return np.array(values, np.int64)
+        except OverflowError:
+            pass
+    return np.array(
+        [_integer(v, f"{path}: annotation {i}: 'image_id'") for i, v in enumerate(values)], np.int64
+    )
 
 
 def _coco(
@@ -163,40 +309,33 @@ def _coco(
     frames: Sequence[int] | None,
     file_names: Sequence[str] | None,
     k: int,
+    ground_truth: bool,
 ) -> PoseStream:
-    for i, r in enumerate(records):
-        if not isinstance(r, dict) or not _is_int(r.get("image_id")):
-            raise ValueError(f"{path}: annotation {i} needs an integer 'image_id', got {r!r:.80}")
-    image_of = np.array([int(r["image_id"]) for r in records], dtype=np.int64)
-    order = (
-        np.array(sorted(set(image_of.tolist())), np.int64) if frames is None else np.asarray(frames, np.int64)
-    )
+    image_of = _image_ids(records, path)
+    order = np.unique(image_of) if frames is None else np.asarray(frames, np.int64)
     if file_names is not None and len(file_names) != len(order):
         raise ValueError(f"file_names must name the {len(order)} frames, got {len(file_names)}")
     names = KEYPOINT_NAMES if k == len(KEYPOINT_NAMES) else tuple(f"keypoint_{j}" for j in range(k))
-    return _stream(records, image_of, order, file_names, names, path, None)
+    return _stream(records, image_of, order, file_names, names, path, None, ground_truth)
 
 
-def _posetrack(data: dict[str, Any], path: str | os.PathLike[str]) -> PoseStream:
+def _posetrack(data: dict[str, Any], path: str | os.PathLike[str], ground_truth: bool) -> PoseStream:
     images, annotations = data["images"], data["annotations"]
     if not isinstance(images, list) or not isinstance(annotations, list):
-        raise ValueError(f"{path}: 'images' and 'annotations' must be lists")
-    order = np.array([_image_id(im, path, i) for i, im in enumerate(images)], np.int64)
-    file_names = [str(im.get("file_name", "")) for im in images]
+        raise PoseFileError(f"{path}: 'images' and 'annotations' must be lists")
+    order, file_names = _frame_order(images, path)
     names = _category_names(data, path)
-    for i, a in enumerate(annotations):
-        if not isinstance(a, dict) or not _is_int(a.get("image_id")):
-            raise ValueError(f"{path}: annotation {i} needs an integer 'image_id', got {a!r:.80}")
-    image_of = np.array([int(a["image_id"]) for a in annotations], dtype=np.int64)
+    image_of = _image_ids(annotations, path)
     video = images[0].get("vid_id") if images else None
     return _stream(
         annotations,
         image_of,
         order,
-        file_names if all(file_names) else None,
+        file_names,
         names,
         path,
         None if video is None else str(video),
+        ground_truth,
     )
 
 
@@ -205,12 +344,12 @@ def _category_names(data: dict[str, Any], path: str | os.PathLike[str]) -> tuple
     if not categories:
         return KEYPOINT_NAMES
     if not (isinstance(categories, list) and isinstance(categories[0], dict)):
-        raise ValueError(f"{path}: 'categories' must be a list of objects")
+        raise PoseFileError(f"{path}: 'categories' must be a list of objects")
     names = categories[0].get("keypoints")
     if names is None:
         return KEYPOINT_NAMES
     if not (isinstance(names, list) and names and all(isinstance(n, str) for n in names)):
-        raise ValueError(
+        raise PoseFileError(
             f"{path}: categories[0]['keypoints'] must be a list of keypoint names, got {names!r:.80}"
         )
     return tuple(names)
@@ -224,12 +363,11 @@ def _stream(
     names: tuple[str, ...],
     path: str | os.PathLike[str],
     video_id: str | None,
+    ground_truth: bool = False,
 ) -> PoseStream:
     """Validate the records' values (batched) and sort them into frames of ``order``."""
     k = len(names)
-    if len(set(order.tolist())) != len(order):
-        dup = order[np.flatnonzero(np.diff(np.sort(order)) == 0)[0]]
-        raise ValueError(f"{path}: image id {dup} is listed twice in the frame order")
+    _unique(order, path, "image id")
     sorter = np.argsort(order, kind="stable")
     pos = np.searchsorted(order, image_of, sorter=sorter)
     pos = np.minimum(pos, len(order) - 1) if len(order) else pos
@@ -238,21 +376,27 @@ def _stream(
     )
     if not np.all(known):
         i = int(np.argmin(known))
-        raise ValueError(
+        raise PoseFileError(
             f"{path}: annotation {i} has image_id {image_of[i]}, which is not among the {len(order)} frames "
             f"(e.g. {order[:3].tolist()})"
         )
     frame = sorter[pos] if len(order) else np.zeros(0, np.int64)
-    raw = _keypoint_table(records, k, path)
+    where = _Where(path, image_of)
+    raw = _keypoint_table(records, names, where)
     x, y, v = raw[:, 0::3], raw[:, 1::3], raw[:, 2::3]
-    _check_keypoints(x, y, v, names, path)
+    _check_keypoints(x, y, v, names, where)
     vis = v.astype(np.int8)
     labelled = vis > 0
     kp = np.stack([np.where(labelled, x, 0.0), np.where(labelled, y, 0.0)], axis=-1)
-    kscores = np.where(labelled, _keypoint_scores(records, k, names, path), 0.0)
-    scores = np.array([_number(r, "score", i, path) for i, r in enumerate(records)], np.float64)
-    track_ids = np.array([_track_id(r, i, path) for i, r in enumerate(records)], np.int64)
-    heads = np.array([_head_box(r, i, path) for i, r in enumerate(records)], np.float64).reshape(-1, 4)
+    kscores = np.where(labelled, _keypoint_scores(records, k, names, where), 0.0)
+    scores = np.array([_number(r, "score", i, where) for i, r in enumerate(records)], np.float64)
+    track_ids = np.array([_track_id(r, i, where, ground_truth) for i, r in enumerate(records)], np.int64)
+    heads = np.array([_head_box(r, i, where, ground_truth) for i, r in enumerate(records)], np.float64)
+    heads = heads.reshape(-1, 4)
+    if ground_truth:
+        _check_truth_ids(image_of, track_ids, where)
+    else:
+        _warn_repeats(image_of, kp, vis, where)
     by_frame = np.argsort(frame, kind="stable")
     offsets = np.concatenate([[0], np.cumsum(np.bincount(frame, minlength=len(order)))]).astype(np.int64)
     return PoseStream(
@@ -270,35 +414,93 @@ def _stream(
     )
 
 
+class _Where:
+    """Names an annotation in a message: ``FILE: annotation I (image id N)``."""
+
+    def __init__(self, path: str | os.PathLike[str], image_of: NDArray[np.int64]) -> None:
+        self.path, self.image_of = path, image_of
+
+    def __call__(self, i: int) -> str:
+        return f"{self.path}: annotation {i} (image id {self.image_of[i]})"
+
+
+def _check_truth_ids(image_of: NDArray[np.int64], track_ids: NDArray[np.int64], where: _Where) -> None:
+    """Ground truth: no track id twice in one image (named, with the count)."""
+    pairs = np.stack([image_of, track_ids], axis=1)
+    _, first, counts = np.unique(pairs, axis=0, return_index=True, return_counts=True)
+    if np.any(counts > 1):
+        repeats = int(np.sum(counts - 1))
+        seen = np.zeros(len(pairs), bool)
+        seen[first] = True
+        i = int(np.argmin(seen))
+        raise PoseFileError(
+            f"{where(i)}: track_id {track_ids[i]} appears twice in this image ({repeats} annotations repeat "
+            "the image and track id of another); each person is one annotation per image"
+        )
+
+
+def _warn_repeats(image_of: NDArray[np.int64], kp: NDArray, vis: NDArray, where: _Where) -> None:
+    """Detections that repeat another of the same image exactly: a warning with their count."""
+    if len(image_of) < 2:
+        return
+    rows = np.concatenate([image_of[:, None].astype(np.float64), kp.reshape(len(kp), -1), vis], axis=1)
+    _, first = np.unique(rows, axis=0, return_index=True)
+    repeats = len(rows) - len(first)
+    if repeats:
+        seen = np.zeros(len(rows), bool)
+        seen[first] = True
+        i = int(np.argmin(seen))
+        warnings.warn(
+            f"{where(i)} repeats an earlier annotation of the same image exactly: {repeats} poses of "
+            f"{len(rows)} are such repeats; each is read, and tracked, as a pose of its own",
+            PoseFileWarning,
+            stacklevel=4,
+        )
+
+
 def _keypoint_table(
-    records: list[dict[str, Any]], k: int, path: str | os.PathLike[str]
+    records: list[dict[str, Any]], names: tuple[str, ...], where: _Where
 ) -> NDArray[np.float64]:
+    k = len(names)
     rows = []
     for i, r in enumerate(records):
         values = r.get("keypoints", [0.0] * (3 * k))
         if not isinstance(values, list) or len(values) != 3 * k:
             got = f"{len(values)} values" if isinstance(values, list) else type(values).__name__
-            raise ValueError(
-                f"{path}: annotation {i}: 'keypoints' must hold {3 * k} values ({k} × x, y, v), got {got}"
+            raise PoseFileError(
+                f"{where(i)}: 'keypoints' must hold {3 * k} values ({k} × x, y, v), got {got}"
             )
         rows.append(values)
+    if set(map(type, itertools.chain.from_iterable(rows))) <= {int, float}:
+        try:
+            return np.array(rows, dtype=np.float64).reshape(len(records), 3 * k)
+        except OverflowError:  # an integer beyond float range
+            pass
+    for i, values in enumerate(rows):
+        for j, value in enumerate(values):
+            if _as_float(value) is None:
+                raise PoseFileError(
+                    f"{where(i)}: keypoint {names[j // 3]!r}: {'xyv'[j % 3]} is not a number "
+                    f"(or beyond any float): {value!r:.80}"
+                )
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _as_float(value: Any) -> float | None:
+    """``value`` as a float, None for a non-number (a string, null, a list, true / false) or an
+    integer beyond float range."""
+    if type(value) not in (int, float):
+        return None
     try:
-        return np.array(rows, dtype=np.float64).reshape(len(records), 3 * k)
-    except (TypeError, ValueError):
-        for i, values in enumerate(rows):
-            for j, value in enumerate(values):
-                if isinstance(value, bool) or not isinstance(value, int | float):
-                    raise ValueError(
-                        f"{path}: annotation {i}: keypoint {j // 3} value {'xyv'[j % 3]} is not a "
-                        f"number: {value!r}"
-                    ) from None
-        raise
+        return float(value)
+    except OverflowError:
+        return None
 
 
-def _check_keypoints(
-    x: NDArray, y: NDArray, v: NDArray, names: tuple[str, ...], path: str | os.PathLike[str]
-) -> None:
-    """Raise naming the first bad keypoint value (non-finite, v not 0/1/2, negative labelled x, y)."""
+def _check_keypoints(x: NDArray, y: NDArray, v: NDArray, names: tuple[str, ...], where: _Where) -> None:
+    """Raise naming the first bad keypoint value (non-finite, v not 0/1/2, labelled x, y negative or
+    beyond MAX_COORDINATE)."""
+    big = f"is beyond {MAX_COORDINATE:.0e} px for a labelled keypoint (v > 0): no image is that large"
     checks = (
         (~np.isfinite(v), "v", v, "is not finite"),
         (
@@ -311,17 +513,19 @@ def _check_keypoints(
         ((v > 0) & ~np.isfinite(y), "y", y, "is not finite"),
         ((v > 0) & (x < 0), "x", x, "is negative for a labelled keypoint (v > 0)"),
         ((v > 0) & (y < 0), "y", y, "is negative for a labelled keypoint (v > 0)"),
+        ((v > 0) & (x > MAX_COORDINATE), "x", x, big),
+        ((v > 0) & (y > MAX_COORDINATE), "y", y, big),
     )
     for bad, what, values, why in checks:
         if bad.any():
             i, j = np.argwhere(bad)[0]
-            raise ValueError(
-                f"{path}: annotation {i}: keypoint {names[j]!r}: {what} = {float(values[i, j])!r} {why}"
+            raise PoseFileError(
+                f"{where(int(i))}: keypoint {names[j]!r}: {what} = {float(values[i, j])!r} {why}"
             )
 
 
 def _keypoint_scores(
-    records: list[dict[str, Any]], k: int, names: tuple[str, ...], path: str | os.PathLike[str]
+    records: list[dict[str, Any]], k: int, names: tuple[str, ...], where: _Where
 ) -> NDArray[np.float64]:
     out = np.ones((len(records), k))
     for i, r in enumerate(records):
@@ -329,55 +533,60 @@ def _keypoint_scores(
         if s is None or (isinstance(s, list) and len(s) == 0):
             continue
         if not isinstance(s, list) or len(s) != k:
-            raise ValueError(
-                f"{path}: annotation {i}: 'scores' must hold {k} keypoint confidences, got {s!r:.80}"
-            )
-        try:
-            out[i] = np.asarray(s, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{path}: annotation {i}: 'scores' must hold numbers, got {s!r:.80}") from None
+            raise PoseFileError(f"{where(i)}: 'scores' must hold {k} keypoint confidences, got {s!r:.80}")
+        values = [_as_float(value) for value in s]
+        if None in values:
+            raise PoseFileError(f"{where(i)}: 'scores' must hold numbers, got {s!r:.80}")
+        out[i] = values
     bad = ~(np.isfinite(out) & (out >= 0) & (out <= 1))
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise ValueError(
-            f"{path}: annotation {i}: keypoint {names[j]!r}: score = {float(out[i, j])!r} is not in [0, 1]"
+        raise PoseFileError(
+            f"{where(int(i))}: keypoint {names[j]!r}: score = {float(out[i, j])!r} is not in [0, 1]"
         )
     return out
 
 
-def _number(r: dict[str, Any], key: str, i: int, path: str | os.PathLike[str]) -> float:
+def _number(r: dict[str, Any], key: str, i: int, where: _Where) -> float:
     value = r.get(key)
     if value is None:
         return float("nan")
-    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
-        raise ValueError(f"{path}: annotation {i}: {key!r} must be a finite number, got {value!r}")
-    return float(value)
+    number = _as_float(value)
+    if number is None or not np.isfinite(number) or abs(number) > MAX_COORDINATE:
+        raise PoseFileError(f"{where(i)}: {key!r} must be a finite number, got {value!r:.80}")
+    return number
 
 
-def _track_id(r: dict[str, Any], i: int, path: str | os.PathLike[str]) -> int:
+def _track_id(r: dict[str, Any], i: int, where: _Where, required: bool) -> int:
     value = r.get("track_id")
     if value is None:
+        if required:
+            raise PoseFileError(
+                f"{where(i)} has no 'track_id': every ground-truth pose needs the id of its person"
+            )
         return -1
-    if not _is_int(value) or value < 0:
-        raise ValueError(f"{path}: annotation {i}: 'track_id' must be an integer >= 0, got {value!r}")
+    if not _is_int(value) or not 0 <= value <= _INT64.max:
+        raise PoseFileError(f"{where(i)}: 'track_id' must be an integer >= 0 (64 bits), got {value!r:.80}")
     return int(value)
 
 
-def _head_box(r: dict[str, Any], i: int, path: str | os.PathLike[str]) -> list[float]:
+def _head_box(r: dict[str, Any], i: int, where: _Where, required: bool) -> list[float]:
     box = r.get("bbox_head")
     if box is None:
+        if required:
+            raise PoseFileError(
+                f"{where(i)} has no 'bbox_head': the head box x, y, w, h sets the PCKh match radius"
+            )
         return [float("nan")] * 4
-    ok = (
-        isinstance(box, list)
-        and len(box) == 4
-        and all(isinstance(b, int | float) and not isinstance(b, bool) for b in box)
-    )
-    if not ok or not np.all(np.isfinite(box)) or box[2] < 0 or box[3] < 0:
-        raise ValueError(
-            f"{path}: annotation {i}: 'bbox_head' must be 4 finite numbers x, y, w >= 0, h >= 0, "
-            f"got {box!r:.80}"
+    values = [_as_float(b) for b in box] if isinstance(box, list) and len(box) == 4 else [None]
+    numbers = np.array([np.nan if b is None else b for b in values], np.float64)
+    ok = np.all(np.isfinite(numbers)) and np.all(np.abs(numbers) <= MAX_COORDINATE)
+    if not ok or numbers[2] < 0 or numbers[3] < 0:
+        raise PoseFileError(
+            f"{where(i)}: 'bbox_head' must be 4 finite numbers x, y, w >= 0, h >= 0 (at most "
+            f"{MAX_COORDINATE:.0e} px), got {box!r:.80}"
         )
-    return [float(b) for b in box]
+    return numbers.tolist()
 
 
 # ------------------------------------------------------------------------------------------ writing
@@ -437,12 +646,15 @@ def posetrack_json(stream: PoseStream, *, limit: int = MAX_TRACK_IDS) -> dict[st
         raise ValueError("every pose of a PoseTrack results file needs a track id; some have none (-1)")
     track = posetrack_track_ids(stream.frame_index(), stream.track_ids, limit)
     names = stream.file_names or tuple(f"{i:06d}.jpg" for i in stream.image_ids.tolist())
+    # frame_id orders the frames when the file is read back: the image id where the ids increase
+    # with the frames (PoseTrack's own convention), else the frame's index
+    increasing = bool(np.all(np.diff(stream.image_ids) > 0))
     images = []
     for t, (image_id, name) in enumerate(zip(stream.image_ids.tolist(), names, strict=True)):
         image: dict[str, Any] = {
             "id": image_id,
             "file_name": name,
-            "frame_id": image_id,
+            "frame_id": image_id if increasing else t,
             "nframes": stream.n_frames,
         }
         if stream.video_id is not None:
@@ -500,13 +712,22 @@ def coco_results_json(stream: PoseStream) -> list[dict[str, Any]]:
 
 
 def write_coco_results(path: str | os.PathLike[str], stream: PoseStream) -> None:
-    """Write ``stream`` as a COCO keypoint results file (:func:`coco_results_json`)."""
-    with open(path, "w", encoding="utf-8") as f:
-        json.dump(coco_results_json(stream), f)
+    """Write ``stream`` as a COCO keypoint results file (:func:`coco_results_json`), atomically.
+
+    Raises:
+        FileWriteError: the file could not be written (named, with the cause); the old file is kept.
+    """
+    data = coco_results_json(stream)
+    with atomic_write(path) as f:
+        json.dump(data, f)
 
 
 def write_posetrack(path: str | os.PathLike[str], stream: PoseStream, *, limit: int = MAX_TRACK_IDS) -> None:
-    """Write ``stream`` (tracked poses) as a PoseTrack results file (:func:`posetrack_json`)."""
+    """Write ``stream`` (tracked poses) as a PoseTrack results file (:func:`posetrack_json`), atomically.
+
+    Raises:
+        FileWriteError: the file could not be written (named, with the cause); the old file is kept.
+    """
     data = posetrack_json(stream, limit=limit)
-    with open(path, "w", encoding="utf-8") as f:
+    with atomic_write(path) as f:
         json.dump(data, f)
