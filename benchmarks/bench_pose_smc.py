@@ -20,6 +20,17 @@ sizes the predictor's compiled products). Variants, timed in the same run:
 * **carried** (``recurrence="carried"``): one LSTM step per particle and keypoint per frame; its
   semantics differ (see :mod:`predictors.pose_lstm.motion`).
 
+The frame time is the **median** of the timed frames (``--warmup 5 --frames 20``: frames 5–24
+after ``reset(seed=0)``). Two references are timed in the same run, and the default's ratio to each
+is printed:
+
+* the **LSTM-and-head reference** — torch's ``nn.LSTM(3, 64)`` over ``filters × P × 17`` windows of
+  L poses (about 51,000 at 10 people) plus the network's FC head with a torch dropout mask, and
+  nothing else (no windows built, no OKS, no resampling): the network's arithmetic done the
+  straightforward way, the yardstick of the 30 frames/s goal (7.5x this reference);
+* the **whole-frame reference** (the first variant above): a complete tracker frame whose
+  predictor is the torch one.
+
 Then the default's time per stage (window features, the prefix tree, the LSTM steps, the FC head,
 the draw, OKS, the rest of the loop), with the LSTM's arithmetic rate against the machine's float32
 GEMM rate (``torch.matmul`` of two 1024 × 1024 matrices) measured in the same run.
@@ -108,23 +119,42 @@ def run(agent: PoseSmcAgent, stream: list[dict], spec: Any, warmup: int) -> dict
     agent.reset(spec, seed=0)
     for obs in stream[:warmup]:
         agent.act(obs)
-    filters, distinct, reports = [], [], []
-    elapsed = 0.0
+    filters, distinct, reports, times = [], [], [], []
     for obs in stream[warmup:]:
         m: Any = agent.motion
         distinct.append(int(np.sum(m.rep == np.arange(m.P))))
         t0 = time.perf_counter()
         report = agent.act(obs)
-        elapsed += time.perf_counter() - t0
+        times.append(time.perf_counter() - t0)
         reports.append({k: np.array(v) for k, v in report.items()})
         filters.append(len(agent.ids))
-    frames = len(stream) - warmup
     return {
-        "dt": elapsed / frames,
+        "dt": float(np.median(times)),
+        "mean_dt": float(np.mean(times)),
         "filters": float(np.mean(filters)),
         "distinct": float(np.mean(distinct)),
         "reports": reports,
     }
+
+
+def lstm_head_reference(filters: float, particles: int, window: int, repeats: int = 5) -> float:
+    """Median seconds of the LSTM-and-head reference: ``nn.LSTM(3, 64)`` of the shipped network over
+    ``round(filters) × particles × 17`` random windows of ``window`` poses, then its FC head with a
+    dropout mask drawn by torch — the network's work of one frame and nothing else."""
+    net = PosePredictor(DEFAULT_MODEL).net
+    n = round(filters) * particles * 17
+    gen = torch.Generator().manual_seed(0)
+    x = torch.randn(n, window, 3, generator=gen)  # batch first, as the network takes it
+    keep = 1.0 - float(net.dropout)
+    times = []
+    with torch.inference_mode():
+        for _ in range(repeats + 1):  # the first call warms torch up
+            t0 = time.perf_counter()
+            h = net.lstm(x)[1][0][0]
+            masks = torch.bernoulli(torch.full((n, net.fc_units), keep), generator=gen) / keep
+            net.head(h, masks)
+            times.append(time.perf_counter() - t0)
+    return float(np.median(times[1:]))
 
 
 def same_reports(a: list[dict], b: list[dict]) -> tuple[bool, float]:
@@ -221,6 +251,8 @@ def compare(args: argparse.Namespace) -> None:
     results = {label: run(agent, stream, spec, args.warmup) for label, agent in variants.items()}
     labels = list(results)
     ref_dt = results[labels[0]]["dt"]
+    default = results[labels[2]]
+    lstm_ref = lstm_head_reference(default["filters"], args.particles, args.window)
     print("| variant | filters | LSTM sequences / frame | steps | GMAC / frame", end="")
     print(" | ms / frame | frames / s | speed-up |")
     print("|---|---|---|---|---|---|---|---|")
@@ -231,6 +263,12 @@ def compare(args: argparse.Namespace) -> None:
         cells = f"{r['filters']:.1f} | {seq:.0f} | {steps} | {gmac:.2f}"
         cells += f" | {r['dt'] * 1e3:.1f} | {1 / r['dt']:.1f} | {ref_dt / r['dt']:.1f}x"
         print(f"| {label} | {cells} |")
+    print(
+        f"\ndefault: {default['dt'] * 1e3:.1f} ms per frame (median of {args.frames} frames), "
+        f"{1 / default['dt']:.1f} frames/s; {lstm_ref / default['dt']:.2f}x the LSTM-and-head reference "
+        f"({lstm_ref * 1e3:.0f} ms: nn.LSTM over {round(default['filters']) * args.particles * 17:,} "
+        f"windows + FC head), {ref_dt / default['dt']:.1f}x the whole-frame reference ({ref_dt * 1e3:.0f} ms)"
+    )
     ids, diff = same_reports(results[labels[1]]["reports"], results[labels[2]]["reports"])
     print(f"\ndefault vs every window: ids equal {ids}, largest position difference {diff:.3g} px")
     ids, diff = same_reports(results[labels[0]]["reports"], results[labels[2]]["reports"])
