@@ -50,8 +50,13 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
    tracks are not computed here (``big`` lists their tracks for the caller's fallback).
 
 5. **Moment matching.** Track ``i``'s hypotheses are its own detections (pseudo-measurement
-   ``z_j``) and its merged blobs with a partner ``k`` (``z_j + ½(ŷ_i − ŷ_k)``: the blob moves the
-   pair as a rigid group, as in :mod:`agents.tracking.merges`). With ``p_i = Σ β`` of them (the
+   ``z_j``) and its merged blobs with a partner ``k`` (``z_j + ½(a_i − a_k)``: the blob moves the
+   pair as a group, as in :mod:`agents.tracking.merges`, each member keeping its offset between
+   the anchors ``a``). With the predictions as anchors (``a = ŷ``, :func:`jpda_frame`) both
+   members take the same innovation ``z_j − μ_e``, so the pair's relative motion is extrapolated
+   by the predictor for as long as the blob lasts, unobserved; with the tracks' last estimates
+   (:func:`jpda_frame_anchored`, a *rigid pair*) the offset is held where it was last seen and the
+   members' relative velocity decays. With ``p_i = Σ β`` of them (the
    probability that the track was detected), the mixture's measurement mean and spread are
 
    .. math::
@@ -945,6 +950,7 @@ def _cluster_mixtures(
     mb: IntArray,
     md: IntArray,
     mean: FloatArray,
+    anchor: FloatArray,
     z: FloatArray,
     mergeable: NDArray[np.bool_],
     p_seen: FloatArray,
@@ -960,7 +966,9 @@ def _cluster_mixtures(
 ) -> None:
     """Step 5 for the tracks of one cluster from its marginals ``P`` (pairs) and ``PM`` (merged
     hypotheses ``ma, mb, md``, local indices): the mixture's mean in a first pass, its centred
-    spread in a second; the first pass also adds to ``settled`` and keeps the best hypothesis."""
+    spread in a second; the first pass also adds to ``settled`` and keeps the best hypothesis.
+    A merged blob's pseudo-measurement for member ``i`` with partner ``k`` is
+    ``z_j + ½(anchor_i − anchor_k)`` (step 5)."""
     D = z.shape[1]
     for pass_ in range(2):
         for q in range(len(tracks)):
@@ -988,7 +996,7 @@ def _cluster_mixtures(
                 k = tracks[mb[h] if ma[h] == q else ma[h]]
                 j = dets[md[h]]
                 for d in range(D):
-                    work[d] = z[j, d] + 0.5 * (mean[i, d] - mean[k, d])
+                    work[d] = z[j, d] + 0.5 * (anchor[i, d] - anchor[k, d])
                 _accumulate(pass_, i, w, work, z_mean, z_spread, hyp_w, diff, D)
                 if pass_ == 0 and ma[h] == q:
                     settled[j] += w  # once per blob (both members are settled)
@@ -1011,6 +1019,7 @@ def _cluster_mixtures(
 @njit(cache=True)
 def _associate_clusters(
     mean: FloatArray,
+    anchor: FloatArray,
     z: FloatArray,
     log_miss: float,
     max_exact: int,
@@ -1089,7 +1098,7 @@ def _associate_clusters(
         for q in range(mc):
             clutter[dets[q]] = PC[q]
         _cluster_mixtures(
-            tracks, dets, P, PM, ma, mb, md, mean, z, mergeable,
+            tracks, dets, P, PM, ma, mb, md, mean, anchor, z, mergeable,
             p_seen, z_mean, z_spread, best, best_prob, merged_with, settled, hyp_w, diff, work,
         )  # fmt: skip
 
@@ -1109,6 +1118,30 @@ def jpda_frame(
     max_exact: int,
     mergeable: NDArray[np.bool_],
 ) -> JpdaFrame:
+    """:func:`jpda_frame_anchored` with the predictions as the merged blobs' anchors: each member
+    of a blob keeps its predicted offset from the pair's centre."""
+    return jpda_frame_anchored(
+        mean, cov, z, gate, log_ratio, log_miss, extent, noise_cov, area_var, log_merge_odds,
+        max_exact, mergeable, mean,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def jpda_frame_anchored(
+    mean: FloatArray,
+    cov: FloatArray,
+    z: FloatArray,
+    gate: float,
+    log_ratio: float,
+    log_miss: float,
+    extent: float,
+    noise_cov: FloatArray,
+    area_var: float,
+    log_merge_odds: float,
+    max_exact: int,
+    mergeable: NDArray[np.bool_],
+    anchor: FloatArray,
+) -> JpdaFrame:
     """The JPDA association of one frame (module docstring).
 
     Args:
@@ -1123,6 +1156,8 @@ def jpda_frame(
         log_merge_odds: log prior odds of a merged blob against two separate particles.
         max_exact: clusters of more tracks are left to the caller (``big``).
         mergeable: (n,) the tracks that may form a merged blob.
+        anchor: (n, D) the points whose offsets a merged blob's members keep (step 5): ``mean``
+            (the predictions), or the tracks' last estimates (a rigid pair).
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -1158,7 +1193,7 @@ def jpda_frame(
     for i in range(n):
         cluster_of[i] = cl.label[cl.root[i]]
     _associate_clusters(
-        mean, z, log_miss, max_exact, mergeable, cl, e_t, e_d, e_w, ne, g_a, g_b, g_d, g_w, ng,
+        mean, anchor, z, log_miss, max_exact, mergeable, cl, e_t, e_d, e_w, ne, g_a, g_b, g_d, g_w, ng,
         p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, settled, diff, work,
     )  # fmt: skip
     return JpdaFrame(

@@ -35,10 +35,15 @@ Every frame, for the ``n`` live tracks and the ``m`` detections:
 centroid (:mod:`track_envs.envs.blobs`). A plain GNN gives that detection to one of the two tracks,
 whose filter takes the jump of ≈ half the pair's distance as real motion, or starves the other.
 Here a pair of tracks predicted within ``merge_extent`` may jointly take one detection near their
-midpoint (covariance in :mod:`agents.jpda._kernels`); each is then updated as a rigid group
-member, keeping its predicted offset from the pair's centre, so a join is explained by both tracks
-and on separation each piece is closest to its own track's prediction. The env's merge truth
-(``info``) is never read.
+midpoint (covariance in :mod:`agents.jpda._kernels`); each is then updated as a member of a
+*rigid pair*, keeping the offset from the pair's centre that their last estimates had, so a join
+is explained by both tracks and on separation each piece is closest to its own track's prediction.
+While the blob lasts the pair's relative motion is not observed: keeping the members' *predicted*
+offset instead (``rigid_merge=False``, the model before) extrapolates it unobserved, and a
+constant-acceleration filter's relative acceleration (its estimation noise alone, ≈20 µm per
+frame² at 200 Hz and 30 µm noise) grows the offset quadratically until the tracks cross and swap
+particles when the blob falls apart (docs/association.md, *The merge model's identity swaps*). The
+env's merge truth (``info``) is never read.
 
 **Sensor model.** ``p_D`` and ``λ`` come from the sensor spec: ``p_detect`` and
 ``clutter_rate / area of the observed region``. A sensor that declares no clutter still gets the
@@ -110,6 +115,9 @@ class JpdaAgent(PointTracker):
             optimal assignment instead of its mixture (unless a merged blob is its most probable
             hypothesis): the mixtures of competing tracks pull them together (module docstring).
             False: every settled track's PDA update.
+        rigid_merge: The members of a merged blob keep the offset between their last estimates
+            (a rigid pair: their relative motion is not extrapolated while the blob hides it;
+            module docstring, *Merged blobs*). False: the offset between their predictions.
         **gnn_kwargs: Every other argument of :class:`~agents.gnn.agent.GnnAgent` (``p_gate``,
             ``max_misses``, ``region_margin``, ``velocity_prior``, ``recovery_inflation``,
             ``recovery_cap_motion``, ..., and the predictor's keywords), except ``blob_extent`` and
@@ -128,6 +136,7 @@ class JpdaAgent(PointTracker):
     merge_odds = _FromAssociator()
     max_exact = _FromAssociator()
     coalescence_guard = _FromAssociator()
+    rigid_merge = _FromAssociator()
     approximate_tracks = _FromAssociator()
     blob_splits = _FromAssociator()
     last_cluster_tracks = _FromAssociator()
@@ -146,6 +155,7 @@ class JpdaAgent(PointTracker):
         merge_odds: float = 1.0,
         max_exact: int = MAX_EXACT,
         coalescence_guard: bool = True,
+        rigid_merge: bool = True,
         **gnn_kwargs: Any,
     ):
         for name in ("blob_extent", "assignment"):
@@ -167,6 +177,7 @@ class JpdaAgent(PointTracker):
             merge_odds=merge_odds,
             max_exact=max_exact,
             coalescence_guard=coalescence_guard,
+            rigid_merge=rigid_merge,
             **caps,
         )
         super().__init__(predictor, associator=associator, owner=type(self), **gnn_kwargs)

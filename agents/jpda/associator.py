@@ -72,6 +72,7 @@ class JpdaAssociator:
         merge_odds: float = 1.0,
         max_exact: int = MAX_EXACT,
         coalescence_guard: bool = True,
+        rigid_merge: bool = True,
         recovery_cap_motion: float = 3.0,
         recovery_cap_noise: float = 5.0,
     ):
@@ -93,6 +94,9 @@ class JpdaAssociator:
         self.merge_extent = check_positive("merge_extent", merge_extent)
         self.merge_area_std = check_non_negative("merge_area_std", merge_area_std)
         self.merge_odds = check_positive("merge_odds", merge_odds)
+        if not isinstance(rigid_merge, bool | np.bool_):
+            raise ValueError(f"rigid_merge must be True or False, got {rigid_merge!r}")
+        self.rigid_merge = bool(rigid_merge)
         self.max_exact = check_int("max_exact", max_exact, 1)
         self.second_chance = SecondChance(recovery_cap_motion, recovery_cap_noise)
 
@@ -181,7 +185,11 @@ class JpdaAssociator:
         """The compiled frame pass, with the clusters above ``max_exact`` by loopy belief
         propagation when there is no coalescence guard."""
         log_miss_p = 1.0 - self.p_detect * frame.p_gate
-        jf = _kernels.jpda_frame(
+        # a rigid pair's members keep the offset of their last estimates; otherwise (and without
+        # merged blobs, where the anchors are unused) that of their predictions
+        rigid = self.merge_model and self.rigid_merge
+        anchor = np.ascontiguousarray(frame.last, dtype=np.float64) if rigid else frame.predicted
+        jf = _kernels.jpda_frame_anchored(
             frame.predicted,
             cov,
             np.ascontiguousarray(frame.z, dtype=np.float64),
@@ -194,6 +202,7 @@ class JpdaAssociator:
             math.log(self.merge_odds),
             self.max_exact,
             frame.streak >= MERGE_STREAK,
+            anchor,
         )
         if jf.status != _kernels.FRAME_OK:
             raise np.linalg.LinAlgError(f"predicted covariance S of track {jf.bad} is not positive definite")

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
         score_tracker,
     )
     from track_envs.streams.merge_events import MergeEventStream, merge_event_streams
+    from track_envs.streams.merge_scenes import MergeScene, merge_scene
     from track_envs.streams.merge_scoring import EventScores, score_events
 
 #: The module of each name loaded on first access (``__getattr__``), so that importing
@@ -27,6 +28,8 @@ _LAZY: dict[str, str] = {
     "score_tracker": "track_envs.streams.constant_velocity",
     "MergeEventStream": "track_envs.streams.merge_events",
     "merge_event_streams": "track_envs.streams.merge_events",
+    "MergeScene": "track_envs.streams.merge_scenes",
+    "merge_scene": "track_envs.streams.merge_scenes",
     "EventScores": "track_envs.streams.merge_scoring",
     "score_events": "track_envs.streams.merge_scoring",
 }
@@ -35,9 +38,11 @@ __all__ = [
     "ConstantVelocityStream",
     "EventScores",
     "MergeEventStream",
+    "MergeScene",
     "constant_density",
     "constant_velocity_stream",
     "merge_event_streams",
+    "merge_scene",
     "score_events",
     "score_tracker",
 ]

@@ -283,7 +283,7 @@ def reference_frame(
     for i in range(n):
         cluster_of[i] = cl.label[cl.root[i]]
     _associate_clusters(
-        mean, z, log_miss, max_exact, mergeable, cl, e_t, e_d, e_w, ne, g_a, g_b, g_d, g_w, ng,
+        mean, mean, z, log_miss, max_exact, mergeable, cl, e_t, e_d, e_w, ne, g_a, g_b, g_d, g_w, ng,
         p_seen, z_mean, z_spread, best, best_prob, merged_with, clutter, settled, diff, work,
     )  # fmt: skip
     return JpdaFrame(
