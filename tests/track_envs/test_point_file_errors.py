@@ -413,3 +413,17 @@ def test_a_write_failing_for_want_of_space_keeps_the_old_file_and_names_it(
 
 def test_track_file_error_is_the_base_of_the_readers_errors() -> None:
     assert issubclass(DetectionFileError, TrackFileError) and issubclass(FileWriteError, OSError)
+
+
+def test_a_frame_number_that_would_make_a_stream_of_empty_frames_is_named(tmp_path: Path) -> None:
+    path = tmp_path / "det.txt"
+    write_mot_detections(path, stream())
+    set_cell(path, 9, 0, "20000000")
+    with pytest.raises(
+        DetectionFileError,
+        match=r"row 9, column index 0 holds frame 20000000: the file's 48 rows would span 20000000 frames, "
+        r"nearly all empty \(at most max\(1e\+06, 1000 per row\) = 1e\+06\)",
+    ):
+        read_mot_detections(path)
+    set_cell(path, 9, 0, "900000")  # a sparse file: within the floor of 10^6 frames
+    assert read_mot_detections(path).n_frames == 900000

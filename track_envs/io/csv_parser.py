@@ -208,7 +208,7 @@ def normalise(data: bytes, label: str) -> bytes:
     """Check that ``data`` is text (:func:`check_text`), drop a BOM and trailing blank lines, turn
     CRLF and CR into LF; raise if nothing is left."""
     data = check_text(data, label)
-    if data.startswith(codecs.BOM_UTF8):
+    while data.startswith(codecs.BOM_UTF8):  # a file saved twice with a BOM has two
         data = data[len(codecs.BOM_UTF8) :]
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
@@ -583,7 +583,7 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
         chunk = body[starts[lo] : ends[hi - 1]]
         if n_columns > WIDE_COLUMNS and _parse_cells(chunk, counts[lo:hi], delimiter, values[lo:hi]):
             continue
-        values[lo:hi] = parse_floats(
+        parsed = parse_floats(
             chunk,
             label,
             first_row=first_row + lo,
@@ -592,6 +592,13 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
             expected="a number",
             names=list(range(n_columns)),
         )
+        if parsed.shape != (hi - lo, n_columns):  # e.g. a byte-order mark inside the file
+            raise DetectionFileError(
+                f"{label}: rows {first_row + lo}-{first_row + hi - 1} parse into {parsed.shape[0]} rows of "
+                f"{parsed.shape[1]} cells, expected {hi - lo} of {n_columns}: a stray byte-order mark or "
+                "line end?"
+            )
+        values[lo:hi] = parsed
     return Table(values, names, first_row, label, body, delimiter, counts, line_end)
 
 

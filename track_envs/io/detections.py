@@ -123,6 +123,30 @@ class MotRows:
 #: The largest frame number a file may hold: a stream of at most 10^8 frames (its per-frame
 #: arrays stay below a gigabyte).
 MAX_FRAME = 10**8
+#: A file of ``n`` rows spans at most ``max(MIN_SPAN, SPAN_PER_ROW · n)`` frames: a frame number
+#: beyond that (a typo, a corrupt row) would make a stream of nearly only empty frames, which
+#: takes the tracker minutes to hours to step through.
+MIN_SPAN = 10**6
+SPAN_PER_ROW = 1000
+
+
+def check_frame_span(table: Table, span: NDArray[np.float64], column: int) -> None:
+    """Raise naming the first row whose frame would make the stream span more than
+    ``max(MIN_SPAN, SPAN_PER_ROW · rows)`` frames (``span``: each row's frame counted from the
+    stream's first frame, 1 for the first)."""
+    n = len(span)
+    limit = min(MAX_FRAME, max(MIN_SPAN, SPAN_PER_ROW * n))
+    far = span > limit
+    if far.any():
+        r = int(np.argmax(far))
+        raise table.error(
+            r,
+            column,
+            f"holds frame {table.values[r, column]:.0f}: the file's {n} rows would span "
+            f"{span[r]:.0f} frames, nearly all empty (at most max({MIN_SPAN:g}, {SPAN_PER_ROW} per row) "
+            f"= {limit:g}); a typo or "
+            "a corrupt row?",
+        )
 
 
 def read_mot_rows(
@@ -141,7 +165,8 @@ def read_mot_rows(
         DetectionFileError: naming the row (and column, and value) of: a row with another number
             of columns than the file's other rows (a missing or extra column, or a file cut off
             mid-row); a missing, non-numeric or non-finite field among the first six; a frame
-            number that is not an integer from 1 to :data:`MAX_FRAME`; an id that is not an
+            number that is not an integer from 1 to :data:`MAX_FRAME` or spans more frames than
+            :func:`check_frame_span` allows for the file's rows; an id that is not an
             integer within ±2**63; a negative width or height; a coordinate no sensor produces
             (:mod:`track_envs.io.magnitudes`); and a ``min_confidence`` that drops every row
             (naming the confidences the file holds).
@@ -162,6 +187,7 @@ def read_mot_rows(
         raise table.error(row, column, f"({_MOT_NAMES[column]}) {what}; expected a finite number")
     frames, ids = head[:, 0], head[:, 1]
     _check_integers(table, frames, 0, "frame", low=1, high=MAX_FRAME)
+    check_frame_span(table, frames, 0)
     _check_integers(table, ids, 1, "id", low=None)
     negative = head[:, 4:6] < 0
     if negative.any():
@@ -504,8 +530,8 @@ def read_wide_detections(
     Raises:
         DetectionFileError: naming the file and the row and column of the first bad cell: text,
             an infinity, a half-empty pair, a frame number that is not an integer or does not
-            increase (or spans more than :data:`MAX_FRAME` frames), a count that disagrees with the
-            pairs, an infinite time, a coordinate no sensor produces
+            increase (or spans more frames than :func:`check_frame_span` allows), a count that
+            disagrees with the pairs, an infinite time, a coordinate no sensor produces
             (:mod:`track_envs.io.magnitudes`) or one that ``scale`` makes infinite.
     """
     scale = _check_scale(scale)
@@ -534,14 +560,7 @@ def read_wide_detections(
             raise table.error(
                 r, c, f"holds frame {frames[r]} after frame {frames[r - 1]}; frame numbers must increase"
             )
-        if len(frames) and frames[-1] - frames[0] >= MAX_FRAME:
-            r = int(np.argmax(frames - frames[0] >= MAX_FRAME))
-            raise table.error(
-                r,
-                c,
-                f"holds frame {frames[r]}, {frames[r] - frames[0]} frames after the first "
-                f"({frames[0]}); a file spans at most {MAX_FRAME:g} frames",
-            )
+        check_frame_span(table, (frames - frames[0] + 1).astype(np.float64), c)
     else:
         frames = np.arange(n_rows, dtype=np.int64)
     inf = np.isinf(xy)

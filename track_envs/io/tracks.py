@@ -58,7 +58,7 @@ from track_envs.io.csv_parser import (
     read_table,
     write_chunks,
 )
-from track_envs.io.detections import MAX_FRAME, read_mot_rows, write_mot_rows
+from track_envs.io.detections import MAX_FRAME, check_frame_span, read_mot_rows, write_mot_rows
 from track_envs.io.wide_tracks import load_track_csv, write_track_chunks
 from track_envs.values.tracks import Tracks
 
@@ -299,6 +299,7 @@ def _read_long(path: str | os.PathLike[str]) -> tuple[Tracks, NDArray[np.int64]]
                 col[name],
                 f"holds {float(v[r, col[name]])!r}; expected {expected}",
             )
+    check_frame_span(table, v[:, col["frame"]] + 1, col["frame"])
     frame = v[:, col["frame"]].astype(np.int64)
     if np.any(np.diff(frame) < 0) or (len(frame) and frame[0] < 0):
         r = int(np.argmax(np.diff(frame) < 0)) + 1 if len(frame) > 1 and frame[0] >= 0 else 0
