@@ -69,13 +69,18 @@ def reference(positions: NDArray[np.float64]) -> Reference:
 
 def extreme(values: NDArray[np.float64], ref: Reference, *, size: bool = False) -> NDArray[np.bool_]:
     """Mask of the extreme cells of ``values`` (positions, or sizes with ``size``) against ``ref``
-    (module docstring); NaN and infinities are not extreme."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        magnitude = np.abs(values)
-        limit = MAX_SPREADS * ref.spread
-        away = magnitude if size else np.abs(values - ref.median)
-        out = (magnitude > MAX_MAGNITUDE) | (away > limit)
-    return out & np.isfinite(values)
+    (module docstring); NaN and infinities are not extreme.
+
+    Two comparisons a cell: the bounds ``m ± MAX_SPREADS·S`` (``±MAX_SPREADS·S`` for sizes) are
+    clipped to ``±MAX_MAGNITUDE`` first; infinities are masked out only where a cell is flagged."""
+    limit = MAX_SPREADS * ref.spread
+    centre = 0.0 if size else ref.median
+    high = min(centre + limit, MAX_MAGNITUDE)
+    low = max(centre - limit, -MAX_MAGNITUDE)
+    out = (values > high) | (values < low)
+    if out.any():
+        out &= np.isfinite(values)
+    return out
 
 
 def message(value: float, ref: Reference, *, size: bool = False) -> str:
