@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from track_envs.infra.atomic import FileWriteError
@@ -156,8 +156,10 @@ def _check_read(name: str, path: Path) -> None:
             result = READERS[name](path)
             if name == "wide.csv":
                 load_track_csv(path)
-    except NAMED:
+    except NAMED as exc:
+        event(f"{name}: refused ({type(exc).__name__})")
         return
+    event(f"{name}: read")
     values = result.points if isinstance(result, Detections) else result.positions  # type: ignore[attr-defined]
     assert np.isfinite(values).all() and (np.abs(values) <= MAX_MAGNITUDE * 1.0).all()
     if isinstance(result, Tracks):
@@ -245,6 +247,7 @@ def run_test(examples: int) -> Callable[..., None]:
             gt.write_bytes(data.draw(st.sampled_from([valid["gt.txt"], data.draw(mutated(valid["gt.txt"]))])))
             argv += [f"--gt={gt}", "--metrics", "--threshold=5"]
         code, err = _track_run(argv)
+        event(f"track run {name}: exit {code}")
         assert "Traceback" not in err
         if code == 0:
             assert out.exists()

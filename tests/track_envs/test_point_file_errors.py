@@ -427,3 +427,9 @@ def test_a_frame_number_that_would_make_a_stream_of_empty_frames_is_named(tmp_pa
         read_mot_detections(path)
     set_cell(path, 9, 0, "900000")  # a sparse file: within the floor of 10^6 frames
     assert read_mot_detections(path).n_frames == 900000
+
+
+def test_one_position_repeated_has_no_relative_bound(tmp_path: Path) -> None:
+    path = tmp_path / "det.txt"
+    path.write_text("1,-1,0,0,1,1,0.2\n2,-1,0,0,1e9,1,0.4\n")
+    assert read_mot_detections(path).boxes.tolist() == [[0, 0, 1, 1], [0, 0, 1e9, 1]]

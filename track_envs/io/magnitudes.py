@@ -17,7 +17,8 @@ distance) stays finite in float64 (at most ``1.8e308``).
 
 The spread ``S`` is the median absolute deviation from ``m`` (robust: a few extreme values do not
 move it); where more than half the values are equal (it is 0), the mean absolute deviation
-``mean |v - m|`` instead; where every value equals ``m`` (both are 0), no position is extreme. ``m``
+``mean |v - m|`` instead; where every value equals ``m`` (both are 0) there is no relative bound
+(only ``MAX_MAGNITUDE``: a file of one position repeated, with boxes of any size, is data). ``m``
 and ``S`` are computed on at most :data:`SAMPLE` values taken at a fixed stride (so a 10^6-row file
 costs two medians of 65,536 values); the comparison is made on every cell, vectorised.
 Infinities and NaN are not this module's business (the readers name them as non-finite first);
@@ -73,7 +74,7 @@ def extreme(values: NDArray[np.float64], ref: Reference, *, size: bool = False) 
 
     Two comparisons a cell: the bounds ``m ± MAX_SPREADS·S`` (``±MAX_SPREADS·S`` for sizes) are
     clipped to ``±MAX_MAGNITUDE`` first; infinities are masked out only where a cell is flagged."""
-    limit = MAX_SPREADS * ref.spread
+    limit = MAX_SPREADS * ref.spread if ref.spread > 0 else np.inf  # no spread: no relative bound
     centre = 0.0 if size else ref.median
     high = min(centre + limit, MAX_MAGNITUDE)
     low = max(centre - limit, -MAX_MAGNITUDE)
