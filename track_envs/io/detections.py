@@ -179,13 +179,14 @@ def read_mot_rows(
             f"{table.label}: rows have {n_columns} fields; a MOTChallenge row has at least 6 "
             f"({', '.join(_MOT_NAMES[:6])}, ...)"
         )
-    head = values[:, :6]
+    columns = np.ascontiguousarray(values[:, :6].T)  # one contiguous array a column: fast checks
+    head = columns.T  # (n, 6), the same cells
     bad = ~np.isfinite(head)
     if bad.any():
         row, column = first_bad(bad)
         what = "is empty" if np.isnan(head[row, column]) else f"holds {head[row, column]}"
         raise table.error(row, column, f"({_MOT_NAMES[column]}) {what}; expected a finite number")
-    frames, ids = head[:, 0], head[:, 1]
+    frames, ids = columns[0], columns[1]
     _check_integers(table, frames, 0, "frame", low=1, high=MAX_FRAME)
     check_frame_span(table, frames, 0)
     _check_integers(table, ids, 1, "id", low=None)
@@ -195,10 +196,10 @@ def read_mot_rows(
         raise table.error(
             row, 4 + k, f"({_MOT_NAMES[4 + k]}) holds {float(head[row, 4 + k])!r}; a box's size must be >= 0"
         )
-    _check_boxes(table, head[:, 2:6], 2)
+    _check_boxes(table, columns[2:6], 2)
     confidence = values[:, 6] if values.shape[1] > 6 else np.ones(len(values))
     confidence = np.where(np.isnan(confidence), 1.0, confidence)
-    centres = np.stack([head[:, 2] + head[:, 4] / 2, head[:, 3] + head[:, 5] / 2], axis=1)
+    centres = np.stack([columns[2] + columns[4] / 2, columns[3] + columns[5] / 2], axis=1)
     n_frames = int(frames.max())
     keep = slice(None) if min_confidence is None else _confident(table.label, confidence, min_confidence)
     frame = frames[keep].astype(np.int64) - 1
@@ -221,16 +222,15 @@ def read_mot_rows(
     )
 
 
-def _check_boxes(table: Table, boxes: NDArray[np.float64], first_column: int) -> None:
-    """Raise naming the first cell of the (n, 4) ``left, top, width, height`` columns (from
+def _check_boxes(table: Table, columns: NDArray[np.float64], first_column: int) -> None:
+    """Raise naming the first cell of the (4, n) ``left, top, width, height`` columns (from
     ``first_column``) whose value no sensor produces (:mod:`track_envs.io.magnitudes`)."""
-    ref = magnitudes.reference(boxes[:, :2])
-    bad = np.concatenate(
-        [magnitudes.extreme(boxes[:, :2], ref), magnitudes.extreme(boxes[:, 2:], ref, size=True)], axis=1
-    )
-    if bad.any():
-        row, k = first_bad(bad)
-        value = float(boxes[row, k])
+    ref = magnitudes.reference(columns[:2])
+    far = magnitudes.extreme(columns[:2], ref)
+    large = magnitudes.extreme(columns[2:], ref, size=True)
+    if far.any() or large.any():
+        row, k = first_bad(np.concatenate([far, large]).T)
+        value = float(columns[k, row])
         name = f"({_MOT_NAMES[first_column + k]}) " if table.names is None else ""
         raise table.error(
             row, first_column + k, f"{name}holds {value!r}{magnitudes.message(value, ref, size=k >= 2)}"
@@ -725,8 +725,15 @@ def _check_integers(
 ) -> None:
     """Raise naming the first cell of ``column`` that is not an integer from ``low`` to ``high``
     (no bound: within ±2**63, the int64 range)."""
-    bad = ~np.isfinite(column) | (column != np.round(column))
-    bad |= column < (-(2.0**63) if low is None else low)
+    lowest = -(2.0**63) if low is None else low
+    fractional = column != np.round(column)  # NaN too
+    if not len(column) or (
+        not fractional.any()
+        and column.min() >= lowest
+        and (column.max() < 2.0**63 if high is None else column.max() <= high)
+    ):
+        return  # infinities fail the bounds
+    bad = fractional | ~np.isfinite(column) | (column < lowest)
     bad |= column >= 2.0**63 if high is None else column > high
     if bad.any():
         r = int(np.argmax(bad))

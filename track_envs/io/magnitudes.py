@@ -72,16 +72,20 @@ def extreme(values: NDArray[np.float64], ref: Reference, *, size: bool = False) 
     """Mask of the extreme cells of ``values`` (positions, or sizes with ``size``) against ``ref``
     (module docstring); NaN and infinities are not extreme.
 
-    Two comparisons a cell: the bounds ``m ± MAX_SPREADS·S`` (``±MAX_SPREADS·S`` for sizes) are
-    clipped to ``±MAX_MAGNITUDE`` first; infinities are masked out only where a cell is flagged."""
+    The bounds ``m ± MAX_SPREADS·S`` (``±MAX_SPREADS·S`` for sizes), clipped to
+    ``±MAX_MAGNITUDE``, are compared with the largest and the smallest value first (two
+    NaN-ignoring reductions); only where one is out of bounds is the mask built."""
     limit = MAX_SPREADS * ref.spread if ref.spread > 0 else np.inf  # no spread: no relative bound
     centre = 0.0 if size else ref.median
     high = min(centre + limit, MAX_MAGNITUDE)
     low = max(centre - limit, -MAX_MAGNITUDE)
+    values = np.asarray(values, dtype=np.float64)
+    if not values.size or (
+        np.fmax.reduce(values, axis=None) <= high and np.fmin.reduce(values, axis=None) >= low
+    ):
+        return np.zeros(values.shape, dtype=bool)  # the usual case: two reductions, no mask
     out = (values > high) | (values < low)
-    if out.any():
-        out &= np.isfinite(values)
-    return out
+    return out & np.isfinite(values)
 
 
 def message(value: float, ref: Reference, *, size: bool = False) -> str:
