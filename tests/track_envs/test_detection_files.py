@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from track_envs.io.csv_parser import DetectionFileWarning
 from track_envs.io.detections import (
     DetectionFileError,
     read_detections,
@@ -95,14 +96,17 @@ def test_mot_boxes_are_reduced_to_centres_in_frame_order(tmp_path: Path) -> None
         tmp_path / "det.txt",
         "2,-1,10,20,4,6,0.9,-1,-1,-1\n1,-1,0,0,2,2,0.3,-1,-1,-1\n2,-1,1,1,0,0,0.8,-1,-1,-1\n",
     )
-    d = read_mot_detections(path)
+    with pytest.warns(
+        DetectionFileWarning, match=r"1 row comes after a row of a later frame \(the first: row 2\)"
+    ):
+        d = read_mot_detections(path)
     assert d.n_frames == 2 and d.first_frame == 1
     np.testing.assert_array_equal(d.frame(0), [[1, 1]])
     np.testing.assert_array_equal(d.frame(1), [[12, 23], [1, 1]])  # file order within a frame
     np.testing.assert_array_equal(read_mot_detections(path, min_confidence=0.5).counts, [0, 2])
-    np.testing.assert_array_equal(
-        read_mot_detections(path, swap_xy=True, scale=0.5).frame(1), [[11.5, 6], [0.5, 0.5]]
-    )
+    with pytest.warns(DetectionFileWarning):
+        swapped = read_mot_detections(path, swap_xy=True, scale=0.5)
+    np.testing.assert_array_equal(swapped.frame(1), [[11.5, 6], [0.5, 0.5]])
 
 
 def test_mot_six_columns_and_whitespace_padding_are_enough(tmp_path: Path) -> None:
@@ -323,7 +327,10 @@ def test_tables_parse_in_chunks_the_values_and_errors_of_one_pass(tmp_path, monk
 
 def test_mot_rows_out_of_frame_order_are_grouped_by_frame(tmp_path):
     text = "2,-1,1,1,0,0\n1,-1,5,5,0,0\n2,-1,2,2,0,0\n1,-1,6,6,0,0\n"
-    d = read_mot_detections(write(tmp_path / "d.txt", text))
+    with pytest.warns(
+        DetectionFileWarning, match=r"2 rows come after a row of a later frame \(the first: row 2\)"
+    ):
+        d = read_mot_detections(write(tmp_path / "d.txt", text))
     np.testing.assert_array_equal(d.offsets, [0, 2, 4])
     np.testing.assert_array_equal(d.points, [[5, 5], [6, 6], [1, 1], [2, 2]])
 

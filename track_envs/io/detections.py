@@ -315,8 +315,10 @@ def read_mot_detections(
     if rows.has_boxes:
         boxes = rows.boxes if keep is None else rows.boxes[keep]
         boxes = boxes[:, [1, 0, 3, 2]] if swap_xy else boxes
-        boxes = boxes * scale if scale != 1.0 else boxes
-    points = points * scale if scale != 1.0 else np.ascontiguousarray(points)
+        with np.errstate(over="ignore"):
+            boxes = boxes * scale if scale != 1.0 else boxes
+    with np.errstate(over="ignore"):  # named just below
+        points = points * scale if scale != 1.0 else np.ascontiguousarray(points)
     if scale != 1.0:
         _check_scaled(label, points if boxes is None else boxes, scale, lambda k: f"row {line[k]}")
     return Detections(
@@ -624,7 +626,8 @@ def read_wide_detections(
     if keep is not None:
         pairs, row_of = pairs[keep], row_of[keep]
         row_counts = np.bincount(row_of, minlength=n_rows)
-    points = pairs * scale if scale != 1.0 else np.ascontiguousarray(pairs)
+    with np.errstate(over="ignore"):  # named just below
+        points = pairs * scale if scale != 1.0 else np.ascontiguousarray(pairs)
     if scale != 1.0:
         _check_scaled(table.label, points, scale, lambda k: f"row {row_of[k] + table.first_row}")
     first = int(frames[0])
