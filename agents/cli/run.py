@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 import re
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from agents import available_agents, make_agent
@@ -43,9 +44,16 @@ tracker follows the boxes' centres and each output row carries its detection's b
 of -1 means "not given" and --min-confidence keeps it) or a wide per-frame CSV (optional header;
 frame column, count column, optionally a time column, then x, y pairs padded with NaN).
 --input-format auto reads .txt as MOT and anything else as wide. Column options take an index
-(from 0) or a header name; error messages name columns by the same index.
-Outputs (--format): mot (MOTChallenge rows, frames from 1, each row the box of the detection the
-track was updated with, the last one while it coasts, or a --box-size box about a point:
+(from 0) or a header name; error messages name columns by the same index. Every problem in an
+input (--gt included, read in full before tracking) stops the run with one message naming the file,
+the row (its line number) and the value: a row with a missing or extra column (or cut off), text,
+an infinity, a coordinate no sensor gives (beyond 1e12 times the data's spread), a file that is not
+text. Detections that repeat an earlier one of their frame exactly are tracked once, and rows out
+of frame order are sorted; both are warned about with their count.
+Outputs (--format; by default from --out's suffix: .txt mot, .csv long, .zip wide, so that the
+file reads back as --gt in the layout it was written in; a format the suffix contradicts is an
+error): mot (MOTChallenge rows, frames from 1, each row the box of the detection the track was
+updated with, the last one while it coasts, or a --box-size box about a point:
 py-motmetrics and TrackEval read it), wide (one row per frame, one x, y pair per track id:
 BeltReplay-v0 reads it back) or long (frame,id,x,y[,var_x,cov_xy,var_y],detection
 [,bb_left,bb_top,bb_width,bb_height] with a header).
@@ -167,7 +175,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     g = p.add_argument_group("output and scoring")
     arguments.add_out(g, kind="file", help="the track file to write (in --format)", required=True)
     g.add_argument(
-        "--format", choices=["mot", "wide", "long"], help="default mot (pose files: PoseTrack JSON)"
+        "--format",
+        choices=["mot", "wide", "long"],
+        help="default: from --out's suffix (.txt mot, .csv long, .zip wide, any other mot; pose files: "
+        "PoseTrack JSON); a format the suffix contradicts (mot in .csv) is an error",
     )
     g.add_argument(
         "--box-size",
@@ -185,7 +196,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         "--gt-format",
         choices=["auto", "mot", "wide", "long"],
         default="auto",
-        help="auto (default): .txt is MOT, .zip wide, .csv long if it starts with frame,id else wide",
+        help="auto (default): .txt is MOT, .zip wide, .csv long if it starts with frame,id else wide "
+        "(any other name: long with that header, else MOT)",
     )
     g.add_argument("--metrics", action="store_true", help="score the tracks against --gt and print the table")
     g.add_argument(
@@ -300,10 +312,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check_point_arguments(args: argparse.Namespace) -> None:
-    """Fill the point run's defaults (``--agent gnn``, ``--format mot``) and refuse what does not
-    fit before anything is read (the agent, ``--covariance``, ``--metrics``, ``--min-iou``, ``--out``)."""
+    """Fill the point run's defaults (``--agent gnn``, ``--format`` from ``--out``'s suffix) and
+    refuse what does not fit before anything is read (the agent, ``--format`` against the suffix,
+    ``--covariance``, ``--metrics``, ``--min-iou``, ``--out`` and the sorting file not writable)."""
+    from track_envs.io.tracks import output_format
+
     args.agent = args.agent or "gnn"
-    args.format = args.format or "mot"
+    args.format = output_format(args.out, args.format)
     check_file_agent(args.agent, "point")
     if args.covariance and args.format != "long":
         raise ValueError("--covariance needs --format long (MOT and wide files hold no covariance)")
@@ -312,6 +327,8 @@ def _check_point_arguments(args: argparse.Namespace) -> None:
     if not (0 < args.min_iou <= 1):
         raise ValueError(f"--min-iou must be in (0, 1], got {args.min_iou!r}")
     check_out_file(args.out)
+    for path in sorting.output_paths(args):
+        check_out_file(str(path), "--sorting-out" if args.sorting_out else "--out")
 
 
 def _read_inputs(args: argparse.Namespace) -> tuple[Detections, Tracks | None, str, SensorSpec]:
@@ -323,10 +340,11 @@ def _read_inputs(args: argparse.Namespace) -> tuple[Detections, Tracks | None, s
     from track_envs.values.detections import detection_sensor_spec
 
     fmt = detection_format(args.detections, args.input_format)
-    detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
-    truth = None
-    if args.gt:
-        truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
+    with file_warnings(args.prog):
+        detections = read_detections(args.detections, fmt, **_read_options(args, fmt))
+        truth = None
+        if args.gt:  # read and checked in full before anything is tracked
+            truth = read_tracks(args.gt, args.gt_format, min_confidence=CONSIDERED if _is_mot(args) else None)
     kind = "distance"
     if truth is not None:
         kind = match_kind(detections.boxes is not None, truth.boxes is not None, args.match)
@@ -467,10 +485,31 @@ class FlagNames:
         return False
 
 
+@contextlib.contextmanager
+def file_warnings(prog: str) -> Iterator[None]:
+    """Print the readers' :class:`~track_envs.io.csv_parser.DetectionFileWarning` (repeated
+    detections dropped, rows sorted into frame order) as ``PROG: warning: ...`` lines on stderr."""
+    from track_envs.io.csv_parser import DetectionFileWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DetectionFileWarning)
+        try:
+            yield
+        finally:
+            for w in caught:
+                if issubclass(w.category, DetectionFileWarning):
+                    print(f"{prog}: warning: {w.message}", file=sys.stderr)
+                else:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
 def check_out_file(path: str, flag: str = "--out") -> None:
     """Raise ``ValueError`` naming ``flag`` unless ``path`` can be written: not a directory, its
-    directory exists and is writable (and an existing file is writable) — checked before tracking,
-    so that a long run does not fail at its end."""
+    directory exists and is writable (and an existing file is writable), and a file can be made
+    there (:func:`track_envs.infra.atomic.check_writable`: ``/proc/x`` cannot) — checked before
+    anything is read, so that a long run does not fail at its end."""
+    from track_envs.infra.atomic import check_writable
+
     folder = os.path.dirname(os.path.abspath(path))
     if os.path.isdir(path):
         raise ValueError(
@@ -480,6 +519,10 @@ def check_out_file(path: str, flag: str = "--out") -> None:
         raise ValueError(f"{flag} {path}: the directory {folder} does not exist")
     if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise ValueError(f"{flag} {path} is not writable")
+    try:
+        check_writable(path)
+    except OSError as exc:
+        raise ValueError(f"{flag} {getattr(exc, 'strerror', None) or exc}") from None
 
 
 def show_progress(args: argparse.Namespace) -> bool:

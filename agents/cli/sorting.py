@@ -106,6 +106,16 @@ def check_arguments(args: argparse.Namespace, spec: SensorSpec) -> dict[str, Any
     return check
 
 
+def output_paths(args: argparse.Namespace) -> list[Path]:
+    """The files the sorting flags will write (checked for writing before anything is read)."""
+    paths = []
+    if args.sorting_line is not None:
+        paths.append(Path(args.sorting_out) if args.sorting_out else sidecar(args.out, ".sorting.csv"))
+    if args.sorting_check is not None:
+        paths.append(Path(args.sorting_out) if args.sorting_out else sidecar(args.out, ".sorting-check.csv"))
+    return paths
+
+
 def sidecar(out: str, suffix: str) -> Path:
     """``OUT`` without its suffix, plus ``suffix`` (``tracks.txt`` → ``tracks.sorting.csv``)."""
     path = Path(out)

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -14,7 +17,7 @@ from agents import make_agent
 from agents.cli.run import format_metrics, main
 from agents.files.points import run_agent
 from track_envs.contracts.observation import check_observation, pack_observation
-from track_envs.io.tracks import read_tracks
+from track_envs.io.tracks import output_format, read_tracks
 from track_envs.values.detections import Detections
 from track_envs.values.types import SensorSpec
 from track_envs.wrappers import RecordTracking, TrackingMetrics
@@ -304,3 +307,106 @@ def test_ids_are_counted_by_sorting_as_numpy_unique_counts_them():
     rng = np.random.default_rng(1)
     for ids in (np.zeros(0, np.int64), np.array([7]), rng.integers(0, 50, 1000), rng.permutation(10**5)):
         assert count_distinct(ids) == len(np.unique(ids))
+
+
+# ------------------------------------------------------------------------- inputs you can trust
+
+
+def small_det(path: Path, seed: int = 2) -> Path:
+    """Five points moving right by 0.02 a frame for 30 frames, a little noise, as a MOT det.txt."""
+    from track_envs.io.detections import write_mot_detections
+
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(0, 1, (5, 2))
+    step = np.array([0.02, 0.0])
+    frames = [start + step * t + rng.normal(0, 1e-3, (5, 2)) for t in range(30)]
+    write_mot_detections(path, Detections.from_frames(frames))
+    return path
+
+
+@pytest.mark.parametrize("out", ["t.txt", "t.csv", "t.zip"])
+def test_a_run_scored_against_its_own_output_scores_perfectly(tmp_path, capsys, out):
+    """The format follows --out's suffix (.txt mot, .csv long, .zip wide), so the file reads back
+    as --gt in the layout it was written in: MOTA, IDF1 and HOTA 1."""
+    det = small_det(tmp_path / "det.txt")
+    argv = [str(det), "--dt=0.01", "--declared-noise-std=0.002", "--no-progress"]
+    assert main([*argv, f"--out={tmp_path / out}"]) == 0
+    assert f"({output_format(out)}, written" in capsys.readouterr().err
+    assert main([*argv, f"--out={tmp_path / 'again.txt'}", f"--gt={tmp_path / out}", "--metrics"]) == 0
+    table = dict(line.split() for line in capsys.readouterr().out.splitlines()[2:])
+    assert float(table["mota"]) == 1.0 and float(table["idf1"]) == 1.0 and float(table["hota"]) == 1.0
+
+
+def test_a_format_the_suffix_contradicts_is_an_error_before_reading(tmp_path, capsys):
+    assert main(["missing.txt", "--dt=0.01", f"--out={tmp_path / 't.csv'}", "--format=mot"]) == 2
+    err = capsys.readouterr().err
+    assert "track run: error: " in err and "a .csv track file is read back as long or wide, not mot" in err
+
+
+@pytest.mark.parametrize(
+    ("out", "flags", "said"),
+    [
+        ("/proc/track.txt", [], "--out /proc/track.txt: cannot write"),
+        (
+            "{tmp}/t.txt",
+            ["--sorting-line=9", "--sorting-out=/proc/s.csv"],
+            "--sorting-out /proc/s.csv: cannot write",
+        ),
+    ],
+)
+def test_an_unwritable_output_fails_before_anything_is_read(tmp_path, capsys, out, flags, said):
+    """The detections file does not exist: the --out error comes first, before reading it."""
+    out = out.format(tmp=tmp_path)
+    assert main([str(tmp_path / "missing.txt"), "--dt=0.01", f"--out={out}", *flags]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"track run: error: {said}") and "Traceback" not in err
+
+
+def test_ground_truth_is_checked_before_tracking(tmp_path, capsys):
+    det = small_det(tmp_path / "det.txt")
+    gt = tmp_path / "gt.txt"
+    gt.write_text("1,0,0.5,0.5,0,0,1,1,1\n2,0,1e300,0.5,0,0,1,1,1\n")
+    out = tmp_path / "t.txt"
+    assert main([str(det), "--dt=0.01", f"--out={out}", f"--gt={gt}", "--metrics", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"track run: error: {gt}: row 2, column index 2 (bb_left) holds 1e+300" in err
+    assert "self-calibration" not in err and not out.exists()
+
+
+def test_repeated_detections_are_warned_about_and_tracked_once(tmp_path, capsys):
+    det = small_det(tmp_path / "det.txt")
+    argv = ["--dt=0.01", "--declared-noise-std=0.002", "--no-progress"]
+    assert main([str(det), *argv, f"--out={tmp_path / 'once.txt'}"]) == 0
+    rows = det.read_text().splitlines()
+    twice = tmp_path / "twice.txt"
+    twice.write_text("\n".join(rows[:50] + rows[20:30] + rows[50:]) + "\n")
+    assert main([str(twice), *argv, f"--out={tmp_path / 'twice-tracks.txt'}"]) == 0
+    err = capsys.readouterr().err
+    assert "track run: warning: " in err and "10 detections repeat an earlier one of their frame" in err
+    assert (tmp_path / "twice-tracks.txt").read_bytes() == (tmp_path / "once.txt").read_bytes()
+
+
+def test_a_write_that_fails_keeps_the_old_file_and_names_it(tmp_path):
+    """A file-size limit (as a full disk) while --out is written: the old file stays, one error
+    line names the file and the cause, exit code 2."""
+    det = small_det(tmp_path / "det.txt")
+    out = tmp_path / "t.txt"
+    out.write_text("old\n")
+    code = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "from agents.cli.run import main\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (2000, 2000))\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    argv = [str(det), "--dt=0.01", "--declared-noise-std=0.002", f"--out={out}", "--no-progress"]
+    result = subprocess.run(
+        [sys.executable, "-c", code, *argv],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])},
+        check=False,
+    )
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert f"track run: error: {out}: cannot write: File too large (EFBIG)" in result.stderr
+    assert out.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["det.txt", "t.txt"]

@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from track_envs.infra.atomic import write_text
+
 #: The columns every crossing file starts with.
 CROSSING_COLUMNS = ("id", "frame", "t_cross", "y_cross", "var_t", "cov_ty", "var_y")
 #: Columns written as integers (``track``: an extra column of track ids, where present).
@@ -128,7 +130,8 @@ class PredictedCrossings:
 
 def write_crossings(path: str | os.PathLike[str], crossings: PredictedCrossings) -> None:
     """Write ``crossings`` as CSV (module docstring): integers as integers, floats with ``repr``
-    (read back exactly), NaN as ``nan``."""
+    (read back exactly), NaN as ``nan``; atomically (a failed write leaves the old file and raises
+    :class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause)."""
     c = crossings
     columns: dict[str, NDArray] = {
         "id": c.ids,
@@ -146,7 +149,7 @@ def write_crossings(path: str | os.PathLike[str], crossings: PredictedCrossings)
         for name, v in columns.items()
     ]
     lines = [",".join(columns), *map(",".join, zip(*text, strict=True)), ""]
-    Path(path).write_text("\n".join(lines), encoding="ascii")
+    write_text(path, "\n".join(lines), encoding="ascii")
 
 
 def read_crossings(path: str | os.PathLike[str]) -> PredictedCrossings:

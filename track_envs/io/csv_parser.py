@@ -3,8 +3,10 @@
 Every reader of :mod:`track_envs.io` parses numbers through this module:
 
 * :func:`read_bytes` reads a file (a ``.zip`` holding one ``.csv`` member is read as that member;
-  other members and macOS ``__MACOSX/`` entries are ignored) and :func:`normalise` drops a UTF-8
-  byte-order mark and trailing blank lines and turns CRLF / CR line ends into LF;
+  other members and macOS ``__MACOSX/`` entries are ignored) and :func:`normalise` checks that it
+  is text (:func:`check_text`: no NUL byte, valid UTF-8; UTF-16 with its byte-order mark is
+  transcoded), drops a UTF-8 byte-order mark and trailing blank lines and turns CRLF / CR line
+  ends into LF;
 * :func:`field_counts` counts the fields of every line on the raw bytes (vectorised: the
   delimiters before each line end are counted with ``searchsorted`` on the delimiter offsets,
   about 0.04 s for a 75 MB file) and rejects a blank line;
@@ -16,7 +18,9 @@ Every reader of :mod:`track_envs.io` parses numbers through this module:
   back as the same double), so a written file reads back bit for bit; the writers format
   :data:`CHUNK_ROWS` rows at a time (:func:`chunks`) and write each chunk as it is formatted
   (:func:`write_chunks`), so that writing a file of any length holds one chunk's text, not the
-  file's;
+  file's; the file is written atomically (:func:`track_envs.infra.atomic.atomic_write`: a
+  temporary file beside it, renamed when complete), so a failed write leaves the old file and
+  raises :class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause;
 * :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
   and ragged rows (missing trailing cells read as NaN), parsed :data:`PARSE_CELLS` cells at a
   time into one float64 array (the parser's buffers hold one chunk, not the file; a table
@@ -29,6 +33,8 @@ Rows in messages are the file's line numbers, from 1, as an editor shows them (a
 1); columns are named by their index from 0 (``column index 3``), as the readers' column options
 count them. Every problem raises :class:`TrackFileError` (a ``ValueError``) or, from the table
 readers, its subclass :class:`DetectionFileError`; the message starts with the file's path.
+What a reader accepts but repairs (repeated detections dropped, rows sorted into frame order) is
+said by a :class:`DetectionFileWarning` with the count and the first rows.
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ import io
 import itertools
 import os
 import re
+import warnings
 import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -49,12 +56,16 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from track_envs.infra.atomic import atomic_write
+
 __all__ = [
     "CHUNK_ROWS",
     "NA_TOKENS",
     "DetectionFileError",
+    "DetectionFileWarning",
     "Table",
     "TrackFileError",
+    "check_text",
     "chunks",
     "field_counts",
     "first_bad",
@@ -108,6 +119,12 @@ class DetectionFileError(TrackFileError):
     """
 
 
+class DetectionFileWarning(UserWarning):
+    """A file was read, but something in it was repaired or looks wrong (e.g. repeated detection
+    rows were dropped); the message starts with the file's path and gives the count and the first
+    rows."""
+
+
 # --------------------------------------------------------------------------------------------------
 # bytes and lines
 
@@ -143,9 +160,55 @@ def read_bytes(path: Path, label: str) -> tuple[bytes, str]:
         raise TrackFileError(f"{label}: cannot read the file ({exc.strerror or exc})") from None
 
 
+def check_text(data: bytes, label: str) -> bytes:
+    """``data`` as UTF-8 text bytes: UTF-16 with a byte-order mark is transcoded to UTF-8; a NUL
+    byte or bytes that are not UTF-8 raise, naming the first bad byte's value, offset and row.
+
+    ASCII (the usual case) is recognised in one C pass (``bytes.isascii``); only other text is
+    decoded to validate it.
+
+    Raises:
+        TrackFileError: ``FILE: not a text file (byte 0x00 at offset 1234, row 51: a NUL byte)``
+            or ``(byte 0xb5 at offset 12, row 1: not UTF-8; save the file as UTF-8)``.
+    """
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        try:
+            text = data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise TrackFileError(
+                f"{label}: not a text file (UTF-16 byte-order mark, but bytes {exc.start}-{exc.end - 1} "
+                "are not UTF-16)"
+            ) from None
+        return check_text(text, label)
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        raise TrackFileError(
+            f"{label}: not a text file (byte 0x00 at offset {nul}, row {_row_of(data, nul)}: "
+            "a NUL byte; UTF-16 text needs its byte-order mark)"
+        )
+    if not data.isascii():
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            at = exc.start
+            raise TrackFileError(
+                f"{label}: not a text file (byte 0x{data[at]:02x} at offset {at}, row "
+                f"{_row_of(data, at)}: not UTF-8; save the file as UTF-8 or ASCII)"
+            ) from None
+    return data
+
+
+def _row_of(data: bytes, offset: int) -> int:
+    """The line number (from 1) of byte ``offset`` (LF, CRLF or CR line ends)."""
+    head = data[:offset]
+    return head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
+
+
 def normalise(data: bytes, label: str) -> bytes:
-    """Drop a BOM and trailing blank lines, turn CRLF and CR into LF; raise if nothing is left."""
-    if data.startswith(codecs.BOM_UTF8):
+    """Check that ``data`` is text (:func:`check_text`), drop a BOM and trailing blank lines, turn
+    CRLF and CR into LF; raise if nothing is left."""
+    data = check_text(data, label)
+    while data.startswith(codecs.BOM_UTF8):  # a file saved twice with a BOM has two
         data = data[len(codecs.BOM_UTF8) :]
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
@@ -309,8 +372,15 @@ def chunks(n: int, size: int = CHUNK_ROWS) -> Iterator[tuple[int, int]]:
 
 def write_chunks(path: str | os.PathLike[str], texts: Iterable[str]) -> None:
     """Write ``texts`` one after the other as an ASCII file (as ``Path.write_text`` writes one
-    string: the file holds their concatenation), each written as soon as it is made."""
-    with open(path, "w", encoding="ascii") as handle:
+    string: the file holds their concatenation), each written as soon as it is made, atomically:
+    into a temporary file beside ``path``, renamed onto it when the last text is written.
+
+    Raises:
+        FileWriteError: naming ``path`` and the cause (disk full, no permission, ...); the old
+            file, if any, is left as it was. An exception raised while making the texts
+            propagates unchanged, also leaving the old file.
+    """
+    with atomic_write(path, "w", encoding="ascii", newline="\n") as handle:
         for text in texts:
             handle.write(text)
 
@@ -328,6 +398,10 @@ class Table:
         names: Column names from the header, or None without one.
         first_row: File line number of ``values[0]`` (2 after a header, else 1).
         label: The file's name for messages (with the zip member, if any).
+        body: The data rows' bytes (LF line ends), for :meth:`integers`.
+        delimiter: The field separator.
+        counts: (n_rows,) the number of fields of every row (None: not counted).
+        line_end: Whether the file ends with a line end (a file cut off mid-row does not).
     """
 
     values: NDArray[np.float64]
@@ -336,6 +410,37 @@ class Table:
     label: str
     body: bytes = b""
     delimiter: str = ","
+    counts: NDArray[np.intp] | None = None
+    line_end: bool = True
+
+    def check_field_counts(self, expected: int | None = None, why: str = "as most rows have") -> int:
+        """Check that every row has ``expected`` fields (None: as many as most rows have); return
+        that number.
+
+        Raises:
+            DetectionFileError: naming the first row with another count, its count and the
+                expected one, and, where it is the last row and the file does not end with a line
+                end, that the file looks cut off mid-row.
+        """
+        counts = self.counts
+        if counts is None or not len(counts):
+            return int(self.values.shape[1])
+        if expected is None:  # the commonest count (a tie: the first row's)
+            tally = np.bincount(counts)
+            expected = int(counts[0]) if tally[counts[0]] == tally.max() else int(np.argmax(tally))
+        wrong = counts != expected
+        if not wrong.any():
+            return expected
+        r = int(np.argmax(wrong))
+        n_wrong = int(wrong.sum())
+        others = f"; {n_wrong} of the {len(counts)} rows differ" if n_wrong > 1 else ""
+        if r == len(counts) - 1 and not self.line_end:
+            others += "; it is the last row and the file does not end with a line end: cut off mid-row?"
+        plural = "s" if counts[r] != 1 else ""
+        raise DetectionFileError(
+            f"{self.label}: row {self.first_row + r} has {counts[r]} column{plural} where {expected} are "
+            f"expected ({why}){others}"
+        )
 
     def integers(self, column: int) -> NDArray[np.int64]:
         """Column ``column`` (0-based) as int64, exact beyond 2**53 (where floats round): the
@@ -344,18 +449,42 @@ class Table:
         values = self.values[:, column]
         if not len(values) or np.abs(values).max() < 2.0**53:
             return values.astype(np.int64)
-        frame = pd.read_csv(
-            io.BytesIO(self.body),
-            header=None,
-            names=list(range(self.values.shape[1])),
-            usecols=[column],
-            index_col=False,
-            sep=self.delimiter,
-            dtype={column: np.int64},
-            engine="c",
-            quoting=csv.QUOTE_NONE,
-        )
-        return np.ascontiguousarray(frame[column].to_numpy(dtype=np.int64))
+        big = np.abs(values) >= 2.0**63
+        if big.any():
+            r = int(np.argmax(big))
+            raise self.error(
+                r, column, f"holds {float(values[r])!r}; an integer here must lie within +-2**63"
+            )
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                frame = pd.read_csv(
+                    io.BytesIO(self.body),
+                    header=None,
+                    names=list(range(self.values.shape[1])),
+                    usecols=[column],
+                    index_col=False,
+                    sep=self.delimiter,
+                    dtype={column: np.int64},
+                    engine="c",
+                    quoting=csv.QUOTE_NONE,
+                )
+            exact = np.ascontiguousarray(frame[column].to_numpy(dtype=np.int64))
+        except (ValueError, OverflowError):
+            exact = None
+        if (
+            exact is None
+            or exact.shape != values.shape
+            or np.any(np.abs(exact.astype(np.float64) - values) > 2.0**11)
+        ):
+            r = int(np.argmax(np.abs(values) >= 2.0**53))
+            raise self.error(
+                r,
+                column,
+                f"holds {float(values[r])!r}, an integer too large for a float: write it in digits "
+                "(no exponent) and within +-2**63",
+            )
+        return exact
 
     def error(self, row: int, column: int, what: str) -> DetectionFileError:
         """An error about cell ``values[row, column]`` (0-based), named as the file shows it."""
@@ -427,6 +556,7 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
     label = os.fspath(path)
     try:
         data, label = read_bytes(Path(path), label)
+        line_end = data.endswith((b"\n", b"\r"))
         data = normalise(data, label)
     except TrackFileError as exc:
         raise DetectionFileError(str(exc)) from None
@@ -453,7 +583,7 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
         chunk = body[starts[lo] : ends[hi - 1]]
         if n_columns > WIDE_COLUMNS and _parse_cells(chunk, counts[lo:hi], delimiter, values[lo:hi]):
             continue
-        values[lo:hi] = parse_floats(
+        parsed = parse_floats(
             chunk,
             label,
             first_row=first_row + lo,
@@ -462,7 +592,14 @@ def read_table(path: str | os.PathLike[str], *, header: bool | str = False, deli
             expected="a number",
             names=list(range(n_columns)),
         )
-    return Table(values, names, first_row, label, body, delimiter)
+        if parsed.shape != (hi - lo, n_columns):  # e.g. a byte-order mark inside the file
+            raise DetectionFileError(
+                f"{label}: rows {first_row + lo}-{first_row + hi - 1} parse into {parsed.shape[0]} rows of "
+                f"{parsed.shape[1]} cells, expected {hi - lo} of {n_columns}: a stray byte-order mark or "
+                "line end?"
+            )
+        values[lo:hi] = parsed
+    return Table(values, names, first_row, label, body, delimiter, counts, line_end)
 
 
 def _parse_cells(chunk: bytes, counts: NDArray[np.intp], delimiter: str, out: NDArray[np.float64]) -> bool:

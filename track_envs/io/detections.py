@@ -44,16 +44,20 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
+from track_envs.io import magnitudes
 from track_envs.io.csv_parser import (
     CHUNK_ROWS,
     DetectionFileError,
+    DetectionFileWarning,
     Table,
     chunks,
     first_bad,
@@ -94,6 +98,10 @@ class MotRows:
         confidence: (N,) float64 (1 where the file has no confidence column; −1: not given).
         n_frames: The last frame number of the file (frames 1..n_frames).
         boxes: (N, 4) float64 ``bb_left, bb_top, bb_width, bb_height``.
+        line: (N,) int64 each row's line number in the file (from 1), for messages.
+        unsorted: How many rows of the file came after a row of a later frame (0: the file is in
+            frame order); the rows are sorted all the same.
+        unsorted_line: The line number of the first such row (0: none).
     """
 
     frame: NDArray[np.int64]
@@ -102,11 +110,43 @@ class MotRows:
     confidence: NDArray[np.float64]
     n_frames: int
     boxes: NDArray[np.float64]
+    line: NDArray[np.int64] | None = None
+    unsorted: int = 0
+    unsorted_line: int = 0
 
     @property
     def has_boxes(self) -> bool:
         """Whether any row is a box (width or height > 0); a file of points has none."""
         return bool(np.any(self.boxes[:, 2:] > 0))
+
+
+#: The largest frame number a file may hold: a stream of at most 10^8 frames (its per-frame
+#: arrays stay below a gigabyte).
+MAX_FRAME = 10**8
+#: A file of ``n`` rows spans at most ``max(MIN_SPAN, SPAN_PER_ROW · n)`` frames: a frame number
+#: beyond that (a typo, a corrupt row) would make a stream of nearly only empty frames, which
+#: takes the tracker minutes to hours to step through.
+MIN_SPAN = 10**6
+SPAN_PER_ROW = 1000
+
+
+def check_frame_span(table: Table, span: NDArray[np.float64], column: int) -> None:
+    """Raise naming the first row whose frame would make the stream span more than
+    ``max(MIN_SPAN, SPAN_PER_ROW · rows)`` frames (``span``: each row's frame counted from the
+    stream's first frame, 1 for the first)."""
+    n = len(span)
+    limit = min(MAX_FRAME, max(MIN_SPAN, SPAN_PER_ROW * n))
+    far = span > limit
+    if far.any():
+        r = int(np.argmax(far))
+        raise table.error(
+            r,
+            column,
+            f"holds frame {table.values[r, column]:.0f}: the file's {n} rows would span "
+            f"{span[r]:.0f} frames, nearly all empty (at most max({MIN_SPAN:g}, {SPAN_PER_ROW} per row) "
+            f"= {limit:g}); a typo or "
+            "a corrupt row?",
+        )
 
 
 def read_mot_rows(
@@ -122,26 +162,33 @@ def read_mot_rows(
         delimiter: Field separator.
 
     Raises:
-        DetectionFileError: naming the row and column of a missing, non-numeric or non-finite
-            field among the first six, a frame number that is not an integer >= 1, an id that is
-            not an integer, or a negative width or height; and a ``min_confidence`` that drops
-            every row (naming the confidences the file holds).
+        DetectionFileError: naming the row (and column, and value) of: a row with another number
+            of columns than the file's other rows (a missing or extra column, or a file cut off
+            mid-row); a missing, non-numeric or non-finite field among the first six; a frame
+            number that is not an integer from 1 to :data:`MAX_FRAME` or spans more frames than
+            :func:`check_frame_span` allows for the file's rows; an id that is not an
+            integer within ±2**63; a negative width or height; a coordinate no sensor produces
+            (:mod:`track_envs.io.magnitudes`); and a ``min_confidence`` that drops every row
+            (naming the confidences the file holds).
     """
     table = read_table(path, header=False, delimiter=delimiter)
     values = table.values
-    if values.shape[1] < 6:
+    n_columns = table.check_field_counts(why="as the file's other rows have")
+    if n_columns < 6:
         raise DetectionFileError(
-            f"{table.label}: rows have {values.shape[1]} fields; a MOTChallenge row has at least 6 "
+            f"{table.label}: rows have {n_columns} fields; a MOTChallenge row has at least 6 "
             f"({', '.join(_MOT_NAMES[:6])}, ...)"
         )
-    head = values[:, :6]
+    columns = np.ascontiguousarray(values[:, :6].T)  # one contiguous array a column: fast checks
+    head = columns.T  # (n, 6), the same cells
     bad = ~np.isfinite(head)
     if bad.any():
         row, column = first_bad(bad)
         what = "is empty" if np.isnan(head[row, column]) else f"holds {head[row, column]}"
         raise table.error(row, column, f"({_MOT_NAMES[column]}) {what}; expected a finite number")
-    frames, ids = head[:, 0], head[:, 1]
-    _check_integers(table, frames, 0, "frame", low=1)
+    frames, ids = columns[0], columns[1]
+    _check_integers(table, frames, 0, "frame", low=1, high=MAX_FRAME)
+    check_frame_span(table, frames, 0)
     _check_integers(table, ids, 1, "id", low=None)
     negative = head[:, 4:6] < 0
     if negative.any():
@@ -149,14 +196,19 @@ def read_mot_rows(
         raise table.error(
             row, 4 + k, f"({_MOT_NAMES[4 + k]}) holds {float(head[row, 4 + k])!r}; a box's size must be >= 0"
         )
+    _check_boxes(table, columns[2:6], 2)
     confidence = values[:, 6] if values.shape[1] > 6 else np.ones(len(values))
     confidence = np.where(np.isnan(confidence), 1.0, confidence)
-    centres = np.stack([head[:, 2] + head[:, 4] / 2, head[:, 3] + head[:, 5] / 2], axis=1)
+    centres = np.stack([columns[2] + columns[4] / 2, columns[3] + columns[5] / 2], axis=1)
     n_frames = int(frames.max())
     keep = slice(None) if min_confidence is None else _confident(table.label, confidence, min_confidence)
     frame = frames[keep].astype(np.int64) - 1
+    line = np.arange(table.first_row, table.first_row + len(values), dtype=np.int64)[keep]
     # rows already in frame order (as files are written) are kept as they are, without a copy
-    order = slice(None) if np.all(frame[1:] >= frame[:-1]) else np.argsort(frame, kind="stable")
+    back = frame[1:] < frame[:-1]
+    unsorted = int(back.sum())
+    unsorted_line = int(line[int(np.argmax(back)) + 1]) if unsorted else 0
+    order = slice(None) if not unsorted else np.argsort(frame, kind="stable")
     return MotRows(
         frame=frame[order],
         ids=table.integers(1)[keep][order],
@@ -164,7 +216,25 @@ def read_mot_rows(
         confidence=confidence[keep][order],
         n_frames=n_frames,
         boxes=np.ascontiguousarray(head[:, 2:6][keep][order]),
+        line=line[order],
+        unsorted=unsorted,
+        unsorted_line=unsorted_line,
     )
+
+
+def _check_boxes(table: Table, columns: NDArray[np.float64], first_column: int) -> None:
+    """Raise naming the first cell of the (4, n) ``left, top, width, height`` columns (from
+    ``first_column``) whose value no sensor produces (:mod:`track_envs.io.magnitudes`)."""
+    ref = magnitudes.reference(columns[:2])
+    far = magnitudes.extreme(columns[:2], ref)
+    large = magnitudes.extreme(columns[2:], ref, size=True)
+    if far.any() or large.any():
+        row, k = first_bad(np.concatenate([far, large]).T)
+        value = float(columns[k, row])
+        name = f"({_MOT_NAMES[first_column + k]}) " if table.names is None else ""
+        raise table.error(
+            row, first_column + k, f"{name}holds {value!r}{magnitudes.message(value, ref, size=k >= 2)}"
+        )
 
 
 #: The ``min_confidence`` that keeps the ground-truth rows flagged "considered" (column index 6
@@ -192,6 +262,7 @@ def read_mot_detections(
     scale: float = 1.0,
     n_frames: int | None = None,
     delimiter: str = ",",
+    duplicates: str = "drop",
 ) -> Detections:
     """Detections of a MOTChallenge ``det.txt``: box centres as points, and the boxes (module
     docstring; frame 1 is frame 0 of the stream).
@@ -205,23 +276,151 @@ def read_mot_detections(
         n_frames: Frames of the stream (default: up to the file's last frame number); frames
             after the last detection are empty.
         delimiter: Field separator.
+        duplicates: What to do with a row that repeats an earlier row of its frame exactly (the
+            same frame, box, centre and id: the tracker would see one object twice and start a
+            second track for it): ``"drop"`` (default) keeps the first and warns
+            (:class:`DetectionFileWarning`, with the count and the first rows), ``"error"``
+            raises naming them.
+
+    Rows out of frame order are sorted (stably) and warned about with their count and the first
+    one (:class:`DetectionFileWarning`).
+
+    Raises:
+        DetectionFileError: as :func:`read_mot_rows`; repeated rows with ``duplicates="error"``;
+            a coordinate that ``scale`` makes infinite.
     """
     scale = _check_scale(scale)
+    _check_duplicates_option(duplicates)
     rows = read_mot_rows(path, min_confidence=min_confidence, delimiter=delimiter)
+    label = os.fspath(path)
+    assert rows.line is not None
+    if rows.unsorted:
+        warnings.warn(
+            DetectionFileWarning(
+                f"{label}: {_rows(rows.unsorted)} after a row of a later frame (the first: row "
+                f"{rows.unsorted_line}); the rows are read in frame order (rows of one frame keep "
+                "their file order)"
+            ),
+            stacklevel=2,
+        )
+    boxes_given = rows.boxes if rows.has_boxes else None
+    keep = _repeats(label, rows.frame, rows.centres, boxes_given, rows.ids, rows.line, duplicates)
+    frame, centres, ids, line = rows.frame, rows.centres, rows.ids, rows.line
+    if keep is not None:
+        frame, centres, ids, line = frame[keep], centres[keep], ids[keep], line[keep]
     total = rows.n_frames if n_frames is None else max(int(n_frames), rows.n_frames)
-    counts = np.bincount(rows.frame, minlength=total)
-    points = rows.centres[:, ::-1] if swap_xy else rows.centres
+    counts = np.bincount(frame, minlength=total)
+    points = centres[:, ::-1] if swap_xy else centres
     boxes = None
     if rows.has_boxes:
-        boxes = rows.boxes[:, [1, 0, 3, 2]] if swap_xy else rows.boxes
-        boxes = boxes * scale if scale != 1.0 else boxes
+        boxes = rows.boxes if keep is None else rows.boxes[keep]
+        boxes = boxes[:, [1, 0, 3, 2]] if swap_xy else boxes
+        with np.errstate(over="ignore"):
+            boxes = boxes * scale if scale != 1.0 else boxes
+    with np.errstate(over="ignore"):  # named just below
+        points = points * scale if scale != 1.0 else np.ascontiguousarray(points)
+    if scale != 1.0:
+        _check_scaled(label, points if boxes is None else boxes, scale, lambda k: f"row {line[k]}")
     return Detections(
-        points=points * scale if scale != 1.0 else np.ascontiguousarray(points),
+        points=points,
         offsets=np.concatenate([[0], np.cumsum(counts)]),
-        ids=np.where(rows.ids >= 0, rows.ids, -1),
+        ids=np.where(ids >= 0, ids, -1),
         first_frame=1,
         boxes=boxes,
     )
+
+
+def _rows(n: int) -> str:
+    return "1 row comes" if n == 1 else f"{n} rows come"
+
+
+#: What the readers do with repeated detections (``duplicates=``).
+DUPLICATES = ("drop", "error")
+
+
+def _check_duplicates_option(duplicates: str) -> None:
+    if duplicates not in DUPLICATES:
+        raise ValueError(f"duplicates must be one of {list(DUPLICATES)}, got {duplicates!r}")
+
+
+def _repeats(
+    label: str,
+    frame: NDArray[np.int64],
+    points: NDArray[np.float64],
+    boxes: NDArray[np.float64] | None,
+    ids: NDArray[np.int64] | None,
+    line: NDArray[np.int64],
+    duplicates: str,
+    where: Callable[[int], str] | None = None,
+) -> NDArray[np.bool_] | None:
+    """The detections to keep where some repeat an earlier one of their frame exactly (frame,
+    point, box and id equal; -0.0 equals 0.0), else None; warns (``"drop"``) or raises
+    (``"error"``) naming the count and the first repeats (``where(k)``: how detection ``k`` is
+    named, by default ``row line[k]``).
+
+    A hash of each detection's frame and point (multiplied bit patterns, wrapping uint64) finds
+    the candidates in one pass (pandas' hash table, about 40 ms for 10^6 detections); only those
+    are compared in full, so a file without repeats costs a few vector passes."""
+    n = len(frame)
+    if n < 2:
+        return None
+    bits = (np.ascontiguousarray(points, dtype=np.float64) + 0.0).view(np.uint64)
+    with np.errstate(over="ignore"):
+        h = frame.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        h ^= bits[:, 0] * np.uint64(0xC2B2AE3D27D4EB4F)
+        h ^= bits[:, 1] * np.uint64(0x165667B19E3779F9)
+    later = pd.Series(h).duplicated().to_numpy()  # a hash table: no sort
+    if not later.any():
+        return None
+    candidates = np.flatnonzero(np.isin(h, h[later]))  # the repeats and what they repeat
+    parts = [frame[candidates, None].astype(np.float64), points[candidates]]
+    if boxes is not None:
+        parts.append(boxes[candidates])
+    if ids is not None:
+        parts.append(ids[candidates, None].astype(np.float64))
+    key = np.ascontiguousarray(np.concatenate(parts, axis=1) + 0.0)
+    _, first, inverse = np.unique(key.view(np.uint64), axis=0, return_index=True, return_inverse=True)
+    origin = candidates[first[inverse.reshape(-1)]]  # each candidate's first equal detection
+    repeat = origin != candidates
+    if not repeat.any():
+        return None
+    rep, orig = candidates[repeat], origin[repeat]
+    order = np.argsort(rep, kind="stable")
+    rep, orig = rep[order], orig[order]
+    name = where or (lambda k: f"row {line[k]}")
+    shown = ", ".join(
+        f"{name(int(r))} repeats {name(int(o))}" for r, o in zip(rep[:3], orig[:3], strict=True)
+    )
+    more = ", ..." if len(rep) > 3 else ""
+    what = (
+        "same frame, position"
+        + (", box" if boxes is not None else "")
+        + (" and id" if ids is not None else "")
+    )
+    many = "s" if len(rep) > 1 else ""
+    text = (
+        f"{label}: {len(rep)} detection{many} repeat an earlier one of their frame exactly ({what}): "
+        f"{shown}{more}"
+    )
+    if duplicates == "error":
+        raise DetectionFileError(text)
+    warnings.warn(
+        DetectionFileWarning(f"{text}; each is tracked once (the repeats are dropped)"), stacklevel=3
+    )
+    keep = np.ones(n, dtype=bool)
+    keep[rep] = False
+    return keep
+
+
+def _check_scaled(label: str, values: NDArray[np.float64], scale: float, where: Callable[[int], str]) -> None:
+    """Raise naming the first detection whose (scaled) ``values`` are not finite."""
+    bad = ~np.isfinite(values).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise DetectionFileError(
+            f"{label}: {where(k)}: scale={scale!r} (track run: --scale) makes its coordinates "
+            f"{values[k].tolist()}; they must stay finite"
+        )
 
 
 def write_mot_detections(
@@ -308,6 +507,7 @@ def read_wide_detections(
     swap_xy: bool = False,
     scale: float = 1.0,
     delimiter: str = ",",
+    duplicates: str = "drop",
 ) -> Detections:
     """Detections of a wide per-frame CSV (module docstring).
 
@@ -326,11 +526,19 @@ def read_wide_detections(
         swap_xy: Swap x and y.
         scale: Multiply positions by this.
         delimiter: Field separator.
+        duplicates: A pair that repeats an earlier pair of its row exactly: ``"drop"`` (default:
+            kept once, with a :class:`DetectionFileWarning` giving the count and the first ones)
+            or ``"error"`` (:func:`read_mot_detections`).
 
     Raises:
-        DetectionFileError: naming the file and the row and column of the first bad cell.
+        DetectionFileError: naming the file and the row and column of the first bad cell: text,
+            an infinity, a half-empty pair, a frame number that is not an integer or does not
+            increase (or spans more frames than :func:`check_frame_span` allows), a count that
+            disagrees with the pairs, an infinite time, a coordinate no sensor produces
+            (:mod:`track_envs.io.magnitudes`) or one that ``scale`` makes infinite.
     """
     scale = _check_scale(scale)
+    _check_duplicates_option(duplicates)
     table = read_table(path, header=header, delimiter=delimiter)
     values = table.values
     n_rows = len(values)
@@ -355,6 +563,7 @@ def read_wide_detections(
             raise table.error(
                 r, c, f"holds frame {frames[r]} after frame {frames[r - 1]}; frame numbers must increase"
             )
+        check_frame_span(table, (frames - frames[0] + 1).astype(np.float64), c)
     else:
         frames = np.arange(n_rows, dtype=np.int64)
     inf = np.isinf(xy)
@@ -375,6 +584,13 @@ def read_wide_detections(
             f"is empty but column index {other} (its pair) holds a number; x and y must be both "
             "numbers or both empty",
         )
+    ref = magnitudes.reference(xy)
+    far = magnitudes.extreme(xy, ref)
+    if far.any():
+        r, k = first_bad(far)
+        raise table.error(
+            r, pair_columns[k], f"holds {float(xy[r, k])!r}{magnitudes.message(float(xy[r, k]), ref)}"
+        )
     live = ~nan[:, 0::2]
     row_counts = live.sum(axis=1)
     if "count_column" in used:
@@ -389,15 +605,46 @@ def read_wide_detections(
     pairs = xy.reshape(n_rows, -1, 2)[live]
     if swap_xy:
         pairs = pairs[:, ::-1]
-    points = pairs * scale if scale != 1.0 else np.ascontiguousarray(pairs)
+    row_of = np.repeat(np.arange(n_rows), row_counts)  # each detection's row
+
+    def pair_of(k: int) -> int:  # messages only
+        return int(np.flatnonzero(live[row_of[k]])[k - int(np.searchsorted(row_of, row_of[k]))])
+
+    keep = _repeats(
+        table.label,
+        row_of.astype(np.int64),
+        pairs,
+        None,
+        None,
+        row_of + table.first_row,
+        duplicates,
+        where=lambda k: (
+            f"row {row_of[k] + table.first_row} pair {pair_of(k)} (column indices "
+            f"{pair_columns[2 * pair_of(k)]}-{pair_columns[2 * pair_of(k) + 1]})"
+        ),
+    )
+    if keep is not None:
+        pairs, row_of = pairs[keep], row_of[keep]
+        row_counts = np.bincount(row_of, minlength=n_rows)
+    with np.errstate(over="ignore"):  # named just below
+        points = pairs * scale if scale != 1.0 else np.ascontiguousarray(pairs)
+    if scale != 1.0:
+        _check_scaled(table.label, points, scale, lambda k: f"row {row_of[k] + table.first_row}")
     first = int(frames[0])
     index = frames - first
     counts = np.zeros(int(index[-1]) + 1, dtype=np.int64)
     counts[index] = row_counts
     times = None
     if "time_column" in used:
+        c = used["time_column"]
+        inf = np.isinf(values[:, c])
+        if inf.any():
+            r = int(np.argmax(inf))
+            raise table.error(
+                r, c, f"holds {values[r, c]}; a time must be a finite number of seconds (or empty)"
+            )
         times = np.full(len(counts), np.nan)
-        times[index] = values[:, used["time_column"]]
+        times[index] = values[:, c]
     return Detections(points, np.concatenate([[0], np.cumsum(counts)]), first_frame=first, times=times)
 
 
@@ -470,14 +717,35 @@ def _check_scale(scale: float) -> float:
     return float(scale)
 
 
-def _check_integers(table: Table, column: NDArray[np.float64], c: int, what: str, *, low: int | None) -> None:
-    """Raise naming the first cell of ``column`` that is not an integer (>= ``low``)."""
-    bad = ~np.isfinite(column) | (column != np.round(column))
-    if low is not None:
-        bad |= column < low
+def _check_integers(
+    table: Table,
+    column: NDArray[np.float64],
+    c: int,
+    what: str,
+    *,
+    low: int | None,
+    high: float | None = None,
+) -> None:
+    """Raise naming the first cell of ``column`` that is not an integer from ``low`` to ``high``
+    (no bound: within ±2**63, the int64 range)."""
+    lowest = -(2.0**63) if low is None else low
+    fractional = column != np.round(column)  # NaN too
+    if not len(column) or (
+        not fractional.any()
+        and column.min() >= lowest
+        and (column.max() < 2.0**63 if high is None else column.max() <= high)
+    ):
+        return  # infinities fail the bounds
+    bad = fractional | ~np.isfinite(column) | (column < lowest)
+    bad |= column >= 2.0**63 if high is None else column > high
     if bad.any():
         r = int(np.argmax(bad))
-        valid = "an integer" if low is None else f"an integer >= {low}"
+        if low is None and high is None:
+            valid = "an integer within +-2**63"
+        elif high is None:
+            valid = f"an integer >= {low}"
+        else:
+            valid = f"an integer >= {low} and <= {high:g}" if low is not None else f"an integer <= {high:g}"
         shown = "nothing" if np.isnan(column[r]) else repr(float(column[r]))
         raise table.error(r, c, f"holds {shown}; the {what} must be {valid}")
 

@@ -9,7 +9,9 @@ The format is the one published with recorded belt-sorting data sets:
   the same number of fields; the index of the pair (0-based) is the particle's truth id;
 * a position is written as a decimal number (``1.5``, ``-0.25``, ``3e-05``); a particle that is not
   visible in a frame has both of its cells empty or ``NaN`` (``nan`` is accepted as well);
-* ``x`` and ``y`` are either both numbers or both missing, and infinities are not allowed.
+* ``x`` and ``y`` are either both numbers or both missing, and infinities are not allowed (this
+  loader reads any finite double bit for bit; :func:`track_envs.io.tracks.read_tracks`, which
+  reads ground truth, also refuses positions no sensor produces: :mod:`track_envs.io.magnitudes`).
 
 Line endings may be LF, CRLF or CR; a UTF-8 byte-order mark and trailing blank lines are ignored, a
 blank line inside the file is an error. Rows in error messages are line numbers, from 1, as an
@@ -24,7 +26,9 @@ vectorised check of the field count of every line on the raw bytes), so a 2,000-
 4,400 particles (about 75 MB) loads in a few seconds. The file is re-scanned with the :mod:`csv`
 module only when parsing fails, to locate the offending cell.
 :func:`write_track_csv` writes the shortest decimal string that reads back as the same float
-(``repr``), so ``load_track_csv(write_track_csv(x))`` reproduces ``x`` bit for bit (NaNs as NaN).
+(``repr``), so ``load_track_csv(write_track_csv(x))`` reproduces ``x`` bit for bit (NaNs as NaN),
+atomically (:mod:`track_envs.infra.atomic`: a failed write leaves the old file and raises
+:class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from track_envs.infra.atomic import atomic_path, atomic_write
 from track_envs.io.csv_parser import (
     CHUNK_ROWS,
     NA_TOKENS,
@@ -138,10 +143,11 @@ def write_track_chunks(
     target = Path(path)
     with contextlib.ExitStack() as stack:
         if target.suffix.lower() == ".zip":
-            archive = stack.enter_context(zipfile.ZipFile(target, "w", compression=zipfile.ZIP_DEFLATED))
+            tmp = stack.enter_context(atomic_path(target))
+            archive = stack.enter_context(zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED))
             handle = stack.enter_context(archive.open(target.stem + ".csv", "w", force_zip64=True))
         else:
-            handle = stack.enter_context(open(target, "wb"))
+            handle = stack.enter_context(atomic_write(target, "wb"))
         first, width = 0, None
         for chunk in positions:
             pos = np.asarray(chunk, dtype=np.float64)
@@ -219,6 +225,7 @@ def _check_values(values: NDArray[np.float64], label: str, *, first_row: int) ->
             f"{label}: row {first_row + row}, column index {column} holds {values[row, column]}, "
             "an infinity; expected a finite number or NaN"
         )
+
     nan = np.isnan(values)
     half = nan[:, 0::2] != nan[:, 1::2]
     if half.any():
