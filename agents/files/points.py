@@ -240,7 +240,7 @@ def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[A
             "build the agent with its agent_kwargs()"
         )
     estimate = estimate_sensor_model(stream, spec)
-    kwargs = estimate.agent_kwargs() if takes_calibration(name) else {}
+    kwargs = estimate.agent_kwargs(name) if takes_calibration(name) else {}
     spec = estimate.sensor_spec(spec)
     rows = live_track_bound(stream, estimate.max_misses)
     return make_agent(name, **kwargs), dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))

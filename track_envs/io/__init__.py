@@ -10,7 +10,7 @@ from track_envs.infra.lazy import lazy_exports
 if TYPE_CHECKING:
     from track_envs.infra.atomic import FileWriteError, atomic_path, atomic_write, check_writable, save_figure
     from track_envs.io.crossings import CROSSING_COLUMNS, PredictedCrossings, read_crossings, write_crossings
-    from track_envs.io.csv_parser import DetectionFileError, TrackFileError
+    from track_envs.io.csv_parser import DetectionFileError, DetectionFileWarning, TrackFileError
     from track_envs.io.detections import (
         MotRows,
         detection_format,
@@ -24,18 +24,24 @@ if TYPE_CHECKING:
     )
     from track_envs.io.poses import (
         POSE_FORMATS,
+        PoseFileError,
+        PoseFileWarning,
         is_pose_file,
         json_pose_format,
         read_pose_file,
         write_coco_results,
         write_posetrack,
     )
-    from track_envs.io.tracks import TRACK_FORMATS, read_tracks, track_format, write_tracks
+    from track_envs.io.tracks import TRACK_FORMATS, output_format, read_tracks, track_format, write_tracks
     from track_envs.io.wide_tracks import load_track_csv, write_track_csv
 
 #: The module of each name loaded on first access (``__getattr__``), so that importing
 #: the package stays light.
 _LAZY: dict[str, str] = {
+    "DetectionFileWarning": "track_envs.io.csv_parser",
+    "PoseFileError": "track_envs.io.poses",
+    "PoseFileWarning": "track_envs.io.poses",
+    "output_format": "track_envs.io.tracks",
     "CROSSING_COLUMNS": "track_envs.io.crossings",
     "PredictedCrossings": "track_envs.io.crossings",
     "read_crossings": "track_envs.io.crossings",
@@ -75,8 +81,11 @@ __all__ = [
     "POSE_FORMATS",
     "TRACK_FORMATS",
     "DetectionFileError",
+    "DetectionFileWarning",
     "FileWriteError",
     "MotRows",
+    "PoseFileError",
+    "PoseFileWarning",
     "PredictedCrossings",
     "TrackFileError",
     "atomic_path",
@@ -86,6 +95,7 @@ __all__ = [
     "is_pose_file",
     "json_pose_format",
     "load_track_csv",
+    "output_format",
     "read_crossings",
     "read_detections",
     "read_mot_detections",
