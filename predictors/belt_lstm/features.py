@@ -2,8 +2,9 @@
 
 Separate from :mod:`predictors.belt_lstm.network` so that inference with a shipped model needs no
 torch; the network module re-exports :class:`Features`. The per-frame inputs of a batch of tracks
-(:meth:`Features.inputs`) are one compiled pass (:func:`standardised_inputs`) with the same
-floating-point operations as the numpy expression it replaces (the same bits; tested).
+(:meth:`Features.inputs`) and nll-lstm's predicted Gaussian (:func:`nll_gaussian`) are compiled
+passes with the same floating-point operations as the numpy expressions they replace (the same
+bits; tested).
 """
 
 from __future__ import annotations
@@ -38,6 +39,32 @@ def standardised_inputs(
             du = u - (z_prev[r, j] - low[j]) / size[j] if has_prev else 0.0
             out[r, j] = (u - in_mean[j]) / in_std[j]
             out[r, d + j] = (du - in_mean[d + j]) / in_std[d + j]
+
+
+@njit(cache=True)
+def nll_gaussian(
+    z_prev: np.ndarray,
+    out: np.ndarray,
+    var_std: np.ndarray,
+    size: np.ndarray,
+    out_mean: np.ndarray,
+    out_std: np.ndarray,
+    scale: np.ndarray,
+    calibration: float,
+    mean: np.ndarray,
+    cov: np.ndarray,
+) -> None:
+    """The nll-lstm prediction in one pass: ``mean = z_prev + size ⊙ (μ_out + σ_out ⊙ out)`` (n, D)
+    (:meth:`Features.position`) and ``cov = r · diag(var_std ⊙ scale)`` (n, D, D) with
+    ``var_std = exp(log σ²)`` (computed by numpy's ``exp``) and ``r = calibration``, element by
+    element in float64 (the operations of the numpy form)."""
+    n, d = z_prev.shape
+    for r in range(n):
+        for j in range(d):
+            mean[r, j] = z_prev[r, j] + size[j] * (out_mean[j] + out_std[j] * out[r, j])
+            for k in range(d):
+                cov[r, j, k] = calibration * 0.0
+            cov[r, j, j] = calibration * (var_std[r, j] * scale[j])
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.base import BatchState, Capability, Crossings
+from predictors.belt_lstm.features import nll_gaussian
 from predictors.belt_lstm.inference import FastLSTMWeights, LSTMWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
 from track_envs.infra.blas_threads import frame_blas
@@ -427,13 +428,16 @@ class LSTMPredictor:
             mean = f.position(state.z_prev, mean_std)
             sd = np.sqrt(scale)
             cov = cov_std * sd[:, None] * sd[None, :]
+        elif self.kind == "nll-lstm":  # one compiled pass, the operations of the lstm branch below
+            mean, cov = np.empty((n, d)), np.empty((n, d, d))
+            z_prev = np.ascontiguousarray(state.z_prev, dtype=np.float64)
+            var_std = np.exp(state.out[:, d:])
+            nll_gaussian(
+                z_prev, state.out, var_std, f.size, f.out_mean, f.out_std, scale,
+                float(self.calibration_scale), mean, cov,
+            )  # fmt: skip
+            return Gaussian(mean, cov)
         else:
             mean = f.position(state.z_prev, state.out[:, :d])
-            if self.kind == "nll-lstm":
-                var = np.exp(state.out[:, d:]) * scale
-                cov = np.zeros((n, d, d))
-                idx = np.arange(d)
-                cov[:, idx, idx] = var
-            else:
-                cov = np.broadcast_to(self.cov_scale * np.eye(d), (n, d, d)).copy()
+            cov = np.broadcast_to(self.cov_scale * np.eye(d), (n, d, d)).copy()
         return Gaussian(mean, self.calibration_scale * cov)

@@ -125,3 +125,23 @@ def test_displacement_lstm_frame_runs_on_one_blas_thread(monkeypatch) -> None:
         for t in range(1, 7):
             model.displacement(x[:, :t])
     assert len(inside) == 6 and all(s == {1} for s in inside)
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_compiled_nll_prediction_gives_the_bits_of_the_numpy_form(precision, spec) -> None:
+    from predictors.belt_lstm.predictor import LSTMPredictor
+
+    base = make_predictor("nll-lstm")
+    p = LSTMPredictor("nll-lstm", base.model, precision=precision)
+    p.calibration_scale = 1.7
+    z = _tracks(spec, 40)
+    p.reset(spec, rng=np.random.default_rng(0))
+    state = p.update(p.predict(p.start(z[0]))[0], z[1], np.ones(40, dtype=bool))
+    got = p.predict(state)[1]
+    f, d = p._features, 2
+    mean = f.position(state.z_prev, state.out[:, :d])
+    var = np.exp(state.out[:, d:]) * f.variance_scale()
+    cov = np.zeros((40, d, d))
+    cov[:, [0, 1], [0, 1]] = var
+    np.testing.assert_array_equal(got.mean, mean)
+    np.testing.assert_array_equal(got.cov, p.calibration_scale * cov)
