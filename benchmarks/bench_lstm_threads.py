@@ -19,7 +19,10 @@ that CPU, as they would beside a camera driver or a valve controller). Variants:
   head, one step of the 150 rows under ``no_grad``, ``torch.set_num_threads(1)``
   (:func:`bench_lstm.torch_reference`).
 
-Each timing is the best of 7 repetitions of as many calls as fill ≈20 ms (wall clock). Printed:
+Each timing is the best of 7 repetitions of as many calls as fill ≈20 ms, and each process times
+idle and busy three times, alternating (best kept). Wall clock, and idle also on the thread's CPU
+clock (``time.thread_time``: the work itself; on a shared machine a descheduled process is not
+charged, so the ratio of two single-threaded steps is steadier than on the wall clock). Printed:
 µs per step, the ratios ``one thread / default`` idle and busy (≥ 1: the default is no slower),
 ``torch / default`` (the step's speed-up over torch), and the BLAS libraries that ran
 (``threadpoolctl.threadpool_info()``: library, version, the kernel ``architecture``, threads).
@@ -43,18 +46,23 @@ _THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 _SPIN = "import os, sys\nos.sched_setaffinity(0, {int(sys.argv[1])})\nwhile True:\n    pass\n"
 
 
-def best_time(fn: Callable[[], object], repeat: int = 7, fill: float = 0.02) -> float:
-    """Best mean wall seconds per call over ``repeat`` runs of as many calls as fill ``fill`` s."""
+def best_time(
+    fn: Callable[[], object],
+    repeat: int = 7,
+    fill: float = 0.02,
+    clock: Callable[[], float] = time.perf_counter,
+) -> float:
+    """Best mean seconds per call on ``clock`` over ``repeat`` runs of as many calls as fill ``fill`` s."""
     fn()
     t0 = time.perf_counter()
     fn()
     number = max(3, min(500, int(fill / max(time.perf_counter() - t0, 1e-7))))
     best = float("inf")
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(number):
             fn()
-        best = min(best, (time.perf_counter() - t0) / number)
+        best = min(best, (clock() - t0) / number)
     return best
 
 
@@ -110,12 +118,17 @@ def _step(mode: str, tracks: int) -> Callable[[], object]:
     return run
 
 
-def worker(mode: str, tracks: int) -> dict[str, Any]:
-    """Time ``mode`` idle and beside a busy neighbour (µs per step) in this process."""
+def worker(mode: str, tracks: int, rounds: int = 3) -> dict[str, Any]:
+    """Time ``mode`` idle and beside a busy neighbour, ``rounds`` times each, alternating (best µs
+    per step, wall clock), and idle on this thread's CPU clock (``cpu``: the work itself, what a
+    descheduled process does not count), in this process."""
     fn = _step(mode, tracks)
-    idle = best_time(fn)
-    with BusyNeighbour():
-        busy = best_time(fn)
+    idle = busy = cpu = float("inf")
+    for _ in range(rounds):
+        idle = min(idle, best_time(fn))
+        cpu = min(cpu, best_time(fn, clock=time.thread_time))
+        with BusyNeighbour():
+            busy = min(busy, best_time(fn))
     from threadpoolctl import threadpool_info
 
     blas = [
@@ -124,7 +137,7 @@ def worker(mode: str, tracks: int) -> dict[str, Any]:
         for i in threadpool_info()
         if i["user_api"] == "blas"
     ]
-    return {"mode": mode, "idle": 1e6 * idle, "busy": 1e6 * busy, "blas": blas}
+    return {"mode": mode, "idle": 1e6 * idle, "busy": 1e6 * busy, "cpu": 1e6 * cpu, "blas": blas}
 
 
 def run_worker(mode: str, tracks: int, timeout: float = 300.0) -> dict[str, Any]:
@@ -147,13 +160,14 @@ def run_worker(mode: str, tracks: int, timeout: float = 300.0) -> dict[str, Any]
 def measure(batches: int = 3, tracks: int = 150, modes: tuple[str, ...] = MODES) -> dict[str, Any]:
     """Best µs per step of every mode, idle and busy, over ``batches`` interleaved batches of
     processes; the ratios; the BLAS libraries of the default process."""
-    best: dict[str, dict[str, float]] = {m: {"idle": float("inf"), "busy": float("inf")} for m in modes}
+    conds = ("idle", "busy", "cpu")
+    best: dict[str, dict[str, float]] = {m: dict.fromkeys(conds, float("inf")) for m in modes}
     blas: list[str] = []
     for b in range(batches):
         order = modes[b % len(modes) :] + modes[: b % len(modes)]
         for mode in order:
             r = run_worker(mode, tracks)
-            for cond in ("idle", "busy"):
+            for cond in conds:
                 best[mode][cond] = min(best[mode][cond], r[cond])
             if mode == "default":
                 blas = r["blas"]
@@ -166,6 +180,7 @@ def measure(batches: int = 3, tracks: int = 150, modes: tuple[str, ...] = MODES)
         if "torch" in best:
             ratios["torch / default, idle"] = best["torch"]["idle"] / d["idle"]
             ratios["torch / default, busy"] = best["torch"]["busy"] / d["busy"]
+            ratios["torch / default, idle, CPU time"] = best["torch"]["cpu"] / d["cpu"]
         if "unpinned" in best:
             ratios["unpinned / default, busy"] = best["unpinned"]["busy"] / d["busy"]
     return {"best": best, "ratios": ratios, "blas": blas, "batches": batches, "tracks": tracks}
@@ -184,10 +199,11 @@ def main(argv: list[str] | None = None) -> None:
     print(f"load average {one:.2f} (1 min), {five:.2f} (5 min) on {os.cpu_count()} CPUs")
     r = measure(args.batches, args.tracks)
     print(f"nll-lstm predict + update, {args.tracks} tracks, best of {args.batches} batches (µs per step)")
-    print("| variant | idle | busy neighbour |")
-    print("|---|---|---|")
+    print("| variant | idle | busy neighbour | idle, CPU time |")
+    print("|---|---|---|---|")
     for mode, t in r["best"].items():
-        print(f"| {mode} | {t['idle']:.0f} | {t['busy']:.0f} |")
+        cpu = f"{t['cpu']:.0f}" if mode != "unpinned" else "(other threads not counted)"
+        print(f"| {mode} | {t['idle']:.0f} | {t['busy']:.0f} | {cpu} |")
     print()
     for label, value in r["ratios"].items():
         print(f"{label}: {value:.2f}x")
