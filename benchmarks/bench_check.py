@@ -30,8 +30,9 @@ Every check runs in its own process (``--only NAME --json``). The table lists th
 and whether it held; the command exits 1 if any ratio fell below its floor or a check failed.
 ``--runs N`` runs every check N times and reports the median (what the floors' ``measured``
 values are). Not part of ``make test``: timings are noisy on shared machines; the floors are set
-well below the measured ratios (about 0.6x their median) so that a failure means a regression,
-not noise. The whole run takes a few minutes on two cores.
+well below the measured ratios (the lower of 0.6x their median and 0.75x the lowest run; the file
+says so per check) so that a failure means a regression, not noise. One run takes 1-6 minutes on
+two cores (1 at a load average of 2, 6 at 6-7).
 """
 
 from __future__ import annotations
