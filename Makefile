@@ -7,7 +7,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint docs bench clean install
+.PHONY: demo test lint docs bench bench-check clean install
 
 install: $(STAMP)
 
@@ -55,6 +55,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_pose_smc.py --threads 2
 	$(PIP) install --quiet -e ".[compare]"
 	$(PY) benchmarks/bench_scale.py --figure results/scale/scale.png
+
+# performance floors: the same-run ratios behind the headline figures against benchmarks/floors.toml
+# (a few minutes; not part of make test; run it before a change that touches a hot path)
+bench-check: $(STAMP)
+	MPLBACKEND=Agg $(PY) benchmarks/bench_check.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -1,7 +1,10 @@
-"""The belt LSTMs' features (numpy only): region-relative, standardised measurement sequences.
+"""The belt LSTMs' features: region-relative, standardised measurement sequences.
 
 Separate from :mod:`predictors.belt_lstm.network` so that inference with a shipped model needs no
-torch; the network module re-exports :class:`Features`.
+torch; the network module re-exports :class:`Features`. The per-frame inputs of a batch of tracks
+(:meth:`Features.inputs`) and nll-lstm's predicted Gaussian (:func:`nll_gaussian`) are compiled
+passes with the same floating-point operations as the numpy expressions they replace (the same
+bits; tested).
 """
 
 from __future__ import annotations
@@ -11,6 +14,57 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from track_envs.infra.compiled import njit
+
+
+@njit(cache=True)
+def standardised_inputs(
+    z: np.ndarray,
+    z_prev: np.ndarray,
+    has_prev: bool,
+    low: np.ndarray,
+    size: np.ndarray,
+    in_mean: np.ndarray,
+    in_std: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out = ((u, Δu) − μ_in) / σ_in`` (n, 2D) with ``u = (z − low) / size`` and
+    ``Δu = u − (z_prev − low) / size`` (``Δu = 0`` without ``has_prev``), element by element in
+    float64 (the operations of the numpy form in :meth:`Features.inputs`)."""
+    n, d = z.shape
+    for r in range(n):
+        for j in range(d):
+            u = (z[r, j] - low[j]) / size[j]
+            du = u - (z_prev[r, j] - low[j]) / size[j] if has_prev else 0.0
+            out[r, j] = (u - in_mean[j]) / in_std[j]
+            out[r, d + j] = (du - in_mean[d + j]) / in_std[d + j]
+
+
+@njit(cache=True)
+def nll_gaussian(
+    z_prev: np.ndarray,
+    out: np.ndarray,
+    var_std: np.ndarray,
+    size: np.ndarray,
+    out_mean: np.ndarray,
+    out_std: np.ndarray,
+    scale: np.ndarray,
+    calibration: float,
+    mean: np.ndarray,
+    cov: np.ndarray,
+) -> None:
+    """The nll-lstm prediction in one pass: ``mean = z_prev + size ⊙ (μ_out + σ_out ⊙ out)`` (n, D)
+    (:meth:`Features.position`) and ``cov = r · diag(var_std ⊙ scale)`` (n, D, D) with
+    ``var_std = exp(log σ²)`` (computed by numpy's ``exp``) and ``r = calibration``, element by
+    element in float64 (the operations of the numpy form)."""
+    n, d = z_prev.shape
+    for r in range(n):
+        for j in range(d):
+            mean[r, j] = z_prev[r, j] + size[j] * (out_mean[j] + out_std[j] * out[r, j])
+            for k in range(d):
+                cov[r, j, k] = calibration * 0.0
+            cov[r, j, j] = calibration * (var_std[r, j] * scale[j])
 
 
 @dataclass(frozen=True)
@@ -57,7 +111,23 @@ class Features:
         return cls(**{k: np.asarray(d[k], dtype=np.float64) for k in cls.__dataclass_fields__})
 
     def inputs(self, z: NDArray[np.float64], z_prev: NDArray[np.float64] | None) -> NDArray[np.float64]:
-        """Standardised input ``(u, Δu)`` (n, 2D) of measurements ``z`` (n, D) after ``z_prev``."""
+        """Standardised input ``(u, Δu)`` (n, 2D) of measurements ``z`` (n, D) after ``z_prev``
+        (``None``: ``Δu = 0``); float64 (n, D) arrays take the compiled pass."""
+        if (
+            isinstance(z, np.ndarray)
+            and z.ndim == 2
+            and z.dtype == np.float64
+            and (z_prev is None or (isinstance(z_prev, np.ndarray) and z_prev.dtype == np.float64))
+            and (z_prev is None or z_prev.shape == z.shape)
+            and z.shape[1] == len(self.low)
+        ):
+            out = np.empty((len(z), 2 * z.shape[1]))
+            has_prev = z_prev is not None
+            standardised_inputs(
+                z, z_prev if has_prev else z, has_prev,
+                self.low, self.size, self.in_mean, self.in_std, out,
+            )  # fmt: skip
+            return out
         u = (z - self.low) / self.size
         du = np.zeros_like(u) if z_prev is None else u - (z_prev - self.low) / self.size
         return (np.concatenate([u, du], axis=-1) - self.in_mean) / self.in_std

@@ -4,8 +4,9 @@ Two LSTM layers (the one cell of :mod:`predictors.lstm_cell`) and the linear hea
 ``y = h₂ Wᵀ + b`` make one step of :class:`~predictors.belt_lstm.network.BeltLSTMNet`;
 :class:`LSTMWeights` runs it for a batch of rows (tracks, or tracks × Monte Carlo samples) in
 float64 (:class:`~predictors.lstm_cell.LSTMCellWeights` layers), :class:`FastLSTMWeights` in
-float32 (:class:`~predictors.lstm_cell.FusedLSTMCell` layers), with optional variational dropout masks on
-the same five places as the torch network. It equals the torch network to ~1e-6 (tested).
+float32 (:class:`~predictors.belt_lstm.cell.RowsLSTMCell` layers: the fused cell with compiled
+gates), with optional variational dropout masks on the same five places as the torch network.
+It equals the torch network to ~1e-6 (tested).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from predictors.belt_lstm.cell import RowsLSTMCell
 from predictors.lstm_cell import FusedLSTMCell, LSTMCellWeights
 
 FloatArray = NDArray[np.float64]
@@ -94,8 +96,8 @@ class FastLSTMWeights:
     def from_weights(cls, w: LSTMWeights) -> FastLSTMWeights:
         """From the float64 reference weights."""
         return cls(
-            w.layer1.fused(),
-            w.layer2.fused(),
+            RowsLSTMCell.of(w.layer1.fused()),
+            RowsLSTMCell.of(w.layer2.fused()),
             w.head_w.astype(np.float32),
             w.head_b.astype(np.float32),
         )

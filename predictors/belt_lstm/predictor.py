@@ -22,6 +22,9 @@ The covariance of the predicted measurement depends on the model:
 the sensor region: the offset is the bound spec's ``region_low`` (so a model works on a camera
 window placed elsewhere), the scale the one the model was trained with.
 Inference runs in numpy (:mod:`predictors.belt_lstm.inference`); torch is not needed to track.
+Every network step runs with numpy's BLAS on one thread (:func:`track_envs.infra.blas_threads.frame_blas`):
+its products are too small to gain from more, and a split product stalls when another process is
+busy on the other cores.
 """
 
 from __future__ import annotations
@@ -37,8 +40,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.base import BatchState, Capability, Crossings
+from predictors.belt_lstm.features import nll_gaussian
 from predictors.belt_lstm.inference import FastLSTMWeights, LSTMWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
+from track_envs.infra.blas_threads import frame_blas
 from track_envs.values.types import Gaussian, SensorSpec
 
 FloatArray = NDArray[np.float64]
@@ -215,6 +220,8 @@ class LSTMPredictor:
         if a.ndim != 2 or a.shape[1] != spec.dim or (n is not None and a.shape[0] != n):
             want = f"({n if n is not None else 'n'}, {spec.dim})"
             raise ValueError(f"measurements must have shape {want}, got {a.shape}")
+        if np.isfinite(a).all():
+            return a
         bad = ~np.isfinite(a).all(axis=1)
         if bad.any():
             raise ValueError(f"measurement rows {np.flatnonzero(bad)[:10].tolist()} hold NaN or inf")
@@ -229,7 +236,8 @@ class LSTMPredictor:
         R = np.empty((n, *self._R.shape))
         R[...] = self._R
         if self._is_grouped:
-            started = self._grouped.start(x, masks)
+            with frame_blas():
+                started = self._grouped.start(x, masks)
             return dataclasses.replace(started, z=z, z_cov=R, z_prev=z.copy())
         out, (h1, c1, h2, c2) = self._step(x, self._zero(n), masks)
         return LSTMTrackState(h1, c1, h2, c2, out, z, R, z.copy(), masks)
@@ -271,7 +279,8 @@ class LSTMPredictor:
         z_cov = np.where(seen[:, None, None], self._R, state.z_cov)
         x = self._features.inputs(z_in, state.z_prev)
         if self._is_grouped:
-            stepped = self._grouped.step(x, state)
+            with frame_blas():
+                stepped = self._grouped.step(x, state)
             return dataclasses.replace(stepped, z=z_in, z_cov=z_cov, z_prev=z_in.copy())
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
@@ -300,7 +309,8 @@ class LSTMPredictor:
         z_in, z_cov = prediction.mean, prediction.cov
         x = self._features.inputs(z_in, state.z_prev)
         if self._is_grouped:
-            stepped = self._grouped.step(x, state)
+            with frame_blas():
+                stepped = self._grouped.step(x, state)
             return dataclasses.replace(stepped, z=z_in, z_cov=z_cov, z_prev=z_in.copy()), prediction
         masks = state.masks if self.kind == "mc-lstm" else None
         out, (h1, c1, h2, c2) = self._step(x, (state.h1, state.c1, state.h2, state.c2), masks)
@@ -385,9 +395,11 @@ class LSTMPredictor:
     def _step(
         self, x: FloatArray, state: tuple[FloatArray, ...], masks: FloatArray | None
     ) -> tuple[FloatArray, tuple[FloatArray, ...]]:
-        """One network step; mc-lstm runs ``T`` masked rows per track."""
+        """One network step; mc-lstm runs ``T`` masked rows per track. Its products run on
+        :func:`~track_envs.infra.blas_threads.frame_blas`'s BLAS threads (one by default)."""
         if self.kind != "mc-lstm" or masks is None:
-            out, new = self.net.step(x, state)
+            with frame_blas():
+                out, new = self.net.step(x, state)
             return out, new
         n, T = masks.shape[0], self.samples
         flat = masks.reshape(n * T, -1)
@@ -395,7 +407,8 @@ class LSTMPredictor:
         parts = tuple(np.split(flat, cuts, axis=1))
         xs = np.repeat(x, T, axis=0)
         flat_state = tuple(s.reshape(n * T, -1) for s in state)
-        out, new = self.net.step(xs, flat_state, parts)
+        with frame_blas():
+            out, new = self.net.step(xs, flat_state, parts)
         return out.reshape(n, T, -1), tuple(s.reshape(n, T, -1) for s in new)
 
     def _prediction(self, state: Any) -> Gaussian:
@@ -415,13 +428,16 @@ class LSTMPredictor:
             mean = f.position(state.z_prev, mean_std)
             sd = np.sqrt(scale)
             cov = cov_std * sd[:, None] * sd[None, :]
+        elif self.kind == "nll-lstm":  # one compiled pass, the operations of the lstm branch below
+            mean, cov = np.empty((n, d)), np.empty((n, d, d))
+            z_prev = np.ascontiguousarray(state.z_prev, dtype=np.float64)
+            var_std = np.exp(state.out[:, d:])
+            nll_gaussian(
+                z_prev, state.out, var_std, f.size, f.out_mean, f.out_std, scale,
+                float(self.calibration_scale), mean, cov,
+            )  # fmt: skip
+            return Gaussian(mean, cov)
         else:
             mean = f.position(state.z_prev, state.out[:, :d])
-            if self.kind == "nll-lstm":
-                var = np.exp(state.out[:, d:]) * scale
-                cov = np.zeros((n, d, d))
-                idx = np.arange(d)
-                cov[:, idx, idx] = var
-            else:
-                cov = np.broadcast_to(self.cov_scale * np.eye(d), (n, d, d)).copy()
+            cov = np.broadcast_to(self.cov_scale * np.eye(d), (n, d, d)).copy()
         return Gaussian(mean, self.calibration_scale * cov)

@@ -12,7 +12,8 @@ displacement and is applied equally to every particle of the target, plus white 
 The hidden state ``(h, c)`` (T, 25) is carried per target, so a frame costs one LSTM step per
 target whatever the particle count ``N`` (the paper's O(N + H)). A target's state is reset when
 its history says its filter (re)started (the newest estimate is its only finite one); until it has
-a heading (two distinct estimates) its displacement is zero.
+a heading (two distinct estimates) its displacement is zero. The step's products run with BLAS on
+one thread (:func:`track_envs.infra.blas_threads.frame_blas`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from predictors.displacement.geometry import apply_displacement, observe_step
 from predictors.displacement.models import STEP, check_sigma
 from predictors.displacement_lstm.inference import DisplacementLSTM
 from predictors.training.model_file import ModelFile
+from track_envs.infra.blas_threads import frame_blas
 
 FloatArray = NDArray[np.float64]
 #: Implementations of one frame (equal to float rounding).
@@ -113,10 +115,11 @@ class LSTMDisplacement:
             return np.zeros((n, 2))
         newest = x[:, -1]
         previous = x[:, -2] if t >= 2 else np.full((n, 2), np.nan)
-        if self.backend == "numba":
-            state = (self._h, self._c, self._heading, self._has_heading)
-            return self.net.frame(newest, previous, state, speed_scale=self.speed_scale)
-        return self._displacement_numpy(newest, previous)
+        with frame_blas():  # the LSTM step's products (numba's np.dot is scipy's BLAS) on one thread
+            if self.backend == "numba":
+                state = (self._h, self._c, self._heading, self._has_heading)
+                return self.net.frame(newest, previous, state, speed_scale=self.speed_scale)
+            return self._displacement_numpy(newest, previous)
 
     def _displacement_numpy(self, newest: FloatArray, previous: FloatArray) -> FloatArray:
         n = len(newest)
