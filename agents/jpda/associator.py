@@ -34,6 +34,7 @@ from agents.tracking.second_chance import SecondChance
 from agents.tracking.tracker import PointTracker
 from predictors.base import Capability, Predictor, capability
 from track_envs.infra.arguments import check_int, check_non_negative, check_positive
+from track_envs.infra.blas_threads import frame_blas
 from track_envs.infra.spatial import candidate_pairs
 from track_envs.values.types import Gaussian, SensorSpec
 
@@ -312,7 +313,9 @@ class JpdaAssociator:
         zd = z[dets]
         p = pairs.sum(axis=1)
         safe = np.where(p > 0, p, 1.0)
-        z_mean = np.where(p[:, None] > 0, pairs @ zd / safe[:, None], prediction.mean[tracks])
+        with frame_blas():  # (n_big × m_big) @ (m_big × 2) would split across BLAS threads
+            weighted = pairs @ zd
+        z_mean = np.where(p[:, None] > 0, weighted / safe[:, None], prediction.mean[tracks])
         diff = zd[None, :, :] - z_mean[:, None, :]
         spread = np.einsum("tj,tjd,tje->tde", pairs / safe[:, None], diff, diff)
         jf.p_seen[tracks] = p

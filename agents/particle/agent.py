@@ -68,6 +68,7 @@ from predictors.displacement import (
 )
 from track_envs.contracts.observation import check_observation
 from track_envs.contracts.report import empty_report
+from track_envs.infra.blas_threads import frame_blas
 from track_envs.values.types import SensorSpec
 
 #: Particles (T·N) from which the compiled prediction draws its noise inside the kernel, below
@@ -183,15 +184,17 @@ class BatchParticleFilter:
     @property
     def estimate(self) -> NDArray[np.float64]:
         """The current weighted-mean estimate (T, 2), NaN where the filter has not started."""
-        mean = np.matmul(self.weights[:, None, :], self.particles)[:, 0]
+        with frame_blas():  # a per-frame product: one BLAS thread (track_envs.infra.blas_threads)
+            mean = np.matmul(self.weights[:, None, :], self.particles)[:, 0]
         mean[~self.started] = np.nan
         return mean
 
     def moments(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Weighted mean (T, 2) and covariance (T, 2, 2) of the particles."""
-        mean = np.matmul(self.weights[:, None, :], self.particles)[:, 0]
-        d = self.particles - mean[:, None, :]
-        cov = np.matmul((d * self.weights[..., None]).transpose(0, 2, 1), d)
+        with frame_blas():
+            mean = np.matmul(self.weights[:, None, :], self.particles)[:, 0]
+            d = self.particles - mean[:, None, :]
+            cov = np.matmul((d * self.weights[..., None]).transpose(0, 2, 1), d)
         return mean, cov
 
     @property

@@ -176,3 +176,32 @@ def test_restart_forgets_the_lost_track_history():
     pf.started[:] = False  # what the agent does when it restarts a target
     estimates = [pf.step(np.array([[20.0, 0.0]]), np.array([True]))[0] for _ in range(4)]
     assert np.allclose(estimates, [20.0, 0.0], atol=0.5)
+
+
+def test_weighted_moments_run_on_one_blas_thread(monkeypatch):
+    """The particles' weighted mean and covariance are per-frame products: one BLAS thread."""
+    import contextlib
+
+    from threadpoolctl import threadpool_limits
+
+    from agents.particle import agent as agent_module
+    from track_envs.infra.blas_threads import blas_info
+
+    inside: list[set[int]] = []
+    pinned = agent_module.frame_blas
+
+    @contextlib.contextmanager
+    def recording():
+        with pinned():
+            inside.append({int(i["num_threads"]) for i in blas_info()})
+            yield
+
+    monkeypatch.setattr(agent_module, "frame_blas", recording)
+    pf = BatchParticleFilter(3, 6000, Brownian(0.5), sigma_m=0.1, sigma_0=0.1, rng=np.random.default_rng(0))
+    pf.update(np.zeros((3, 2)), np.ones(3, bool))
+    blas_info()
+    with threadpool_limits(2, user_api="blas"):
+        mean, cov = pf.moments()
+        np.testing.assert_array_equal(pf.estimate, mean)
+    assert len(inside) == 2 and all(s == {1} for s in inside)
+    assert cov.shape == (3, 2, 2) and np.all(np.linalg.eigvalsh(cov) > 0)

@@ -153,3 +153,33 @@ def test_the_coalescence_guard_keeps_wide_gates_apart():
     loose, _ = run(env, make_agent("jpda", predictor="random-walk", coalescence_guard=False), 100)
     assert jpda["e_mean"] <= gnn["e_mean"] + 0.05
     assert loose["e_mean"] >= jpda["e_mean"] + 0.15, (loose, jpda, gnn)
+
+
+def test_loopy_bp_product_runs_on_one_blas_thread(monkeypatch):
+    """The LBP branch's (n × m) @ (m × 2) product is a frame's small product: one BLAS thread
+    (track_envs.infra.blas_threads), whatever the library's own count."""
+    import contextlib
+
+    from threadpoolctl import threadpool_limits
+
+    from agents.jpda import associator
+    from track_envs.infra.blas_threads import blas_info
+
+    inside: list[set[int]] = []
+    pinned = associator.frame_blas
+
+    @contextlib.contextmanager
+    def recording():
+        with pinned():
+            inside.append({int(i["num_threads"]) for i in blas_info()})
+            yield
+
+    monkeypatch.setattr(associator, "frame_blas", recording)
+    pair = np.array([[1.0, 0.25], [1.0, 0.2504]])
+    agent = make_agent("jpda", predictor="kf-cv", max_exact=1, velocity_prior=None, coalescence_guard=False)
+    agent.reset(SPEC)
+    blas_info()
+    with threadpool_limits(2, user_api="blas"):
+        for _ in range(5):
+            agent.act(observation(pair))
+    assert agent.approximate_tracks > 0 and inside and all(s == {1} for s in inside)
