@@ -45,6 +45,7 @@ SUBSTITUTIONS: list[tuple[str, str]] = [
 SKIPPED: dict[str, str] = {
     "make demo": "a venv and the quick suite (minutes); its cells run in tests/agents/bench",
     "make test": "the whole test suite, this test included",
+    "make bench-check": "timings (minutes, noisy): not part of the test suite",
     "source .venv/bin/activate": "shell set-up; the commands below run with the venv's python",
     "track bench run --suite full": "the full suite (hours)",
     "track bench run --suite sorting": "the sorting suite (an hour)",
