@@ -65,6 +65,9 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from track_envs.infra.atomic import write_text
+from track_envs.io import save_figure
+
 #: The metrics of the study, in table order.
 METRICS = ("e_mean", "mota", "idf1", "hota", "id_switches")
 #: Metrics where a smaller value is better (the others: larger is better).
@@ -631,8 +634,10 @@ def save(fig: Any, path: Path) -> Path:
     """Write a figure as PNG (100 dpi) and close it."""
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=100, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -642,10 +647,10 @@ def write_study(table: pd.DataFrame, out: str | Path, *, figures: bool = True) -
     out.mkdir(parents=True, exist_ok=True)
     means, con = means_table(table), contrast_table(table)
     paths = [out / "means.csv", out / "contrasts.csv", out / "means.md", out / "contrasts.md"]
-    means.to_csv(paths[0], index=False)
-    con.to_csv(paths[1], index=False)
-    paths[2].write_text(means_markdown(means))
-    paths[3].write_text(contrasts_markdown(con, table))
+    write_text(paths[0], means.to_csv(index=False))
+    write_text(paths[1], con.to_csv(index=False))
+    write_text(paths[2], means_markdown(means))
+    write_text(paths[3], contrasts_markdown(con, table))
     if not figures:
         return paths
     import matplotlib

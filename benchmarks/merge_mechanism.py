@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agents import make_agent
+from track_envs.io import atomic_write, save_figure
 from track_envs.metrics import AssociationErrors, ClearMot
 from track_envs.metrics.base import Metric
 from track_envs.metrics.hota_stream import Hota
@@ -142,8 +143,10 @@ def figure(path: str, name: str, seed: int, event: int, events: int) -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def _kwargs(text: str) -> dict[str, Any]:
@@ -174,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     rows = run(tuple(a.scenes.split(",")), a.seeds, a.events, _kwargs(a.agent_kwargs))
     if a.csv:
-        with open(a.csv, "w", newline="") as f:
+        with atomic_write(a.csv, newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)

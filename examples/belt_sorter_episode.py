@@ -13,6 +13,7 @@ from tqdm import tqdm
 
 import track_envs  # noqa: F401  (registers the environments)
 from agents import available_agents, make_agent
+from track_envs.io import atomic_path
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -87,7 +88,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     if args.png:
         import matplotlib.pyplot as plt
 
-        plt.imsave(args.png, env.render())
+        with atomic_path(args.png, keep_suffix=True) as tmp:  # the format follows the suffix
+            plt.imsave(tmp, env.render())
         print(f"  rendered frame written to {args.png}")
     env.close()
     return summary

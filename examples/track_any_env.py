@@ -14,6 +14,7 @@ import gymnasium as gym
 
 import track_envs
 from agents import agent_applies_to, available_agents, make_agent, run_episode
+from track_envs.io import atomic_path
 from track_envs.wrappers import TrackingMetrics
 
 
@@ -62,7 +63,8 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     if args.png:
         import matplotlib.pyplot as plt
 
-        plt.imsave(args.png, env.render())
+        with atomic_path(args.png, keep_suffix=True) as tmp:  # the format follows the suffix
+            plt.imsave(tmp, env.render())
         print(f"  rendered frame written to {args.png}")
     env.close()
     return metrics

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from track_envs.envs.base import TrackingEnv, Truth
+from track_envs.infra.atomic import atomic_path
 from track_envs.values.detections import Detections, detection_sensor_spec
 
 #: What ``info["truth_note"]`` and the metrics note say.
@@ -239,7 +240,10 @@ def make_sample(path: str | os.PathLike[str], n_frames: int = 200, seed: int = 0
     with tempfile.TemporaryDirectory() as tmp:
         csv_path = Path(tmp) / (target.stem + ".csv")
         write_wide_detections(csv_path, stream)
-        with zipfile.ZipFile(target, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        with (
+            atomic_path(target) as part,
+            zipfile.ZipFile(part, "w", compression=zipfile.ZIP_DEFLATED) as archive,
+        ):
             archive.write(csv_path, csv_path.name)
     return stream
 
