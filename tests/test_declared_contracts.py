@@ -36,6 +36,9 @@ DECLARATION_MODULE = "track_envs/infra/declared.py"
 #: ``(module file name, source of the probe's first argument)`` → why it is not a plug-in probe.
 #: Keyed by file name, not path, so that moving a module between folders keeps its entry.
 ALLOWED_PROBES: dict[tuple[str, str], str] = {
+    # a BLAS library's own entry points, found in the shared object threadpoolctl loaded
+    ("blas_threads.py", "controller"): "threadpoolctl's controller of one BLAS library (its ABI)",
+    ("blas_threads.py", "controller.dynlib"): "the BLAS library's own set/get thread-count functions",
     # dataclass fields and records iterated by their own declared field names
     ("base.py", "self"): "BatchState / env params: a dataclass's own fields by name",
     ("base.py", "born"): "BatchState.take_and_append: the same dataclass's fields by name",

@@ -522,7 +522,7 @@ def check_out_file(path: str, flag: str = "--out") -> None:
     try:
         check_writable(path)
     except OSError as exc:
-        raise ValueError(f"{flag} {getattr(exc, 'strerror', None) or exc}") from None
+        raise ValueError(f"{flag} {exc.strerror or exc}") from None
 
 
 def show_progress(args: argparse.Namespace) -> bool:

@@ -8,24 +8,26 @@ from pathlib import Path
 import predictors
 
 #: track_envs modules every predictor may use: the value types, the registry helper, the plug-in
-#: declarations, the packages' lazy exports, the compiled-kernel decorator and the keypoint
-#: similarity (OKS) the pose motions weigh by.
+#: declarations, the packages' lazy exports, the compiled-kernel decorator, the BLAS thread limit
+#: of a frame's small products and the keypoint similarity (OKS) the pose motions weigh by.
 RUNTIME = {
     "track_envs.values.types",
     "track_envs.infra.registry",
     "track_envs.infra.declared",
     "track_envs.infra.lazy",
     "track_envs.infra.compiled",
+    "track_envs.infra.blas_threads",
     "track_envs.metrics.keypoints",
 }
 #: and those the training recipes (``training`` modules) use besides: the envs (data from their
-#: truth), the empty report, track files and the reliability metric (calibration).
+#: truth), the empty report, track files, the reliability metric (calibration) and atomic writes.
 TRAINING = {
     "track_envs",
     "track_envs.envs.single_target",
     "track_envs.contracts.report",
     "track_envs.io.wide_tracks",
     "track_envs.metrics.prediction",
+    "track_envs.infra.atomic",
 }
 
 
