@@ -54,7 +54,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
-from predictors.ordered_product import ordered_product, thread_pool
+from predictors.ordered_product import gathered_product, ordered_product, thread_pool
 from track_envs.infra.compiled import njit
 
 FloatArray = NDArray[np.floating]
@@ -216,6 +216,30 @@ def _gates(
     np.multiply(block(2), tmp, out=h_out)
 
 
+@njit(cache=True, nogil=True)
+def _cell_state_gathered(t: np.ndarray, c_prev: np.ndarray, parents: np.ndarray, c: np.ndarray) -> None:
+    """The first part of :func:`_gates` (``axis=0``) with the previous cell states gathered: the
+    sigmoid blocks of ``t`` (4H, n) become ``½ t + ½`` in place and ``c[:, j] = σ_f ⊙ c_prev[:,
+    parents_j] + σ_i ⊙ tanh(a_g)`` (``c_prev`` (H, 0): the zero state), each an IEEE float32
+    operation in the order :func:`_gates` does them, so the same bits."""
+    H, n = c.shape
+    half = np.float32(0.5)
+    zero_state = c_prev.shape[1] == 0
+    for r in range(3 * H):
+        row = t[r]
+        for j in range(n):
+            row[j] = row[j] * half + half
+    for u in range(H):
+        i_row, f_row, g_row, out = t[u], t[H + u], t[3 * H + u], c[u]
+        if zero_state:
+            for j in range(n):
+                out[j] = f_row[j] * np.float32(0.0) + i_row[j] * g_row[j]
+        else:
+            prev = c_prev[u]
+            for j in range(n):
+                out[j] = f_row[j] * prev[parents[j]] + i_row[j] * g_row[j]
+
+
 @dataclass(frozen=True)
 class FusedLSTMCell:
     """An LSTM layer in float32 for few numpy calls per step (module docstring).
@@ -286,6 +310,40 @@ class FusedLSTMCell:
         h_new, c_new, tmp = (np.empty((n, H), dtype) for _ in range(3))
         _gates(t, c, c_new, h_new, tmp)
         return h_new, c_new
+
+    def step_gathered(
+        self,
+        x: NDArray[np.float32],
+        state_t: tuple[NDArray[np.float32], NDArray[np.float32]] | None,
+        parents: NDArray[np.intp],
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """One step of rows ``x`` (n, In) from the states ``parents`` of ``state_t`` (``(hᵀ, cᵀ)``, (H, U)
+        each, a state per column; the zero state if None): the new ``(hᵀ, cᵀ)`` (H, n), bit for bit
+        :meth:`sequence` of ``x[:, None]`` from ``(h[parents], c[parents])``, transposed.
+
+        With ``"ordered"`` products the pre-activation ``aᵀ`` is one compiled pass that reads the
+        parents' ``h`` in place (:func:`~predictors.ordered_product.gathered_product`), then the
+        same ``tanh`` and :func:`_gates` as :meth:`sequence` (``axis=0``); other products go through
+        :meth:`sequence`.
+        """
+        H = self.hidden
+        x = np.ascontiguousarray(x, dtype=np.float32)
+        n = len(x)
+        parents = np.asarray(parents, dtype=np.intp)
+        if self.matmul != "ordered":
+            gathered = None if state_t is None else (state_t[0][:, parents].T, state_t[1][:, parents].T)
+            h, c = self.sequence(x[:, None, :], gathered)
+            return np.ascontiguousarray(h.T), np.ascontiguousarray(c.T)
+        t = np.empty((4 * H, n), np.float32)
+        h_t = np.zeros((H, 0), np.float32) if state_t is None else state_t[0]
+        gathered_product(x, h_t, parents, self.w_t, t, self.threads)
+        np.tanh(t, out=t)  # contiguous, as every tanh of the cell
+        c = np.empty((H, n), np.float32)
+        c_prev = np.zeros((H, 0), np.float32) if state_t is None else state_t[1]
+        _cell_state_gathered(t, c_prev, parents, c)
+        h_new = np.tanh(c)  # contiguous
+        np.multiply(t[2 * H : 3 * H], h_new, out=h_new)
+        return h_new, c
 
     def sequence(
         self,

@@ -62,6 +62,7 @@ from numpy.typing import NDArray
 from predictors.pose.base import centroid_fill
 from predictors.pose_lstm.device import paired_oks_torch, torch_device
 from predictors.pose_lstm.predictor import window_features
+from track_envs.infra.compiled import njit
 from track_envs.infra.registry import takes_keywords_of
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_oks
 from track_envs.values.types import SensorSpec
@@ -124,6 +125,48 @@ def resample_indices(weights: NDArray[np.float64], rng: np.random.Generator) -> 
     u = rng.random((k, P)) + offset
     idx = np.searchsorted((cs + offset).ravel(), u.ravel(), side="right").reshape(k, P) - offset * P
     return np.minimum(idx, P - 1)
+
+
+@njit(cache=True, nogil=True)
+def push_queues(queue: np.ndarray, pred: np.ndarray, has: np.ndarray) -> None:
+    """Every queue ``queue`` (n, P, K, L, 3) float32 drops its oldest pose and takes ``(pred, has)``
+    ((n, P, K, 2) px, (n, P, K)) as its newest, in place (``(x, y)`` rounded to float32, ``v`` 1 or 0)."""
+    n, P, k_dim, L = queue.shape[0], queue.shape[1], queue.shape[2], queue.shape[3]
+    for f in range(n):
+        for p in range(P):
+            for k in range(k_dim):
+                q = queue[f, p, k]
+                for t in range(L - 1):
+                    q[t, 0], q[t, 1], q[t, 2] = q[t + 1, 0], q[t + 1, 1], q[t + 1, 2]
+                q[L - 1, 0] = np.float32(pred[f, p, k, 0])
+                q[L - 1, 1] = np.float32(pred[f, p, k, 1])
+                q[L - 1, 2] = np.float32(1.0) if has[f, p, k] else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True)
+def select_queues(
+    queue: np.ndarray, obs: np.ndarray, ti: np.ndarray, idx: np.ndarray, own: np.ndarray, rep: np.ndarray
+) -> None:
+    """Resampling and selection (eq. 3 and 6) of the filters ``ti`` (k,), in place: particle ``p`` of
+    filter ``ti[j]`` takes the queue of particle ``idx[j, p]`` if ``own[j, p]``, else the filter's
+    observation queue ``obs[ti[j]]``; ``rep[j, p]`` (out) is the first particle of the filter that
+    holds the same queue (the same parent kept, or the observation queue)."""
+    P = queue.shape[1]
+    first = np.empty(P + 1, np.intp)
+    for j in range(len(ti)):
+        f = ti[j]
+        source = queue[f].copy()
+        for p in range(P + 1):
+            first[p] = -1
+        for p in range(P):
+            key = idx[j, p] if own[j, p] else P
+            if first[key] < 0:
+                first[key] = p
+            rep[j, p] = first[key]
+            if own[j, p]:
+                queue[f, p] = source[idx[j, p]]
+            else:
+                queue[f, p] = obs[f]
 
 
 @dataclass(frozen=True)
@@ -297,14 +340,14 @@ class SmcPoseMotion:
         """
         n, P = len(self.queue), self.P
         xy, found = xy[di], found[di]
-        entry = np.concatenate([self.pred, self.has[..., None]], axis=-1).astype(np.float32)  # (n, P, K, 3)
         obs_entry = np.zeros((n, K, 3), np.float32)
         obs_entry[ti, :, :2] = np.where(found[..., None], xy, 0.0)
         obs_entry[ti, :, 2] = found
-        self.queue = np.concatenate([self.queue[..., 1:, :], entry[..., None, :]], axis=-2)
+        push_queues(self.queue, self.pred, self.has)  # (n, P, K, L, 3), in place
         self.obs = np.concatenate([self.obs[..., 1:, :], obs_entry[..., None, :]], axis=-2)
         self.rep = np.broadcast_to(np.arange(P), (n, P)).copy()  # each queue took its own z_t
         if self.recurrence == "carried":
+            entry = np.concatenate([self.pred, self.has[..., None]], axis=-1).astype(np.float32)
             self._advance_states(entry, obs_entry)
         # estimates: particle means (coasting), the detection + elite means (matched)
         has_any = np.asarray(self.has.any(axis=1), dtype=bool)
@@ -326,17 +369,10 @@ class SmcPoseMotion:
         idx = resample_indices(weights, self.rng)  # (k, P)
         rows = ti[:, None]
         own = self.rng.random(idx.shape) < self.alpha  # eq. (6)
-        queue = self.queue[rows, idx]  # (k, P, K, L, 3)
-        queue = np.where(own[..., None, None, None], queue, self.obs[ti][:, None])
-        self.queue[ti] = queue
+        rep = np.empty(idx.shape, np.intp)
+        select_queues(self.queue, self.obs, ti, idx, own, rep)  # in place
         self.q[ti] = np.where(own, self.alpha, 1.0 - self.alpha)
-        # copies share a queue: the same parent kept (own) or the observation history (key P)
-        key = np.where(own, idx, self.P)
-        first = np.full((len(ti), self.P + 1), self.P, dtype=np.intp)
-        np.minimum.at(
-            first, (np.broadcast_to(np.arange(len(ti))[:, None], key.shape), key), np.arange(self.P)
-        )
-        self.rep[ti] = np.take_along_axis(first, key, axis=1)
+        self.rep[ti] = rep
         if self.recurrence == "carried":
             for name, oname in (("h", "oh"), ("c", "oc"), ("anchor", "oanchor")):
                 arr, oarr = getattr(self, name), getattr(self, oname)
