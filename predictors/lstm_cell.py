@@ -45,6 +45,7 @@ torch's own CPU kernel (oneDNN) rounds differently, so float32 results are not b
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -54,7 +55,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
-from predictors.ordered_product import gathered_product, ordered_product, thread_pool
+from predictors.ordered_product import MIN_MACS_PER_THREAD, gathered_product, ordered_product, thread_pool
 from track_envs.infra.compiled import njit
 
 FloatArray = NDArray[np.floating]
@@ -323,8 +324,9 @@ class FusedLSTMCell:
 
         With ``"ordered"`` products the pre-activation ``aᵀ`` is one compiled pass that reads the
         parents' ``h`` in place (:func:`~predictors.ordered_product.gathered_product`), then the
-        same ``tanh`` and :func:`_gates` as :meth:`sequence` (``axis=0``); other products go through
-        :meth:`sequence`.
+        same ``tanh`` and gate arithmetic as :meth:`sequence` (:func:`_cell_state_gathered` reads the
+        parents' ``c`` in place); on :attr:`threads` threads, contiguous ranges of the columns in
+        parallel. Other products go through :meth:`sequence`.
         """
         H = self.hidden
         x = np.ascontiguousarray(x, dtype=np.float32)
@@ -334,15 +336,26 @@ class FusedLSTMCell:
             gathered = None if state_t is None else (state_t[0][:, parents].T, state_t[1][:, parents].T)
             h, c = self.sequence(x[:, None, :], gathered)
             return np.ascontiguousarray(h.T), np.ascontiguousarray(c.T)
-        t = np.empty((4 * H, n), np.float32)
         h_t = np.zeros((H, 0), np.float32) if state_t is None else state_t[0]
-        gathered_product(x, h_t, parents, self.w_t, t, self.threads)
-        np.tanh(t, out=t)  # contiguous, as every tanh of the cell
-        c = np.empty((H, n), np.float32)
         c_prev = np.zeros((H, 0), np.float32) if state_t is None else state_t[1]
-        _cell_state_gathered(t, c_prev, parents, c)
-        h_new = np.tanh(c)  # contiguous
-        np.multiply(t[2 * H : 3 * H], h_new, out=h_new)
+        h_new, c = np.empty((H, n), np.float32), np.empty((H, n), np.float32)
+
+        def columns(s: int, e: int) -> None:  # the whole step of columns s … e − 1
+            t = np.empty((4 * H, e - s), np.float32)
+            gathered_product(x[s:e], h_t, parents[s:e], self.w_t, t)
+            np.tanh(t, out=t)  # contiguous, as every tanh of the cell
+            _cell_state_gathered(t, c_prev, parents[s:e], c[:, s:e])
+            tanh_c = np.tanh(np.ascontiguousarray(c[:, s:e]))  # contiguous, as every tanh here
+            np.multiply(t[2 * H : 3 * H], tanh_c, out=h_new[:, s:e])
+
+        # on several threads: ranges of columns in parallel (the compiled pass and numpy's tanh
+        # release the GIL), the first on the calling thread; the same bits as one range
+        parts = max(1, min(self.threads, n * (H + 4) * 4 * H // MIN_MACS_PER_THREAD))
+        ranges = list(itertools.pairwise(np.linspace(0, n, parts + 1).astype(int).tolist()))
+        futures = [thread_pool(parts).submit(columns, s, e) for s, e in ranges[1:]]
+        columns(*ranges[0])
+        for future in futures:
+            future.result()
         return h_new, c
 
     def sequence(

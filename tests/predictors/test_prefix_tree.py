@@ -55,6 +55,17 @@ def test_encoding_the_tree_gives_the_bits_of_encoding_every_window(L: int) -> No
     np.testing.assert_array_equal(tree.encode(cell, x), cell.sequence(x)[0])
 
 
+def test_the_tree_on_two_threads_gives_the_bits_of_one() -> None:
+    import dataclasses
+
+    cell = _cell(hidden=64)
+    x = _windows(3000, 6, seed=3)  # depths wide enough to split between the threads
+    tree = PrefixTree.of(x)
+    two = dataclasses.replace(cell, threads=2)
+    np.testing.assert_array_equal(tree.encode(two, x), tree.encode(cell, x))
+    np.testing.assert_array_equal(tree.encode(two, x), cell.sequence(x)[0])
+
+
 def test_equal_prefixes_are_compared_bit_for_bit() -> None:
     x = np.zeros((3, 2, 3), np.float32)
     x[1, 0, 0] = -0.0  # equal to 0.0 as a number, another bit pattern: its own node
