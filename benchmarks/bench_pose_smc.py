@@ -203,7 +203,7 @@ class StageClock:
         patches.append((prefix_tree.PrefixTree, "of", prefix_tree.PrefixTree.__dict__["of"]))
         prefix_tree.PrefixTree.of = staticmethod(counted_tree)  # type: ignore[method-assign]
         patch(motion_module, "window_features", "window features (queues → steps)")
-        patch(prefix_tree.PrefixTree, "encode", "LSTM node steps")
+        patch(prefix_tree.PrefixTree, "encode_nodes", "LSTM node steps")
         patch(predictor, "head_of", "FC head (dropout masks drawn)")
         patch(predictor, "draw", "Gaussian draw")
         patch(motion, "score", "OKS + elites")

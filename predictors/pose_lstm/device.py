@@ -81,6 +81,10 @@ class TorchPosePredictor(PosePredictor):
         """:meth:`encode` (on a GPU every window costs about the same as its distinct prefixes)."""
         return self.encode(inputs)
 
+    def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[Any, NDArray[np.intp]]:
+        """:meth:`encode` of every window, each window its own row."""
+        return self.encode(inputs), np.arange(len(inputs))
+
     def head_of(
         self,
         h: Any,

@@ -280,15 +280,15 @@ class SmcPoseMotion:
             mu, sigma = self.predictor.distribution(inputs, self.rng, epistemic=self.epistemic)
         elif self.recurrence == "window":
             # the LSTM once per distinct prefix of the distinct queues (exact: the same bits as
-            # every particle's window); the FC block once per distinct queue; dropout and the
+            # every particle's window); the FC block's first layer once per distinct window; dropout and the
             # Gaussian draw per particle
             first = np.flatnonzero((self.rep == np.arange(P)).ravel())  # representatives (n·P,)
             where = np.searchsorted(first, (np.arange(n)[:, None] * P + self.rep).ravel())
             queues = self.queue.reshape(n * P, K, self.L, 3)[first]
             inputs, anchor_u, has_u = window_features(queues, self.scale)
-            h = self.predictor.encode_shared(inputs.reshape(-1, self.L, 3))
+            h, leaf = self.predictor.encode_leaves(inputs.reshape(-1, self.L, 3))
             anchor, has = anchor_u[where].reshape(-1, 2), has_u[where].reshape(-1)
-            rows = (where[:, None] * K + np.arange(K)).ravel()  # (n·P·K,) rows of h
+            rows = leaf[(where[:, None] * K + np.arange(K)).ravel()]  # (n·P·K,) rows of h
             mu, sigma = self.predictor.head_of(h, self.rng, self.epistemic, rows=rows)
         else:
             a = self.anchor.reshape(-1, 3)

@@ -231,6 +231,14 @@ class PosePredictor:
         x = np.ascontiguousarray(inputs, dtype=np.float32)
         return PrefixTree.of(x).encode(self.cell, x)
 
+    def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[NDArray[np.float32], NDArray[np.intp]]:
+        """:meth:`encode_shared` as the outputs ``h`` (k, H) of the distinct windows and each window's
+        row ``leaf`` (M,) among them (``h[leaf]`` is :meth:`encode`'s result, bit for bit), for
+        ``head_of(h, ..., rows=leaf[...])``."""
+        x = np.ascontiguousarray(inputs, dtype=np.float32)
+        tree = PrefixTree.of(x)
+        return tree.encode_nodes(self.cell, x), tree.leaf
+
     def head_of(
         self,
         h: NDArray[np.float32],

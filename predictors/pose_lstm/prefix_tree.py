@@ -134,10 +134,16 @@ class PrefixTree:
 
     def encode(self, cell: SequenceCell, x: NDArray[np.float32]) -> NDArray[np.float32]:
         """The last output ``h`` (n, H) of every window of ``x`` (the windows the tree was built of)
-        from the zero state, one cell step per node (:meth:`SequenceCell.step_gathered`, depth by
-        depth, each node from its parent's state)."""
+        from the zero state: :meth:`encode_nodes` read at each window's :attr:`leaf`."""
+        return self.encode_nodes(cell, x)[self.leaf]
+
+    def encode_nodes(self, cell: SequenceCell, x: NDArray[np.float32]) -> NDArray[np.float32]:
+        """The last output ``h`` (k, H) of every node at the last depth (a distinct window of ``x``;
+        window ``r``'s is row :attr:`leaf` ``[r]``), one cell step per node
+        (:meth:`SequenceCell.step_gathered`, depth by depth, each node from its parent's state)."""
         state_t: tuple[NDArray[np.float32], NDArray[np.float32]] | None = None  # (hᵀ, cᵀ) per node
         for d, (rows, parents) in enumerate(zip(self.rows, self.parents, strict=True)):
             state_t = cell.step_gathered(x[rows, d], state_t, parents)  # from the parents' states
-        assert state_t is not None
-        return np.ascontiguousarray(state_t[0][:, self.leaf].T)
+        if state_t is None:
+            return np.zeros((0, 0), np.float32)
+        return np.ascontiguousarray(state_t[0].T)
