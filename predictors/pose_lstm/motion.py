@@ -381,6 +381,8 @@ class SmcPoseMotion:
     def birth(self, xy: NDArray, found: NDArray) -> None:
         """New filters: every queue holds the detection as newest pose, zeros before (ℓ15–16)."""
         k, P, L = len(xy), self.P, self.L
+        if k == 0:
+            return  # nothing to append (and no copy of every queue)
         first = np.zeros((k, K, 3), np.float32)
         first[..., :2] = np.where(found[..., None], xy, 0.0)
         first[..., 2] = found
@@ -403,6 +405,8 @@ class SmcPoseMotion:
 
     def keep(self, alive: NDArray[np.bool_]) -> None:
         """Deactivate the filters whose lifetime fell below 0."""
+        if np.all(alive):
+            return  # every filter kept (and no copy of every queue)
         self.queue, self.obs, self.q, self.estimate = (
             self.queue[alive],
             self.obs[alive],
