@@ -145,17 +145,61 @@ def push_queues(queue: np.ndarray, pred: np.ndarray, has: np.ndarray) -> None:
 
 @njit(cache=True, nogil=True)
 def select_queues(
-    queue: np.ndarray, obs: np.ndarray, ti: np.ndarray, idx: np.ndarray, own: np.ndarray, rep: np.ndarray
+    queue: np.ndarray, obs: np.ndarray, ti: np.ndarray, idx: np.ndarray, own: np.ndarray
 ) -> None:
     """Resampling and selection (eq. 3 and 6) of the filters ``ti`` (k,), in place: particle ``p`` of
     filter ``ti[j]`` takes the queue of particle ``idx[j, p]`` if ``own[j, p]``, else the filter's
-    observation queue ``obs[ti[j]]``; ``rep[j, p]`` (out) is the first particle of the filter that
-    holds the same queue (the same parent kept, or the observation queue)."""
+    observation queue ``obs[ti[j]]``."""
     P = queue.shape[1]
-    first = np.empty(P + 1, np.intp)
     for j in range(len(ti)):
         f = ti[j]
         source = queue[f].copy()
+        for p in range(P):
+            if own[j, p]:
+                queue[f, p] = source[idx[j, p]]
+            else:
+                queue[f, p] = obs[f]
+
+
+@njit(cache=True, nogil=True)
+def advance_queues(
+    old: np.ndarray,
+    out: np.ndarray,
+    pred: np.ndarray,
+    has: np.ndarray,
+    obs: np.ndarray,
+    sel: np.ndarray,
+    idx: np.ndarray,
+    own: np.ndarray,
+) -> None:
+    """:func:`push_queues` and then :func:`select_queues` in one pass from ``old`` into ``out`` (both
+    (n, P, K, L, 3)): particle ``p`` of filter ``f`` takes the pushed queue of particle ``src``
+    (``idx[sel[f], p]`` for a selected filter, ``sel[f] >= 0``, that keeps its own history; ``p``
+    for the others) or, where ``own[sel[f], p]`` is False, the observation queue ``obs[f]``."""
+    n, P, k_dim, L = old.shape[0], old.shape[1], old.shape[2], old.shape[3]
+    for f in range(n):
+        j = sel[f]
+        for p in range(P):
+            if j >= 0 and not own[j, p]:
+                out[f, p] = obs[f]
+                continue
+            src = idx[j, p] if j >= 0 else p
+            for k in range(k_dim):
+                q, o = old[f, src, k], out[f, p, k]
+                for t in range(L - 1):
+                    o[t, 0], o[t, 1], o[t, 2] = q[t + 1, 0], q[t + 1, 1], q[t + 1, 2]
+                o[L - 1, 0] = np.float32(pred[f, src, k, 0])
+                o[L - 1, 1] = np.float32(pred[f, src, k, 1])
+                o[L - 1, 2] = np.float32(1.0) if has[f, src, k] else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True)
+def queue_representatives(idx: np.ndarray, own: np.ndarray, rep: np.ndarray) -> None:
+    """``rep[j, p]`` (out): the first particle of row ``j`` that holds the same queue as particle
+    ``p`` after selection: the same parent ``idx[j, p]`` kept (``own``), or the observation queue."""
+    k, P = idx.shape
+    first = np.empty(P + 1, np.intp)
+    for j in range(k):
         for p in range(P + 1):
             first[p] = -1
         for p in range(P):
@@ -163,10 +207,6 @@ def select_queues(
             if first[key] < 0:
                 first[key] = p
             rep[j, p] = first[key]
-            if own[j, p]:
-                queue[f, p] = source[idx[j, p]]
-            else:
-                queue[f, p] = obs[f]
 
 
 @dataclass(frozen=True)
@@ -250,6 +290,7 @@ class SmcPoseMotion:
         self.scale = self.predictor.scale_for(spec.region_high[1] - spec.region_low[1])
         P, L = self.P, self.L
         self.queue = np.zeros((0, P, K, L, 3), np.float32)  # particle queues z_{t-L:t-1}
+        self._spare = self.queue  # the buffer the next frame's queues are written to
         self.obs = np.zeros((0, K, L, 3), np.float32)  # observation queues x_{t-L+1:t}
         self.q = np.ones((0, P))  # proposal probability of each particle's history (eq. 7)
         self.rep = np.zeros((0, P), np.intp)  # first particle of the filter with the same queue
@@ -343,7 +384,9 @@ class SmcPoseMotion:
         obs_entry = np.zeros((n, K, 3), np.float32)
         obs_entry[ti, :, :2] = np.where(found[..., None], xy, 0.0)
         obs_entry[ti, :, 2] = found
-        push_queues(self.queue, self.pred, self.has)  # (n, P, K, L, 3), in place
+        window = self.recurrence == "window"
+        if not window:
+            push_queues(self.queue, self.pred, self.has)  # (n, P, K, L, 3), in place
         self.obs = np.concatenate([self.obs[..., 1:, :], obs_entry[..., None, :]], axis=-2)
         self.rep = np.broadcast_to(np.arange(P), (n, P)).copy()  # each queue took its own z_t
         if self.recurrence == "carried":
@@ -361,22 +404,34 @@ class SmcPoseMotion:
             )
             ok = found | (w_el.sum(axis=1) > 0)
             estimate[ti] = centroid_fill(np.where(found[..., None], xy, emean), ok)
-            self._resample_and_select(ti, elite)
+            idx, own = self._resample_and_select(ti, elite)
+        else:
+            idx, own = np.zeros((0, P), np.intp), np.zeros((0, P), bool)
+        if window:  # the push, the resampling and the selection in one pass into the spare buffer
+            sel = np.full(n, -1, np.intp)
+            sel[ti] = np.arange(len(ti))
+            spare = self._spare if self._spare.shape == self.queue.shape else np.empty_like(self.queue)
+            advance_queues(self.queue, spare, self.pred, self.has, self.obs, sel, idx, own)
+            self._spare, self.queue = self.queue, spare
         self.estimate = estimate
 
-    def _resample_and_select(self, ti: NDArray, elite: NDArray[np.float64]) -> None:
+    def _resample_and_select(self, ti: NDArray, elite: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """The draws of resampling and selection of the matched filters ``ti``: ``(idx, own)`` (k, P);
+        the queues move in :meth:`update` (window) or here, in place (carried)."""
         weights = elite / self.q[ti]  # eq. (7) with the elite weights of footnote 2
         idx = resample_indices(weights, self.rng)  # (k, P)
         rows = ti[:, None]
         own = self.rng.random(idx.shape) < self.alpha  # eq. (6)
         rep = np.empty(idx.shape, np.intp)
-        select_queues(self.queue, self.obs, ti, idx, own, rep)  # in place
+        queue_representatives(idx, own, rep)
         self.q[ti] = np.where(own, self.alpha, 1.0 - self.alpha)
         self.rep[ti] = rep
         if self.recurrence == "carried":
+            select_queues(self.queue, self.obs, ti, idx, own)  # in place
             for name, oname in (("h", "oh"), ("c", "oc"), ("anchor", "oanchor")):
                 arr, oarr = getattr(self, name), getattr(self, oname)
                 arr[ti] = np.where(own[..., None, None], arr[rows, idx], oarr[ti][:, None])
+        return idx, own
 
     def birth(self, xy: NDArray, found: NDArray) -> None:
         """New filters: every queue holds the detection as newest pose, zeros before (ℓ15–16)."""
