@@ -13,8 +13,9 @@ observations ``x_{t−L+1:t}`` (zeros in frames without a match and for undetect
 Every frame, batched over filters × particles × keypoints (no Python loop over any of them):
 
 1. **proposal** (eq. 5): every particle's queue goes through the pose predictor
-   (:class:`predictors.pose_lstm.predictor.PosePredictor`), one dropout mask per sequence (epistemic) and a
-   Gaussian draw ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
+   (:class:`predictors.pose_lstm.predictor.PosePredictor`), one dropout mask per sequence (epistemic;
+   its decisions 16-bit random fields, :func:`~predictors.pose_lstm.predictor.dropout_fields`) and
+   a Gaussian draw ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
 2. **likelihood** (eq. 4): ``OKS(x_j, z^{(k,n)})`` of every particle against every detection
    (over the keypoints the detection holds and the particle has an anchor for);
 3. **matching score** (footnote 2): elite weights — the top ``e = 15 %`` particles by OKS weigh 1,
