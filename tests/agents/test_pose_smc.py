@@ -236,3 +236,23 @@ def test_a_shipped_model_is_named_by_its_name():
     assert agent.motion.predictor.model.kind == "pose-lstm"
     with pytest.raises(ModelFileError, match=r"no-such-model\.json does not exist"):
         PoseSmcAgent("no-such-model", particles=2)
+
+
+def test_the_one_pass_queue_update_is_push_then_resample_and_select():
+    from predictors.pose_lstm.motion import advance_queues, push_queues, select_queues
+
+    rng = np.random.default_rng(3)
+    n, P, L = 4, 6, 5
+    queue = rng.normal(0, 100, (n, P, 17, L, 3)).astype(np.float32)
+    pred, has = rng.normal(0, 100, (n, P, 17, 2)), rng.random((n, P, 17)) < 0.8
+    obs = rng.normal(0, 100, (n, 17, L, 3)).astype(np.float32)
+    ti = np.array([2, 0])
+    idx, own = rng.integers(0, P, (2, P)), rng.random((2, P)) < 0.5
+    want = queue.copy()
+    push_queues(want, pred, has)
+    select_queues(want, obs, ti, idx, own)
+    sel = np.full(n, -1)
+    sel[ti] = np.arange(2)
+    got = np.empty_like(queue)
+    advance_queues(queue, got, pred, has, obs, sel, idx, own)
+    np.testing.assert_array_equal(got, want)
