@@ -67,7 +67,7 @@ from agents.pose.smc import PoseSmcAgent
 from predictors.pose_lstm import motion as motion_module
 from predictors.pose_lstm import prefix_tree
 from predictors.pose_lstm.motion import DEFAULT_MODEL
-from predictors.pose_lstm.predictor import PosePredictor
+from predictors.pose_lstm.predictor import PosePredictor, dropout_masks
 from track_envs.contracts.report import empty_report
 
 #: Multiply-adds of one LSTM step of one sequence: 4 gates × 64 units × (3 inputs + 64 + bias).
@@ -87,9 +87,7 @@ class TorchReferencePredictor(PosePredictor):
         h = h if rows is None else h[rows]
         masks = None
         if epistemic and self.dropout > 0:
-            keep = 1.0 - self.dropout
-            draw = rng.random((len(h), self.fc_units), dtype=np.float32)
-            masks = torch.from_numpy((draw < keep) / np.float32(keep))
+            masks = torch.from_numpy(dropout_masks(rng, len(h), self.fc_units, self.dropout))
         with torch.inference_mode():
             mu, log_sigma = self.net.head(torch.from_numpy(h), masks)
         return mu.numpy().astype(np.float64), np.exp(log_sigma.numpy().astype(np.float64))
@@ -205,7 +203,7 @@ class StageClock:
         patches.append((prefix_tree.PrefixTree, "of", prefix_tree.PrefixTree.__dict__["of"]))
         prefix_tree.PrefixTree.of = staticmethod(counted_tree)  # type: ignore[method-assign]
         patch(motion_module, "window_features", "window features (queues → steps)")
-        patch(prefix_tree.PrefixTree, "encode", "LSTM node steps")
+        patch(prefix_tree.PrefixTree, "encode_nodes", "LSTM node steps")
         patch(predictor, "head_of", "FC head (dropout masks drawn)")
         patch(predictor, "draw", "Gaussian draw")
         patch(motion, "score", "OKS + elites")

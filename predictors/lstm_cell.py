@@ -45,6 +45,7 @@ torch's own CPU kernel (oneDNN) rounds differently, so float32 results are not b
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -54,7 +55,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
-from predictors.ordered_product import ordered_product, thread_pool
+from predictors.ordered_product import MIN_MACS_PER_THREAD, gathered_product, ordered_product, thread_pool
 from track_envs.infra.compiled import njit
 
 FloatArray = NDArray[np.floating]
@@ -216,6 +217,30 @@ def _gates(
     np.multiply(block(2), tmp, out=h_out)
 
 
+@njit(cache=True, nogil=True)
+def _cell_state_gathered(t: np.ndarray, c_prev: np.ndarray, parents: np.ndarray, c: np.ndarray) -> None:
+    """The first part of :func:`_gates` (``axis=0``) with the previous cell states gathered: the
+    sigmoid blocks of ``t`` (4H, n) become ``½ t + ½`` in place and ``c[:, j] = σ_f ⊙ c_prev[:,
+    parents_j] + σ_i ⊙ tanh(a_g)`` (``c_prev`` (H, 0): the zero state), each an IEEE float32
+    operation in the order :func:`_gates` does them, so the same bits."""
+    H, n = c.shape
+    half = np.float32(0.5)
+    zero_state = c_prev.shape[1] == 0
+    for r in range(3 * H):
+        row = t[r]
+        for j in range(n):
+            row[j] = row[j] * half + half
+    for u in range(H):
+        i_row, f_row, g_row, out = t[u], t[H + u], t[3 * H + u], c[u]
+        if zero_state:
+            for j in range(n):
+                out[j] = f_row[j] * np.float32(0.0) + i_row[j] * g_row[j]
+        else:
+            prev = c_prev[u]
+            for j in range(n):
+                out[j] = f_row[j] * prev[parents[j]] + i_row[j] * g_row[j]
+
+
 @dataclass(frozen=True)
 class FusedLSTMCell:
     """An LSTM layer in float32 for few numpy calls per step (module docstring).
@@ -286,6 +311,52 @@ class FusedLSTMCell:
         h_new, c_new, tmp = (np.empty((n, H), dtype) for _ in range(3))
         _gates(t, c, c_new, h_new, tmp)
         return h_new, c_new
+
+    def step_gathered(
+        self,
+        x: NDArray[np.float32],
+        state_t: tuple[NDArray[np.float32], NDArray[np.float32]] | None,
+        parents: NDArray[np.intp],
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """One step of rows ``x`` (n, In) from the states ``parents`` of ``state_t`` (``(hᵀ, cᵀ)``, (H, U)
+        each, a state per column; the zero state if None): the new ``(hᵀ, cᵀ)`` (H, n), bit for bit
+        :meth:`sequence` of ``x[:, None]`` from ``(h[parents], c[parents])``, transposed.
+
+        With ``"ordered"`` products the pre-activation ``aᵀ`` is one compiled pass that reads the
+        parents' ``h`` in place (:func:`~predictors.ordered_product.gathered_product`), then the
+        same ``tanh`` and gate arithmetic as :meth:`sequence` (:func:`_cell_state_gathered` reads the
+        parents' ``c`` in place); on :attr:`threads` threads, contiguous ranges of the columns in
+        parallel. Other products go through :meth:`sequence`.
+        """
+        H = self.hidden
+        x = np.ascontiguousarray(x, dtype=np.float32)
+        n = len(x)
+        parents = np.asarray(parents, dtype=np.intp)
+        if self.matmul != "ordered":
+            gathered = None if state_t is None else (state_t[0][:, parents].T, state_t[1][:, parents].T)
+            h, c = self.sequence(x[:, None, :], gathered)
+            return np.ascontiguousarray(h.T), np.ascontiguousarray(c.T)
+        h_t = np.zeros((H, 0), np.float32) if state_t is None else state_t[0]
+        c_prev = np.zeros((H, 0), np.float32) if state_t is None else state_t[1]
+        h_new, c = np.empty((H, n), np.float32), np.empty((H, n), np.float32)
+
+        def columns(s: int, e: int) -> None:  # the whole step of columns s … e − 1
+            t = np.empty((4 * H, e - s), np.float32)
+            gathered_product(x[s:e], h_t, parents[s:e], self.w_t, t)
+            np.tanh(t, out=t)  # contiguous, as every tanh of the cell
+            _cell_state_gathered(t, c_prev, parents[s:e], c[:, s:e])
+            tanh_c = np.tanh(np.ascontiguousarray(c[:, s:e]))  # contiguous, as every tanh here
+            np.multiply(t[2 * H : 3 * H], tanh_c, out=h_new[:, s:e])
+
+        # on several threads: ranges of columns in parallel (the compiled pass and numpy's tanh
+        # release the GIL), the first on the calling thread; the same bits as one range
+        parts = max(1, min(self.threads, n * (H + 4) * 4 * H // MIN_MACS_PER_THREAD))
+        ranges = list(itertools.pairwise(np.linspace(0, n, parts + 1).astype(int).tolist()))
+        futures = [thread_pool(parts).submit(columns, s, e) for s, e in ranges[1:]]
+        columns(*ranges[0])
+        for future in futures:
+            future.result()
+        return h_new, c
 
     def sequence(
         self,

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from predictors.pose_lstm.predictor import LEAKY_SLOPE, LOG_SIGMA_RANGE, PosePredictor
+from predictors.pose_lstm.predictor import LEAKY_SLOPE, LOG_SIGMA_RANGE, PosePredictor, dropout_masks
 from predictors.training.model_file import ModelFile
 from track_envs.metrics.keypoints import COCO_SIGMAS
 
@@ -81,6 +81,10 @@ class TorchPosePredictor(PosePredictor):
         """:meth:`encode` (on a GPU every window costs about the same as its distinct prefixes)."""
         return self.encode(inputs)
 
+    def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[Any, NDArray[np.intp]]:
+        """:meth:`encode` of every window, each window its own row."""
+        return self.encode(inputs), np.arange(len(inputs))
+
     def head_of(
         self,
         h: Any,
@@ -99,9 +103,8 @@ class TorchPosePredictor(PosePredictor):
             if epistemic and self.dropout > 0:
                 if rng is None:
                     raise ValueError("epistemic sampling needs a random generator")
-                keep = np.float32(1.0 - self.dropout)
-                mask = (rng.random((m, self.fc_units), dtype=np.float32) < keep) / keep
-                a = a * torch.from_numpy(mask.astype(np.float32, copy=False)).to(self.device)
+                mask = dropout_masks(rng, m, self.fc_units, self.dropout)  # the CPU head's draws
+                a = a * torch.from_numpy(mask).to(self.device)
             y = self.net.out(a)
             mu, log_sigma = y[:, :2], y[:, 2:].clamp(*LOG_SIGMA_RANGE)
         return mu.double().cpu().numpy(), torch.exp(log_sigma.double()).cpu().numpy()

@@ -13,8 +13,9 @@ observations ``x_{t−L+1:t}`` (zeros in frames without a match and for undetect
 Every frame, batched over filters × particles × keypoints (no Python loop over any of them):
 
 1. **proposal** (eq. 5): every particle's queue goes through the pose predictor
-   (:class:`predictors.pose_lstm.predictor.PosePredictor`), one dropout mask per sequence (epistemic) and a
-   Gaussian draw ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
+   (:class:`predictors.pose_lstm.predictor.PosePredictor`), one dropout mask per sequence (epistemic;
+   its decisions 16-bit random fields, :func:`~predictors.pose_lstm.predictor.dropout_fields`) and
+   a Gaussian draw ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
 2. **likelihood** (eq. 4): ``OKS(x_j, z^{(k,n)})`` of every particle against every detection
    (over the keypoints the detection holds and the particle has an anchor for);
 3. **matching score** (footnote 2): elite weights — the top ``e = 15 %`` particles by OKS weigh 1,
@@ -62,6 +63,7 @@ from numpy.typing import NDArray
 from predictors.pose.base import centroid_fill
 from predictors.pose_lstm.device import paired_oks_torch, torch_device
 from predictors.pose_lstm.predictor import window_features
+from track_envs.infra.compiled import njit
 from track_envs.infra.registry import takes_keywords_of
 from track_envs.metrics.keypoints import NUM_KEYPOINTS, oks_upper_bound, paired_oks
 from track_envs.values.types import SensorSpec
@@ -124,6 +126,88 @@ def resample_indices(weights: NDArray[np.float64], rng: np.random.Generator) -> 
     u = rng.random((k, P)) + offset
     idx = np.searchsorted((cs + offset).ravel(), u.ravel(), side="right").reshape(k, P) - offset * P
     return np.minimum(idx, P - 1)
+
+
+@njit(cache=True, nogil=True)
+def push_queues(queue: np.ndarray, pred: np.ndarray, has: np.ndarray) -> None:
+    """Every queue ``queue`` (n, P, K, L, 3) float32 drops its oldest pose and takes ``(pred, has)``
+    ((n, P, K, 2) px, (n, P, K)) as its newest, in place (``(x, y)`` rounded to float32, ``v`` 1 or 0)."""
+    n, P, k_dim, L = queue.shape[0], queue.shape[1], queue.shape[2], queue.shape[3]
+    for f in range(n):
+        for p in range(P):
+            for k in range(k_dim):
+                q = queue[f, p, k]
+                for t in range(L - 1):
+                    q[t, 0], q[t, 1], q[t, 2] = q[t + 1, 0], q[t + 1, 1], q[t + 1, 2]
+                q[L - 1, 0] = np.float32(pred[f, p, k, 0])
+                q[L - 1, 1] = np.float32(pred[f, p, k, 1])
+                q[L - 1, 2] = np.float32(1.0) if has[f, p, k] else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True)
+def select_queues(
+    queue: np.ndarray, obs: np.ndarray, ti: np.ndarray, idx: np.ndarray, own: np.ndarray
+) -> None:
+    """Resampling and selection (eq. 3 and 6) of the filters ``ti`` (k,), in place: particle ``p`` of
+    filter ``ti[j]`` takes the queue of particle ``idx[j, p]`` if ``own[j, p]``, else the filter's
+    observation queue ``obs[ti[j]]``."""
+    P = queue.shape[1]
+    for j in range(len(ti)):
+        f = ti[j]
+        source = queue[f].copy()
+        for p in range(P):
+            if own[j, p]:
+                queue[f, p] = source[idx[j, p]]
+            else:
+                queue[f, p] = obs[f]
+
+
+@njit(cache=True, nogil=True)
+def advance_queues(
+    old: np.ndarray,
+    out: np.ndarray,
+    pred: np.ndarray,
+    has: np.ndarray,
+    obs: np.ndarray,
+    sel: np.ndarray,
+    idx: np.ndarray,
+    own: np.ndarray,
+) -> None:
+    """:func:`push_queues` and then :func:`select_queues` in one pass from ``old`` into ``out`` (both
+    (n, P, K, L, 3)): particle ``p`` of filter ``f`` takes the pushed queue of particle ``src``
+    (``idx[sel[f], p]`` for a selected filter, ``sel[f] >= 0``, that keeps its own history; ``p``
+    for the others) or, where ``own[sel[f], p]`` is False, the observation queue ``obs[f]``."""
+    n, P, k_dim, L = old.shape[0], old.shape[1], old.shape[2], old.shape[3]
+    for f in range(n):
+        j = sel[f]
+        for p in range(P):
+            if j >= 0 and not own[j, p]:
+                out[f, p] = obs[f]
+                continue
+            src = idx[j, p] if j >= 0 else p
+            for k in range(k_dim):
+                q, o = old[f, src, k], out[f, p, k]
+                for t in range(L - 1):
+                    o[t, 0], o[t, 1], o[t, 2] = q[t + 1, 0], q[t + 1, 1], q[t + 1, 2]
+                o[L - 1, 0] = np.float32(pred[f, src, k, 0])
+                o[L - 1, 1] = np.float32(pred[f, src, k, 1])
+                o[L - 1, 2] = np.float32(1.0) if has[f, src, k] else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True)
+def queue_representatives(idx: np.ndarray, own: np.ndarray, rep: np.ndarray) -> None:
+    """``rep[j, p]`` (out): the first particle of row ``j`` that holds the same queue as particle
+    ``p`` after selection: the same parent ``idx[j, p]`` kept (``own``), or the observation queue."""
+    k, P = idx.shape
+    first = np.empty(P + 1, np.intp)
+    for j in range(k):
+        for p in range(P + 1):
+            first[p] = -1
+        for p in range(P):
+            key = idx[j, p] if own[j, p] else P
+            if first[key] < 0:
+                first[key] = p
+            rep[j, p] = first[key]
 
 
 @dataclass(frozen=True)
@@ -207,6 +291,7 @@ class SmcPoseMotion:
         self.scale = self.predictor.scale_for(spec.region_high[1] - spec.region_low[1])
         P, L = self.P, self.L
         self.queue = np.zeros((0, P, K, L, 3), np.float32)  # particle queues z_{t-L:t-1}
+        self._spare = self.queue  # the buffer the next frame's queues are written to
         self.obs = np.zeros((0, K, L, 3), np.float32)  # observation queues x_{t-L+1:t}
         self.q = np.ones((0, P))  # proposal probability of each particle's history (eq. 7)
         self.rep = np.zeros((0, P), np.intp)  # first particle of the filter with the same queue
@@ -237,15 +322,15 @@ class SmcPoseMotion:
             mu, sigma = self.predictor.distribution(inputs, self.rng, epistemic=self.epistemic)
         elif self.recurrence == "window":
             # the LSTM once per distinct prefix of the distinct queues (exact: the same bits as
-            # every particle's window); the FC block once per distinct queue; dropout and the
+            # every particle's window); the FC block's first layer once per distinct window; dropout and the
             # Gaussian draw per particle
             first = np.flatnonzero((self.rep == np.arange(P)).ravel())  # representatives (n·P,)
             where = np.searchsorted(first, (np.arange(n)[:, None] * P + self.rep).ravel())
             queues = self.queue.reshape(n * P, K, self.L, 3)[first]
             inputs, anchor_u, has_u = window_features(queues, self.scale)
-            h = self.predictor.encode_shared(inputs.reshape(-1, self.L, 3))
+            h, leaf = self.predictor.encode_leaves(inputs.reshape(-1, self.L, 3))
             anchor, has = anchor_u[where].reshape(-1, 2), has_u[where].reshape(-1)
-            rows = (where[:, None] * K + np.arange(K)).ravel()  # (n·P·K,) rows of h
+            rows = leaf[(where[:, None] * K + np.arange(K)).ravel()]  # (n·P·K,) rows of h
             mu, sigma = self.predictor.head_of(h, self.rng, self.epistemic, rows=rows)
         else:
             a = self.anchor.reshape(-1, 3)
@@ -297,14 +382,16 @@ class SmcPoseMotion:
         """
         n, P = len(self.queue), self.P
         xy, found = xy[di], found[di]
-        entry = np.concatenate([self.pred, self.has[..., None]], axis=-1).astype(np.float32)  # (n, P, K, 3)
         obs_entry = np.zeros((n, K, 3), np.float32)
         obs_entry[ti, :, :2] = np.where(found[..., None], xy, 0.0)
         obs_entry[ti, :, 2] = found
-        self.queue = np.concatenate([self.queue[..., 1:, :], entry[..., None, :]], axis=-2)
+        window = self.recurrence == "window"
+        if not window:
+            push_queues(self.queue, self.pred, self.has)  # (n, P, K, L, 3), in place
         self.obs = np.concatenate([self.obs[..., 1:, :], obs_entry[..., None, :]], axis=-2)
         self.rep = np.broadcast_to(np.arange(P), (n, P)).copy()  # each queue took its own z_t
         if self.recurrence == "carried":
+            entry = np.concatenate([self.pred, self.has[..., None]], axis=-1).astype(np.float32)
             self._advance_states(entry, obs_entry)
         # estimates: particle means (coasting), the detection + elite means (matched)
         has_any = np.asarray(self.has.any(axis=1), dtype=bool)
@@ -318,33 +405,40 @@ class SmcPoseMotion:
             )
             ok = found | (w_el.sum(axis=1) > 0)
             estimate[ti] = centroid_fill(np.where(found[..., None], xy, emean), ok)
-            self._resample_and_select(ti, elite)
+            idx, own = self._resample_and_select(ti, elite)
+        else:
+            idx, own = np.zeros((0, P), np.intp), np.zeros((0, P), bool)
+        if window:  # the push, the resampling and the selection in one pass into the spare buffer
+            sel = np.full(n, -1, np.intp)
+            sel[ti] = np.arange(len(ti))
+            spare = self._spare if self._spare.shape == self.queue.shape else np.empty_like(self.queue)
+            advance_queues(self.queue, spare, self.pred, self.has, self.obs, sel, idx, own)
+            self._spare, self.queue = self.queue, spare
         self.estimate = estimate
 
-    def _resample_and_select(self, ti: NDArray, elite: NDArray[np.float64]) -> None:
+    def _resample_and_select(self, ti: NDArray, elite: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """The draws of resampling and selection of the matched filters ``ti``: ``(idx, own)`` (k, P);
+        the queues move in :meth:`update` (window) or here, in place (carried)."""
         weights = elite / self.q[ti]  # eq. (7) with the elite weights of footnote 2
         idx = resample_indices(weights, self.rng)  # (k, P)
         rows = ti[:, None]
         own = self.rng.random(idx.shape) < self.alpha  # eq. (6)
-        queue = self.queue[rows, idx]  # (k, P, K, L, 3)
-        queue = np.where(own[..., None, None, None], queue, self.obs[ti][:, None])
-        self.queue[ti] = queue
+        rep = np.empty(idx.shape, np.intp)
+        queue_representatives(idx, own, rep)
         self.q[ti] = np.where(own, self.alpha, 1.0 - self.alpha)
-        # copies share a queue: the same parent kept (own) or the observation history (key P)
-        key = np.where(own, idx, self.P)
-        first = np.full((len(ti), self.P + 1), self.P, dtype=np.intp)
-        np.minimum.at(
-            first, (np.broadcast_to(np.arange(len(ti))[:, None], key.shape), key), np.arange(self.P)
-        )
-        self.rep[ti] = np.take_along_axis(first, key, axis=1)
+        self.rep[ti] = rep
         if self.recurrence == "carried":
+            select_queues(self.queue, self.obs, ti, idx, own)  # in place
             for name, oname in (("h", "oh"), ("c", "oc"), ("anchor", "oanchor")):
                 arr, oarr = getattr(self, name), getattr(self, oname)
                 arr[ti] = np.where(own[..., None, None], arr[rows, idx], oarr[ti][:, None])
+        return idx, own
 
     def birth(self, xy: NDArray, found: NDArray) -> None:
         """New filters: every queue holds the detection as newest pose, zeros before (ℓ15–16)."""
         k, P, L = len(xy), self.P, self.L
+        if k == 0:
+            return  # nothing to append (and no copy of every queue)
         first = np.zeros((k, K, 3), np.float32)
         first[..., :2] = np.where(found[..., None], xy, 0.0)
         first[..., 2] = found
@@ -367,6 +461,8 @@ class SmcPoseMotion:
 
     def keep(self, alive: NDArray[np.bool_]) -> None:
         """Deactivate the filters whose lifetime fell below 0."""
+        if np.all(alive):
+            return  # every filter kept (and no copy of every queue)
         self.queue, self.obs, self.q, self.estimate = (
             self.queue[alive],
             self.obs[alive],

@@ -28,9 +28,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from predictors.lstm_cell import FusedLSTMCell, LSTMCellWeights
-from predictors.ordered_product import masked_rows_product, ordered_product
+from predictors.ordered_product import dropout_rows_product, ordered_product
 from predictors.pose_lstm.prefix_tree import PrefixTree
 from predictors.training.model_file import ModelFile, load_model, require_shapes
+from track_envs.infra.compiled import njit
 
 KIND = "pose-lstm"
 #: The displacement scale as a fraction of the region height.
@@ -53,17 +54,80 @@ def window_features(
         and its predecessor are visible; ``anchor`` (..., 2) the last visible coordinate (px), and
         ``has_anchor`` (...,) whether the window has a visible step.
     """
-    w = np.asarray(windows, dtype=np.float64)
-    pos, vis = w[..., :2], w[..., 2] > 0
-    both = vis[..., 1:] & vis[..., :-1]
-    d = np.zeros_like(pos)
-    d[..., 1:, :] = np.where(both[..., None], (pos[..., 1:, :] - pos[..., :-1, :]) / scale, 0.0)
-    inputs = np.concatenate([d, vis[..., None]], axis=-1).astype(np.float32)
-    L = w.shape[-2]
-    last = L - 1 - np.argmax(vis[..., ::-1], axis=-1)  # index of the last visible step
-    anchor = np.take_along_axis(pos, last[..., None, None], axis=-2)[..., 0, :]
-    has: NDArray[np.bool_] = np.asarray(vis.any(axis=-1), dtype=bool)
-    return inputs, np.where(has[..., None], anchor, 0.0), has
+    w = np.asarray(windows)
+    if w.dtype not in (np.float32, np.float64):
+        w = w.astype(np.float64)
+    lead, L = w.shape[:-2], w.shape[-2]
+    flat = np.ascontiguousarray(w.reshape(-1, L, 3))
+    n = len(flat)
+    inputs = np.empty((n, L, 3), np.float32)
+    anchor = np.empty((n, 2), np.float64)
+    has = np.empty(n, np.bool_)
+    _window_features(flat, float(scale), inputs, anchor, has)
+    return inputs.reshape(*lead, L, 3), anchor.reshape(*lead, 2), has.reshape(lead)
+
+
+@njit(cache=True, nogil=True)
+def _window_features(
+    w: np.ndarray, scale: float, inputs: np.ndarray, anchor: np.ndarray, has: np.ndarray
+) -> None:
+    """:func:`window_features` of windows ``w`` (n, L, 3), into ``inputs`` (n, L, 3), ``anchor``
+    (n, 2), ``has`` (n,): ``Δ = (p_t − p_{t−1}) / scale`` in float64, then float32."""
+    n, L = w.shape[0], w.shape[1]
+    for r in range(n):
+        last = -1
+        prev_vis = False
+        for t in range(L):
+            vis = w[r, t, 2] > 0
+            if vis and prev_vis:
+                inputs[r, t, 0] = np.float32((np.float64(w[r, t, 0]) - np.float64(w[r, t - 1, 0])) / scale)
+                inputs[r, t, 1] = np.float32((np.float64(w[r, t, 1]) - np.float64(w[r, t - 1, 1])) / scale)
+            else:
+                inputs[r, t, 0] = 0.0
+                inputs[r, t, 1] = 0.0
+            inputs[r, t, 2] = 1.0 if vis else 0.0
+            if vis:
+                last = t
+            prev_vis = vis
+        has[r] = last >= 0
+        if last >= 0:
+            anchor[r, 0] = np.float64(w[r, last, 0])
+            anchor[r, 1] = np.float64(w[r, last, 1])
+        else:
+            anchor[r, 0] = 0.0
+            anchor[r, 1] = 0.0
+
+
+#: Bits of the random field that decides one dropout unit (:func:`dropout_fields`).
+FIELD_BITS = 16
+
+
+def keep_threshold(dropout: float) -> int:
+    """The field value below which a unit is kept: ``round((1 − p) · 2¹⁶)``, so a unit is kept with
+    probability ``threshold / 2¹⁶`` (45,875 / 65,536 = 0.6999969 for ``p = 0.3``; exact where
+    ``(1 − p) · 2¹⁶`` is an integer)."""
+    return round((1.0 - float(dropout)) * (1 << FIELD_BITS))
+
+
+def dropout_fields(rng: np.random.Generator, rows: int, units: int) -> NDArray[np.uint16]:
+    """The random fields of ``rows`` dropout masks of ``units`` units, (rows, units) uint16.
+
+    One draw ``rng.integers(0, 2⁶⁴, ⌈rows · units / 4⌉, dtype=uint64)`` read as consecutive 16-bit
+    fields (the machine's byte order, little-endian on x86 and ARM), row by row: unit ``k`` of mask
+    ``i`` is kept iff field ``(i, k)`` is below :func:`keep_threshold`. Four decisions per 64 random
+    bits, instead of one float uniform each.
+    """
+    n = rows * units
+    words = rng.integers(0, 1 << 64, size=-(-n // 4), dtype=np.uint64)
+    return words.view(np.uint16)[:n].reshape(rows, units)
+
+
+def dropout_masks(rng: np.random.Generator, rows: int, units: int, dropout: float) -> NDArray[np.float32]:
+    """Inverted-dropout masks (rows, units) float32 of :func:`dropout_fields`: ``1 / (1 − p)`` for a
+    kept unit (``1 − p`` in float32), 0 for a dropped one (what the CPU head applies, as a matrix)."""
+    keep = np.float32(1.0 - dropout)
+    kept = dropout_fields(rng, rows, units) < keep_threshold(dropout)
+    return (kept / keep).astype(np.float32, copy=False)
 
 
 #: The negative slope of the FC block's leaky ReLU (torch's default).
@@ -167,6 +231,14 @@ class PosePredictor:
         x = np.ascontiguousarray(inputs, dtype=np.float32)
         return PrefixTree.of(x).encode(self.cell, x)
 
+    def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[NDArray[np.float32], NDArray[np.intp]]:
+        """:meth:`encode_shared` as the outputs ``h`` (k, H) of the distinct windows and each window's
+        row ``leaf`` (M,) among them (``h[leaf]`` is :meth:`encode`'s result, bit for bit), for
+        ``head_of(h, ..., rows=leaf[...])``."""
+        x = np.ascontiguousarray(inputs, dtype=np.float32)
+        tree = PrefixTree.of(x)
+        return tree.encode_nodes(self.cell, x), tree.leaf
+
     def head_of(
         self,
         h: NDArray[np.float32],
@@ -178,10 +250,12 @@ class PosePredictor:
         ``rows`` (M,); every row of ``h`` once if None), as :meth:`distribution`.
 
         The FC block ``y = W₂ (m ⊙ leaky(W₁ h + b₁)) + b₂`` with one dropout mask ``m`` per result
-        row (``epistemic``; inverted, ``keep / (1 − p)``; drawn from ``rng`` as a (M, fc) block):
-        ``leaky(W₁ h + b₁)`` is computed once per row of ``h`` and shared by the result rows that
-        read it. Products by :func:`~predictors.lstm_cell.ordered_product`, so a result row's bits
-        do not depend on which other rows are computed with it.
+        row (``epistemic``; inverted, ``keep / (1 − p)``; its decisions drawn from ``rng`` as one
+        block of 16-bit fields, :func:`dropout_fields`): ``leaky(W₁ h + b₁) / (1 − p)`` is computed
+        once per row of ``h`` and shared by the result rows that read it. Products by
+        :func:`~predictors.ordered_product.ordered_product` and
+        :func:`~predictors.ordered_product.dropout_rows_product`, so a result row's bits do not
+        depend on which other rows are computed with it.
 
         Raises:
             ValueError: ``epistemic`` sampling without ``rng``.
@@ -195,16 +269,17 @@ class PosePredictor:
         np.maximum(a, a * np.float32(LEAKY_SLOPE), out=a)  # leaky ReLU
         if rows is None:
             rows = np.arange(len(h))
-        mask = np.ones((0, self.fc_units), np.float32)  # none: every unit kept
+        fields = np.zeros((0, self.fc_units), np.uint16)  # none: every unit kept
+        threshold = 1 << FIELD_BITS
         if epistemic and self.dropout > 0:
             if rng is None:
                 raise ValueError("epistemic sampling needs a random generator")
             keep = np.float32(1.0 - self.dropout)
-            mask = ((rng.random((m, self.fc_units), dtype=np.float32) < keep) / keep).astype(
-                np.float32, copy=False
-            )
+            a *= np.float32(1.0) / keep  # the inverted dropout's scale, a kept unit's mask value
+            fields = dropout_fields(rng, m, self.fc_units)
+            threshold = keep_threshold(self.dropout)
         y = np.empty((m, 4), np.float32)
-        masked_rows_product(a, np.asarray(rows, dtype=np.intp), mask, self._w2, y, threads)
+        dropout_rows_product(a, np.asarray(rows, dtype=np.intp), fields, threshold, self._w2, y, threads)
         y += self._b2
         log_sigma = np.clip(y[:, 2:], *LOG_SIGMA_RANGE)
         return y[:, :2].astype(np.float64), np.exp(log_sigma.astype(np.float64))

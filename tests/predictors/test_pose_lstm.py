@@ -129,3 +129,60 @@ def test_the_shipped_predictor_encodes_as_torchs_lstm_to_1e6():
     np.testing.assert_allclose(state[0], h_t[0].numpy(), rtol=0, atol=1e-6)
     # the cell state grows to |c| ≈ 3 here: 1e-6 of its size (a few float32 ulp)
     np.testing.assert_allclose(state[1], c_t[0].numpy(), rtol=1e-6, atol=1e-6)
+
+
+def _window_features_numpy(windows, scale):
+    """The batched-numpy window features the compiled pass replaced (the oracle)."""
+    w = np.asarray(windows, dtype=np.float64)
+    pos, vis = w[..., :2], w[..., 2] > 0
+    both = vis[..., 1:] & vis[..., :-1]
+    d = np.zeros_like(pos)
+    d[..., 1:, :] = np.where(both[..., None], (pos[..., 1:, :] - pos[..., :-1, :]) / scale, 0.0)
+    inputs = np.concatenate([d, vis[..., None]], axis=-1).astype(np.float32)
+    last = w.shape[-2] - 1 - np.argmax(vis[..., ::-1], axis=-1)
+    anchor = np.take_along_axis(pos, last[..., None, None], axis=-2)[..., 0, :]
+    has = vis.any(axis=-1)
+    return inputs, np.where(has[..., None], anchor, 0.0), has
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_the_compiled_window_features_are_the_numpy_ones_bit_for_bit(dtype):
+    rng = np.random.default_rng(4)
+    q = (rng.normal(300, 100, (40, 17, 10, 3))).astype(dtype)
+    q[..., 2] = rng.random((40, 17, 10)) < 0.7
+    q[rng.random((40, 17, 10)) < 0.3] = 0.0  # invisible steps hold zeros
+    q[3, 5] = 0.0  # a window without a visible step
+    for got, want in zip(window_features(q, 7.3), _window_features_numpy(q, 7.3), strict=True):
+        assert got.dtype == want.dtype and got.shape == want.shape
+        np.testing.assert_array_equal(got, want)
+
+
+def test_the_dropout_decisions_are_16_bit_fields_of_one_uint64_draw():
+    from predictors.pose_lstm.predictor import dropout_fields, dropout_masks, keep_threshold
+
+    assert keep_threshold(0.3) == 45875 and keep_threshold(0.0) == 65536 and keep_threshold(0.5) == 32768
+    fields = dropout_fields(np.random.default_rng(7), 5, 3)  # 15 fields: four 64-bit words
+    words = np.random.default_rng(7).integers(0, 1 << 64, size=4, dtype=np.uint64)
+    np.testing.assert_array_equal(fields.ravel(), words.view(np.uint16)[:15])
+    masks = dropout_masks(np.random.default_rng(1), 20000, 40, 0.3)
+    keep = np.float32(0.7)
+    assert set(np.unique(masks).tolist()) == {0.0, float(np.float32(1.0) / keep)}
+    assert abs(np.mean(masks > 0) - 45875 / 65536) < 0.002
+
+
+def test_the_dropout_product_is_the_masked_product_with_the_fields_mask():
+    from predictors.ordered_product import dropout_rows_product, masked_rows_product
+
+    rng = np.random.default_rng(2)
+    a = rng.normal(0, 1, (30, 40)).astype(np.float32)
+    w = rng.normal(0, 1, (40, 4)).astype(np.float32)
+    rows = rng.integers(0, 30, 500)
+    fields = rng.integers(0, 1 << 16, (500, 40)).astype(np.uint16)
+    mask = (fields < 45875).astype(np.float32)
+    for threads in (1, 2):
+        got, want = np.empty((500, 4), np.float32), np.empty((500, 4), np.float32)
+        dropout_rows_product(a, rows, fields, 45875, w, got, threads)
+        masked_rows_product(a, rows, mask, w, want, threads)
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError, match="threshold must be in 0 … 65536, got 70000"):
+        dropout_rows_product(a, rows, fields, 70000, w, got)

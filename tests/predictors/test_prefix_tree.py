@@ -55,6 +55,17 @@ def test_encoding_the_tree_gives_the_bits_of_encoding_every_window(L: int) -> No
     np.testing.assert_array_equal(tree.encode(cell, x), cell.sequence(x)[0])
 
 
+def test_the_tree_on_two_threads_gives_the_bits_of_one() -> None:
+    import dataclasses
+
+    cell = _cell(hidden=64)
+    x = _windows(3000, 6, seed=3)  # depths wide enough to split between the threads
+    tree = PrefixTree.of(x)
+    two = dataclasses.replace(cell, threads=2)
+    np.testing.assert_array_equal(tree.encode(two, x), tree.encode(cell, x))
+    np.testing.assert_array_equal(tree.encode(two, x), cell.sequence(x)[0])
+
+
 def test_equal_prefixes_are_compared_bit_for_bit() -> None:
     x = np.zeros((3, 2, 3), np.float32)
     x[1, 0, 0] = -0.0  # equal to 0.0 as a number, another bit pattern: its own node
@@ -71,3 +82,24 @@ def test_no_windows_and_bad_windows() -> None:
         PrefixTree.of(np.zeros((2, 3, 3)))
     with pytest.raises(ValueError, match=r"got float32 \(2, 0, 3\)"):
         PrefixTree.of(np.zeros((2, 0, 3), np.float32))
+
+
+def test_the_gathered_product_is_the_ordered_product_of_the_gathered_operand() -> None:
+    from predictors.ordered_product import gathered_product, ordered_product
+
+    rng = np.random.default_rng(5)
+    n, U, H = 700, 90, 16
+    x = rng.normal(0, 1, (n, 3)).astype(np.float32)
+    h_t = rng.normal(0, 1, (H, U)).astype(np.float32)
+    parents = rng.integers(0, U, n)
+    w_t = rng.normal(0, 1, (4 * H, 3 + H + 1)).astype(np.float32)
+    xh = np.concatenate([x, h_t[:, parents].T, np.ones((n, 1), np.float32)], axis=1)
+    want = np.empty((4 * H, n), np.float32)
+    ordered_product(w_t, np.ascontiguousarray(xh.T), want)
+    for threads in (1, 2):
+        got = np.empty((4 * H, n), np.float32)
+        np.testing.assert_array_equal(gathered_product(x, h_t, parents, w_t, got, threads), want)
+    zero = np.empty((4 * H, n), np.float32)  # from the zero state: the h terms left out, same bits
+    x0 = np.concatenate([x, np.zeros((n, H), np.float32), np.ones((n, 1), np.float32)], axis=1)
+    ordered_product(w_t, np.ascontiguousarray(x0.T), want)
+    np.testing.assert_array_equal(gathered_product(x, np.zeros((H, 0), np.float32), parents, w_t, zero), want)
