@@ -47,15 +47,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from track_envs.infra.arguments import check_int
+from track_envs.streams.merge_events import (  # the same belt window, rate and noise
+    DT,
+    MAX_DETECTIONS,
+    NOISE_STD,
+    WINDOW_LENGTH,
+    belt_spec,
+)
 from track_envs.values.types import SensorSpec
 
-DT = 0.005  # s (200 Hz)
-NOISE_STD = 3e-5  # m, declared and added
-WINDOW_LENGTH, WINDOW_WIDTH = 0.40, 0.18  # m
 SLOTS, SLOT_PITCH = 8, 0.02
 CONTACT = 5e-4  # m: outlines closer than this are one blob
 PER_INSTANCE = 4  # a, b, neighbour, follower (the follower is only used by "sparse")
-MAX_DETECTIONS = MAX_TRACKS = 64
 SCENES = ("touching", "near-miss", "unequal", "rotation", "sparse", "accelerating")
 
 
@@ -106,21 +109,6 @@ class MergeScene:
     def merged_rows(self) -> int:
         """Detection rows that are the blob of two particles, over the stream."""
         return int(np.count_nonzero(self.detection_ids[:, :, 1] >= 0))
-
-
-def scene_spec() -> SensorSpec:
-    """The sensor of every scene: the belt's 400 × 180 mm window at 200 Hz."""
-    return SensorSpec(
-        dt=DT,
-        dim=2,
-        noise_std=NOISE_STD,
-        p_detect=1.0,
-        clutter_rate=0.0,
-        region_low=(0.0, 0.0),
-        region_high=(WINDOW_LENGTH, WINDOW_WIDTH),
-        max_detections=MAX_DETECTIONS,
-        max_tracks=MAX_TRACKS,
-    )
 
 
 @dataclass(frozen=True)
@@ -207,7 +195,7 @@ def merge_scene(name: str, rng: np.random.Generator, *, n_events: int = 24) -> M
     visible = (pos[..., 0] >= 0.0) & (pos[..., 0] <= WINDOW_LENGTH)
     det, mask, ids = _detect(rng, pos, offset, radius, visible)
     involved = np.stack([PER_INSTANCE * np.arange(E), PER_INSTANCE * np.arange(E) + 1], axis=1)
-    return MergeScene(name, scene_spec(), det, mask, ids, pos, visible, meet, involved.astype(np.int64))
+    return MergeScene(name, belt_spec(), det, mask, ids, pos, visible, meet, involved.astype(np.int64))
 
 
 def _speeds(rng: np.random.Generator, lay: _Layout) -> list[tuple[float, float, float]]:
