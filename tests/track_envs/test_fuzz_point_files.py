@@ -172,8 +172,10 @@ def _fuzz_readers(valid: dict[str, bytes], folder: Path, name: str, data: bytes)
     _check_read(name, path)
 
 
-def reader_test(examples: int) -> Callable[..., None]:
-    @settings(
+def fuzz_settings(examples: int) -> Callable[[Callable[..., None]], Callable[..., None]]:
+    """Hypothesis settings of the fuzz tests: ``examples`` cases, no deadline, and the health checks
+    that a tmp_path fixture and whole-file byte strings would trip switched off."""
+    return settings(
         max_examples=examples,
         deadline=None,
         suppress_health_check=[
@@ -182,6 +184,10 @@ def reader_test(examples: int) -> Callable[..., None]:
             HealthCheck.data_too_large,
         ],
     )
+
+
+def reader_test(examples: int) -> Callable[..., None]:
+    @fuzz_settings(examples)
     @given(data=st.data())
     def test(valid: dict[str, bytes], tmp_path: Path, data: st.DataObject) -> None:
         name = data.draw(st.sampled_from(sorted(READERS)))
@@ -221,15 +227,7 @@ def _track_run(argv: list[str]) -> tuple[int, str]:
 
 
 def run_test(examples: int) -> Callable[..., None]:
-    @settings(
-        max_examples=examples,
-        deadline=None,
-        suppress_health_check=[
-            HealthCheck.function_scoped_fixture,
-            HealthCheck.too_slow,
-            HealthCheck.data_too_large,
-        ],
-    )
+    @fuzz_settings(examples)
     @given(data=st.data())
     def test(valid: dict[str, bytes], tmp_path: Path, data: st.DataObject) -> None:
         name = data.draw(st.sampled_from(["det.txt", "box.txt", "det.csv"]))
