@@ -141,8 +141,9 @@ def mutated_bytes(draw: st.DrawFn, data: Any) -> bytes:
     data = copy.deepcopy(data)
     if draw(st.booleans()):
         data = draw(mutated_value(data))
-    if isinstance(data, dict) and data.get("images") and draw(st.booleans()):
-        data["images"][0]["file_name"] = "images/v/é000000.jpg"  # non-ASCII for the encodings
+    images = data.get("images") if isinstance(data, dict) else None
+    if isinstance(images, list) and images and isinstance(images[0], dict) and draw(st.booleans()):
+        images[0]["file_name"] = "images/v/é000000.jpg"  # non-ASCII for the encodings
     raw = json.dumps(data).encode()
     kind = draw(st.sampled_from(["none", "cut", "flip", "insert", "utf16", "latin1", "binary", "bom"]))
     if kind == "cut":
