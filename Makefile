@@ -27,8 +27,8 @@ test: $(STAMP) lint
 	MPLBACKEND=Agg SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy $(PY) -m pytest -q
 
 lint: $(STAMP)
-	$(PY) -m ruff check track_envs predictors agents tests examples benchmarks
-	$(PY) -m ruff format --check track_envs predictors agents tests examples benchmarks
+	$(PY) -m ruff check track_envs predictors agents track_apps tests examples benchmarks
+	$(PY) -m ruff format --check track_envs predictors agents track_apps tests examples benchmarks
 	$(PY) -m mypy
 
 # the docs site (site/); tests/test_docs.py builds it with --strict inside make test
@@ -63,4 +63,4 @@ bench-check: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache
-	find track_envs predictors agents -name '*.nbi' -o -name '*.nbc' | xargs rm -f
+	find track_envs predictors agents track_apps -name '*.nbi' -o -name '*.nbc' | xargs rm -f

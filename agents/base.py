@@ -22,10 +22,6 @@ An agent (a tracker) turns each observation of an env into a report of its track
   - ``takes_predictor: bool = False`` — built with a ``predictor=`` argument (a registered
     Gaussian predictor's name or object, :func:`predictors.resolve_predictor`): the bench runs it
     once per predictor, ``track run --predictor`` passes one.
-  - ``keeps_identities: bool = True`` — ``False`` for a reference that keeps no identity from one
-    frame to the next (the no-tracking ``detections`` floor, whose e1 and so e_mean are 0 by
-    construction). Tables rank only trackers (:func:`agent_is_ranked`): neither such a reference
-    nor an oracle that reads the truth (``needs_truth``) is ever marked best.
 
 Optional capabilities
 ---------------------
@@ -45,8 +41,6 @@ capability's protocol, or ``None``; :func:`agent_declares` asks a class or a reg
   ``last_prediction_detection`` (their ids and the observation row each took, −1: none), there
   from the first ``reset`` on (ask after it). Read by
   the merge-event scores (:mod:`agents.merge_scoring`) and GateTuning-v0's diagnostics. gnn, jpda.
-* ``LIVE_KNOBS`` (:class:`LiveKnobs`) — ``p_gate``, ``recovery_inflation`` and ``noise_scale``
-  may be set between frames of a running episode (GateTuning-v0, :mod:`agents.tuning`). gnn, jpda.
 * ``SENSOR_MODEL`` (:class:`SensorModelSettings`) — built with the keywords of a
   sensor-model estimate (:meth:`agents.sensor_model.SensorModelEstimate.agent_kwargs`: ``q``,
   ``max_misses``, the velocity prior, ...), which ``run_agent(..., calibrate=True)`` and ``track
@@ -93,7 +87,6 @@ class AgentCapability(StrEnum):
     WARM_UP = "warm-up"
     TRACK_COVARIANCES = "track-covariances"
     LAST_PREDICTION = "last-prediction"
-    LIVE_KNOBS = "live-knobs"
     SENSOR_MODEL = "sensor-model"
     TRUTH_OBSERVER = "truth-observer"
 
@@ -125,14 +118,6 @@ class LastPrediction(Agent, Protocol):
     last_prediction_detection: NDArray[np.int64]
 
 
-class LiveKnobs(Agent, Protocol):
-    """``LIVE_KNOBS``: association knobs settable between frames (checked, used from the next)."""
-
-    p_gate: float
-    recovery_inflation: float
-    noise_scale: float
-
-
 class SensorModelSettings(Agent, Protocol):
     """``SENSOR_MODEL``: built with the keywords of a sensor-model estimate (a promise on the
     factory's keywords; nothing to check on the object)."""
@@ -155,7 +140,6 @@ AGENT_PROTOCOLS: dict[AgentCapability, type] = {
     AgentCapability.WARM_UP: WarmUp,
     AgentCapability.TRACK_COVARIANCES: TrackCovariances,
     AgentCapability.LAST_PREDICTION: LastPrediction,
-    AgentCapability.LIVE_KNOBS: LiveKnobs,
     AgentCapability.SENSOR_MODEL: SensorModelSettings,
     AgentCapability.TRUTH_OBSERVER: TruthObserver,
 }
@@ -174,8 +158,6 @@ def agent_capability(
 def agent_capability(
     agent: object, which: Literal[AgentCapability.LAST_PREDICTION]
 ) -> LastPrediction | None: ...
-@overload
-def agent_capability(agent: object, which: Literal[AgentCapability.LIVE_KNOBS]) -> LiveKnobs | None: ...
 @overload
 def agent_capability(
     agent: object, which: Literal[AgentCapability.SENSOR_MODEL]
@@ -213,14 +195,12 @@ class AgentTraits:
         position_rank: 1 for point targets (D,), 2 for poses (17, 2).
         max_targets: The most targets tracked at once, ``None`` for any number.
         takes_predictor: Built with a ``predictor=`` argument.
-        keeps_identities: ``False`` for a reference that keeps no identity across frames.
     """
 
     needs_truth: bool = False
     position_rank: int = 1
     max_targets: int | None = None
     takes_predictor: bool = False
-    keeps_identities: bool = True
 
 
 #: The traits of a class that declares none.
@@ -271,16 +251,6 @@ def agent_applies_to(name: str, position_shape: tuple[int, ...], max_targets: in
 def agent_takes_predictor(name: str) -> bool:
     """Whether agent ``name`` declares ``takes_predictor`` (is built with ``predictor=``)."""
     return agent_traits(AGENTS.factory(name)).takes_predictor
-
-
-def agent_is_ranked(name: str) -> bool:
-    """Whether agent ``name`` competes in the results tables: a tracker that keeps identities
-    (``keeps_identities``) and sees no truth (not ``needs_truth``). A name not registered here (a
-    record from an agent of your own) is ranked."""
-    if name not in AGENTS.names():
-        return True
-    traits = agent_traits(AGENTS.factory(name))
-    return traits.keeps_identities and not traits.needs_truth
 
 
 def make_agent(name: str, **kwargs: Any) -> Agent:

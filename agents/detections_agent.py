@@ -7,7 +7,6 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.base import AgentTraits
 from track_envs.contracts.observation import check_observation
 from track_envs.contracts.report import pack_report
 from track_envs.values.types import SensorSpec
@@ -18,11 +17,8 @@ class DetectionsAgent:
 
     The floor every tracker should beat: positions are as good as the sensor (GOSPA reflects
     only noise, misses and clutter), but no identity survives a frame, so every association
-    metric is at its worst. Works on every point environment. A reference, not a tracker
-    (``keeps_identities=False``): tables never mark it best.
+    metric is at its worst. Works on every point environment. A reference, not a tracker.
     """
-
-    traits = AgentTraits(keeps_identities=False)
 
     def __init__(self) -> None:
         self._spec: SensorSpec | None = None

@@ -15,8 +15,8 @@ import tempfile
 import time
 
 import track_envs  # noqa: F401
-from agents.bench import Cell, run_cells
-from agents.bench.runner import make_cell_agent, make_env, run_episode
+from track_apps.bench import Cell, run_cells
+from track_apps.bench.runner import make_cell_agent, make_env, run_episode
 
 CELLS = [
     *(Cell("BeltSorter-v0", "gnn", "kf-ca", s, steps=200) for s in range(4)),

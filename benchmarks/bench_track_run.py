@@ -39,8 +39,8 @@ from typing import Any
 import numpy as np
 
 from agents import make_agent
-from agents.cli.run import main as track_run
 from agents.files.points import packed_block, run_agent
+from track_apps.cli.run import main as track_run
 from track_envs.io.detections import (
     read_mot_detections,
     read_wide_detections,
@@ -242,7 +242,7 @@ def _rss_mb() -> float:
 def scale_stage(stage: str, folder: Path, n: int) -> dict[str, float]:
     """Run one ``stage`` on the files of the ``n``-detections stream in ``folder`` (written by
     the ``write-*`` stages); seconds and peak MB of the stage alone."""
-    from agents.cli.run import main as run_main
+    from track_apps.cli.run import main as run_main
     from track_envs.io.tracks import write_tracks
 
     det_mot, det_wide = folder / "det.txt", folder / "det.csv"
@@ -299,7 +299,7 @@ def _warm_up(stage: str, folder: Path) -> None:
         return
     run_agent("detections", small, spec, progress=False)
     if stage == "command":
-        from agents.cli.run import main as run_main
+        from track_apps.cli.run import main as run_main
 
         write_mot_detections(folder / "warm.txt", small, box_size=0.01)
         argv = [str(folder / "warm.txt"), "--agent=detections", "--dt=0.01", "--declared-noise-std=1e-4"]

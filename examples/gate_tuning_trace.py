@@ -18,8 +18,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-import agents.tuning
-from agents.tuning import FixedPolicy, episode_errors, knob_ranges
+import track_apps.tuning
+from track_apps.tuning import FixedPolicy, episode_errors, knob_ranges
 from track_envs.io import save_figure
 
 #: The best fixed setting of the 168-setting grid on training seeds 0-4 (docs/gate_tuning.md).
@@ -84,11 +84,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     env = gym.make("GateTuning-v0", episode_steps=args.steps)
     ranges = knob_ranges(env.unwrapped.knobs)  # type: ignore[attr-defined]
     policies: dict[str, Any] = {
-        "PPO": agents.tuning.load_policy(),
+        "PPO": track_apps.tuning.load_policy(),
         "best fixed": FixedPolicy(BEST_FIXED, ranges=ranges),
     }
     if args.table:
-        from agents.tuning import SensorInformedPolicy
+        from track_apps.tuning import SensorInformedPolicy
 
         policies["sensor-informed"] = SensorInformedPolicy(args.table)
     traces = {name: trace(env, policy, args.seed) for name, policy in policies.items()}

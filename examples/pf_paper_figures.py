@@ -2,7 +2,7 @@
 
 Jung, Schlangen, Charlish, "Sequential Monte Carlo Filtering with Long Short-Term Memory
 Prediction" (FUSION 2019), Sec. IV, on the scenes of SineTarget-v0 and PiecewiseTarget-v0, with the
-batched runs of :mod:`agents.reproductions.jung2019` (every Monte Carlo run of an experiment is one
+batched runs of :mod:`track_apps.reproductions.jung2019` (every Monte Carlo run of an experiment is one
 target of one batched filter per model; both filters see the same measurements):
 
 * Exp. 1 / Fig. 3 — example tracks on the sine and on the sine rotated by 45° (N = 100, p_d = 0.5,
@@ -37,7 +37,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.reproductions import jung2019 as exp
+from track_apps.reproductions import jung2019 as exp
 from track_envs.io import atomic_write, save_figure
 
 P_VALUES = np.round(np.arange(1, 11) * 0.1, 2)

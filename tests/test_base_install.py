@@ -52,7 +52,7 @@ except ModuleNotFoundError as exc:
 else:
     raise AssertionError("pose-smc ran without torch")
 
-from agents.cli import main
+from track_apps.cli import main
 
 assert main(["train", "lstm", "--env", "SineTarget-v0", "--episodes", "1", "--out", "unused"]) == 2
 """

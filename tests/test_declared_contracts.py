@@ -75,7 +75,7 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
     ("testing.py", "agent"): "track_envs.testing: the contract check of an agent's core methods",
     ("testing.py", "predictor"): "track_envs.testing: the contract check of a predictor's core",
     # knobs set and read by the names the capability declares
-    ("env.py", "self._knobbed"): "GateTuning-v0: the LIVE_KNOBS an agent declares, by knob name",
+    ("env.py", "self._knobbed"): "GateTuning-v0: the gnn tracker's live knobs, by knob name",
     ("env.py", "self.base.unwrapped"): "gymnasium env attributes",
     # not yet converted (files owned elsewhere): metrics' and predictor factories' traits
 }

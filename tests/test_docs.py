@@ -1,7 +1,7 @@
 """Every command README.md and docs/*.md show runs, and the docs site builds with ``mkdocs build --strict``.
 
 The fenced ```bash and ```python blocks are extracted and run in a temporary directory: ``track ...``
-(also ``.venv/bin/track``) through :func:`agents.cli.main`, ``python examples/X.py ...`` (also
+(also ``.venv/bin/track``) through :func:`track_apps.cli.main`, ``python examples/X.py ...`` (also
 ``.venv/bin/python``) through the example's ``main``, Python blocks as scripts. Long commands run
 with a small budget through the allow-listed :data:`SUBSTITUTIONS`; a command too expensive for the
 default suite (full suites, training, ``make demo``) is in :data:`SKIPPED` with the reason, and its
@@ -43,7 +43,7 @@ SUBSTITUTIONS: list[tuple[str, str]] = [
 
 #: Commands not run here (matched at the start of the command): the reason. Their flags are checked.
 SKIPPED: dict[str, str] = {
-    "make demo": "a venv and the quick suite (minutes); its cells run in tests/agents/bench",
+    "make demo": "a venv and the quick suite (minutes); its cells run in tests/track_apps/bench",
     "make test": "the whole test suite, this test included",
     "make bench-check": "timings (minutes, noisy): not part of the test suite",
     "source .venv/bin/activate": "shell set-up; the commands below run with the venv's python",
@@ -60,7 +60,9 @@ SKIPPED: dict[str, str] = {
     "track tune evaluate --seeds": "paired evaluations over 10-20 held-out seeds (tens of minutes)",
     "track tune sensor-grid": "a grid over sensor states (tens of minutes)",
     "track run sorter.csv": "a sorter recording of your own (the shipped sample runs in the next block)",
-    "track run det.txt": "illustrative name; the TUD-Campus recipe runs in tests/agents/test_run_boxes.py",
+    "track run det.txt": (
+        "illustrative name; the TUD-Campus recipe runs in tests/track_apps/cli/test_run_boxes.py"
+    ),
     "python examples/pf_paper_figures.py --runs 100": "14 min; its --quick run is in tests/test_examples.py",
     "python examples/gate_tuning_trace.py --table results/": "needs the sensor table of the grid above",
     "python benchmarks/okada2020_table.py": "needs the records of the okada2020 suite",
@@ -73,13 +75,13 @@ COVERED: dict[str, str] = {
     "track run recording.csv --dt 0.005 --out tracks.csv": "tests/agents/test_sensor_model.py",
     "track run track_envs/data/detections_sample.zip --time-column time --declared-noise-std 1e-4 "
     "--out tracks.csv --sorting-check line=0.35,cut=0.3": "tests/agents/test_sorting_check.py",
-    "DATA=$(python -c": "tests/agents/test_run_boxes.py",
-    "track run $DATA/test.txt": "tests/agents/test_run_boxes.py",
+    "DATA=$(python -c": "tests/track_apps/cli/test_run_boxes.py",
+    "track run $DATA/test.txt": "tests/track_apps/cli/test_run_boxes.py",
     "python examples/score_with_motmetrics.py $DATA/gt.txt": "tests/test_examples.py",
     "track run det.json --agent pose-baseline --gt gt.json --metrics --out tracks.json": (
-        "tests/agents/test_run_pose.py"
+        "tests/track_apps/cli/test_run_pose.py"
     ),
-    "track run video.json --agent pose-smc": "tests/agents/test_run_pose.py (slow)",
+    "track run video.json --agent pose-smc": "tests/track_apps/cli/test_run_pose.py (slow)",
 }
 
 #: Synopsis lines (``track bench run|list|...``) and the like: not commands.
@@ -161,7 +163,7 @@ def help_text(argv: list[str]) -> str:
 
 def run_argv(argv: list[str]) -> None:
     if argv[0] == "track":
-        from agents.cli import main
+        from track_apps.cli import main
 
         try:
             assert main(argv[1:]) == 0, argv

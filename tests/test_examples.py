@@ -75,9 +75,9 @@ def test_track_any_env_runs_every_family(tmp_path, capsys):
 def test_gate_tuning_trace_plays_the_policies_on_one_episode(tmp_path, capsys):
     import gymnasium as gym
 
-    from agents.tuning import FixedPolicy
-    from agents.tuning.evaluate import episode_errors
-    from agents.tuning.informed import SensorTable
+    from track_apps.tuning import FixedPolicy
+    from track_apps.tuning.evaluate import episode_errors
+    from track_apps.tuning.informed import SensorTable
 
     states = {"noise_std": (1e-4, 1e-3), "p_detect": (0.9,), "clutter_rate": (0.0,)}
     table = SensorTable(states, [{"p_gate": 0.9}], np.ones((2, 1, 1, 1)), (0,), 1).save(tmp_path / "t.json")

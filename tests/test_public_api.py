@@ -39,7 +39,6 @@ PUBLIC: dict[str, list[str]] = {
         "SensorModelEstimate",
         "agent_applies_to",
         "agent_capability",
-        "agent_is_ranked",
         "agent_traits",
         "available_agents",
         "available_associators",
@@ -52,7 +51,8 @@ PUBLIC: dict[str, list[str]] = {
         "run_episode",
         "run_pose_agent",
     ],
-    "agents.bench": [
+    "track_apps": [],
+    "track_apps.bench": [
         "Cell",
         "Group",
         "NO_PREDICTOR",
@@ -68,11 +68,11 @@ PUBLIC: dict[str, list[str]] = {
         "write_record",
         "write_report",
     ],
-    "agents.bench.claims": [
+    "track_apps.bench.claims": [
         "available_claims",
         "claims_module",
     ],
-    "agents.cli": [
+    "track_apps.cli": [
         "bench_alias",
         "build_parser",
         "main",
@@ -110,7 +110,7 @@ PUBLIC: dict[str, list[str]] = {
         "PoseTracker",
         "PoseTrackingOptions",
     ],
-    "agents.reproductions": [
+    "track_apps.reproductions": [
         "jung2019",
     ],
     "agents.sensor_model": [
@@ -146,7 +146,7 @@ PUBLIC: dict[str, list[str]] = {
         "make_associator",
         "register_associator",
     ],
-    "agents.tuning": [
+    "track_apps.tuning": [
         "ENV_ID",
         "FixedPolicy",
         "Knob",
@@ -454,7 +454,7 @@ PUBLIC: dict[str, list[str]] = {
 }
 
 #: The top-level packages whose every package is pinned in :data:`PUBLIC`.
-PINNED_ROOTS = ("track_envs", "predictors", "agents")
+PINNED_ROOTS = ("track_envs", "predictors", "agents", "track_apps")
 
 #: Top-level packages whose imports in examples and docs need only come from a package (not yet
 #: from a pinned name).
@@ -469,7 +469,7 @@ MODULE_IMPORTS_ALLOWED: dict[str, str] = {}
 SHADOWING_ALLOWED: dict[str, set[str]] = {
     "predictors": {"motion_models"},
     "track_envs.metrics": {"gospa"},
-    "agents.reproductions": {"jung2019"},  # the module is the public name
+    "track_apps.reproductions": {"jung2019"},  # the module is the public name
 }
 
 #: Modules importing ``track_envs`` and ``predictors`` must not load.

@@ -20,7 +20,7 @@ An agent whose tracks have covariances declares the ``TRACK_COVARIANCES`` capabi
 of its last report, in row order (the GNN tracker: its predictor's estimate); ``covariance=True``
 collects them.
 
-The command-line front end is ``track run`` (:mod:`agents.cli.run`).
+The command-line front end is ``track run`` (:mod:`track_apps.cli.run`).
 """
 
 from __future__ import annotations

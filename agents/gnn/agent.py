@@ -71,7 +71,7 @@ class GnnAgent(PointTracker):
 
     Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
     between frames of a running episode (each is checked, and the next frame uses it); this is
-    how GateTuning-v0 (:mod:`agents.tuning`) acts on the tracker.
+    how GateTuning-v0 (:mod:`track_apps.tuning`) acts on the tracker.
     """
 
     def __init__(

@@ -2,7 +2,7 @@
 their defaults and valid values.
 
 :class:`~agents.gnn.agent.GnnAgent` takes its defaults from here and checks a new value with
-:meth:`LiveKnob.check`; the gate tuning (:mod:`agents.tuning`) reads the same table for its
+:meth:`LiveKnob.check`; the gate tuning (:mod:`track_apps.tuning`) reads the same table for its
 action ranges and its fixed baselines, so neither restates a number of the other.
 """
 

@@ -122,7 +122,6 @@ class PointTracker:
             AgentCapability.WARM_UP,
             AgentCapability.TRACK_COVARIANCES,
             AgentCapability.LAST_PREDICTION,
-            AgentCapability.LIVE_KNOBS,
             AgentCapability.SENSOR_MODEL,
         }
     )

@@ -1,7 +1,7 @@
 """The registry of particle displacement models by name, and the factory the ``pf`` agent uses.
 
 ``make_agent("pf", model=NAME)`` and the experiments of Jung et al. (2019)
-(:mod:`agents.reproductions.jung2019`) build their displacement model with
+(:mod:`track_apps.reproductions.jung2019`) build their displacement model with
 :func:`make_displacement_model`: ``"brownian"`` (:class:`~predictors.displacement.models.Brownian`),
 ``"cv"`` (:class:`~predictors.displacement.models.ConstantVelocityDisplacement`) or ``"lstm"``
 (:class:`predictors.displacement_lstm.model.LSTMDisplacement`, the one learned model: it takes a

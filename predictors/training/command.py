@@ -1,7 +1,7 @@
 """What every training recipe's ``train(args)`` shares: the data its arguments name, the printed
 split, the :class:`~predictors.training.loop.TrainConfig` and the sidecar's ``training`` record.
 
-``args`` is the namespace of ``track train KIND`` (:mod:`agents.cli.train`): the data arguments
+``args`` is the namespace of ``track train KIND`` (:mod:`track_apps.cli.train`): the data arguments
 (``--env`` / ``--tracks`` / ``--sine`` and their options), the training arguments (``--epochs``,
 ``--lr``, ...) and ``args.command``, the command line as typed.
 """

@@ -5,7 +5,7 @@ it adds to the shared data and training arguments, and ``train(args)``, which tr
 on the data the arguments name, writes ``args.out`` (``.safetensors`` + ``.json``, see
 :mod:`predictors.training.model_file`), prints one summary line and returns the sidecar's path.
 Each learned family registers its recipes beside its predictor registration
-(:mod:`predictors`), so ``track train`` (:mod:`agents.cli.train`) lists whatever is registered
+(:mod:`predictors`), so ``track train`` (:mod:`track_apps.cli.train`) lists whatever is registered
 and a new learned family edits no command-line code::
 
     register_recipe("my-lstm", TrainingRecipe("my-lstm", "my model", train=train_my_lstm))
@@ -15,7 +15,7 @@ A family whose modules import torch registers the *name of the module* instead; 
 :mod:`predictors` stays free of torch.
 
 A recipe may run a post-training step that lives outside :mod:`predictors` (the ``lstm``
-covariance line search runs a tracker, :mod:`agents.lstm_line_search`): that module registers it
+covariance line search runs a tracker, :mod:`track_apps.lstm_line_search`): that module registers it
 with :func:`register_tuner`, and the recipe asks :func:`tuner_of` for it.
 """
 

@@ -305,7 +305,7 @@ def test_agents_are_typed_and_declare_their_traits():
 
 
 def test_the_gnn_defaults_are_the_tuning_defaults():
-    from agents.tuning.policy import FixedPolicy
+    from track_apps.tuning.policy import FixedPolicy
 
     agent = GnnAgent()
     assert {k: getattr(agent, k) for k in LIVE_KNOBS} == dict(FixedPolicy.GNN_DEFAULTS)

@@ -23,7 +23,6 @@ from agents.files.points import run_agent, takes_calibration
 from agents.particle.agent import BatchParticleFilter
 from agents.pose.tracker import PoseTracker
 from agents.sensor_model.estimate import FALLBACK_PREDICTOR, kinematics, tracking_model
-from agents.tuning.policy import FixedPolicy, PolicyCapability, SettingChooser, policy_capability
 from predictors import make_predictor
 from predictors.base import Capability, capability
 from predictors.displacement import (
@@ -34,6 +33,7 @@ from predictors.displacement import (
 )
 from predictors.kalman.predictor import _kinematic_model
 from predictors.pose import POSE_MOTION_DECLARATIONS, ConstantVelocityPose
+from track_apps.tuning.policy import FixedPolicy, PolicyCapability, SettingChooser, policy_capability
 from track_envs.infra.declared import Declarations, declared_value
 from track_envs.values.detections import Detections, detection_sensor_spec
 
@@ -115,7 +115,6 @@ def test_every_registered_agent_declares_what_its_consumers_ask():
         AgentCapability.WARM_UP,
         AgentCapability.TRACK_COVARIANCES,
         AgentCapability.LAST_PREDICTION,
-        AgentCapability.LIVE_KNOBS,
         AgentCapability.SENSOR_MODEL,
     }
     assert declared["gnn"] == declared["jpda"] == tracker

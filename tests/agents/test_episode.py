@@ -9,9 +9,9 @@ import pytest
 import agents
 import track_envs  # noqa: F401
 from agents import AgentCapability, AgentTraits, EpisodeResult, make_agent, run_episode
-from agents.bench.cells import Cell
-from agents.bench.runner import run_cell
 from agents.detections_agent import DetectionsAgent
+from track_apps.bench.cells import Cell
+from track_apps.bench.runner import run_cell
 from track_envs.wrappers import TrackingMetrics
 
 

@@ -10,10 +10,10 @@ import pytest
 
 import track_envs  # noqa: F401
 from agents import make_agent
-from agents.bench.cells import Cell
-from agents.bench.runner import run_cell
 from predictors import make_predictor
 from predictors.training.evaluate import one_step_predictions
+from track_apps.bench.cells import Cell
+from track_apps.bench.runner import run_cell
 
 
 def _episode(agent, frames=60, **env_kwargs):

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from agents.cli.run import main
 from agents.pose.gate import DEFAULT_AREA_FACTOR, MARGIN, needed_area_factor, pose_gate
+from track_apps.cli.run import main
 from track_envs.envs.pose_recording import record_keypoint_walkers
 from track_envs.io.poses import read_pose_file, write_coco_results, write_posetrack
 from track_envs.metrics.keypoints import COCO_SIGMAS

@@ -9,11 +9,11 @@ import inspect
 import pytest
 
 from agents import AGENTS, make_agent
-from agents.bench.cells import expand, load_suite
 from agents.pose.smc import PoseSmcAgent
 from agents.pose.tracker import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
 from predictors.pose import ConstantVelocityPose
 from predictors.pose_lstm.motion import SmcPoseMotion, SmcSettings
+from track_apps.bench.cells import expand, load_suite
 from track_envs.infra.registry import (
     UnknownArgumentError,
     keyword_parameters,

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from agents import make_agent
-from agents.cli import main as track_main
 from agents.files.points import run_agent
 from agents.sensor_model import estimate_sensor_model, run_warnings
 from agents.sensor_model.estimate import detection_labels, live_track_bound
 from agents.sensor_model.noise import design_matrix, estimate_noise
 from predictors.kalman.predictor import _kinematic_model
+from track_apps.cli import main as track_main
 from track_envs.io.detections import write_wide_detections
 from track_envs.metrics.track_scoring import score_tracks
 from track_envs.values.detections import Detections, detection_sensor_spec

@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.cli import main as track_main
 from agents.sensor_model import estimate_sensor_model
 from agents.sensor_model.detection import (
     MIN_P_DETECT,
@@ -22,6 +21,7 @@ from agents.sensor_model.detection import (
 )
 from agents.sensor_model.merging import box_size, closest_approaches, merge_extent
 from agents.sensor_model.summary import calibration_lines, write_sidecar
+from track_apps.cli import main as track_main
 from track_envs.infra.atomic import FileWriteError
 from track_envs.io.detections import write_wide_detections
 from track_envs.streams.constant_velocity import constant_velocity_stream

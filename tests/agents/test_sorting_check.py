@@ -13,9 +13,9 @@ import pytest
 
 import track_envs  # noqa: F401  (registers the envs)
 from agents import make_agent
-from agents.cli.run import main
 from agents.files.points import run_agent
 from agents.sorting.check import check_sorting, cut_stream
+from track_apps.cli.run import main
 from track_envs.envs.detection_replay import sample_detections_path
 from track_envs.io.crossings import read_crossings
 from track_envs.io.detections import write_wide_detections

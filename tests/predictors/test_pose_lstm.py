@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from agents.cli import train_alias as train_main
 from predictors.pose_lstm.predictor import PosePredictor, window_features
 from predictors.pose_lstm.training import PoseWindows, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig
 from predictors.training.model_file import load_model
+from track_apps.cli import train_alias as train_main
 
 
 def test_window_features_difference_visible_steps_and_attend_to_the_last_visible_one():

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 import torch
 
-from agents.cli import train_alias as train_main
 from predictors.pose_lstm.network import PosePredictorNet
 from predictors.pose_lstm.training import (
     PoseWindows,
@@ -19,6 +18,7 @@ from predictors.pose_lstm.training import (
     train_pose_model,
 )
 from predictors.training.loop import TrainConfig
+from track_apps.cli import train_alias as train_main
 
 
 def test_mean_squared_error_is_the_weighted_mean_over_sequences_of_half_the_summed_squares():

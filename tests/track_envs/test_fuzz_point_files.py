@@ -213,7 +213,7 @@ def test_every_valid_file_is_read(valid: dict[str, bytes], tmp_path: Path, name:
 
 
 def _track_run(argv: list[str]) -> tuple[int, str]:
-    from agents.cli.run import main
+    from track_apps.cli.run import main
 
     err = io.StringIO()
     with (

@@ -25,7 +25,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from agents.cli.run import main
+from track_apps.cli.run import main
 from track_envs.io.poses import PoseFileError, image_list, read_pose_file
 
 # repeated poses are read with a PoseFileWarning (tested in test_pose_file_checks)

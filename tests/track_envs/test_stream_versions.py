@@ -1,6 +1,6 @@
 """Streams are versioned: what every registered env id emits is pinned by a digest.
 
-For every id (the ids of ``track_envs`` and GateTuning-v0 of ``agents.tuning``) and two seeds,
+For every id (the ids of ``track_envs`` and GateTuning-v0 of ``track_apps.tuning``) and two seeds,
 :func:`track_envs.testing.stream_digest` hashes the first :data:`STEPS` steps (fewer where the
 episode ends earlier: GateTuning-v0 ends after 100 steps of 10 tracked frames each):
 observations, rewards, ``terminated`` / ``truncated`` and the truth side of ``info``. The
@@ -27,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import agents.tuning
+import track_apps.tuning
 import track_envs
 from track_envs.testing import stream_digest
 
@@ -37,8 +37,8 @@ SEEDS = (0, 1)
 STEPS = 200
 #: ``info`` entries hashed where they differ from the default (GateTuning-v0 has no truth rows:
 #: its truth side is the error count and the true sensor values).
-INFO_KEYS = {agents.tuning.ENV_ID: ("knobs", "association_errors", "frames", "sensor")}
-ENV_IDS = (*track_envs.ENV_IDS, agents.tuning.ENV_ID)
+INFO_KEYS = {track_apps.tuning.ENV_ID: ("knobs", "association_errors", "frames", "sensor")}
+ENV_IDS = (*track_envs.ENV_IDS, track_apps.tuning.ENV_ID)
 
 
 def digest(env_id: str, seed: int) -> str:
