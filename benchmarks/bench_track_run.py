@@ -39,7 +39,8 @@ from typing import Any
 import numpy as np
 
 from agents import make_agent
-from agents.files.points import packed_block, run_agent
+from agents.files.loop import packed_block
+from agents.files.points import run_agent
 from track_apps.cli.run import main as track_run
 from track_envs.io.detections import (
     read_mot_detections,

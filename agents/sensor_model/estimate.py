@@ -45,6 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import make_agent
+from agents.files.loop import track_detections
 from agents.sensor_model.coasting import coasting_radii, reappearance_gaps
 from agents.sensor_model.detection import DetectionModel, detection_model
 from agents.sensor_model.diagnostics import count_distinct
@@ -356,9 +358,6 @@ def _run_gnn(
     agent_kwargs: Mapping[str, Any],
 ) -> Tracks:
     """One tracking run of the gnn with ``settings`` (the stream and settings already normalised)."""
-    from agents import make_agent
-    from agents.files.points import run_agent
-
     name, kinematic = tracking_model(predictor)
     model = MODEL_NAMES[kinematic.order]
     kwargs: dict[str, Any] = {"q": settings.q}
@@ -377,7 +376,7 @@ def _run_gnn(
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a report grown in a trial run says nothing
-        return run_agent(agent, detections, run_spec, seed=0)
+        return track_detections(agent, detections, run_spec, seed=0)  # type: ignore[return-value]
 
 
 def estimate_sensor_model(

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.base import make_agent
 from track_envs.io.crossings import PredictedCrossings
 from track_envs.metrics.crossing_check import (
     LATERAL_TOLERANCE,
@@ -156,10 +157,9 @@ def check_sorting(
     line, cut = check_line_and_cut(spec, line, cut)
     check_tolerances(lateral_tolerance, time_tolerance, min_seen)
     if isinstance(agent, str):
-        from agents import make_agent
-
         agent = make_agent(agent)
-    # (imported here: the file engine itself collects predictions with agents.sorting)
+    # (imported here, not at the top: the file engine collects predictions with agents.sorting,
+    # whose package imports this module)
     from agents.files.points import run_agent
 
     if reference is None:

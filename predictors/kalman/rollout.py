@@ -18,16 +18,34 @@ numbers, without a predictor call per frame.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from predictors.base import Crossings
 from predictors.kalman._kernels import kalman_crossings_kernel
 
-if TYPE_CHECKING:
-    from predictors.kalman.predictor import KalmanPredictor, KalmanState
+
+class LinearGaussianModel(Protocol):
+    """What the closed-form roll-out reads of a Kalman filter
+    (:class:`~predictors.kalman.predictor.KalmanPredictor`): its transition ``F`` (S, S), process
+    noise ``Q`` (S, S) and measurement matrix ``H`` (D, S)."""
+
+    F: NDArray[Any]
+    Q: NDArray[Any]
+    H: NDArray[Any]
+
+
+class GaussianStates(Protocol):
+    """What it reads of a batch of Kalman tracks
+    (:class:`~predictors.kalman.predictor.KalmanState`): means (k, S) and covariances (k, S, S)."""
+
+    @property
+    def mean(self) -> ArrayLike: ...
+
+    @property
+    def cov(self) -> ArrayLike: ...
 
 
 @lru_cache(maxsize=16)
@@ -49,8 +67,8 @@ def _powers(
 
 
 def kalman_crossings(
-    predictor: KalmanPredictor,
-    state: KalmanState,
+    predictor: LinearGaussianModel,
+    state: GaussianStates,
     line: float,
     frame: int,
     dt: float,

@@ -24,10 +24,8 @@ import torch
 from numpy.typing import NDArray
 from torch import nn
 
-from predictors.pose_lstm.predictor import LEAKY_SLOPE, LOG_SIGMA_RANGE
+from predictors.pose_lstm.architecture import LEAKY_SLOPE, LOG_SIGMA_RANGE
 
-#: The model kind of the pose predictor in a model file.
-KIND = "pose-lstm"
 #: LSTM units (Okada et al. 2020, Fig. 4).
 HIDDEN = 64
 #: Hidden units of the fully-connected block.

@@ -29,11 +29,11 @@ from numpy.typing import NDArray
 
 from predictors.lstm_cell import FusedLSTMCell, LSTMCellWeights
 from predictors.ordered_product import dropout_rows_product, ordered_product
+from predictors.pose_lstm.architecture import KIND, LEAKY_SLOPE, LOG_SIGMA_RANGE
 from predictors.pose_lstm.prefix_tree import PrefixTree
 from predictors.training.model_file import ModelFile, load_model, require_shapes
 from track_envs.infra.compiled import njit
 
-KIND = "pose-lstm"
 #: The displacement scale as a fraction of the region height.
 SCALE_PER_HEIGHT = 1.0 / 72.0
 
@@ -128,12 +128,6 @@ def dropout_masks(rng: np.random.Generator, rows: int, units: int, dropout: floa
     keep = np.float32(1.0 - dropout)
     kept = dropout_fields(rng, rows, units) < keep_threshold(dropout)
     return (kept / keep).astype(np.float32, copy=False)
-
-
-#: The negative slope of the FC block's leaky ReLU (torch's default).
-LEAKY_SLOPE = 0.01
-#: Bounds of the predicted ``log σ`` (scaled units), for a finite loss.
-LOG_SIGMA_RANGE = (-6.0, 4.0)
 
 
 @dataclass(frozen=True)

@@ -13,12 +13,13 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
-from agents import available_agents, make_agent
+from agents import available_agents
 from agents.base import agent_takes_predictor, warm_up
 from agents.files.kinds import check_file_agent
 from agents.files.points import run_agent
 from predictors import available_predictors
 from track_apps.cli import arguments, run_pose, sensor_model, sorting
+from track_apps.cli.run_shared import build_agent, format_metrics
 
 if TYPE_CHECKING:
     from track_envs.values.detections import Detections
@@ -242,24 +243,6 @@ def _read_options(args: argparse.Namespace, fmt: str) -> dict[str, Any]:
         "time_column": args.time_column,
         "xy_columns": args.xy_columns,
     }
-
-
-def build_agent(name: str, predictor: str | None, kwargs: dict[str, Any]) -> Any:
-    """``make_agent(name, predictor=..., **kwargs)`` (``--predictor`` for an agent without one: an error)."""
-    takes = agent_takes_predictor(name)
-    if predictor is not None and not takes:
-        raise ValueError(f"agent {name!r} takes no predictor; drop --predictor")
-    if takes:
-        kwargs = {"predictor": predictor or "kf-ca"} | kwargs
-    return make_agent(name, **kwargs)
-
-
-def format_metrics(metrics: dict[str, float]) -> str:
-    """A two-column table of the metrics."""
-    width = max(map(len, metrics), default=6)
-    rows = [f"{'metric':<{width}}  value", f"{'-' * width}  {'-' * 12}"]
-    rows += [f"{k:<{width}}  {v:.6g}" for k, v in metrics.items()]
-    return "\n".join(rows)
 
 
 def run(args: argparse.Namespace) -> int:

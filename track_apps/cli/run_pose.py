@@ -48,7 +48,7 @@ def run_poses(args: argparse.Namespace) -> int:
     """Read a pose file, track it with a pose agent, write PoseTrack results, score against --gt."""
     from agents.files.poses import run_pose_agent
     from agents.pose.diagnostics import pose_run_warnings
-    from track_apps.cli.run import build_agent, format_metrics
+    from track_apps.cli.run_shared import build_agent, format_metrics
     from track_envs.infra.atomic import check_writable
     from track_envs.io.poses import write_posetrack
     from track_envs.metrics.pose_scoring import score_poses

@@ -206,7 +206,7 @@ def test_the_example_records_tracks_and_scores_a_detection_file(tmp_path, capsys
 
 
 def test_a_block_of_the_loop_holds_a_bounded_number_of_rows():
-    from agents.files.points import BLOCK_ROWS, MAX_BLOCK_FRAMES, block_frames
+    from agents.files.loop import BLOCK_ROWS, MAX_BLOCK_FRAMES, block_frames
 
     def spec(max_detections: int, max_tracks: int) -> SensorSpec:
         return SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), max_detections, max_tracks)
@@ -218,13 +218,13 @@ def test_a_block_of_the_loop_holds_a_bounded_number_of_rows():
 
 
 def test_the_loop_gives_the_same_tracks_whatever_its_blocks(monkeypatch):
-    import agents.files.points as points
+    import agents.files.loop as loop
 
     rng = np.random.default_rng(2)
     frames = [rng.uniform(0, 1, (rng.integers(0, 30), 2)) for _ in range(50)]
     spec = SensorSpec(0.01, 2, 1e-3, 1.0, 0.0, (0.0, 0.0), (1.0, 1.0), 40, 200)
     whole = run_agent(make_agent("gnn", predictor="kf-cv"), frames, spec, seed=0, covariance=True)
-    monkeypatch.setattr(points, "BLOCK_ROWS", 1)  # one frame a block
+    monkeypatch.setattr(loop, "BLOCK_ROWS", 1)  # one frame a block
     split = run_agent(make_agent("gnn", predictor="kf-cv"), frames, spec, seed=0, covariance=True)
     assert split.equals(whole) and np.array_equal(split.detection, whole.detection)
 
