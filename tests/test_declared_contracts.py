@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("agents", "predictors", "track_envs")
+PACKAGES = ("agents", "predictors", "track_envs", "track_apps")
 #: The one module that reads declarations.
 DECLARATION_MODULE = "track_envs/infra/declared.py"
 
@@ -69,7 +69,6 @@ ALLOWED_PROBES: dict[tuple[str, str], str] = {
     # argparse namespaces: options another command's parser may not define
     ("run_pose.py", "args"): "argparse Namespace of track run: sorting options of the point parser",
     ("run.py", "args"): "argparse Namespace: argv set by main(), absent when run(args) is called",
-    ("command.py", "args"): "argparse Namespace: options of some training kinds only",
     # the core check of a plug-in (every protocol method present), in the registries
     ("registry.py", "obj"): "track_envs.infra.registry.missing_methods: the core methods of a protocol",
     ("testing.py", "agent"): "track_envs.testing: the contract check of an agent's core methods",

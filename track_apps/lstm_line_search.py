@@ -9,14 +9,12 @@ search picks its scale on them) with ``gnn`` (:func:`agents.episode.run_episode`
 with the lowest mean e_mean (ties: the one nearest ``s₀``) is written back to the model file,
 with the whole search in ``training.tuning`` (:func:`line_search`).
 
-It runs a tracker, so it lives in :mod:`agents`; importing this module registers it as the
-post-training step of ``lstm`` (:func:`predictors.training.recipes.register_tuner`), which the
-belt LSTM recipe runs after training.
+It runs a tracker, so it is no part of the belt LSTM recipe in :mod:`predictors`: ``track train
+lstm`` (:mod:`track_apps.cli.train`) runs the recipe, then :func:`lstm_tuner` on the file it wrote.
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import os
 from collections.abc import Sequence
@@ -25,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from predictors.training.recipes import register_tuner
+from predictors.training.settings import TrainingSettings
 
 #: Factors of ``s₀`` the line search tries.
 FACTORS = tuple(float(f) for f in np.logspace(-1, 2, 7))
@@ -93,7 +91,7 @@ def line_search(
     }
 
 
-def lstm_tuner(model_path: Path, args: argparse.Namespace) -> dict[str, Any]:
+def lstm_tuner(model_path: Path, settings: TrainingSettings) -> dict[str, Any]:
     """``track train lstm``'s post-training step: the line search on validation episodes.
 
     Validation data (not trained on; the search picks the scale on them): env episodes with seeds
@@ -103,16 +101,14 @@ def lstm_tuner(model_path: Path, args: argparse.Namespace) -> dict[str, Any]:
     """
     from predictors.belt_lstm.training import check_noise_std
 
-    noise = max(check_noise_std(args.added_noise_std)[1], 1e-4)
-    if args.env:
-        env_id, env_kwargs = args.env, {**args.env_kwargs, "noise_std": noise}
-        first = args.data_seed + args.episodes + 100
+    data = settings.data
+    noise = max(check_noise_std(data.added_noise_std)[1], 1e-4)
+    if data.env:
+        env_id, env_kwargs = data.env, {**data.env_kwargs, "noise_std": noise}
+        first = data.data_seed + data.episodes + 100
         seeds, steps = [first, first + 1], 1000
     else:
-        env_id, env_kwargs = "BeltReplay-v0", {"path": args.tracks, "dt": args.dt, "noise_std": noise}
+        env_id, env_kwargs = "BeltReplay-v0", {"path": data.tracks, "dt": data.dt, "noise_std": noise}
         seeds, steps = [0], None
     print(f"lstm: line search of the covariance scale on {env_id} (noise {noise:g}) ...")
     return line_search(model_path, env_id=env_id, env_kwargs=env_kwargs, seeds=seeds, steps=steps)
-
-
-register_tuner("lstm", lstm_tuner)

@@ -4,7 +4,6 @@ statistics (:mod:`predictors.belt_lstm.model_stats`)."""
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import time
 from pathlib import Path
@@ -13,7 +12,8 @@ from predictors.belt_lstm.network import HEAD_OUTPUTS
 from predictors.belt_lstm.training import to_model_file, train_belt_model
 from predictors.training.data import TrackSplit
 from predictors.training.loop import TrainConfig
-from predictors.training.recipes import TrainingRecipe, tuner_of
+from predictors.training.recipes import TrainingRecipe
+from predictors.training.settings import TrainingSettings
 
 #: ``track train KIND``'s one-line help of each belt LSTM kind.
 HELP = {
@@ -30,11 +30,11 @@ def recipe(kind: str) -> TrainingRecipe:
     return TrainingRecipe(kind, HELP[kind], train=train_command)
 
 
-def train_command(args: argparse.Namespace) -> Path:
-    """``track train lstm | nll-lstm | mc-lstm``: train ``args.model`` on the data ``args`` names,
-    compute its calibration, MC statistics and test metrics, run the kind's post-training step
-    (:func:`~predictors.training.recipes.tuner_of`: ``lstm``'s covariance line search) and write
-    ``args.out``; returns the sidecar's path.
+def train_command(settings: TrainingSettings) -> Path:
+    """``track train lstm | nll-lstm | mc-lstm``: train ``settings.kind`` on the data ``settings``
+    names, compute its calibration, MC statistics and test metrics and write ``settings.out``;
+    returns the sidecar's path. (``lstm``'s covariance scale is chosen afterwards, by a line search
+    that runs a tracker: ``track train lstm`` runs it on the written file.)
 
     Raises:
         ValueError: ``--dropout`` or ``--dropout-grid`` for a kind other than ``mc-lstm``, bad
@@ -43,31 +43,32 @@ def train_command(args: argparse.Namespace) -> Path:
     from predictors.belt_lstm.model_stats import model_statistics
     from predictors.training.command import load_data, print_split, train_config, training_record, with_meta
     from predictors.training.data import split_tracks
-    from predictors.training.model_file import load_model, save_model
+    from predictors.training.model_file import save_model
 
     start = time.perf_counter()
-    data = load_data(args)
-    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
-    s = print_split(len(data), split, args.min_length)
-    config = train_config(args)
-    if args.dropout is not None and args.model != "mc-lstm":
-        raise ValueError(f"--dropout is for mc-lstm and displacement-lstm, not {args.model}")
-    dropout = (0.002 if args.dropout is None else args.dropout) if args.model == "mc-lstm" else 0.0
+    data = load_data(settings.data)
+    split = split_tracks(data, seed=settings.seed, min_length=settings.data.min_length)
+    s = print_split(len(data), split, settings.data.min_length)
+    config = train_config(settings)
+    if settings.dropout is not None and settings.kind != "mc-lstm":
+        raise ValueError(f"--dropout is for mc-lstm and displacement-lstm, not {settings.kind}")
+    dropout = (0.002 if settings.dropout is None else settings.dropout) if settings.kind == "mc-lstm" else 0.0
     grid = None
-    if args.dropout_grid is not None:
-        if args.model != "mc-lstm":
-            raise ValueError(f"--dropout-grid is for mc-lstm, not {args.model}")
-        dropout, grid = _grid_search(args, split, config)
+    if settings.dropout_grid is not None:
+        if settings.kind != "mc-lstm":
+            raise ValueError(f"--dropout-grid is for mc-lstm, not {settings.kind}")
+        dropout, grid = _grid_search(settings, split, config)
     net, features, history = train_belt_model(
-        args.model,
+        settings.kind,
         split,
         config,
         dropout=dropout,
-        noise_std=args.added_noise_std,
-        progress=not args.no_progress,
+        noise_std=settings.data.added_noise_std,
+        progress=settings.progress,
     )
-    stats = model_statistics(net, features, split, noise_std=args.added_noise_std, seed=args.seed)
-    training = training_record(args, config, history, noise_std=args.added_noise_std)
+    noise = settings.data.added_noise_std
+    stats = model_statistics(net, features, split, noise_std=noise, seed=settings.seed)
+    training = training_record(settings, config, history, noise_std=settings.data.added_noise_std)
     if grid is not None:
         training["dropout_grid"] = grid
     model = to_model_file(
@@ -79,13 +80,8 @@ def train_command(args: argparse.Namespace) -> Path:
         data={**dict(data.description), **s},
         metrics=stats["metrics"],
     )
-    tensor_path, sidecar_path = save_model(args.out, model)
-    tune = tuner_of(args.model)
-    if tune is not None:
-        training["tuning"] = tune(sidecar_path, args)
-        model = load_model(sidecar_path)
     training["wall_time_s"] = round(time.perf_counter() - start, 1)
-    save_model(args.out, with_meta(model, training=training))
+    tensor_path, sidecar_path = save_model(settings.out, with_meta(model, training=training))
     m = stats["metrics"]
     print(
         f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean per-track "
@@ -95,20 +91,22 @@ def train_command(args: argparse.Namespace) -> Path:
 
 
 def _grid_search(
-    args: argparse.Namespace, split: TrackSplit, config: TrainConfig
+    settings: TrainingSettings, split: TrackSplit, config: TrainConfig
 ) -> tuple[float, list[dict[str, float]]]:
     """``--dropout-grid``: short runs per rate, printed; the rate of the best validation
     predictive log-likelihood and the grid."""
     from predictors.belt_lstm.model_stats import dropout_grid
 
+    text = settings.dropout_grid
     try:
-        rates = [float(r) for r in args.dropout_grid.split(",") if r.strip()]
+        rates = [float(r) for r in str(text).split(",") if r.strip()]
     except ValueError:
-        raise ValueError(f"--dropout-grid must be comma-separated rates, got {args.dropout_grid!r}") from None
+        raise ValueError(f"--dropout-grid must be comma-separated rates, got {text!r}") from None
     if not rates or not all(0 < r < 1 for r in rates):
-        raise ValueError(f"--dropout-grid rates must be in (0, 1), got {args.dropout_grid!r}")
-    short = dataclasses.replace(config, epochs=args.grid_epochs, decay_every=max(1, args.grid_epochs // 5))
-    grid = dropout_grid(split, rates, short, noise_std=args.added_noise_std, seed=args.seed)
+        raise ValueError(f"--dropout-grid rates must be in (0, 1), got {text!r}")
+    epochs = settings.grid_epochs
+    short = dataclasses.replace(config, epochs=epochs, decay_every=max(1, epochs // 5))
+    grid = dropout_grid(split, rates, short, noise_std=settings.data.added_noise_std, seed=settings.seed)
     print("dropout grid (validation predictive log-likelihood, mean error):")
     for row in grid:
         ll, err = row["validation_log_likelihood"], row["validation_mean_error"]

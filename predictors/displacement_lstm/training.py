@@ -22,7 +22,6 @@ displacement-lstm``, :func:`train_command` runs it.
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 from typing import Any
@@ -39,6 +38,7 @@ from predictors.training.data import TrackSet, TrackSplit, pad_tracks
 from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 from predictors.training.model_file import ModelFile
 from predictors.training.recipes import TrainingRecipe
+from predictors.training.settings import TrainingSettings
 
 FloatArray = NDArray[np.float64]
 
@@ -171,43 +171,43 @@ def recipe(kind: str = KIND) -> TrainingRecipe:
     return TrainingRecipe(KIND, HELP, train=train_command)
 
 
-def train_command(args: argparse.Namespace) -> Path:
-    """``track train displacement-lstm``: train on the data ``args`` names (with ``--added-noise-std``:
-    one seeded noisy copy of each part of the split), compute the test metrics and write
-    ``args.out``; returns the sidecar's path."""
+def train_command(settings: TrainingSettings) -> Path:
+    """``track train displacement-lstm``: train on the data ``settings`` names (with an added noise
+    std: one seeded noisy copy of each part of the split), compute the test metrics and write
+    ``settings.out``; returns the sidecar's path."""
     from predictors.belt_lstm.training import noisy_tracks
     from predictors.training.command import load_data, print_split, train_config, training_record
     from predictors.training.data import split_tracks
     from predictors.training.model_file import save_model
 
     start = time.perf_counter()
-    data = load_data(args)
-    split = split_tracks(data, seed=args.seed, min_length=args.min_length)
-    if args.added_noise_std != 0.0:  # one noisy copy per part, seeded
+    data = load_data(settings.data)
+    split = split_tracks(data, seed=settings.seed, min_length=settings.data.min_length)
+    if settings.data.added_noise_std != 0.0:  # one noisy copy per part, seeded
         split = TrackSplit(
-            noisy_tracks(split.train, args.added_noise_std, args.seed),
-            noisy_tracks(split.validation, args.added_noise_std, args.seed + 1),
-            noisy_tracks(split.test, args.added_noise_std, args.seed + 2),
+            noisy_tracks(split.train, settings.data.added_noise_std, settings.seed),
+            noisy_tracks(split.validation, settings.data.added_noise_std, settings.seed + 1),
+            noisy_tracks(split.test, settings.data.added_noise_std, settings.seed + 2),
             split.dropped,
             split.min_length,
         )
-    s = print_split(len(data), split, args.min_length)
-    config = train_config(args)
-    dropout = 0.25 if args.dropout is None else args.dropout
-    step = args.sine_step if args.sine else args.data_step
+    s = print_split(len(data), split, settings.data.min_length)
+    config = train_config(settings)
+    dropout = 0.25 if settings.dropout is None else settings.dropout
+    step = settings.data.sine_step if settings.data.sine else settings.data.data_step
     net, features, history = train_displacement_model(
-        split, config, hidden=args.hidden, dropout=dropout, step=step, progress=not args.no_progress
+        split, config, hidden=settings.hidden, dropout=dropout, step=step, progress=settings.progress
     )
     test = split.test if len(split.test) else split.validation if len(split.validation) else split.train
     metrics = displacement_metrics(
         DisplacementLSTM.from_model_file(to_model_file(net, features)), test.tracks
     )
-    training = training_record(args, config, history, noise_std=args.added_noise_std)
+    training = training_record(settings, config, history, noise_std=settings.data.added_noise_std)
     training["wall_time_s"] = round(time.perf_counter() - start, 1)
     model = to_model_file(
         net, features, training=training, data={**dict(data.description), **s}, metrics=metrics
     )
-    tensor_path, sidecar_path = save_model(args.out, model)
+    tensor_path, sidecar_path = save_model(settings.out, model)
     print(
         f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: one-step position "
         f"error {metrics['test_mean_error']:.3g}, rotation RMSE {metrics['test_rotation_rmse']:.3g} rad, "

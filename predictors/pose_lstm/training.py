@@ -32,7 +32,6 @@ pose-lstm``, :func:`train_command` runs it.
 
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +46,7 @@ from predictors.pose_lstm.predictor import KIND, SCALE_PER_HEIGHT, window_featur
 from predictors.training.loop import History, LossFn, TrainConfig, fit, seeded_init, trained_model_file
 from predictors.training.model_file import ModelFile
 from predictors.training.recipes import TrainingRecipe
+from predictors.training.settings import RecipeOption, TrainingSettings
 
 
 @dataclass(frozen=True)
@@ -329,24 +329,23 @@ def recipe(kind: str = KIND) -> TrainingRecipe:
     """The training recipe of the pose predictor (``track train pose-lstm``, with ``--loss``)."""
     if kind != KIND:
         raise ValueError(f"unknown pose predictor kind {kind!r}; valid names are {[KIND]}")
-    return TrainingRecipe(KIND, HELP, train=train_command, add_arguments=add_arguments)
+    return TrainingRecipe(KIND, HELP, train=train_command, options=(LOSS_OPTION,))
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--loss``: the pose predictor's loss (:data:`LOSSES`)."""
-    parser.add_argument(
-        "--loss",
-        choices=LOSSES,
-        default="nll",
-        help="nll: the Gaussian negative log-likelihood of eq. (8), mu and sigma learnt "
-        "(default); mse: the squared error of mu alone (sigma is then the model file's "
-        "fixed_sigma, the validation RMS residual)",
-    )
+#: ``--loss``: the pose predictor's loss (:data:`LOSSES`).
+LOSS_OPTION = RecipeOption(
+    "loss",
+    "nll",
+    "nll: the Gaussian negative log-likelihood of eq. (8), mu and sigma learnt "
+    "(default); mse: the squared error of mu alone (sigma is then the model file's "
+    "fixed_sigma, the validation RMS residual)",
+    choices=LOSSES,
+)
 
 
-def train_command(args: argparse.Namespace) -> Path:
-    """``track train pose-lstm``: train on windows of a keypoint env's episodes (``--env``), compute
-    the test metrics and write ``args.out``; returns the sidecar's path.
+def train_command(settings: TrainingSettings) -> Path:
+    """``track train pose-lstm``: train on windows of a keypoint env's episodes (the data's
+    ``env``), compute the test metrics and write ``settings.out``; returns the sidecar's path.
 
     Raises:
         ValueError: no ``--env`` (the predictor trains on a keypoint env's detections and truth).
@@ -354,41 +353,43 @@ def train_command(args: argparse.Namespace) -> Path:
     from predictors.training.command import train_config, training_record
     from predictors.training.model_file import save_model
 
-    if not args.env:
+    data_settings = settings.data
+    loss = settings.options.get("loss", LOSS_OPTION.default)
+    if not data_settings.env:
         raise ValueError(
             "pose-lstm trains on a keypoint env's detections and truth; pass --env KeypointWalkers-v0"
         )
     start = time.perf_counter()
-    window = 15 if args.window is None else args.window
+    window = 15 if data_settings.window is None else data_settings.window
     data = pose_windows_from_env(
-        args.env,
-        episodes=args.episodes,
-        seed=args.data_seed,
-        steps=args.steps,
+        data_settings.env,
+        episodes=data_settings.episodes,
+        seed=data_settings.data_seed,
+        steps=data_settings.steps,
         window=window,
-        **args.env_kwargs,
+        **data_settings.env_kwargs,
     )
-    train, validation, test = data.split(args.seed)
+    train, validation, test = data.split(settings.seed)
     s = {"train_windows": len(train), "validation_windows": len(validation), "test_windows": len(test)}
     print(f"{len(data)} pose windows of {len(np.unique(data.person))} people: {s}")
-    config = train_config(args)
-    dropout = 0.3 if args.dropout is None else args.dropout
+    config = train_config(settings)
+    dropout = 0.3 if settings.dropout is None else settings.dropout
     net, history = train_pose_model(
         train,
         validation,
         config,
         dropout=dropout,
-        min_window=args.min_window,
-        loss=args.loss,
-        progress=not args.no_progress,
+        min_window=settings.min_window,
+        loss=loss,
+        progress=settings.progress,
     )
     metrics = pose_metrics(net, validation, test, min(10, window))
-    training = training_record(args, config, history, min_window=args.min_window, loss=args.loss)
+    training = training_record(settings, config, history, min_window=settings.min_window, loss=loss)
     training["wall_time_s"] = round(time.perf_counter() - start, 1)
     model = to_model_file(
         net, SCALE_PER_HEIGHT, training=training, data={**data.description, **s}, metrics=metrics
     )
-    tensor_path, sidecar_path = save_model(args.out, model)
+    tensor_path, sidecar_path = save_model(settings.out, model)
     print(
         f"wrote {tensor_path} and {sidecar_path} in {training['wall_time_s']:.0f} s; test: mean error "
         f"{metrics['test_mean_error_px']:.3g} px (last visible coordinate: "

@@ -4,8 +4,9 @@
   train / validation / test split by track, padding;
 * :mod:`predictors.training.loop` — the seeded Adam loop every learned model trains with;
 * :mod:`predictors.training.recipes` — the training recipes by model kind (``track train KIND``),
-  each registered beside its family's predictor; :mod:`predictors.training.command` — what every
-  recipe's ``train(args)`` shares (data from the arguments, the config, the sidecar's record);
+  each registered beside its family's predictor, trained with typed settings
+  (:mod:`predictors.training.settings`); :mod:`predictors.training.command` — what every
+  recipe's ``train(settings)`` shares (data from the settings, the config, the sidecar's record);
 * :mod:`predictors.belt_lstm.training` — losses and data of the belt LSTMs;
 * :mod:`predictors.displacement_lstm.training` — the sine data, loss and metrics of the displacement
   LSTM of the LSTM particle filter.
@@ -45,10 +46,9 @@ if TYPE_CHECKING:
         TrainingRecipe,
         available_recipes,
         register_recipe,
-        register_tuner,
         training_recipe,
-        tuner_of,
     )
+    from predictors.training.settings import DataSettings, RecipeOption, TrainingSettings
 
 #: The module of each name loaded on first access (``__getattr__``), so that importing
 #: the package stays light.
@@ -79,22 +79,26 @@ _LAZY: dict[str, str] = {
     "TrainingRecipe": "predictors.training.recipes",
     "available_recipes": "predictors.training.recipes",
     "register_recipe": "predictors.training.recipes",
-    "register_tuner": "predictors.training.recipes",
     "training_recipe": "predictors.training.recipes",
-    "tuner_of": "predictors.training.recipes",
+    "DataSettings": "predictors.training.settings",
+    "RecipeOption": "predictors.training.settings",
+    "TrainingSettings": "predictors.training.settings",
 }
 
 __all__ = [
     "RECIPES",
+    "DataSettings",
     "History",
     "ModelFile",
     "ModelFileError",
     "OneStepResult",
     "Recalibration",
+    "RecipeOption",
     "TrackSet",
     "TrackSplit",
     "TrainConfig",
     "TrainingRecipe",
+    "TrainingSettings",
     "available_recipes",
     "fit",
     "fit_recalibration",
@@ -103,7 +107,6 @@ __all__ = [
     "one_step_predictions",
     "pad_tracks",
     "register_recipe",
-    "register_tuner",
     "require_shapes",
     "save_model",
     "seeded_init",
@@ -113,7 +116,6 @@ __all__ = [
     "tracks_from_positions",
     "trained_model_file",
     "training_recipe",
-    "tuner_of",
 ]
 
 

@@ -1,16 +1,17 @@
-"""What every training recipe's ``train(args)`` shares: the data its arguments name, the printed
+"""What every training recipe's ``train(settings)`` shares: the data its settings name, the printed
 split, the :class:`~predictors.training.loop.TrainConfig` and the sidecar's ``training`` record.
 
-``args`` is the namespace of ``track train KIND`` (:mod:`track_apps.cli.train`): the data arguments
-(``--env`` / ``--tracks`` / ``--sine`` and their options), the training arguments (``--epochs``,
-``--lr``, ...) and ``args.command``, the command line as typed.
+The settings (:mod:`predictors.training.settings`): the data (an env's truth, a track file or the
+sine, and their options), the training loop's settings and the command, as typed (``track
+train KIND ...``, :mod:`track_apps.cli.train`, builds them from its arguments).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from typing import TYPE_CHECKING, Any
+
+from predictors.training.settings import DataSettings, TrainingSettings
 
 if TYPE_CHECKING:
     from predictors.training.data import TrackSet
@@ -18,33 +19,33 @@ if TYPE_CHECKING:
     from predictors.training.model_file import ModelFile
 
 
-def load_data(args: argparse.Namespace) -> TrackSet:
-    """The tracks named by the data arguments (``--env ...``, ``--sine`` or ``--tracks FILE --dt DT``),
-    cut into ``--window`` frames every ``--stride`` where asked (``--sine``: 128 by default).
+def load_data(data: DataSettings) -> TrackSet:
+    """The tracks ``data`` names (an env's truth, the sine, or a track file with its ``dt``), cut
+    into ``window`` frames every ``stride`` where asked (the sine: 128 by default).
 
     Raises:
         ValueError: ``--tracks`` without ``--dt``.
     """
     from predictors.training.data import sine_tracks, tracks_from_env, tracks_from_file, window_tracks
 
-    if args.env:
-        data = tracks_from_env(
-            args.env,
-            episodes=args.episodes,
-            seed=args.data_seed,
-            steps=args.steps,
-            **args.env_kwargs,
+    if data.env:
+        tracks = tracks_from_env(
+            data.env,
+            episodes=data.episodes,
+            seed=data.data_seed,
+            steps=data.steps,
+            **data.env_kwargs,
         )
-    elif getattr(args, "sine", False):
-        data = sine_tracks(args.periods, args.sine_step)
+    elif data.sine:
+        tracks = sine_tracks(data.periods, data.sine_step)
     else:
-        if args.dt is None:
+        if data.dt is None:
             raise ValueError("--tracks needs --dt (the recording's frame period in seconds)")
-        data = tracks_from_file(args.tracks, dt=args.dt)
-    window = getattr(args, "window", None)
-    if window is None and getattr(args, "sine", False):
+        tracks = tracks_from_file(data.tracks, dt=data.dt)  # type: ignore[arg-type]
+    window = data.window
+    if window is None and data.sine:
         window = 128
-    return data if window is None else window_tracks(data, window, args.stride)
+    return tracks if window is None else window_tracks(tracks, window, data.stride)
 
 
 def print_split(n_tracks: int, split: Any, min_length: int) -> dict[str, int]:
@@ -58,29 +59,29 @@ def print_split(n_tracks: int, split: Any, min_length: int) -> dict[str, int]:
 
 
 def training_record(
-    args: argparse.Namespace, config: TrainConfig, history: History, **extra: Any
+    settings: TrainingSettings, config: TrainConfig, history: History, **extra: Any
 ) -> dict[str, Any]:
     """The sidecar's ``training`` entry: the exact command, the :class:`TrainConfig`, the
     command's own settings ``extra`` and the loss history (the caller adds the wall time)."""
     return {
-        "command": args.command,
+        "command": settings.command,
         "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
         **extra,
         "history": history.to_dict(),
     }
 
 
-def train_config(args: argparse.Namespace) -> TrainConfig:
-    """The :class:`~predictors.training.loop.TrainConfig` of the training arguments."""
+def train_config(settings: TrainingSettings) -> TrainConfig:
+    """The :class:`~predictors.training.loop.TrainConfig` of the training settings."""
     from predictors.training.loop import TrainConfig
 
     return TrainConfig(
-        epochs=args.epochs,
-        lr=args.lr,
-        decay_every=args.decay_every,
-        batch_size=args.batch_size,
-        seed=args.seed,
-        device=args.device,
+        epochs=settings.epochs,
+        lr=settings.lr,
+        decay_every=settings.decay_every,
+        batch_size=settings.batch_size,
+        seed=settings.seed,
+        device=settings.device,
     )
 
 

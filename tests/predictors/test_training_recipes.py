@@ -2,28 +2,17 @@
 
 from __future__ import annotations
 
-import argparse
-
 import pytest
 
 from predictors import available_recipes
-from predictors.training.recipes import (
-    RECIPES,
-    TUNERS,
-    TrainingRecipe,
-    register_recipe,
-    register_tuner,
-    training_recipe,
-    tuner_of,
-)
+from predictors.training.recipes import RECIPES, TrainingRecipe, register_recipe, training_recipe
 
 LEARNED = ["lstm", "mc-lstm", "nll-lstm", "displacement-lstm", "pose-lstm"]
 
 
 @pytest.fixture
 def scoped(monkeypatch):
-    for registry in (RECIPES, TUNERS):
-        monkeypatch.setattr(registry, "_factories", dict(registry._factories))
+    monkeypatch.setattr(RECIPES, "_factories", dict(RECIPES._factories))
 
 
 def test_every_learned_family_registers_a_recipe_in_order():
@@ -34,12 +23,8 @@ def test_every_learned_family_registers_a_recipe_in_order():
 
 
 def test_the_pose_recipe_adds_its_loss_flag():
-    parser = argparse.ArgumentParser()
-    training_recipe("pose-lstm").add_arguments(parser)
-    assert parser.parse_args([]).loss == "nll"
-    parser = argparse.ArgumentParser()
-    training_recipe("lstm").add_arguments(parser)
-    assert vars(parser.parse_args([])) == {}
+    assert {o.name: o.default for o in training_recipe("pose-lstm").options} == {"loss": "nll"}
+    assert training_recipe("lstm").options == ()
 
 
 def test_unknown_kinds_and_mismatched_recipes_are_named(scoped):
@@ -58,13 +43,3 @@ def test_a_registered_recipe_joins_the_end_and_replaces_in_place(scoped):
     assert available_recipes() == [*LEARNED, "dummy"] and training_recipe("dummy") is dummy
     register_recipe("lstm", TrainingRecipe("lstm", "other", train=lambda args: "y"))
     assert available_recipes() == [*LEARNED, "dummy"] and training_recipe("lstm").help == "other"
-
-
-def test_post_training_steps_by_kind(scoped):
-    assert tuner_of("nll-lstm") is None
-
-    def tune(path, args):
-        return {}
-
-    register_tuner("nll-lstm", tune)
-    assert tuner_of("nll-lstm") is tune

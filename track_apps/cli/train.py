@@ -7,17 +7,18 @@ Model kinds (one subcommand each) are the training recipes registered beside the
 the LSTM particle filter (``displacement-lstm``, :mod:`predictors.displacement_lstm.training`) and
 the probabilistic pose predictor of the SMC pose tracker (``pose-lstm``,
 :mod:`predictors.pose_lstm.training`). Each subcommand takes the shared data and training
-arguments and its recipe's own, and runs the recipe's ``train``; a newly registered recipe is a
-new subcommand. ``calibrate`` refits a model file's covariance scale on the tracks it is given
-(calibration data: tracks the model was not trained on; the reliability curves it plots are of
-those same tracks).
+arguments and its recipe's own options, turns them into the recipe's typed settings
+(:func:`training_settings`, :mod:`predictors.training.settings`) and runs the recipe's ``train``;
+a newly registered recipe is a new subcommand. ``calibrate`` refits a model file's covariance scale
+on the tracks it is given (calibration data: tracks the model was not trained on; the reliability
+curves it plots are of those same tracks).
 
 The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.training.model_file`); pass it to a
 tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
 the particle filter as ``make_agent("pf", model="lstm", model_weights="OUT")``.
 
 ``lstm`` runs the covariance line search on ``gnn`` after training (:mod:`track_apps.lstm_line_search`,
-its post-training step, registered when this module imports it).
+its post-training step: :data:`POST_TRAINING`), on the model file the recipe wrote.
 """
 
 from __future__ import annotations
@@ -26,14 +27,21 @@ import argparse
 import os
 import shlex
 import sys
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
-import track_apps.lstm_line_search  # noqa: F401  (registers lstm's post-training step)
 from predictors.training.command import load_data, with_meta
 from predictors.training.model_file import ModelFile
 from predictors.training.recipes import available_recipes, training_recipe
+from predictors.training.settings import DataSettings, TrainingSettings
 from track_apps.cli import arguments
+from track_apps.lstm_line_search import lstm_tuner
+
+#: The steps after training that run a tracker, by model kind: ``step(model_path, settings)``
+#: may rewrite the model file and returns the record the sidecar keeps as ``training.tuning``.
+POST_TRAINING: dict[str, Callable[[Path, TrainingSettings], dict[str, Any]]] = {"lstm": lstm_tuner}
 
 PROG = "track train"
 
@@ -160,7 +168,14 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     for kind in kinds:
         recipe = training_recipe(kind)
         k = sub.add_parser(kind, parents=[data, training], help=recipe.help, description=recipe.help)
-        recipe.add_arguments(k)
+        for option in recipe.options:
+            k.add_argument(
+                f"--{option.name}",
+                type=option.type,
+                choices=option.choices,
+                default=option.default,
+                help=option.help,
+            )
     p = sub.add_parser(
         "calibrate",
         parents=[data],
@@ -188,11 +203,75 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     try:
         if args.model == "calibrate":
             return _calibrate(args)
-        training_recipe(args.model).train(args)
+        train(training_settings(args))
         return 0
     except ValueError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
+
+
+def data_settings(args: argparse.Namespace) -> DataSettings:
+    """The data settings of ``track train``'s data arguments."""
+    return DataSettings(
+        env=args.env,
+        env_kwargs=dict(args.env_kwargs),
+        episodes=args.episodes,
+        steps=args.steps,
+        data_seed=args.data_seed,
+        tracks=args.tracks,
+        dt=args.dt,
+        sine=args.sine,
+        periods=args.periods,
+        sine_step=args.sine_step,
+        data_step=args.data_step,
+        window=args.window,
+        stride=args.stride,
+        added_noise_std=args.added_noise_std,
+        min_length=args.min_length,
+    )
+
+
+def training_settings(args: argparse.Namespace) -> TrainingSettings:
+    """The settings of ``track train KIND``'s arguments (the recipe's own options by name)."""
+    options = training_recipe(args.model).options
+    return TrainingSettings(
+        kind=args.model,
+        out=args.out,
+        data=data_settings(args),
+        command=args.command,
+        epochs=args.epochs,
+        lr=args.lr,
+        decay_every=args.decay_every,
+        batch_size=args.batch_size,
+        dropout=args.dropout,
+        hidden=args.hidden,
+        dropout_grid=args.dropout_grid,
+        grid_epochs=args.grid_epochs,
+        min_window=args.min_window,
+        seed=args.seed,
+        device=args.device,
+        progress=not args.no_progress,
+        options={o.name: vars(args)[o.name.replace("-", "_")] for o in options},
+    )
+
+
+def train(settings: TrainingSettings) -> Path:
+    """Train with the recipe of ``settings.kind``, then run the kind's step after training
+    (:data:`POST_TRAINING`) on the model file written, recording it in ``training.tuning`` (with
+    the wall time grown by the step's); returns the sidecar's path."""
+    from predictors.training.model_file import load_model, save_model
+
+    sidecar = Path(training_recipe(settings.kind).train(settings))
+    step = POST_TRAINING.get(settings.kind)
+    if step is None:
+        return sidecar
+    training = dict(load_model(sidecar).meta.get("training", {}))
+    wall = float(training.pop("wall_time_s", 0.0))
+    search = time.perf_counter()
+    training["tuning"] = step(sidecar, settings)
+    training["wall_time_s"] = round(wall + time.perf_counter() - search, 1)
+    save_model(settings.out, with_meta(load_model(sidecar), training=training))
+    return sidecar
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -208,7 +287,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from predictors.training.model_file import save_model
 
     model = _reload(args.model_file)
-    data = load_data(args)
+    data = load_data(data_settings(args))
     tracks = split_tracks(data, fractions=(1.0, 0.0, 0.0), seed=args.seed, min_length=args.min_length).train
     uncalibrated = with_meta(model, calibration={**model.meta.get("calibration", {}), "scale": 1.0})
     before = predictions_of(uncalibrated, tracks, args.added_noise_std, args.seed)

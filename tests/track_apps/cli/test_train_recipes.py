@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from predictors.training.recipes import RECIPES, TrainingRecipe, register_recipe, tuner_of
+from predictors.training.recipes import RECIPES, TrainingRecipe, register_recipe
+from predictors.training.settings import RecipeOption
 from track_apps.cli import main as track
 from track_apps.cli.train import main
 
@@ -18,22 +19,20 @@ def dummy_family(monkeypatch):
     monkeypatch.setattr(RECIPES, "_factories", dict(RECIPES._factories))
     ran: list[object] = []
 
-    def add_arguments(parser):
-        parser.add_argument("--depth", type=int, default=3, help="layers of the dummy")
+    depth = RecipeOption("depth", 3, "layers of the dummy", type=int)
 
-    def train(args):
+    def train(settings):
         from predictors.training.command import load_data
 
-        data = load_data(args)
-        out = Path(args.out).with_suffix(".json")
-        out.write_text(json.dumps({"command": args.command, "depth": args.depth, "tracks": len(data)}))
-        ran.append(args)
+        data = load_data(settings.data)
+        out = Path(settings.out).with_suffix(".json")
+        written = {"command": settings.command, "depth": settings.options["depth"], "tracks": len(data)}
+        out.write_text(json.dumps(written))
+        ran.append(settings)
         print(f"wrote {out}")
         return out
 
-    register_recipe(
-        "dummy-lstm", TrainingRecipe("dummy-lstm", "a dummy learned family", train, add_arguments)
-    )
+    register_recipe("dummy-lstm", TrainingRecipe("dummy-lstm", "a dummy learned family", train, (depth,)))
     return ran
 
 
@@ -64,7 +63,8 @@ def test_a_recipes_value_error_is_one_line(dummy_family, tmp_path, capsys):
     assert capsys.readouterr().err.startswith("track train: error: --tracks needs --dt")
 
 
-def test_the_cli_registers_the_lstm_line_search_as_lstms_post_training_step():
+def test_track_train_runs_the_lstm_line_search_as_lstms_post_training_step():
+    from track_apps.cli.train import POST_TRAINING
     from track_apps.lstm_line_search import lstm_tuner
 
-    assert tuner_of("lstm") is lstm_tuner and tuner_of("nll-lstm") is None
+    assert POST_TRAINING.get("lstm") is lstm_tuner and POST_TRAINING.get("nll-lstm") is None
