@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from track_envs.infra import moved_modules
 from track_envs.infra.lazy import lazy_exports
 from track_envs.registration import ENV_IDS, register_envs
 
@@ -54,5 +53,4 @@ __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
 
 __version__ = "0.1.0"
 
-moved_modules.install()  # the old module paths, deprecated
 register_envs()
