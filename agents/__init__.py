@@ -69,6 +69,7 @@ __all__ = [
     "run_pose_agent",
 ]
 
+
 def _register_builtin() -> None:
     from agents.detections_agent import DetectionsAgent
     from agents.gnn.agent import GnnAgent

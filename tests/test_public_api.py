@@ -73,12 +73,8 @@ PUBLIC: dict[str, list[str]] = {
         "claims_module",
     ],
     "agents.cli": [
-        "bench_alias",
         "build_parser",
         "main",
-        "run_alias",
-        "train_alias",
-        "tune_alias",
     ],
     "agents.files": [
         "check_file_agent",
@@ -114,9 +110,7 @@ PUBLIC: dict[str, list[str]] = {
         "jung2019",
     ],
     "agents.sensor_model": [
-        "SelfCalibration",
         "SensorModelEstimate",
-        "calibrate",
         "estimate_sensor_model",
         "run_warnings",
     ],

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from agents.cli import train_alias as train_main
+from agents.cli.train import main as train_main
 from predictors.pose_lstm.network import PosePredictorNet
 from predictors.pose_lstm.training import (
     PoseWindows,
