@@ -39,7 +39,6 @@ from agents.tracking import (
     make_associator,
     register_associator,
 )
-from track_envs.infra.moved_modules import register_moved_modules
 
 __all__ = [
     "AGENTS",
@@ -67,26 +66,6 @@ __all__ = [
     "run_episode",
     "run_pose_agent",
 ]
-
-#: Module paths of the earlier release (deprecated aliases of the modules at their new paths).
-MOVED_MODULES = {
-    "agents.self_calibration": "agents.sensor_model",
-    "agents.self_calibration.calibrate": "agents.sensor_model.estimate",
-    "agents.self_calibration.coasting": "agents.sensor_model.coasting",
-    "agents.self_calibration.diagnostics": "agents.sensor_model.diagnostics",
-    "agents.self_calibration.noise": "agents.sensor_model.noise",
-    "agents.self_calibration.report": "agents.sensor_model.summary",
-    "agents.self_calibration.scales": "agents.sensor_model.scales",
-    "agents.baseline": "agents.detections_agent",
-    "agents.pose.baseline": "agents.pose.tracker",
-    "agents.pose.run": "agents.files.poses",
-    "agents.run": "agents.files.points",
-    "agents.file_kinds": "agents.files.kinds",
-    "agents.sorting_check": "agents.sorting.check",
-    "agents.sorting_collect": "agents.sorting.collect",
-    "agents.tracking.sorting": "agents.sorting.rollout",
-    "agents.gnn.knobs": "agents.tracking.knobs",
-}
 
 
 def _register_builtin() -> None:
@@ -116,4 +95,3 @@ def _register_builtin() -> None:
 
 
 _register_builtin()
-register_moved_modules(MOVED_MODULES)

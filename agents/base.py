@@ -43,7 +43,7 @@ capability's protocol, or ``None``; :func:`agent_declares` asks a class or a reg
   the merge-event scores (:mod:`agents.merge_scoring`) and GateTuning-v0's diagnostics. gnn, jpda.
 * ``SENSOR_MODEL`` (:class:`SensorModelSettings`) — built with the keywords of a
   sensor-model estimate (:meth:`agents.sensor_model.SensorModelEstimate.agent_kwargs`: ``q``,
-  ``max_misses``, the velocity prior, ...), which ``run_agent(..., calibrate=True)`` and ``track
+  ``max_misses``, the velocity prior, ...), which ``run_agent(..., estimate_sensor_model=True)`` and ``track
   run`` pass. gnn, jpda.
 * ``TRUTH_OBSERVER`` (:class:`TruthObserver`) — ``observe_truth(info)``: the oracle's truth
   channel (with ``needs_truth``). one-step.

@@ -9,7 +9,7 @@ TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/sensor_mod
   carrying the box of the detection it was updated with).
 
 Hand-tuned grid: predictor kf-ca / kf-cv × declared noise std (5 values) × max_misses 2 / 5 × p_gate
-0.99 / 0.999 (40 runs a data set). Calibrated: ``calibrate`` with the predictor, then one gnn run.
+0.99 / 0.999 (40 runs a data set). Calibrated: ``estimate_sensor_model`` with the predictor, then one gnn run.
 
     python benchmarks/bench_sensor_model.py
 """

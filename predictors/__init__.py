@@ -32,37 +32,7 @@ from track_envs.infra.lazy import lazy_exports
 if TYPE_CHECKING:
     from predictors.lstm_cell import LSTMCellWeights
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "LSTMCellWeights": "predictors.lstm_cell",
-}
-
-__all__ = [
-    "BELT_ENVS",
-    "KINDS",
-    "PREDICTORS",
-    "BatchState",
-    "Capability",
-    "Crossings",
-    "LSTMCellWeights",
-    "MotionModel",
-    "Predictor",
-    "TrainingRecipe",
-    "available_predictors",
-    "available_recipes",
-    "capability",
-    "has_capability",
-    "make_predictor",
-    "motion_models",
-    "predictor_applies_to",
-    "register_predictor",
-    "register_recipe",
-    "resolve_predictor",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
 
 
 def kf_cv(

@@ -6,8 +6,9 @@ name resolves (the heavy ones load on first access), importing the packages stay
 no numba), and the examples and the Python blocks of README.md and docs/ import only names a
 package exports (or from a module in :data:`MODULE_IMPORTS_ALLOWED`, none today).
 
-To change a package's public names: edit its ``__init__.py`` (its ``__all__``, and for a lazily
-loaded name its ``TYPE_CHECKING`` import and ``_LAZY`` entry), then its list in :data:`PUBLIC`.
+To change a package's public names: edit its ``__init__.py`` (for ``track_envs`` and ``predictors``
+the import of the name, from which :mod:`track_envs.infra.lazy` derives ``__all__``; for ``agents``
+the import and ``__all__``), then its list in :data:`PUBLIC`.
 """
 
 from __future__ import annotations
@@ -73,12 +74,8 @@ PUBLIC: dict[str, list[str]] = {
         "claims_module",
     ],
     "track_apps.cli": [
-        "bench_alias",
         "build_parser",
         "main",
-        "run_alias",
-        "train_alias",
-        "tune_alias",
     ],
     "agents.files": [
         "check_file_agent",
@@ -114,9 +111,7 @@ PUBLIC: dict[str, list[str]] = {
         "jung2019",
     ],
     "agents.sensor_model": [
-        "SelfCalibration",
         "SensorModelEstimate",
-        "calibrate",
         "estimate_sensor_model",
         "run_warnings",
     ],

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from track_envs.infra import moved_modules
 from track_envs.infra.lazy import lazy_exports
 from track_envs.registration import ENV_IDS, register_envs
 
@@ -24,35 +23,9 @@ if TYPE_CHECKING:
     from track_envs.values.tracks import Tracks
     from track_envs.values.types import Gaussian, SensorSpec
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "Detections": "track_envs.values.detections",
-    "detection_sensor_spec": "track_envs.values.detections",
-    "PoseStream": "track_envs.values.poses",
-    "pose_sensor_spec": "track_envs.values.poses",
-    "Tracks": "track_envs.values.tracks",
-    "Gaussian": "track_envs.values.types",
-    "SensorSpec": "track_envs.values.types",
-}
-
-__all__ = [
-    "ENV_IDS",
-    "Detections",
-    "Gaussian",
-    "PoseStream",
-    "SensorSpec",
-    "Tracks",
-    "detection_sensor_spec",
-    "pose_sensor_spec",
-    "register_envs",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
 
 
 __version__ = "0.1.0"
 
-moved_modules.install()  # the old module paths, deprecated
 register_envs()

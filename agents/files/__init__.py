@@ -2,7 +2,7 @@
 
 * :func:`run_agent` (:mod:`.points`) — a point or box stream (:class:`track_envs.values.Detections`)
   through a registered agent, frame by frame, into :class:`~track_envs.values.Tracks` (with the
-  sensor model estimated from the data when asked: ``calibrate=True``);
+  sensor model estimated from the data when asked: ``estimate_sensor_model=True``);
 * :func:`run_pose_agent` (:mod:`.poses`) — a pose stream through a pose tracker;
 * :func:`file_agents` / :func:`check_file_agent` (:mod:`.kinds`) — which agents can run on a kind
   of file, by their declared traits.

@@ -22,7 +22,7 @@ collects them.
 
 This module is the part that the sensor-model estimate (:mod:`agents.sensor_model.estimate`, which
 tracks the stream with trial settings) and :func:`~agents.files.points.run_agent` (which can
-estimate the sensor model first, ``calibrate=True``) share: it knows nothing of the estimate.
+estimate the sensor model first, ``estimate_sensor_model=True``) share: it knows nothing of the estimate.
 """
 
 from __future__ import annotations

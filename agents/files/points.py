@@ -1,7 +1,7 @@
 """Run any agent over recorded detections, outside a gym loop, and get its tracks.
 
 :func:`run_agent` tracks a stream of detections with an agent object or a registered agent's name,
-optionally with the sensor model estimated from the stream first (``calibrate=True``:
+optionally with the sensor model estimated from the stream first (``estimate_sensor_model=True``:
 :func:`calibrated_agent`, :mod:`agents.sensor_model`); the loop itself, which the estimate runs
 too, is :mod:`agents.files.loop` (its docstring: blocks of packed observations, boxes,
 covariances).
@@ -37,7 +37,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
-    calibrate: bool = False,
+    estimate_sensor_model: bool = False,
     sorting_line: None = None,
 ) -> Tracks: ...
 
@@ -53,7 +53,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
-    calibrate: bool = False,
+    estimate_sensor_model: bool = False,
     sorting_line: float,
 ) -> tuple[Tracks, PredictedCrossings]: ...
 
@@ -68,7 +68,7 @@ def run_agent(
     progress: bool = False,
     reset: bool = True,
     grow: bool = True,
-    calibrate: bool = False,
+    estimate_sensor_model: bool = False,
     sorting_line: float | None = None,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
     """Track a stream of detections with ``agent``; return every frame's reported tracks.
@@ -98,15 +98,15 @@ def run_agent(
             size never makes a valid stream fail, and as the rows of a report do not change the
             tracks of a deterministic agent, the result is the run a large enough report gives.
             ``False``: the agent's ``ReportOverflowError`` is raised.
-        calibrate: Estimate the measurement noise, the process noise, the velocity prior and
-            the coasting length from ``detections`` first
-            (:func:`agents.sensor_model.estimate`, as ``track run`` does when no noise is
-            given) and track with them: ``spec``'s noise std is replaced, ``max_tracks`` sized
-            for the estimated coasting, and ``agent`` must be a registered agent's name (the
+        estimate_sensor_model: Estimate the measurement noise, the process noise, the velocity
+            prior and the coasting length from ``detections`` first
+            (:func:`~agents.sensor_model.estimate_sensor_model`, as ``track run`` does when no
+            noise is given) and track with them: ``spec``'s noise std is replaced, ``max_tracks``
+            sized for the estimated coasting, and ``agent`` must be a registered agent's name (the
             estimate sets its keywords: an agent that declares ``SENSOR_MODEL``, gnn and
             jpda, with kf-ca gets all of them, any other agent the noise only). For the figures,
-            or another predictor, call ``calibrate`` yourself and build the agent with its
-            ``agent_kwargs()``.
+            or another predictor, call :func:`~agents.sensor_model.estimate_sensor_model`
+            yourself and build the agent with its ``agent_kwargs()``.
         sorting_line: A sorting line ``x = sorting_line`` downstream of the region (the nozzle
             bar): the agent is told of it (``spec.sorting_line``) and the predicted crossings
             of its reports' sorting channels are returned too. ``None`` (default): ``spec`` as
@@ -129,7 +129,7 @@ def run_agent(
             ``sorting_line`` not downstream of the region, or an agent that reports no crossings.
     """
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
-    if calibrate:
+    if estimate_sensor_model:
         agent, spec = calibrated_agent(agent, stream, spec)
     if isinstance(agent, str):
         agent = make_agent(agent)
@@ -156,12 +156,12 @@ def takes_calibration(name: str) -> bool:
 def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
     """The agent ``name`` built with the settings :func:`agents.sensor_model.estimate`
     estimates from ``stream``, and ``spec`` with the estimated noise and a report that holds every
-    track the estimated coasting allows (``run_agent(..., calibrate=True)``)."""
+    track the estimated coasting allows (``run_agent(..., estimate_sensor_model=True)``)."""
     if not isinstance(name, str):
         raise ValueError(
-            "run_agent(calibrate=True) needs the agent by name (e.g. 'gnn'): the estimate sets its "
-            f"keywords; got {type(name).__name__}. Or call agents.sensor_model.estimate(...) and "
-            "build the agent with its agent_kwargs()"
+            "run_agent(estimate_sensor_model=True) needs the agent by name (e.g. 'gnn'): the "
+            f"estimate sets its keywords; got {type(name).__name__}. Or call "
+            "agents.sensor_model.estimate_sensor_model(...) and build the agent with its agent_kwargs()"
         )
     estimate = estimate_sensor_model(stream, spec)
     kwargs = estimate.agent_kwargs(name) if takes_calibration(name) else {}

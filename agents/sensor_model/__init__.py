@@ -5,21 +5,16 @@ clutter and merges from the detections.
 noise, the process noise, the velocity prior and the coasting length of a Kalman tracker, the
 detection probability and the clutter density (:mod:`agents.sensor_model.detection`) and jpda's
 merge extent (:mod:`agents.sensor_model.merging`) from its own confident tracks (what ``track
-run`` does when no noise is declared, ``run_agent(..., calibrate=True)``);
+run`` does when no noise is declared, ``run_agent(..., estimate_sensor_model=True)``);
 :mod:`agents.sensor_model.diagnostics` names the figures of a run that looks wrong and
 :mod:`agents.sensor_model.summary` prints and writes the estimate.
 
 Words: *calibration* in this project is a learned model's stated uncertainty made to match its
 errors (:mod:`predictors.training.calibration`); estimating the sensor from a file is the *sensor
-model* (this package). ``calibrate`` and ``SelfCalibration`` are the names of the earlier release,
-kept for it as aliases.
+model* (this package).
 """
 
 from agents.sensor_model.diagnostics import run_warnings
 from agents.sensor_model.estimate import SensorModelEstimate, estimate_sensor_model
 
-#: The earlier release's names (aliases for this release).
-calibrate = estimate_sensor_model
-SelfCalibration = SensorModelEstimate
-
-__all__ = ["SelfCalibration", "SensorModelEstimate", "calibrate", "estimate_sensor_model", "run_warnings"]
+__all__ = ["SensorModelEstimate", "estimate_sensor_model", "run_warnings"]

@@ -12,18 +12,4 @@ if TYPE_CHECKING:
     from predictors.belt_lstm.network import BeltLSTMNet
     from predictors.belt_lstm.predictor import shipped_weights
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "BeltLSTMNet": "predictors.belt_lstm.network",
-    "shipped_weights": "predictors.belt_lstm.predictor",
-}
-
-__all__ = [
-    "BeltLSTMNet",
-    "LSTMPredictor",
-    "shipped_weights",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

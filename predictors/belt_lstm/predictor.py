@@ -138,7 +138,7 @@ class LSTMPredictor:
             if not path.with_name(path.name + ".json").is_file():
                 raise ModelFileError(
                     f"no shipped {kind!r} weights for particle_kind={particle_kind!r} ({path}.json); "
-                    f"train them with `track-train {kind} --out FILE` and pass weights=FILE"
+                    f"train them with `track train {kind} --out FILE` and pass weights=FILE"
                 )
             weights = path
         model = weights if isinstance(weights, ModelFile) else load_model(weights, kind=kind, dim=2)

@@ -12,21 +12,4 @@ if TYPE_CHECKING:
     from predictors.displacement_lstm.model import LSTMDisplacement
     from predictors.displacement_lstm.network import DisplacementLSTMNet
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "DisplacementLSTM": "predictors.displacement_lstm.inference",
-    "shipped_displacement_weights": "predictors.displacement_lstm.inference",
-    "LSTMDisplacement": "predictors.displacement_lstm.model",
-    "DisplacementLSTMNet": "predictors.displacement_lstm.network",
-}
-
-__all__ = [
-    "DisplacementLSTM",
-    "DisplacementLSTMNet",
-    "LSTMDisplacement",
-    "shipped_displacement_weights",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -10,17 +10,4 @@ from track_envs.infra.lazy import lazy_exports
 if TYPE_CHECKING:
     from predictors.kalman.rollout import kalman_crossings
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "kalman_crossings": "predictors.kalman.rollout",
-}
-
-__all__ = [
-    "KalmanPredictor",
-    "KalmanState",
-    "kalman_crossings",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

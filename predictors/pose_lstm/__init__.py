@@ -11,21 +11,4 @@ if TYPE_CHECKING:
     from predictors.pose_lstm.network import PosePredictorNet
     from predictors.pose_lstm.predictor import PosePredictor
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "SmcPoseMotion": "predictors.pose_lstm.motion",
-    "SmcSettings": "predictors.pose_lstm.motion",
-    "PosePredictorNet": "predictors.pose_lstm.network",
-    "PosePredictor": "predictors.pose_lstm.predictor",
-}
-
-__all__ = [
-    "PosePredictor",
-    "PosePredictorNet",
-    "SmcPoseMotion",
-    "SmcSettings",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

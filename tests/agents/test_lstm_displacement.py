@@ -78,7 +78,7 @@ def test_same_agent_seed_same_report() -> None:
 
 
 def test_user_weights_by_path(tmp_path: Path) -> None:
-    from track_apps.cli import train_alias as main
+    from track_apps.cli.train import main
 
     out = tmp_path / "mine"
     argv = ["displacement-lstm", "--sine", "--periods", "4", "--window", "48", "--epochs", "2"]

@@ -315,7 +315,8 @@ def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
 
 
 def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, capsys):
-    """``run_agent("gnn", ..., calibrate=True)`` gives the tracks of ``track run`` with only --dt."""
+    """``run_agent("gnn", ..., estimate_sensor_model=True)`` gives the tracks of ``track run`` with
+    only --dt."""
     from track_envs.io.detections import read_wide_detections
     from track_envs.io.tracks import read_tracks
 
@@ -325,13 +326,20 @@ def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, caps
     )
     assert code == 0, err
     detections = read_wide_detections(pixel_file)
-    tracks = run_agent("gnn", detections, detection_sensor_spec(detections, dt=0.005), calibrate=True)
+    tracks = run_agent(
+        "gnn", detections, detection_sensor_spec(detections, dt=0.005), estimate_sensor_model=True
+    )
 
     written = read_tracks(out, "long")
     np.testing.assert_array_equal(tracks.ids, written.ids)
     np.testing.assert_array_equal(tracks.detection, written.detection)
     with pytest.raises(ValueError, match="needs the agent by name"):
-        run_agent(make_agent("gnn"), detections, detection_sensor_spec(detections, dt=0.005), calibrate=True)
+        run_agent(
+            make_agent("gnn"),
+            detections,
+            detection_sensor_spec(detections, dt=0.005),
+            estimate_sensor_model=True,
+        )
 
 
 def test_jpda_takes_the_calibrated_settings_as_gnn_does(pixel_file):
@@ -341,8 +349,8 @@ def test_jpda_takes_the_calibrated_settings_as_gnn_does(pixel_file):
 
     detections = read_wide_detections(pixel_file)
     spec = detection_sensor_spec(detections, dt=0.005)
-    gnn = run_agent("gnn", detections, spec, calibrate=True)
-    jpda = run_agent("jpda", detections, spec, calibrate=True)
+    gnn = run_agent("gnn", detections, spec, estimate_sensor_model=True)
+    jpda = run_agent("jpda", detections, spec, estimate_sensor_model=True)
     n_ids = len(np.unique(jpda.ids))
     assert n_ids <= 1.1 * len(np.unique(gnn.ids))
     assert n_ids < 0.2 * len(jpda.ids)  # tracks, not one id per detection

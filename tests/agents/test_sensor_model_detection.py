@@ -162,7 +162,7 @@ def test_given_detection_model_is_kept_and_told_to_the_tracker():
     assert (told.p_detect, told.clutter_rate) == (0.8, 7.0)  # the declared rate, not rounded
     assert cal.agent_kwargs("jpda")["merge_extent"] == 0.002
     assert "merge_extent" not in cal.agent_kwargs("gnn")
-    # a spec that declares misses and clutter is kept as declared (run_agent(calibrate=True))
+    # a spec that declares misses and clutter is kept as declared (run_agent(estimate_sensor_model=True))
     from_spec = estimate_sensor_model(det, spec, predictor="kf-cv")
     assert from_spec.sources["p_detect"] == from_spec.sources["clutter_density"] == "given"
     assert (from_spec.sensor_spec(spec).p_detect, from_spec.sensor_spec(spec).clutter_rate) == (0.8, 7.0)

@@ -11,7 +11,7 @@ from predictors.pose_lstm.predictor import PosePredictor, window_features
 from predictors.pose_lstm.training import PoseWindows, to_model_file, train_pose_model
 from predictors.training.loop import TrainConfig
 from predictors.training.model_file import load_model
-from track_apps.cli import train_alias as train_main
+from track_apps.cli.train import main as train_main
 
 
 def test_window_features_difference_visible_steps_and_attend_to_the_last_visible_one():
@@ -85,7 +85,7 @@ def test_the_training_command_writes_a_model_file_the_predictor_loads(tmp_path):
     assert train_main(argv) == 0
     model = load_model(out, kind="pose-lstm")
     sidecar = json.loads((tmp_path / "pose.json").read_text())
-    assert sidecar["training"]["command"].startswith("track-train pose-lstm --env KeypointWalkers-v0")
+    assert sidecar["training"]["command"].startswith("track train pose-lstm --env KeypointWalkers-v0")
     assert sidecar["architecture"]["hidden"] == 64 and sidecar["architecture"]["fc"] == 40
     assert sidecar["architecture"]["dropout"] == 0.3 and len(sidecar["metrics"]["fixed_sigma"]) == 2
     assert sidecar["training"]["loss"] == "nll"  # the default: eq. (8)

@@ -18,7 +18,7 @@ from predictors.pose_lstm.training import (
     train_pose_model,
 )
 from predictors.training.loop import TrainConfig
-from track_apps.cli import train_alias as train_main
+from track_apps.cli.train import main as train_main
 
 
 def test_mean_squared_error_is_the_weighted_mean_over_sequences_of_half_the_summed_squares():

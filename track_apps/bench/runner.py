@@ -239,7 +239,7 @@ def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
     except json.JSONDecodeError as exc:
         raise RecordError(f"not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from exc
     if not isinstance(record, dict) or "schema" not in record:
-        raise RecordError("not a track-bench record (no 'schema' key)")
+        raise RecordError("not a track bench record (no 'schema' key)")
     if record["schema"] != SCHEMA:
         raise RecordError(f"record schema {record['schema']!r}, this version reads schema {SCHEMA}")
     missing = [k for k in ("key", "cell", "metrics") if k not in record]

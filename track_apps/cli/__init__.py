@@ -1,9 +1,7 @@
 """The ``track`` command: ``track bench|run|train|tune|list ...``.
 
 One console script with a subcommand per job; each subcommand's parser lives in its own module of
-this package and reads its shared flags from :mod:`track_apps.cli.arguments`. The four older script
-names are aliases of the same parsers for this release: ``track-bench ARGS`` is ``track bench
-ARGS``, and so on (:func:`bench_alias`, :func:`run_alias`, :func:`train_alias`, :func:`tune_alias`).
+this package and reads its shared flags from :mod:`track_apps.cli.arguments`.
 """
 
 from __future__ import annotations
@@ -12,7 +10,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-__all__ = ["bench_alias", "build_parser", "main", "run_alias", "train_alias", "tune_alias"]
+__all__ = ["build_parser", "main"]
 
 
 def _bench(argv: Sequence[str] | None, prog: str = "track bench") -> int:
@@ -76,11 +74,8 @@ NAME=VALUE arguments (--env-kwargs, --agent-kwargs, --fixed, --sweep) are comma-
 A value is a number, true/false, none, a bare name or path, a 'quoted string' or a [list];
 anything else is an error naming it.
 Noise: --declared-noise-std is what the tracker is told (its R; track run), --added-noise-std is
-noise added to the data (track train); --noise-std is a deprecated alias of each.
+noise added to the data (track train).
 --out: each command's help says whether it is a file, a path without suffix or a directory.
-
-The older names track-bench, track-run, track-train and track-tune still work as aliases of
-track bench, track run, track train and track tune for this release.
 """
 
 
@@ -105,23 +100,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(COMMANDS[argv[0]][0](argv[1:]))
     build_parser().parse_args(argv)  # prints the usage (or help) and exits
     return 2
-
-
-def bench_alias(argv: Sequence[str] | None = None) -> int:
-    """``track-bench``: an alias of ``track bench`` for this release."""
-    return _bench(argv, "track-bench")
-
-
-def run_alias(argv: Sequence[str] | None = None) -> int:
-    """``track-run``: an alias of ``track run`` for this release."""
-    return _run(argv, "track-run")
-
-
-def train_alias(argv: Sequence[str] | None = None) -> int:
-    """``track-train``: an alias of ``track train`` for this release."""
-    return _train(argv, "track-train")
-
-
-def tune_alias(argv: Sequence[str] | None = None) -> int:
-    """``track-tune``: an alias of ``track tune`` for this release."""
-    return _tune(argv, "track-tune")

@@ -21,15 +21,13 @@ Anything else (``1e-4x``, ``'a``) is an error that names the value, never a sile
 ``--env``, ``--env-kwargs``, ``--agent-kwargs``, ``--seed`` / ``--seeds``, ``--out`` (its help says
 whether it is a file, a file stem or a directory), ``--no-progress``, ``--workers``, and the two
 noises: ``--declared-noise-std`` (the measurement noise the tracker is *told*, its R) and
-``--added-noise-std`` (noise *added* to the training data). The old ``--noise-std`` is a deprecated
-alias of the one each command meant.
+``--added-noise-std`` (noise *added* to the training data).
 """
 
 from __future__ import annotations
 
 import argparse
 import re
-import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Literal
 
@@ -235,84 +233,20 @@ def parse_noise(text: str) -> float | tuple[float, float]:
 # ------------------------------------------------------------------------------------- shared flags
 
 
-class DeprecatedAlias(argparse.Action):
-    """An old flag that stores into the new flag's ``dest`` and warns (``FutureWarning``) that it
-    is deprecated in favour of ``new``."""
-
-    def __init__(self, option_strings: Sequence[str], dest: str, *, new: str, **kwargs: Any) -> None:
-        self.new = new
-        super().__init__(option_strings, dest, **kwargs)
-
-    def __call__(
-        self,
-        parser: argparse.ArgumentParser,
-        namespace: argparse.Namespace,
-        values: Any,
-        option_string: str | None = None,
-    ) -> None:
-        warnings.warn(
-            f"{parser.prog}: {option_string} is deprecated and will be removed in the next release; "
-            f"use {self.new} (same meaning here)",
-            FutureWarning,
-            stacklevel=2,
-        )
-        setattr(namespace, self.dest, values)
-
-
-def add_deprecated_alias(parser: Any, old: str, new: str, dest: str, **kwargs: Any) -> None:
-    """Add ``old`` as a deprecated spelling of ``new`` (same ``dest`` and ``type``)."""
-    parser.add_argument(
-        old,
-        dest=dest,
-        action=DeprecatedAlias,
-        new=new,
-        help=f"deprecated alias of {new}",
-        metavar="STD",
-        **kwargs,
-    )
-
-
 def add_env(parser: Any, *, help: str, **kwargs: Any) -> None:
     """``--env ID``: a registered env id (gym id), e.g. ``BeltSorter-v0``."""
     parser.add_argument("--env", metavar="ID", help=help, **kwargs)
 
 
-class _LegacySpaceSeparated(argparse.Action):
-    """``--env-kwargs`` that still takes the old space-separated form (``a=1 b=2``), with a warning."""
-
-    def __call__(
-        self,
-        parser: argparse.ArgumentParser,
-        namespace: argparse.Namespace,
-        values: Any,
-        option_string: str | None = None,
-    ) -> None:
-        parts: list[dict[str, Any]] = list(values)
-        if len(parts) > 1:
-            warnings.warn(
-                f"{parser.prog}: space-separated {option_string} is deprecated and will be removed in the "
-                f"next release; separate the items with commas (a=1,b=2)",
-                FutureWarning,
-                stacklevel=2,
-            )
-        merged: dict[str, Any] = {}
-        for part in parts:
-            for name, value in part.items():
-                if name in merged:
-                    raise argparse.ArgumentError(self, f"{name} is given twice")
-                merged[name] = value
-        setattr(namespace, self.dest, merged)
-
-
-def add_env_kwargs(parser: Any, *, help: str, legacy_space_separated: bool = False) -> None:
-    """``--env-kwargs NAME=V,...``: keyword arguments for ``gym.make`` (a dict; default empty).
-
-    ``legacy_space_separated`` also takes the old ``NAME=V NAME=V`` form, with a deprecation warning.
-    """
-    kwargs: dict[str, Any] = {"type": kwargs_type("--env-kwargs"), "default": {}, "metavar": "NAME=V,..."}
-    if legacy_space_separated:
-        kwargs |= {"nargs": "+", "action": _LegacySpaceSeparated}
-    parser.add_argument("--env-kwargs", help=f"{help} (NAME=VALUE grammar: see 'track --help')", **kwargs)
+def add_env_kwargs(parser: Any, *, help: str) -> None:
+    """``--env-kwargs NAME=V,...``: keyword arguments for ``gym.make`` (a dict; default empty)."""
+    parser.add_argument(
+        "--env-kwargs",
+        type=kwargs_type("--env-kwargs"),
+        default={},
+        metavar="NAME=V,...",
+        help=f"{help} (NAME=VALUE grammar: see 'track --help')",
+    )
 
 
 def add_agent_kwargs(parser: Any, *, help: str, **kwargs: Any) -> None:
@@ -361,8 +295,7 @@ def add_workers(parser: Any, *, default: int | None, help: str) -> None:
 
 
 def add_declared_noise(parser: Any) -> None:
-    """``--declared-noise-std``: the measurement noise std the tracker is told (its R); the old
-    ``--noise-std`` of ``track run`` is a deprecated alias."""
+    """``--declared-noise-std``: the measurement noise std the tracker is told (its R)."""
     parser.add_argument(
         "--declared-noise-std",
         dest="declared_noise_std",
@@ -372,12 +305,10 @@ def add_declared_noise(parser: Any) -> None:
         help="measurement noise std per axis the tracker is told (its R), in the detections' units "
         "after --scale; nothing is added to the data (default 0)",
     )
-    add_deprecated_alias(parser, "--noise-std", "--declared-noise-std", "declared_noise_std", type=float)
 
 
 def add_added_noise(parser: Any) -> None:
-    """``--added-noise-std``: noise added to the (training) positions; the old ``--noise-std`` of
-    ``track train`` is a deprecated alias."""
+    """``--added-noise-std``: noise added to the (training) positions."""
     parser.add_argument(
         "--added-noise-std",
         dest="added_noise_std",
@@ -387,7 +318,6 @@ def add_added_noise(parser: Any) -> None:
         help="Gaussian noise std added to the positions (sensor units), or LOW:HIGH for a per-track "
         "std drawn uniformly (default 0)",
     )
-    add_deprecated_alias(parser, "--noise-std", "--added-noise-std", "added_noise_std", type=parse_noise)
 
 
 def example_block(epilog: str | None) -> list[str]:

@@ -1,4 +1,4 @@
-"""``track bench``: list, run, report, claims (also ``python -m track_apps.bench`` and ``track-bench``)."""
+"""``track bench``: list, run, report, claims (also ``python -m track_apps.bench``)."""
 
 from __future__ import annotations
 
@@ -353,7 +353,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
-    """Entry point of ``track bench`` (``prog``: the name it answers to, e.g. ``track-bench``)."""
+    """Entry point of ``track bench`` (``prog``: the name it answers to)."""
     args = build_parser(prog).parse_args(argv)
     return int(args.func(args))
 

@@ -1,4 +1,4 @@
-"""``track run`` (alias ``track-run``): any agent over a detection file, tracks out, metrics with truth."""
+"""``track run``: any agent over a detection file, tracks out, metrics with truth."""
 
 from __future__ import annotations
 
@@ -60,9 +60,9 @@ BeltReplay-v0 reads it back) or long (frame,id,x,y[,var_x,cov_xy,var_y],detectio
 [,bb_left,bb_top,bb_width,bb_height] with a header).
 The sensor spec the tracker is told: --dt (or inferred from --time-column), --declared-noise-std
 (the measurement noise std, in the detections' units after --scale: the tracker's R; nothing is
-added to the detections; --noise-std is its deprecated alias), --region (or
-the detections' bounding box), --max-detections / --max-tracks (or from the fullest frame; a
-report too small for the live tracks is grown, never an error).
+added to the detections), --region (or the detections' bounding box), --max-detections /
+--max-tracks (or from the fullest frame; a report too small for the live tracks is grown, never an
+error).
 Self-calibration (--calibrate auto, the default, when --declared-noise-std is not given): the
 measurement noise, the Kalman process noise q, the velocity prior, how long a track coasts, the
 detection probability, the clutter density and jpda's merge extent are estimated from the
@@ -331,7 +331,7 @@ def _read_inputs(args: argparse.Namespace) -> tuple[Detections, Tracks | None, s
     kind = "distance"
     if truth is not None:
         kind = match_kind(detections.boxes is not None, truth.boxes is not None, args.match)
-    with FlagNames(getattr(args, "argv", None)):
+    with FlagNames():
         spec = detection_sensor_spec(
             detections,
             dt=args.dt,
@@ -449,13 +449,10 @@ SPEC_FLAGS = {
 class FlagNames:
     """A context that re-raises a ``ValueError`` whose message names an argument of
     :func:`~track_envs.values.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
-    naming the flag instead — the one the user typed, where an old alias was used (``--noise-std``)."""
+    naming the flag instead (:data:`SPEC_FLAGS`)."""
 
-    def __init__(self, argv: Sequence[str] | None) -> None:
+    def __init__(self) -> None:
         self.flags = dict(SPEC_FLAGS)
-        typed = [a.split("=", 1)[0] for a in (argv or ()) if a.startswith("--")]
-        if any(len(a) > 2 and "--noise-std".startswith(a) for a in typed):
-            self.flags["measurement_noise_std"] = "--noise-std"
 
     def __enter__(self) -> FlagNames:
         return self
@@ -529,10 +526,9 @@ def _is_mot(args: argparse.Namespace) -> bool:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
-    """Entry point of ``track run`` (``prog``: the name it answers to, e.g. ``track-run``)."""
+    """Entry point of ``track run`` (``prog``: the name it answers to)."""
     args = build_parser(prog).parse_args(argv)
     args.prog = prog
-    args.argv = list(sys.argv[1:] if argv is None else argv)
     try:
         return run(args)
     except (ValueError, OSError) as exc:

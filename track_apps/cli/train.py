@@ -1,4 +1,4 @@
-"""``track train`` (alias ``track-train``): train a learned motion model on env truth, a track file
+"""``track train``: train a learned motion model on env truth, a track file
 or the sine, or recalibrate one.
 
 Model kinds (one subcommand each) are the training recipes registered beside the predictors
@@ -67,9 +67,8 @@ gnn after training), displacement-lstm (the particle filter's displacement model
 SMC pose tracker's predictor); 'calibrate' refits a model file's covariance scale. The output is
 OUT.safetensors + OUT.json: pass it to a tracker as make_agent("gnn", predictor="nll-lstm",
 weights="OUT") or make_agent("pf", model="lstm", model_weights="OUT").
---added-noise-std is noise added to the training positions (--noise-std: its deprecated alias);
---env-kwargs are the env's own kwargs (comma-separated; the old space-separated form still works,
-with a warning).
+--added-noise-std is noise added to the training positions; --env-kwargs are the env's own kwargs
+(comma-separated).
 """
 
 
@@ -102,7 +101,7 @@ def _data_parser() -> argparse.ArgumentParser:
         help="cut tracks into windows of this many frames (default: whole tracks; 128 for --sine)",
     )
     p.add_argument("--stride", type=int, default=8, help="frames between --window starts (default 8)")
-    arguments.add_env_kwargs(p, help="keyword arguments of --env", legacy_space_separated=True)
+    arguments.add_env_kwargs(p, help="keyword arguments of --env")
     p.add_argument("--episodes", type=int, default=4, help="env episodes (seeds --data-seed, +1, ...)")
     p.add_argument("--steps", type=int, default=None, help="frames per env episode (default: whole)")
     p.add_argument("--data-seed", type=int, default=1000, help="seed of the first env episode (default 1000)")
@@ -194,8 +193,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
-    """Entry point of ``track train`` (``prog``: the name it answers to, e.g. ``track-train``);
-    returns the exit code (2 on bad input)."""
+    """Entry point of ``track train`` (``prog``: the name it answers to); returns
+    the exit code (2 on bad input)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
     args.prog = prog

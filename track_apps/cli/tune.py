@@ -1,4 +1,4 @@
-"""``track tune`` (alias ``track-tune``): PPO on GateTuning-v0, the grid baseline, the paired evaluation."""
+"""``track tune``: PPO on GateTuning-v0, the grid baseline, the paired evaluation."""
 
 from __future__ import annotations
 
@@ -287,7 +287,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
-    """Entry point of ``track tune`` (``prog``: the name it answers to, e.g. ``track-tune``)."""
+    """Entry point of ``track tune`` (``prog``: the name it answers to)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
     args.argv, args.prog = argv, prog

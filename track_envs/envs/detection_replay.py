@@ -34,7 +34,7 @@ class DetectionReplayEnv(TrackingEnv):
 
     ## Description
     Each frame's observation is the file's detections of that frame (as float32, rows shuffled
-    like every env's; ``shuffle=False`` keeps the file's order, which is what ``track-run`` uses).
+    like every env's; ``shuffle=False`` keeps the file's order, which is what ``track run`` uses).
     There is no ground truth: ``info["truth"]`` is empty (one padding row, id −1),
     ``info["has_truth"]`` is False and ``info["truth_note"]`` says so, every
     ``info["detection_ids"]`` is −1. :class:`~track_envs.wrappers.TrackingMetrics` skips the

@@ -19,33 +19,4 @@ if TYPE_CHECKING:
     from track_envs.streams.merge_scenes import MergeScene, merge_scene
     from track_envs.streams.merge_scoring import EventScores, score_events
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "ConstantVelocityStream": "track_envs.streams.constant_velocity",
-    "constant_density": "track_envs.streams.constant_velocity",
-    "constant_velocity_stream": "track_envs.streams.constant_velocity",
-    "score_tracker": "track_envs.streams.constant_velocity",
-    "MergeEventStream": "track_envs.streams.merge_events",
-    "merge_event_streams": "track_envs.streams.merge_events",
-    "MergeScene": "track_envs.streams.merge_scenes",
-    "merge_scene": "track_envs.streams.merge_scenes",
-    "EventScores": "track_envs.streams.merge_scoring",
-    "score_events": "track_envs.streams.merge_scoring",
-}
-
-__all__ = [
-    "ConstantVelocityStream",
-    "EventScores",
-    "MergeEventStream",
-    "MergeScene",
-    "constant_density",
-    "constant_velocity_stream",
-    "merge_event_streams",
-    "merge_scene",
-    "score_events",
-    "score_tracker",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

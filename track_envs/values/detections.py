@@ -232,7 +232,7 @@ def detection_sensor_spec(
         if dt is None:
             raise ValueError(
                 "dt (the frame period in seconds) is not given and the stream has no time stamps to infer it "
-                "from; pass dt (track-run: --dt) or read a time column (time_column=...)"
+                "from; pass dt (track run: --dt) or read a time column (time_column=...)"
             )
     dt = check_positive("dt", dt)
     if region is None:

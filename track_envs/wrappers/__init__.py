@@ -11,17 +11,4 @@ from track_envs.wrappers.tracking_metrics import TrackingMetrics
 if TYPE_CHECKING:
     from track_envs.wrappers.tracking_metrics import default_metrics
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "default_metrics": "track_envs.wrappers.tracking_metrics",
-}
-
-__all__ = [
-    "RecordTracking",
-    "TrackingMetrics",
-    "default_metrics",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -1,7 +1,7 @@
 """RecordTracking: save an episode's truth, detections and the agent's reports as MOT and wide files.
 
 So that a gym run can be re-scored by external tools (py-motmetrics, TrackEval) or replayed
-(BeltReplay-v0 reads the wide truth; DetectionReplay-v0 and ``track-run`` read the detections).
+(BeltReplay-v0 reads the wide truth; DetectionReplay-v0 and ``track run`` read the detections).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ class RecordTracking(gym.Wrapper):
     without any report row (or truth) writes no wide ``tracks.csv`` (``gt.csv``) and warns. The
     recorded arrays stay available as :attr:`last_episode` (``truth``, ``tracks``, ``detections``).
 
-    ``track-run det.csv --time-column time --max-detections N --max-tracks M ...`` (with the
+    ``track run det.csv --time-column time --max-detections N --max-tracks M ...`` (with the
     env's sensor spec) then reproduces the gym loop's reports, and ``--gt gt.csv --metrics``
     its metrics (with the MOT ``det.txt``, e1 / e2 too: its id column holds the truth ids).
 

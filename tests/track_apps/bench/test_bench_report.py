@@ -67,7 +67,7 @@ def test_report_names_every_skipped_file_and_why(tmp_path, capsys):
     assert len(warnings) == 4
     reasons = {
         "truncated.json": "not valid JSON",
-        "foreign.json": "not a track-bench record",
+        "foreign.json": "not a track bench record",
         "future.json": "record schema 99, this version reads schema 1",
         "edited.json": "does not match its cell",
     }

@@ -1,10 +1,9 @@
-"""The ``track`` command: the dispatcher, the old names as aliases, flags that mean one thing
-everywhere, help for every option, and every example of every ``--help`` parsed."""
+"""The ``track`` command: the dispatcher, flags that mean one thing everywhere, help for every
+option, and every example of every ``--help`` parsed."""
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import importlib.util
 import itertools
 import shlex
@@ -19,18 +18,7 @@ import track_envs
 from agents import available_agents
 from predictors import available_recipes
 from track_apps.bench.cells import why_not
-from track_apps.cli import (
-    COMMANDS,
-    bench,
-    bench_alias,
-    main,
-    run,
-    run_alias,
-    train,
-    train_alias,
-    tune,
-    tune_alias,
-)
+from track_apps.cli import COMMANDS, bench, main, run, train, tune
 from track_apps.cli import arguments as arguments_mod
 from track_apps.cli.arguments import example_block, example_lines, parse_assignments
 
@@ -43,13 +31,6 @@ PARSERS: dict[str, Callable[[str], argparse.ArgumentParser]] = {
     "train": train.build_parser,
     "tune": tune.build_parser,
     "list": bench.build_list_parser,
-}
-#: Old script name → the subcommand it is an alias of, and the alias function.
-ALIASES = {
-    "track-bench": ("bench", bench_alias),
-    "track-run": ("run", run_alias),
-    "track-train": ("train", train_alias),
-    "track-tune": ("tune", tune_alias),
 }
 
 
@@ -85,7 +66,6 @@ def test_every_subcommand_is_dispatched_and_listed_in_the_help(capsys):
     assert exc.value.code == 0
     out = capsys.readouterr().out
     assert all(name in out for name in COMMANDS)
-    assert "track-bench" in out and "alias" in out
     with pytest.raises(SystemExit) as exc:
         main([])
     assert exc.value.code == 2
@@ -111,64 +91,15 @@ def test_track_list_is_track_bench_list(capsys):
         assert name in listed
 
 
-def test_the_console_scripts_point_at_the_dispatcher_and_the_aliases():
+def test_the_console_script_points_at_the_dispatcher():
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["track"] == "track_apps.cli:main"
-    for old, (_, alias) in ALIASES.items():
-        module, _, name = scripts[old].partition(":")
-        assert getattr(importlib.import_module(module), name) is alias
     assert importlib.util.find_spec("track_apps.bench.__main__") is not None
 
 
 def test_the_training_module_is_not_a_second_command():
     # `python -m predictors.training.cli lstm` trained an lstm without the line search
     assert importlib.util.find_spec("predictors.training.cli") is None
-
-
-# ----------------------------------------------------------------------------------- aliases
-
-
-@pytest.mark.parametrize("old", sorted(ALIASES))
-def test_an_old_name_is_an_alias_of_the_same_parser(old):
-    name, _ = ALIASES[old]
-    new, alias = PARSERS[name]("track " + name), PARSERS[name](old)
-    assert alias.prog == old
-
-    def shape(parser: argparse.ArgumentParser) -> list[tuple]:
-        return [
-            (
-                p.prog.removeprefix(parser.prog),
-                [(a.option_strings, a.dest, a.default, _name(a.type)) for a in p._actions],
-            )
-            for p in walk(parser)
-        ]
-
-    assert shape(alias) == shape(new)
-
-
-@pytest.mark.parametrize(
-    ("alias", "argv", "says"),
-    [
-        (bench_alias, ["run", "--suite", "huge", "--out", "unused"], "track-bench run: error: unknown suite"),
-        (
-            run_alias,
-            ["d.csv", "--dt", "1", "--out", "t.txt", "--covariance"],
-            "track-run: error: --covariance",
-        ),
-        (train_alias, ["lstm", "--tracks", "t.csv", "--out", "m"], "track-train: error: --tracks needs --dt"),
-        (tune_alias, ["evaluate", "--informed", "t.json", "--no-drift"], "track-tune evaluate: error:"),
-    ],
-)
-def test_the_alias_runs_the_command_under_its_old_name(capsys, alias, argv, says):
-    assert alias(argv) == 2
-    assert capsys.readouterr().err.startswith(says)
-
-
-def test_an_alias_equals_the_subcommand(capsys):
-    argv = ["run", "--suite", "huge", "--out", "unused"]
-    assert bench_alias(argv) == main(["bench", *argv]) == 2
-    old, new = capsys.readouterr().err.split("\n")[:2]
-    assert old.replace("track-bench", "track bench") == new
 
 
 # ------------------------------------------------------------------------------ help and flags
@@ -220,21 +151,6 @@ def test_the_two_noises_have_two_names():
     added = {p.prog for p in all_parsers() if "--added-noise-std" in options(p)}
     assert declared == {"track run"}
     assert added == {f"track train {k}" for k in [*available_recipes(), "calibrate"]}
-    for p in all_parsers():
-        if "--noise-std" in options(p):  # the old name: a deprecated alias of the one each meant
-            assert "deprecated alias" in str(options(p)["--noise-std"].help)
-
-
-def test_the_old_noise_std_keeps_its_meaning_with_a_warning():
-    with pytest.warns(FutureWarning, match="--noise-std is deprecated.*--declared-noise-std"):
-        args = run.build_parser().parse_args(["d.csv", "--noise-std", "1e-4", "--out", "t.txt"])
-    assert args.declared_noise_std == 1e-4
-    with pytest.warns(FutureWarning, match="--noise-std is deprecated.*--added-noise-std"):
-        args = train.build_parser().parse_args(["lstm", "--sine", "--noise-std", "1e-4:2e-4", "--out", "m"])
-    assert args.added_noise_std == (1e-4, 2e-4)
-    with pytest.warns(FutureWarning):
-        args = train.build_parser().parse_args(["calibrate", "m", "--sine", "--noise-std", "3e-4"])
-    assert args.added_noise_std == 3e-4
 
 
 def test_train_help_lists_every_model_kind_and_calibrate(capsys):
@@ -253,13 +169,6 @@ def test_comma_separated_env_kwargs_are_never_read_as_one_string():
     args = train.build_parser().parse_args([*argv, "--out", "m"])
     assert args.env_kwargs == {"particle_kind": "sphere", "noise_std": 1e-4}
     args = tune.build_parser().parse_args(["evaluate", "--env-kwargs", "particle_kind=sphere,noise_std=1e-4"])
-    assert args.env_kwargs == {"particle_kind": "sphere", "noise_std": 1e-4}
-
-
-def test_the_old_space_separated_env_kwargs_of_train_still_work_with_a_warning():
-    argv = ["nll-lstm", "--env", "BeltSorter-v0", "--env-kwargs", "particle_kind=sphere", "noise_std=1e-4"]
-    with pytest.warns(FutureWarning, match="space-separated --env-kwargs is deprecated"):
-        args = train.build_parser().parse_args([*argv, "--out", "m"])
     assert args.env_kwargs == {"particle_kind": "sphere", "noise_std": 1e-4}
 
 
@@ -307,25 +216,16 @@ def epilogs(prefix: str) -> Iterator[tuple[str, str]]:
 
 def parse_example(words: list[str]) -> argparse.Namespace:
     """Parse one example command line with the parser of its (sub)command."""
-    if words[0] == "track":
-        name, rest, prog = words[1], words[2:], "track " + words[1]
-    else:
-        name, rest, prog = ALIASES[words[0]][0], words[1:], words[0]
+    name, rest, prog = words[1], words[2:], "track " + words[1]
     return PARSERS[name](prog).parse_args(rest)
 
 
-@pytest.mark.parametrize("prefix", ["track ", "track-"])
-def test_every_example_in_every_help_parses(prefix):
-    examples = {
-        line: prog
-        for prog, epilog in epilogs(prefix)
-        for script in ("track", *ALIASES)
-        for line in example_lines(epilog, script)
-    }
+def test_every_example_in_every_help_parses():
+    examples = {line: prog for prog, epilog in epilogs("track ") for line in example_lines(epilog, "track")}
     assert len(examples) >= 30
     for line, prog in examples.items():
         with warnings.catch_warnings():
-            warnings.simplefilter("error")  # no example uses a deprecated spelling
+            warnings.simplefilter("error")  # no example warns
             try:
                 parse_example(shlex.split(line, comments=True))
             except SystemExit:

@@ -1,4 +1,4 @@
-"""run_agent and track-run: a recorded BeltSorter-v0 episode tracked from its files equals the gym loop."""
+"""run_agent and track run: a recorded BeltSorter-v0 episode tracked from its files equals the gym loop."""
 
 from __future__ import annotations
 

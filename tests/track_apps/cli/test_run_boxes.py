@@ -74,7 +74,6 @@ def test_distance_matching_on_request_and_the_confidence_filter_keeps_not_given(
     ("flags", "message"),
     [
         (["--declared-noise-std=-1"], r"--declared-noise-std must be a finite number >= 0, got -1.0"),
-        (["--noise-std=-1"], r"--noise-std must be a finite number >= 0, got -1.0"),
         (["--max-detections=1"], r"--max-detections=1 is below the 2 detections of the fullest frame"),
         (["--p-detect=2"], r"--p-detect must be a probability"),
         (
@@ -88,19 +87,10 @@ def test_distance_matching_on_request_and_the_confidence_filter_keeps_not_given(
 def test_errors_name_the_flag_the_user_typed(tmp_path, capsys, flags, message):
     det = tmp_path / "det.txt"
     det.write_text("1,-1,0,0,2,2,0.1\n1,-1,5,5,2,2,0.2\n2,-1,0,0,2,2,0.3\n")
-    with pytest.warns(FutureWarning) if "--noise-std=-1" in flags else _nothing():
-        code = main([str(det), "--dt=0.04", f"--out={tmp_path / 't.txt'}", "--no-progress", *flags])
+    code = main([str(det), "--dt=0.04", f"--out={tmp_path / 't.txt'}", "--no-progress", *flags])
     err = capsys.readouterr().err
     assert code == 2 and re.search(message, err), err
     assert "measurement_noise_std" not in err
-
-
-class _nothing:
-    def __enter__(self) -> None:
-        return None
-
-    def __exit__(self, *exc: object) -> bool:
-        return False
 
 
 @pytest.mark.parametrize("where", ["missing folder", "a directory"])

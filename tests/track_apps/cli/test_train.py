@@ -1,4 +1,4 @@
-"""``track-train`` end to end: a user's track file in, a model file out, tracked with gnn."""
+"""``track train`` end to end: a user's track file in, a model file out, tracked with gnn."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``track-train displacement-lstm`` from each data source: the sine, a point env's truth, a file."""
+"""``track train displacement-lstm`` from each data source: the sine, a point env's truth, a file."""
 
 from __future__ import annotations
 

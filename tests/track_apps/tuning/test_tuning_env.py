@@ -71,7 +71,7 @@ def test_the_return_is_minus_the_episode_association_errors():
 
 
 def test_a_constant_setting_gives_the_errors_of_the_track_bench_cell():
-    """The grid baseline runs in track-bench: its cell of seed s is the episode GateTuning-v0
+    """The grid baseline runs in track bench: its cell of seed s is the episode GateTuning-v0
     plays from seed s with that setting held constant."""
     from track_apps.bench.cells import Cell
     from track_apps.bench.runner import run_cell

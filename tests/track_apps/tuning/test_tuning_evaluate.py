@@ -1,4 +1,4 @@
-"""The grid suite for track-bench, the best fixed setting of its records, the paired statistics."""
+"""The grid suite for track bench, the best fixed setting of its records, the paired statistics."""
 
 from __future__ import annotations
 

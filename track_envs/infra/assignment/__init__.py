@@ -34,19 +34,4 @@ if TYPE_CHECKING:
     from track_envs.infra.assignment.lone_pairs import min_cost_with_misses, solve_split
     from track_envs.infra.assignment.shortest_augmenting_path import linear_sum_assignment
 
-#: The module of each name loaded on first access (``__getattr__``), so that importing
-#: the package stays light.
-_LAZY: dict[str, str] = {
-    "min_cost_with_misses": "track_envs.infra.assignment.lone_pairs",
-    "solve_split": "track_envs.infra.assignment.lone_pairs",
-    "linear_sum_assignment": "track_envs.infra.assignment.shortest_augmenting_path",
-}
-
-__all__ = [
-    "linear_sum_assignment",
-    "min_cost_with_misses",
-    "solve_split",
-]
-
-
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
