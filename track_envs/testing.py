@@ -11,7 +11,7 @@ protocols). Use them in your own tests::
     check_predictor(MyPredictor(), env.unwrapped.sensor_spec)
 
 :func:`stream_digest` pins what an env id emits, so that a change of its streams is noticed
-(and given a new version id, as Gymnasium's ``-vN`` rule asks).
+(the rule: docs/architecture.md, "Streams are versioned").
 
 Nothing here imports ``predictors`` or ``agents``: the objects under test are passed in.
 """

@@ -137,7 +137,7 @@ def test_window_rows_order_by_id_for_dense_and_sparse_ids(ids: list[int]) -> Non
 
 
 def _take_parked_reference(truth: np.ndarray, row_kind: np.ndarray, kinds: np.ndarray) -> np.ndarray:
-    """The first release's scan: for each new particle in turn, the first free parked row of its kind."""
+    """The earlier scan: for each new particle in turn, the first free parked row of its kind."""
     out = np.full(len(kinds), -1, dtype=np.int64)
     taken = np.zeros(len(truth), dtype=bool)
     for i, k in enumerate(kinds):

@@ -327,7 +327,7 @@ def expected_in_view(params: BeltParams, kinds: Mapping[str, float]) -> float:
     return params.feed_rate * sum(w * window_residence(params, PARTICLE_KINDS[k]) for k, w in kinds.items())
 
 
-#: Observation rows never derived below this (the rows of the first release's default belt).
+#: Observation rows never derived below this (the default belt's rows before they were derived).
 MIN_ROWS = 256
 
 

@@ -95,10 +95,11 @@ class BeltReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: first release. ``measurement_noise_std`` added later without a version bump (the
-      default leaves every stream and spec as before); so was ``drift`` (default None).
-    - v0, pinned: these streams, pinned by the stream digest test (docs/architecture.md); a change
-      of what this id emits needs BeltReplay-v1.
+    - v0: the first version (not yet released). Its streams changed once under v0 before the
+      first release, and are pinned since 2026-12-02: on 2026-11-22 a certain detection
+      (``p_detect=1``, the default) stopped drawing a uniform number, so the detections' shuffled
+      order changed. Added without changing the streams: ``measurement_noise_std``, ``drift``
+      (default None), ``nozzle_offset`` (default None: no nozzle bar).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

@@ -140,7 +140,7 @@ class BeltSorterEnv(TrackingEnv):
       e.g. from a bench suite's ``env_kwargs``).
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
     - ``merge_touching``: touching particles give one detection at their area-weighted centroid
-      (default ``True``); ``False`` senses every particle on its own, as the first release did.
+      (default ``True``); ``False`` senses every particle on its own, as v0 did before 2026-12-01.
     - ``merge_tolerance``: largest gap in metres between silhouettes that still counts as
       touching, in ``[0, 0.01]`` (default 1e-4).
     - ``nozzle_offset``: distance in metres from the end of the camera window to the nozzle bar,
@@ -173,26 +173,18 @@ class BeltSorterEnv(TrackingEnv):
     numba or pymunk or on another kind of CPU. A world alone refuses to be pickled.
 
     ## Version History
-    - v0: first release. Copies and pickles continue the episode bit for bit (they used to drift
-      by 1e-5 m per frame); episodes are unchanged.
-    - v0, merged blobs: ``merge_touching`` (on by default) makes touching particles one
-      detection, as a real camera sees them, and ``info`` gains ``detection_ids_merged`` and
-      ``truncated_merge_ids``; ``measurement_noise_std`` declares the sensor's noise separately
-      from the noise added. With ``merge_touching=False`` every stream is bit for bit the first
-      release's; with it on, a seed gives the same stream up to the first frame with a merge.
-    - v0, nozzle bar: ``nozzle_offset`` (default 0.05 m) and the crossing truth. Particles are
-      simulated until they pass the bar, which lies beyond the old removal point
-      (``exit_margin`` = 0.02 m past the window), so the bodies pymunk holds change and a seed's
-      stream departs from the earlier one after a few dozen frames (the statistics do not
-      change). ``nozzle_offset=None`` gives the earlier streams bit for bit.
-    - v0, drift: the optional ``drift`` (default None: every stream as before).
-    - v0, sizes from the scene: ``max_detections``, ``max_tracks`` and ``max_targets`` default to
-      the rows the scene needs (256 on the default belt, as before) and an overfull frame grows
-      the rows (``overflow="grow"``) where it used to drop the surplus (``overflow="drop"``); the
-      pinned streams below never overflow and are unchanged. ``BeltParams.industrial()``.
-    - v0, pinned: the streams above (merging on, nozzle bar at 0.05 m) are the streams of v0, pinned
-      by the stream digest test (docs/architecture.md); a change of what this id emits needs
-      BeltSorter-v1, and v0 keeps these streams.
+    - v0: the first version (not yet released). Its streams changed four times under v0 before
+      the first release, and are pinned since 2026-12-02: on 2026-11-22 the belt was simulated in
+      its rest frame (other floating-point bits), then a certain detection (``p_detect=1``, the
+      default) stopped drawing a uniform number (the noise draws shifted); on 2026-12-01 touching
+      particles became one detection (``merge_touching``, on by default; off gives the streams
+      from before) and the nozzle bar came (``nozzle_offset`` = 0.05 m: particles are simulated
+      until they pass it, so a seed's stream departs from the one before after a few dozen
+      frames; ``None`` gives the streams from before). Added without changing the streams:
+      ``measurement_noise_std``, ``drift`` (default None), copies and pickles that continue an
+      episode bit for bit, observation sizes from the scene and ``overflow`` (256 rows on the
+      default belt, as before; the pinned streams never overflow), ``BeltParams.industrial()``
+      and the ``physics`` presets.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

@@ -82,10 +82,9 @@ class DetectionReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
-      what this id emits needs DetectionReplay-v1.
-    - v0, nozzle bar: ``nozzle_offset`` (default None) sets ``sensor_spec.sorting_line``; the
-      streams are unchanged.
+    - v0: the first version (not yet released); its streams are those it had when added
+      (2026-12-01), pinned since 2026-12-02. Added without changing them: ``nozzle_offset``
+      (default None) sets ``sensor_spec.sorting_line``.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}  # noqa: RUF012

@@ -116,8 +116,8 @@ class KeypointWalkersEnv(TrackingEnv):
     keypoint of a person 200 px tall, ``clutter_rate`` in poses per frame, units ``"px"``.
 
     ## Version History
-    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
-      what this id emits needs KeypointWalkers-v1.
+    - v0: the first version (not yet released); its streams are those it had when added
+      (2026-11-22), pinned since 2026-12-02.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}  # noqa: RUF012

@@ -350,9 +350,9 @@ class SineTargetEnv(SingleTargetEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"`` (a 16 × 10 window following the target).
 
     ## Version History
-    - v0: the initial streams (``drift`` added later, default None: streams unchanged), pinned by
-      the stream digest test (docs/architecture.md); a change of what this id emits needs
-      SineTarget-v1.
+    - v0: the first version (not yet released); its streams are those it had when added
+      (2026-11-22), pinned since 2026-12-02. Added without changing them: ``drift`` (default
+      None).
     """
 
     def _local_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -392,8 +392,9 @@ class PiecewiseTargetEnv(SingleTargetEnv):
     - ``max_heading_deg``: largest heading from the x-axis (default 60, below 90).
 
     ## Version History
-    - v0: the initial streams, pinned by the stream digest test (docs/architecture.md); a change of
-      what this id emits needs PiecewiseTarget-v1.
+    - v0: the first version (not yet released); its streams are those it had when added
+      (2026-11-22), pinned since 2026-12-02. Added without changing them: ``drift`` (default
+      None).
     """
 
     def __init__(
