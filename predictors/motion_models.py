@@ -53,8 +53,10 @@ class MotionModel:
 
 
 def _summary(factory: Callable[..., Any]) -> str:
-    """The first paragraph of the factory's docstring without reST markup, cut to 100 characters."""
+    """The first paragraph of the factory's docstring without markup (cross-reference links and
+    roles show their text), cut to 100 characters."""
     paragraph = " ".join((inspect.getdoc(factory) or "").split("\n\n")[0].split())
+    paragraph = re.sub(r"\[`?([^`\[\]]+)`?\]\[[\w.]*\]", r"\1", paragraph)
     text = re.sub(r":\w+:`~?([^`]+)`", r"\1", paragraph).replace("``", "")
     return text if len(text) <= 100 else text[:99].rsplit(" ", 1)[0] + " …"
 

@@ -12,6 +12,7 @@ flags are checked against the command's ``--help``; a command another test runs 
 from __future__ import annotations
 
 import contextlib
+import html
 import io
 import os
 import re
@@ -281,4 +282,31 @@ def test_mkdocs_build_strict(tmp_path):
         timeout=300,
     )
     assert result.returncode == 0, result.stderr[-4000:]
-    assert (tmp_path / "site" / "api" / "agents" / "index.html").exists()
+    site = tmp_path / "site"
+    assert (site / "api" / "agents.html").exists()
+    assert_links_resolve_on_disk(site)
+
+
+def assert_links_resolve_on_disk(site: Path) -> None:
+    """Every relative link and asset of the built pages names a file of the site (no directory URL)
+    and, with a fragment, an id of that page: the site browses from ``file://``. The 404 page is
+    served by a web server only and uses absolute URLs."""
+    ids: dict[Path, set[str]] = {}
+    bad = []
+    for page in sorted(site.rglob("*.html")):
+        if page.name == "404.html":
+            continue
+        for ref in re.findall(r'(?:href|src)="([^"]+)"', page.read_text(encoding="utf-8")):
+            ref = html.unescape(ref)
+            if re.match(r"^[a-z][a-z0-9+.-]*:", ref):  # https:, mailto:, data:
+                continue
+            path, _, fragment = ref.partition("#")
+            target = (page.parent / path).resolve() if path else page.resolve()
+            if not target.is_file():
+                bad.append(f"{page.relative_to(site)}: {ref}")
+            elif fragment and target.suffix == ".html":
+                if target not in ids:
+                    ids[target] = set(re.findall(r'id="([^"]+)"', target.read_text(encoding="utf-8")))
+                if fragment not in ids[target]:
+                    bad.append(f"{page.relative_to(site)}: {ref} (no such anchor)")
+    assert not bad, bad[:20]

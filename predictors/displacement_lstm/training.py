@@ -161,7 +161,10 @@ def displacement_metrics(model: DisplacementLSTM, tracks: list[FloatArray]) -> d
 # ------------------------------------------------------------------ the training recipe
 
 #: ``track train displacement-lstm``'s one-line help.
-HELP = "the LSTM particle filter's displacement model (speed and rotation per step)"
+HELP = (
+    "the LSTM particle filter's displacement model (speed and rotation per step; the shipped one: "
+    "31 s on 2 CPU cores)"
+)
 
 
 def recipe(kind: str = KIND) -> TrainingRecipe:

@@ -12,7 +12,9 @@ the CPU path's to float tolerance: the GEMMs of cuDNN and of the CPU path sum in
 (about 1e-6 in the LSTM output). Window features, the Gaussian draw, matching, resampling and
 selection stay on the CPU (numpy; a few ms per frame at 10 people, P = 300).
 
-``device="cpu"`` runs this torch path on the CPU, to check it where no GPU is.
+``device="cpu"`` runs this torch path on the CPU, to check it where no GPU is. The CUDA path has
+never run on a GPU: its test (``tests/agents/test_pose_smc_device.py``) runs only where torch sees
+one, and the machines this project is tested on have none; only the same code on the CPU is tested.
 """
 
 from __future__ import annotations

@@ -230,7 +230,7 @@ class SmcSettings:
         device: ``None`` (the CPU path: compiled products, the prefix tree) or a torch device
             (``"cuda"``; ``"cpu"`` to check the path without a GPU): the predictor and the
             particles' OKS in torch there (:mod:`predictors.pose_lstm.device`), the same tracks to
-            float tolerance.
+            float tolerance (``"cuda"`` has never run on a GPU; ``"cpu"`` is tested).
     """
 
     particles: int = 300

@@ -81,6 +81,7 @@ def describe(factory: Any) -> str:
     line = doc.splitlines()[0] if doc else factory.__name__
     if "module docstring" in line:  # the module's first line says more
         line = (inspect.getdoc(inspect.getmodule(factory)) or line).splitlines()[0]
+    line = re.sub(r"\[`?(?:[\w.]+\.)?([^`\[\]]+)`?\]\[[\w.]*\]", r"\1", line)  # a link: its text
     line = re.sub(r":\w+:`~?(?:[\w.]+\.)?([^`]+)`", r"\1", line).replace("``", "")
     return line + extra
 
