@@ -1,6 +1,6 @@
-"""Trackers that turn observations into reports (the Agent protocol, :mod:`agents.base`).
+"""Trackers that turn observations into reports (the Agent protocol, `agents.base`).
 
-Registry: :func:`make_agent` builds an agent by name; an unknown name raises a ``ValueError``
+Registry: [`make_agent`][agents.make_agent] builds an agent by name; an unknown name raises a ``ValueError``
 that lists the valid ones::
 
     from agents import make_agent
@@ -8,8 +8,8 @@ that lists the valid ones::
     agent.reset(env.unwrapped.sensor_spec, seed=0)
     report = agent.act(obs)
 
-The episode loop: :func:`run_episode` runs an agent on one episode of an env and returns its
-metrics (:class:`EpisodeResult`).
+The episode loop: [`run_episode`][agents.run_episode] runs an agent on one episode of an env and returns its
+metrics ([`EpisodeResult`][agents.EpisodeResult]).
 """
 
 from __future__ import annotations

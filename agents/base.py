@@ -7,11 +7,12 @@ An agent (a tracker) turns each observation of an env into a report of its track
     agent.reset(env.unwrapped.sensor_spec, seed=0)
     report = agent.act(obs)            # the env's action: ids, positions, detection rows, mask
 
-* :class:`Agent` — the core, the two calls every agent has: ``reset(spec, *, seed=None)`` binds
+* [`Agent`][agents.Agent] — the core, the two calls every agent has: ``reset(spec, *, seed=None)`` binds
   it to a sensor and starts an episode (``seed`` seeds any random stream it draws from, so the
   same seed gives the same reports); ``act(obs) -> report``.
-* Declared traits — one class attribute ``traits = AgentTraits(...)`` (:class:`AgentTraits`;
-  a class that declares none has :data:`TRAIT_DEFAULTS`; read them with :func:`agent_traits`):
+* Declared traits — one class attribute ``traits = AgentTraits(...)`` ([`AgentTraits`][agents.AgentTraits];
+  a class that declares none has [`TRAIT_DEFAULTS`][agents.base.TRAIT_DEFAULTS]; read them with
+  [`agent_traits`][agents.agent_traits]):
 
   - ``needs_truth: bool = False`` — an oracle that reads each frame's truth: the loop that runs it
     calls ``observe_truth(info)`` (the ``TRUTH_OBSERVER`` capability) before every ``act``. A
@@ -20,37 +21,44 @@ An agent (a tracker) turns each observation of an env into a report of its track
   - ``max_targets: int | None = None`` — the most targets it tracks at once (1: a single-target
     tracker; ``None``: any number).
   - ``takes_predictor: bool = False`` — built with a ``predictor=`` argument (a registered
-    Gaussian predictor's name or object, :func:`predictors.resolve_predictor`): the bench runs it
-    once per predictor, ``track run --predictor`` passes one.
+    Gaussian predictor's name or object, [`predictors.resolve_predictor`][predictors.resolve_predictor]): the
+    bench runs it once per predictor, ``track run --predictor`` passes one.
 
 Optional capabilities
 ---------------------
-Anything beyond the core is a capability (:class:`AgentCapability`), declared as a predictor's
-are (:mod:`track_envs.infra.declared`): the class attribute ``capabilities: frozenset[AgentCapability]``
-(none when absent), asked for with :func:`agent_capability`, which returns the agent typed as the
-capability's protocol, or ``None``; :func:`agent_declares` asks a class or a registered factory.
+Anything beyond the core is a capability ([`AgentCapability`][agents.AgentCapability]), declared as a
+predictor's are ([`track_envs.infra.declared`][track_envs.infra.declared]): the class attribute
+``capabilities: frozenset[AgentCapability]`` (none when absent), asked for with
+[`agent_capability`][agents.agent_capability], which returns the agent typed as the capability's protocol, or
+``None``; [`agent_declares`][agents.base.agent_declares] asks a class or a registered factory.
 
-* ``WARM_UP`` (:class:`WarmUp`) — ``warm_up()``: compile or load whatever the first frames would
-  otherwise wait for (numba kernels), before a live stream starts; :func:`warm_up` calls it where
-  an agent declares it. gnn, jpda.
-* ``TRACK_COVARIANCES`` (:class:`TrackCovariances`) — ``track_covariances() -> (n, D, D)``: the
+* ``WARM_UP`` ([`WarmUp`][agents.base.WarmUp]) — ``warm_up()``: compile or load whatever the first frames
+would
+  otherwise wait for (numba kernels), before a live stream starts; [`warm_up`][agents.base.warm_up] calls it
+  where an agent declares it. gnn, jpda.
+* ``TRACK_COVARIANCES`` ([`TrackCovariances`][agents.base.TrackCovariances]) —
+``track_covariances() -> (n, D, D)``: the
   covariances of the live rows of the last report, in row order (``run_agent(...,
   covariance=True)``). gnn, jpda.
-* ``LAST_PREDICTION`` (:class:`LastPrediction`) — ``last_prediction`` (the predicted measurement
+* ``LAST_PREDICTION`` ([`LastPrediction`][agents.base.LastPrediction]) — ``last_prediction`` (the predicted
+measurement
   ``Gaussian`` of the tracks of the last frame, ``None`` before any), ``last_prediction_ids`` and
   ``last_prediction_detection`` (their ids and the observation row each took, −1: none), there
   from the first ``reset`` on (ask after it). Read by
-  the merge-event scores (:mod:`agents.merge_scoring`) and GateTuning-v0's diagnostics. gnn, jpda.
-* ``SENSOR_MODEL`` (:class:`SensorModelSettings`) — built with the keywords of a
-  sensor-model estimate (:meth:`agents.sensor_model.SensorModelEstimate.agent_kwargs`: ``q``,
-  ``max_misses``, the velocity prior, ...), which ``run_agent(..., estimate_sensor_model=True)`` and ``track
-  run`` pass. gnn, jpda.
-* ``TRUTH_OBSERVER`` (:class:`TruthObserver`) — ``observe_truth(info)``: the oracle's truth
+  the merge-event scores ([`agents.merge_scoring`][agents.merge_scoring]) and GateTuning-v0's diagnostics.
+  gnn, jpda.
+* ``SENSOR_MODEL`` ([`SensorModelSettings`][agents.base.SensorModelSettings]) — built with the keywords of a
+  sensor-model estimate
+  ([`agents.sensor_model.SensorModelEstimate.agent_kwargs`][agents.SensorModelEstimate.agent_kwargs]: ``q``,
+  ``max_misses``, the velocity prior, ...), which ``run_agent(..., estimate_sensor_model=True)`` and
+  ``track run`` pass. gnn, jpda.
+* ``TRUTH_OBSERVER`` ([`TruthObserver`][agents.base.TruthObserver]) — ``observe_truth(info)``: the oracle's
+truth
   channel (with ``needs_truth``). one-step.
 
-Registry: :func:`make_agent` builds an agent by name (an unknown name raises a ``ValueError`` that
-lists the valid ones), :func:`register_agent` adds one, :func:`agent_applies_to` says whether an
-agent fits an env's targets.
+Registry: [`make_agent`][agents.make_agent] builds an agent by name (an unknown name raises a ``ValueError``
+that lists the valid ones), [`register_agent`][agents.register_agent] adds one,
+[`agent_applies_to`][agents.agent_applies_to] says whether an agent fits an env's targets.
 """
 
 from __future__ import annotations
@@ -144,7 +152,7 @@ AGENT_PROTOCOLS: dict[AgentCapability, type] = {
     AgentCapability.TRUTH_OBSERVER: TruthObserver,
 }
 
-#: The capabilities of agents (:mod:`track_envs.infra.declared`).
+#: The capabilities of agents ([`track_envs.infra.declared`][track_envs.infra.declared]).
 AGENT_DECLARATIONS: Declarations[AgentCapability] = Declarations(AgentCapability, AGENT_PROTOCOLS, core=Agent)
 
 
@@ -174,7 +182,7 @@ def agent_capability(agent: object, which: AgentCapability) -> Any:
 
     Raises:
         TypeError: if the class declares ``which`` but lacks a member of its protocol (named), or
-            ``which`` is not an :class:`AgentCapability`.
+            ``which`` is not an [`AgentCapability`][agents.AgentCapability].
     """
     return AGENT_DECLARATIONS.get(agent, which)
 
@@ -209,10 +217,10 @@ TRAIT_DEFAULTS = AgentTraits()
 
 def agent_traits(agent: object) -> AgentTraits:
     """The traits an agent (an instance, a class or a registered factory) declares in its class
-    attribute ``traits``, :data:`TRAIT_DEFAULTS` where it declares none.
+    attribute ``traits``, `TRAIT_DEFAULTS` where it declares none.
 
     Raises:
-        TypeError: if the class's ``traits`` is not an :class:`AgentTraits`.
+        TypeError: if the class's ``traits`` is not an [`AgentTraits`][agents.AgentTraits].
     """
     return declared_value(agent, "traits", AgentTraits, TRAIT_DEFAULTS)
 
@@ -233,7 +241,7 @@ def register_agent(name: str, factory: Callable[..., Agent]) -> None:
 
 
 def available_agents() -> list[str]:
-    """Names accepted by :func:`make_agent`."""
+    """Names accepted by [`make_agent`][agents.make_agent]."""
     return AGENTS.names()
 
 

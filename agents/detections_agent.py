@@ -34,9 +34,9 @@ class DetectionsAgent:
 
         Raises:
             ValueError: for an observation that breaks the contract (see
-                :func:`~track_envs.contracts.observation.check_observation`).
+                [`check_observation`][track_envs.contracts.check_observation]).
             ReportOverflowError: more detections than ``spec.max_tracks`` report rows (none is
-                dropped silently; :func:`agents.files.points.run_agent` grows the report).
+                dropped silently; [`agents.files.points.run_agent`][agents.run_agent] grows the report).
         """
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")

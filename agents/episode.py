@@ -1,7 +1,7 @@
 """The episode loop: one agent tracks one episode of one env.
 
-:func:`run_episode` is the loop the benchmark cells, the ``lstm`` line search of ``track train``
-and the examples share::
+[`run_episode`][agents.run_episode] is the loop the benchmark cells, the ``lstm`` line search of
+``track train`` and the examples share::
 
     from agents import make_agent, run_episode
     env = TrackingMetrics(gym.make("BeltSorter-v0", max_episode_steps=200))
@@ -11,7 +11,7 @@ and the examples share::
 Per frame it calls ``agent.act(obs)`` and steps the env with the report. It resets the env with
 ``seed`` and the agent with the env's sensor spec and the same seed. An
 oracle (``AgentTraits(needs_truth=True)``, declaring ``TRUTH_OBSERVER``:
-:class:`agents.base.TruthObserver`) gets each frame's ``info``
+[`agents.base.TruthObserver`][agents.base.TruthObserver]) gets each frame's ``info``
 through ``observe_truth(info)`` before ``act``, and its own ``episode_metrics()`` join the
 result's. A tracker never sees ``info``.
 """
@@ -34,11 +34,11 @@ OnStep = Callable[[int, Mapping[str, Any], Mapping[str, Any], float, Mapping[str
 
 @dataclass(frozen=True)
 class EpisodeResult:
-    """What :func:`run_episode` did.
+    """What [`run_episode`][agents.run_episode] did.
 
     Attributes:
         metrics: The episode metrics: the ``info["episode_metrics"]`` of an env wrapped in
-            :class:`~track_envs.wrappers.TrackingMetrics` (its ``episode_metrics()`` so far when
+            [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics] (its ``episode_metrics()`` so far when
             ``steps`` ended the loop first), then a truth observer's own ``episode_metrics()``;
             empty for an env without that wrapper.
         frames: Env steps taken.
@@ -65,16 +65,16 @@ def run_episode(
     """Run ``agent`` on one episode of ``env`` until it ends or after ``steps`` frames.
 
     Args:
-        env: A tracking env, usually wrapped in :class:`~track_envs.wrappers.TrackingMetrics`.
-        agent: An :class:`~agents.base.Agent`; a truth observer (``needs_truth``,
+        env: A tracking env, usually wrapped in [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics].
+        agent: An [`Agent`][agents.Agent]; a truth observer (``needs_truth``,
             ``TRUTH_OBSERVER``) gets each
             frame's ``info`` before ``act``.
         seed: Seed of ``env.reset`` and ``agent.reset``.
         steps: Stop after this many frames (``None``: when the env terminates or truncates).
-        on_step: Called after every env step (:data:`OnStep`).
+        on_step: Called after every env step (`OnStep`).
 
     Returns:
-        The :class:`EpisodeResult`.
+        The [`EpisodeResult`][agents.EpisodeResult].
 
     Raises:
         ValueError: ``steps`` below 1.

@@ -1,11 +1,12 @@
 """Run an agent over a merge-event stream and score it per event.
 
-The scores themselves (:func:`~track_envs.streams.merge_scoring.score_events`, the bounds, the
-module docstring's definitions) are the environment side's, :mod:`track_envs.streams.merge_scoring`;
-this module drives the agent: :func:`run_on_stream` feeds it every frame of a
-:class:`~track_envs.streams.merge_events.MergeEventStream` and keeps its reports and, where the
-agent declares ``LAST_PREDICTION`` (:mod:`agents.base`: gnn, jpda), its tracker-side prediction
-of every frame, which the kick score reads; :func:`score_agent` runs and scores a fresh agent.
+The scores themselves ([`score_events`][track_envs.streams.score_events], the bounds, the
+module docstring's definitions) are the environment side's,
+[`track_envs.streams.merge_scoring`][track_envs.streams.merge_scoring]; this module drives the agent:
+[`run_on_stream`][agents.merge_scoring.run_on_stream] feeds it every frame of a
+[`MergeEventStream`][track_envs.streams.MergeEventStream] and keeps its reports and, where the agent declares
+``LAST_PREDICTION`` ([`agents.base`][agents.base]: gnn, jpda), its tracker-side prediction of every frame,
+which the kick score reads; [`score_agent`][agents.merge_scoring.score_agent] runs and scores a fresh agent.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ def run_on_stream(
 ) -> tuple[TrackHistory, dict[str, float]]:
     """Reset ``agent`` on the stream's spec, feed every frame, and keep the reports (and the
     predictions of an agent that declares ``LAST_PREDICTION``); with the whole-stream CLEAR MOT
-    of the reports (merged ids, threshold :data:`~track_envs.streams.merge_scoring.MATCH_RADIUS`)."""
+    of the reports (merged ids, threshold [`MATCH_RADIUS`][track_envs.streams.merge_scoring.MATCH_RADIUS])."""
     agent.reset(stream.spec, seed=seed)
     frames, rows = len(stream), stream.spec.max_tracks
     ids = np.full((frames, rows), -1, np.int64)
@@ -56,7 +57,7 @@ def run_on_stream(
 def score_agent(
     make: Callable[[], Agent], stream: MergeEventStream, seed: int = 0, **kwargs: Any
 ) -> EventScores:
-    """:func:`run_on_stream` on a fresh ``make()``, then
-    :func:`~track_envs.streams.merge_scoring.score_events` (``kwargs``: its keywords)."""
+    """[`run_on_stream`][agents.merge_scoring.run_on_stream] on a fresh ``make()``, then
+    [`score_events`][track_envs.streams.score_events] (``kwargs``: its keywords)."""
     history, mot = run_on_stream(make(), stream, seed)
     return score_events(stream, history, mot, **kwargs)

@@ -5,26 +5,28 @@ Application to Multitarget Tracking" (2020), Sec. V-B, D, E, score the motion mo
 the tracker: every track is fed the measurements of its own particle ("using the ground truth
 associations"), and each prediction ``N(ŷ, Σ)`` is compared with the measurement that followed.
 
-:class:`OneStepAgent` does that frame by frame on any point env with truth. It is an *oracle*:
+[`OneStepAgent`][agents.one_step.OneStepAgent] does that frame by frame on any point env with truth. It is an
+*oracle*:
 unlike a tracker it reads the frame's ``info["detection_ids"]`` (the truth id behind each
-detection row) through :meth:`OneStepAgent.observe_truth`, which the bench runner calls before
-every ``act`` for agents that declare the ``needs_truth`` trait. Per frame:
+detection row) through [`OneStepAgent.observe_truth`][agents.one_step.OneStepAgent.observe_truth], which the
+bench runner calls before every ``act`` for agents that declare the ``needs_truth`` trait. Per frame:
 
 1. every track predicts (one batched ``predict``);
 2. tracks whose particle has a detection are scored against it and updated with it; tracks whose
    particle is visible but undetected coast (fed their prediction, not scored); the others end;
 3. particles detected for the first time start tracks (Kalman filters from the mean first
-   velocity of the tracks seen so far, as :class:`agents.gnn.agent.GnnAgent`'s learnt flow prior).
+   velocity of the tracks seen so far, as [`agents.gnn.agent.GnnAgent`][agents.gnn.agent.GnnAgent]'s learnt
+   flow prior).
 
 The report is the true association (e1 = e2 = 0; when more tracks live than the report has
 rows, the first ``max_tracks`` are reported and every track is still scored). Its scores, from
-:meth:`episode_metrics`, are the per-track error distribution
-(:class:`~track_envs.metrics.track_error.TrackErrorDistribution`),
+`episode_metrics`, are the per-track error distribution
+([`TrackErrorDistribution`][track_envs.metrics.TrackErrorDistribution]),
 the reliability curve of the covariances as predicted (``reliability@p``) and divided by the
 predictor's calibration factor ``r`` (``reliability_raw@p``; predictors that do not declare the
 ``CALIBRATION`` capability have ``r = 1``),
 and the bounding-box area of the uncalibrated covariance against the track's number of
-observations (:class:`~track_envs.metrics.aleatoric.AleatoricArea`; for nll-lstm the network's
+observations ([`AleatoricArea`][track_envs.metrics.AleatoricArea]; for nll-lstm the network's
 aleatoric variance).
 """
 
@@ -61,7 +63,8 @@ class OneStepAgent:
         **predictor_kwargs: Passed to a predictor given by name (e.g. ``samples`` of mc-lstm).
     """
 
-    #: The bench runner hands this agent each frame's ``info`` (see :meth:`observe_truth`), and it
+    #: The bench runner hands this agent each frame's ``info`` (see
+    #: [`observe_truth`][agents.one_step.OneStepAgent.observe_truth]), and it
     #: is built with ``predictor=`` (a Gaussian predictor's name or object).
     traits = AgentTraits(needs_truth=True, takes_predictor=True)
     capabilities = frozenset({AgentCapability.TRUTH_OBSERVER})
@@ -99,8 +102,8 @@ class OneStepAgent:
         self._detection_ids = None
 
     def observe_truth(self, info: Mapping[str, Any]) -> None:
-        """Take the truth of the frame the next :meth:`act` answers (its ``detection_ids`` and the
-        ids of the visible particles)."""
+        """Take the truth of the frame the next [`act`][agents.one_step.OneStepAgent.act] answers (its
+        ``detection_ids`` and the ids of the visible particles)."""
         self._detection_ids = np.asarray(info["detection_ids"], dtype=np.int64)
         truth = info["truth"]
         ids = np.asarray(truth["ids"], dtype=np.int64)

@@ -39,7 +39,7 @@ its seeds), the mean ``d̄`` and the Student-t interval
     \\bar d \\pm t_{0.975,\\,n-1} \\, s / \\sqrt{n}, \\qquad s^2 = \\frac{1}{n-1} \\sum_k (d_k - \\bar d)^2,
 
 per setting (``n`` = seeds). Pooled over the noise levels of a (particle kind, merges) stratum,
-the interval is one of the mean over those levels of their means (:func:`stratified_interval`:
+the interval is one of the mean over those levels of their means (`stratified_interval`:
 the standard error from the spread within each level, Welch–Satterthwaite degrees of freedom),
 since the levels are fixed design points. ``n = 1`` gives no interval (NaN). An interval that
 covers 0 is reported as "no difference". The intervals are not corrected for the number of
@@ -129,7 +129,7 @@ def merge_model_of(agent: str, params: dict[str, Any]) -> bool:
 
 def load_table(path: str | Path) -> pd.DataFrame:
     """The BeltSorter-v0 rows of a ``records.csv``: one row per cell with the columns of
-    :data:`UNIT`, :data:`CONTESTANT`, ``steps``, ``wall_s`` and :data:`METRICS`.
+    `UNIT`, `CONTESTANT`, ``steps``, ``wall_s`` and `METRICS`.
 
     Raises:
         ValueError: when a metric column is missing, when the records mix episode lengths
@@ -225,7 +225,7 @@ Contestant = tuple[str, bool, str]
 
 
 def column(w: pd.DataFrame, contestant: Contestant) -> pd.Series:
-    """A contestant's column of :func:`wide` (all NaN when it has no record)."""
+    """A contestant's column of `wide` (all NaN when it has no record)."""
     return w[contestant] if contestant in w.columns else pd.Series(np.nan, index=w.index)
 
 
@@ -317,8 +317,8 @@ def verdict(low: float, high: float) -> str:
 
 
 def summarize(diff: pd.Series) -> list[dict[str, Any]]:
-    """Intervals of per-unit differences: per setting (:func:`t_interval` over the seeds), and per
-    stratum over its noise levels (:func:`stratified_interval`, noise column :data:`ALL_NOISE`)."""
+    """Intervals of per-unit differences: per setting (`t_interval` over the seeds), and per
+    stratum over its noise levels (`stratified_interval`, noise column `ALL_NOISE`)."""
     rows: list[dict[str, Any]] = []
     d = diff.dropna()
     if d.empty:
@@ -345,8 +345,8 @@ def summarize(diff: pd.Series) -> list[dict[str, Any]]:
 
 
 def contrast_table(table: pd.DataFrame) -> pd.DataFrame:
-    """Every contrast (:func:`contrasts`, then jpda over gnn per predictor) × metric, with its
-    intervals per setting and pooled (:func:`summarize`); contrasts without records are absent."""
+    """Every contrast (`contrasts`, then jpda over gnn per predictor) × metric, with its
+    intervals per setting and pooled (`summarize`); contrasts without records are absent."""
     predictors = list(dict.fromkeys(table["predictor"]))
     rows = []
     for metric in METRICS:
@@ -404,7 +404,7 @@ def fmt(mean: float, low: float, high: float, metric: str) -> str:
 
 
 def cell_text(by_metric: pd.DataFrame, metric: str) -> str:
-    """:func:`fmt` of the row ``metric`` of a table indexed by metric."""
+    """`fmt` of the row ``metric`` of a table indexed by metric."""
     row = by_metric.loc[metric]
     return fmt(float(row["mean"]), float(row["low"]), float(row["high"]), metric)
 

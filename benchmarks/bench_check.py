@@ -81,7 +81,7 @@ def _lstm_threads() -> dict[str, Any]:
 
 
 def check_belt_lstm() -> dict[str, Any]:
-    """Both belt LSTM checks from one set of processes (see :func:`main`)."""
+    """Both belt LSTM checks from one set of processes (see `main`)."""
     r = _lstm_threads()
     b = r["best"]
     return {
@@ -199,7 +199,7 @@ def load_floors(path: Path = FLOORS) -> dict[str, dict[str, Any]]:
     """The floors file: ``{check: {"floor": float, "measured": [...], ...}}``.
 
     Raises:
-        ValueError: a check of :data:`CHECKS` without a floor, or a floor that is not a positive number.
+        ValueError: a check of `CHECKS` without a floor, or a floor that is not a positive number.
     """
     floors = tomllib.loads(path.read_text())
     for name in CHECKS:

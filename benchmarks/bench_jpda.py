@@ -140,7 +140,7 @@ def run_timed(agent: Any, observations: list[Obs], warm: int) -> tuple[NDArray, 
 def compare(
     observations: list[Obs], spec: SensorSpec, warm: int, repeat: int
 ) -> dict[str, tuple[NDArray, list[int], int, int]]:
-    """Best-of-``repeat`` frame times of every tracker in :data:`TRACKERS` (interleaved)."""
+    """Best-of-``repeat`` frame times of every tracker in `TRACKERS` (interleaved)."""
     for _, name, kwargs in TRACKERS:  # load every kernel before any clock starts
         make(name, kwargs, spec).warm_up()
     best: dict[str, tuple[NDArray, list[int], int, int]] = {}

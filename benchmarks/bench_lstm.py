@@ -6,9 +6,9 @@
    work), against the reference of the same network as plain torch eager ``nn.LSTMCell`` layers
    and a linear head on one thread, timed in this run.
 2. **mc-lstm, T = 250 samples**, predict + update for 150 tracks: the grouped inference (each
-   distinct dropout sample once, :mod:`predictors.belt_lstm.mc_dropout`) against the plain computation of
-   all ``T`` masked passes in numpy, and against fully batched torch (``150 × 250`` rows through
-   the same cells), all timed in this run.
+   distinct dropout sample once, [`predictors.belt_lstm.mc_dropout`][predictors.belt_lstm.mc_dropout]) against
+   the plain computation of all ``T`` masked passes in numpy, and against fully batched torch (``150 × 250``
+   rows through the same cells), all timed in this run.
 3. **Whole loop**: BeltSorter-v0 with ≈150 particles in view, gnn with ``nll-lstm``, and
    TrackingMetrics, frames per second (the reference is the same loop with ``kf-ca``), with
    touching particles merged into blobs (the default) and without.

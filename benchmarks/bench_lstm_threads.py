@@ -10,14 +10,15 @@ duration of the timing (the timing process itself is not pinned, so the BLAS thr
 that CPU, as they would beside a camera driver or a valve controller). Variants:
 
 * ``default``: the library as installed, BLAS at its default thread count (the step limits its
-  products to one thread, :func:`track_envs.infra.blas_threads.frame_blas`);
+  products to one thread,
+  [`track_envs.infra.blas_threads.frame_blas`][track_envs.infra.blas_threads.frame_blas]);
 * ``unpinned``: the same process setup with that limit switched off
   (``set_frame_threads(None)``), i.e. BLAS splitting the small products over all its threads;
 * ``one thread``: ``OPENBLAS_NUM_THREADS=1`` (and ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``) set
   before numpy loads;
 * ``torch``: the same network as torch eager ``nn.LSTMCell`` layers (4 → 64 → 32) and a linear
   head, one step of the 150 rows under ``no_grad``, ``torch.set_num_threads(1)``
-  (:func:`bench_lstm.torch_reference`).
+  (`bench_lstm.torch_reference`).
 
 Each timing is the best of 7 repetitions of as many calls as fill ≈20 ms, and each process times
 idle and busy three times, alternating (best kept). Wall clock, and idle also on the thread's CPU
@@ -141,7 +142,7 @@ def worker(mode: str, tracks: int, rounds: int = 3) -> dict[str, Any]:
 
 
 def run_worker(mode: str, tracks: int, timeout: float = 300.0) -> dict[str, Any]:
-    """:func:`worker` in a new process with ``mode``'s environment."""
+    """`worker` in a new process with ``mode``'s environment."""
     env = {k: v for k, v in os.environ.items() if k not in _THREAD_VARS}
     if mode == "one thread":
         env.update(dict.fromkeys(_THREAD_VARS, "1"))

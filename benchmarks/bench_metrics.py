@@ -15,13 +15,13 @@ Timings are the best of three repetitions.
     python benchmarks/bench_metrics.py --targets 1500,10000,100000 [--frames 30]
 
 instead measures how the per-frame cost of HOTA, CLEAR MOT (+IDF1) and GOSPA grows with the
-number of targets: the truth is :func:`track_envs.streams.constant_velocity_stream` at ``N``
-targets in view, the window scaled with ``s = sqrt(N / 150)`` (``(0.5 s, 0.3 s)`` m, the belt's
-density) and clutter ``5 N / 150``; the reports are the truth with Gaussian noise (1 mm per
-axis), 2 % of the targets missed, 2 % false tracks and track ids swapped between neighbours now
-and then (one swap per 400 targets and frame). Each metric (match distance 5 mm, the belt's GOSPA
-cut-off) replays the frames (``reset``, one ``update`` per frame, then ``compute``, amortised
-per frame). A metric linear in targets keeps ``µs / frame / target`` flat.
+number of targets: the truth is
+[`track_envs.streams.constant_velocity_stream`][track_envs.streams.constant_velocity_stream] at ``N`` targets
+in view, the window scaled with ``s = sqrt(N / 150)`` (``(0.5 s, 0.3 s)`` m, the belt's density) and clutter
+``5 N / 150``; the reports are the truth with Gaussian noise (1 mm per axis), 2 % of the targets missed, 2 %
+false tracks and track ids swapped between neighbours now and then (one swap per 400 targets and frame). Each
+metric (match distance 5 mm, the belt's GOSPA cut-off) replays the frames (``reset``, one ``update`` per
+frame, then ``compute``, amortised per frame). A metric linear in targets keeps ``µs / frame / target`` flat.
 """
 
 from __future__ import annotations

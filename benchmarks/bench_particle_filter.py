@@ -2,11 +2,13 @@
 the same run, on the sine scene of SineTarget-v0 (p_detect = 0.9, σ_m = 0.5, σ_p = 1):
 
 1. the agent ``make_agent("pf")`` through ``agent.act`` on a recorded observation stream, at
-   N = 100, 1,000 and 10,000 particles, against :func:`plain_bootstrap_filter`, a plain numpy
+   N = 100, 1,000 and 10,000 particles, against `plain_bootstrap_filter`, a plain numpy
    bootstrap filter on the same detections (target at 10,000: ≥ 2x; the agent on the numpy path,
    its model wrapped so that only ``propose`` is seen, for comparison), and where the agent's time
    goes (observation check, filter, report; lower decile of single calls);
-2. the compiled frame (:class:`predictors.displacement.CommonDisplacementModel`) against the numpy path of
+2. the compiled frame
+([`predictors.displacement.CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel])
+against the numpy path of
    the same filter (the model wrapped so that only ``propose`` is seen), at 1 × 10,000 and 150 × 100;
 3. 150 targets × 100 particles in one batched filter against a Python loop over 150 single-target
    filters (target: ≥ 3x);

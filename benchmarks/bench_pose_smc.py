@@ -14,11 +14,12 @@ sizes the predictor's compiled products). Variants, timed in the same run:
 * **every window** (``share_windows=False``): the same work through the predictor's own float32
   cell (products summed in a fixed order): the exactness reference of the default.
 * **default** (``share_windows=True``): the LSTM once per distinct input prefix of the filters'
-  distinct queues (:class:`predictors.pose_lstm.prefix_tree.PrefixTree`) and the FC block's first
-  layer once per distinct queue; dropout and the draw per particle. Bit for bit the reports of
+  distinct queues
+  ([`predictors.pose_lstm.prefix_tree.PrefixTree`][predictors.pose_lstm.prefix_tree.PrefixTree]) and the FC
+  block's first layer once per distinct queue; dropout and the draw per particle. Bit for bit the reports of
   *every window* (checked here on the timed frames).
 * **carried** (``recurrence="carried"``): one LSTM step per particle and keypoint per frame; its
-  semantics differ (see :mod:`predictors.pose_lstm.motion`).
+  semantics differ (see [`predictors.pose_lstm.motion`][predictors.pose_lstm.motion]).
 
 The frame time is the **median** of the timed frames (``--warmup 5 --frames 20``: frames 5–24
 after ``reset(seed=0)``). Two references are timed in the same run, and the default's ratio to each

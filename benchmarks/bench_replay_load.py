@@ -1,4 +1,5 @@
-"""Benchmark: loading a recorded belt-sorter track file with :func:`track_envs.io.wide_tracks.load_track_csv`.
+"""Benchmark: loading a recorded belt-sorter track file with
+[`track_envs.io.wide_tracks.load_track_csv`][track_envs.io.load_track_csv].
 
 Generates a realistic file in a temporary directory (each particle visible for about 30 consecutive
 frames, NaN elsewhere, positions in metres at full float precision), then times ``load_track_csv``

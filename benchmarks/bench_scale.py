@@ -4,12 +4,13 @@
     python benchmarks/bench_scale.py --sizes 150 1500     # some sizes only
     python benchmarks/bench_scale.py --compare-only       # trackpy / laptrack side by side (1,500, 15,000)
 
-The scene is the synthetic constant-velocity stream (:mod:`track_envs.streams.constant_velocity`) at
-its default density: the window grows with ``N`` (``(0.5, 0.3) · √(N/150)`` m) and so does the clutter
-(``5 N / 150`` per frame), ``p_D = 0.9``, σ = 0.1 mm, targets ≈3 cm apart moving 1 cm per frame.
-Every configuration runs in its own process (``spawn``), on one thread, so that its peak resident
-memory is its own; its frames are timed one by one after ``warm_up()`` and a settling period
-(``--settle`` frames: the field of tracks is full after ≈5), and the median is reported.
+The scene is the synthetic constant-velocity stream
+([`track_envs.streams.constant_velocity`][track_envs.streams.constant_velocity]) at its default density: the
+window grows with ``N`` (``(0.5, 0.3) · √(N/150)`` m) and so does the clutter (``5 N / 150`` per frame),
+``p_D = 0.9``, σ = 0.1 mm, targets ≈3 cm apart moving 1 cm per frame. Every configuration runs in its own
+process (``spawn``), on one thread, so that its peak resident memory is its own; its frames are timed one by
+one after ``warm_up()`` and a settling period (``--settle`` frames: the field of tracks is full after ≈5), and
+the median is reported.
 
 1. **Trackers**: gnn kf-cv, gnn kf-ca, gnn nll-lstm and jpda kf-cv (``act()`` per frame), in ms per
    frame and µs per target, with the peak RSS of the process.

@@ -1,22 +1,22 @@
 """Speed of detection-file reading and of ``track run``'s loop around an agent.
 
 1. Reading a 50,000-frame file of 150,000 detections (a belt-like flow of about 3 particles in
-   view, 0 to 8 per frame), in both layouts: :func:`read_mot_detections` and
-   :func:`read_wide_detections`, against a plain-Python reader (the :mod:`csv` module, one list
+   view, 0 to 8 per frame), in both layouts: `read_mot_detections` and
+   `read_wide_detections`, against a plain-Python reader (the `csv` module, one list
    per frame) timed on the same files. Target: <= 2 s.
 2. ``track run``'s overhead over the agent's own frame time: the same gnn (kf-ca) tracker over
    the same stream, (a) ``agent.act`` on observations packed before the clock starts (the
-   agent's own time), (b) :func:`agents.files.points.run_agent` (packing, the loop, gathering the reports
-   into tracks, a tqdm bar), (c) the whole ``track run`` command (read, track, write the MOT
+   agent's own time), (b) [`agents.files.points.run_agent`][agents.run_agent] (packing, the loop, gathering
+   the reports into tracks, a tqdm bar), (c) the whole ``track run`` command (read, track, write the MOT
    file), each timed in the same process on the process's CPU time (the machine is shared: wall
    time counts the waits for a core), seven interleaved repetitions; the ratio is the median of
    the per-repetition ratios. On the sparse stream above and
    on a dense one (150 particles in view, 2,000 frames). Target: (b) / (a) <= 1.10.
 3. ``--scale``: the file stages of ``track run`` at 10^3, 10^4 and 10^5 targets in view (20
-   frames of :func:`track_envs.streams.constant_velocity_stream` at the belt's density), each stage
-   in a process of its own: wall time and peak resident memory above the stage's start, per
-   detection; the tracker is the ``detections`` agent (no association), so the figures are the
-   I/O's and the loop's own. Target: time and memory per detection flat in N.
+   frames of [`track_envs.streams.constant_velocity_stream`][track_envs.streams.constant_velocity_stream] at
+   the belt's density), each stage in a process of its own: wall time and peak resident memory above the
+   stage's start, per detection; the tracker is the ``detections`` agent (no association), so the figures are
+   the I/O's and the loop's own. Target: time and memory per detection flat in N.
 
 Run: ``python benchmarks/bench_track_run.py`` (add ``--quick`` for a smaller run;
 ``--scale`` for 3 only).

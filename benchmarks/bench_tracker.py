@@ -286,7 +286,7 @@ def first_frames(warm_up: bool, frames: int = 60) -> None:
 
 
 def first_frames_table() -> None:
-    """:func:`first_frames` in two fresh processes (cold, then with the warm-up)."""
+    """`first_frames` in two fresh processes (cold, then with the warm-up)."""
     print("\n| new process, dense stream, gnn + kf-ca | longest frame ms | sum ms |")
     print("|---|---|---|")
     for flag in ("cold", "warm"):

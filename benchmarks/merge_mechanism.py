@@ -1,6 +1,7 @@
-"""jpda with and without its merge model on the pair scenes of :mod:`track_envs.streams.merge_scenes`.
+"""jpda with and without its merge model on the pair scenes of
+[`track_envs.streams.merge_scenes`][track_envs.streams.merge_scenes].
 
-For every scene and seed the same stream is tracked by jpda (kf-ca) in each arm of :data:`ARMS`
+For every scene and seed the same stream is tracked by jpda (kf-ca) in each arm of `ARMS`
 (without the merge model, with it keeping the members' predicted offset as before, and with the
 rigid pair), and scored against truth with the merged ids: e1 (share of tracks holding detections of more
 than one particle), e2, ID switches (CLEAR MOT, match distance 2 mm) and HOTA (zero similarity at

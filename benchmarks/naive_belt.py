@@ -16,7 +16,7 @@ from track_envs.envs.belt_physics import GRAVITY, PARTICLE_KINDS, BeltParams
 
 
 class NaiveBelt:
-    """One frame per :meth:`step`, returning (detections, their truth ids, truth velocities)."""
+    """One frame per `step`, returning (detections, their truth ids, truth velocities)."""
 
     def __init__(self, params: BeltParams, kind: str, seed: int, dt: float = 0.01, noise_std: float = 1e-4):
         self.p = params

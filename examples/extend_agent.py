@@ -1,18 +1,20 @@
 """Extending track-envs with an agent: a nearest-neighbour tracker with a fixed gate.
 
-One module and a ``register_agent`` call. An agent (the :class:`agents.base.Agent` protocol) has
+One module and a ``register_agent`` call. An agent (the [`agents.base.Agent`][agents.Agent] protocol) has
 two calls:
 
-* ``reset(spec, *, seed=None)`` binds it to the env's :class:`~track_envs.values.types.SensorSpec` and
+* ``reset(spec, *, seed=None)`` binds it to the env's [`SensorSpec`][track_envs.SensorSpec] and
   starts an episode with no tracks (``seed`` seeds whatever random stream it draws from);
 * ``act(obs) -> report``: the observation (``"detections"``, ``"mask"``) in, the report of its
   live tracks out (ids, positions, the detection row each was updated with, mask), built with
-  :func:`track_envs.contracts.report.pack_report`. The report is the env's action.
+  [`track_envs.contracts.report.pack_report`][track_envs.contracts.pack_report]. The report is the env's
+  action.
 
-It validates the observation with :func:`track_envs.contracts.observation.check_observation` (a
+It validates the observation with
+[`track_envs.contracts.observation.check_observation`][track_envs.contracts.check_observation] (a
 ``ValueError`` naming what is wrong) and declares what it is as class attributes (the traits of
-:mod:`agents.base`: ``position_rank``, ``max_targets``, ``needs_truth``, ``takes_predictor``),
-which the bench and ``track run`` read to decide where it applies. Run it::
+[`agents.base`][agents.base]: ``position_rank``, ``max_targets``, ``needs_truth``, ``takes_predictor``), which
+the bench and ``track run`` read to decide where it applies. Run it::
 
     python examples/extend_agent.py --steps 200
 """
@@ -50,7 +52,7 @@ class NearestNeighbourAgent:
     4. every detection left over starts a track with a new id (as many as ``max_tracks`` allows).
 
     Args:
-        gate: The gate ``g`` in sensor units, > 0; ``None``: :data:`GATE_STDS` times the sensor's
+        gate: The gate ``g`` in sensor units, > 0; ``None``: `GATE_STDS` times the sensor's
             noise std.
         max_misses: Consecutive misses a track survives, >= 0.
     """
@@ -82,7 +84,7 @@ class NearestNeighbourAgent:
 
         Raises:
             ValueError: for an observation that breaks the contract (``check_observation``).
-            RuntimeError: before :meth:`reset`.
+            RuntimeError: before `reset`.
         """
         if self._spec is None:
             raise RuntimeError("act() called before reset(spec); call agent.reset(env.unwrapped.sensor_spec)")
@@ -122,7 +124,7 @@ class NearestNeighbourAgent:
 
 
 def register() -> None:
-    """Register the tracker as :data:`NAME` (its keyword arguments are the class's)."""
+    """Register the tracker as `NAME` (its keyword arguments are the class's)."""
     register_agent(NAME, NearestNeighbourAgent)
 
 

@@ -1,11 +1,11 @@
 """Extending track-envs with an associator: greedy nearest neighbour inside the χ² gate.
 
-A point tracker (:class:`agents.tracking.tracker.PointTracker`) owns its tracks' life cycle —
+A point tracker ([`agents.tracking.tracker.PointTracker`][agents.PointTracker]) owns its tracks' life cycle —
 prediction, births, misses, deletions, the learnt velocity prior, the nozzle-bar roll-out, the
 report — and leaves one step to a component, the *associator* (the protocol of
-:mod:`agents.tracking.associator`). Each frame it gets a read-only ``FrameContext`` (the predicted
-measurements ``N(ŷ_i, S_i)``, the detections ``z_j``, the χ² gate, the tracks' streaks, ...) and
-returns an ``Association``: the detection of every track (−1: none) and the measurement each is
+[`agents.tracking.associator`][agents.tracking.associator]). Each frame it gets a read-only ``FrameContext``
+(the predicted measurements ``N(ŷ_i, S_i)``, the detections ``z_j``, the χ² gate, the tracks' streaks, ...)
+and returns an ``Association``: the detection of every track (−1: none) and the measurement each is
 updated with; its ``update`` then corrects the predicted state (here the predictor's ``update``).
 
 This one is greedy nearest neighbour: with the squared Mahalanobis costs

@@ -1,15 +1,15 @@
 """Extending track-envs with an environment: targets circling a point, sensed by the default sensor.
 
 One module and a ``gym.register`` call. A concrete environment only simulates; the base class
-:class:`track_envs.envs.base.TrackingEnv` pads and shuffles the detections, validates the report,
-puts the truth into ``info``, scores the reward and renders. The hooks:
+[`track_envs.envs.base.TrackingEnv`][track_envs.envs.TrackingEnv] pads and shuffles the detections, validates
+the report, puts the truth into ``info``, scores the reward and renders. The hooks:
 
 * ``_reset_scene`` draws the scene from ``self.np_random`` (the only RNG);
 * ``_advance`` moves it one frame on and says whether the scene has ended;
 * ``_truth`` returns the targets of the frame;
 * ``_canvas`` / ``_draw`` draw it (``render_mode="rgb_array"``).
 
-The default ``_sense`` is the point sensor of the :class:`~track_envs.values.types.SensorSpec`
+The default ``_sense`` is the point sensor of the [`SensorSpec`][track_envs.SensorSpec]
 (noise, p_detect, clutter). Run it::
 
     python examples/extend_env.py --steps 50
@@ -87,7 +87,7 @@ class CirclingTargetsEnv(TrackingEnv):
 
 
 def register() -> None:
-    """Register :data:`ENV_ID` (idempotent)."""
+    """Register `ENV_ID` (idempotent)."""
     if ENV_ID not in gym.registry:
         gym.register(ENV_ID, entry_point=f"{__name__}:CirclingTargetsEnv", max_episode_steps=200)
 

@@ -2,20 +2,23 @@
 
 One module and a ``register_predictor`` call, end to end:
 
-1. **data** — true tracks of PiecewiseTarget-v0 (:func:`predictors.training.data.tracks_from_env`),
-   seen through the env's sensor noise, split by track (:func:`~predictors.training.data.split_tracks`);
+1. **data** — true tracks of PiecewiseTarget-v0
+([`predictors.training.data.tracks_from_env`][predictors.training.tracks_from_env]),
+   seen through the env's sensor noise, split by track ([`split_tracks`][predictors.training.split_tracks]);
 2. **network** — a torch LSTM of a few units that reads a track's last displacement and predicts
-   the next (:func:`build_network`);
-3. **training** — the project's loop (:func:`predictors.training.loop.fit`: seeded, CPU, the best
+   the next (`build_network`);
+3. **training** — the project's loop ([`predictors.training.loop.fit`][predictors.training.fit]: seeded, CPU,
+the best
    validation epoch kept), a few seconds;
-4. **model file** — ``NAME.safetensors`` + ``NAME.json`` (:func:`~predictors.training.model_file.save_model`)
+4. **model file** — ``NAME.safetensors`` + ``NAME.json`` ([`save_model`][predictors.training.save_model])
    with the input scale and the learned covariance in the sidecar;
 5. **inference** — the file loaded back and run by the one inference LSTM,
-   :class:`predictors.lstm_cell.LSTMCellWeights` (numpy; torch is not imported to track);
-6. **predictor** — :class:`LearnedStepPredictor`, the Predictor protocol over a batch of tracks with
+   [`predictors.lstm_cell.LSTMCellWeights`][predictors.LSTMCellWeights] (numpy; torch is not imported to
+   track);
+6. **predictor** — `LearnedStepPredictor`, the Predictor protocol over a batch of tracks with
    the LSTM state per track, registered and run in gnn on an episode it was not trained on.
 
-torch is imported only by :func:`build_network` and :func:`train`. Run it::
+torch is imported only by `build_network` and `train`. Run it::
 
     python examples/extend_learned_predictor.py --out models/      # trains, saves, tracks
     python examples/extend_learned_predictor.py --model models/learned-step   # tracks only
@@ -50,9 +53,9 @@ FloatArray = NDArray[np.float64]
 
 # -- data -----------------------------------------------------------------------------------------
 def measured_tracks(episodes: int, steps: int, seed: int) -> Any:
-    """True tracks of ``episodes`` episodes of :data:`ENV_ID` (``steps`` frames each) plus the
+    """True tracks of ``episodes`` episodes of `ENV_ID` (``steps`` frames each) plus the
     sensor's noise ``N(0, σ_n² I)`` (a seeded generator), split 70/15/15 by track; a
-    :class:`~predictors.training.data.TrackSplit`."""
+    [`TrackSplit`][predictors.training.TrackSplit]."""
     import gymnasium as gym
 
     from predictors.training import split_tracks, tracks_from_env
@@ -78,7 +81,7 @@ def sequences(tracks: Sequence[FloatArray], scale: FloatArray) -> tuple[FloatArr
 # -- network (torch; training only) --------------------------------------------------------------
 def build_network(hidden: int) -> Any:
     """The torch network: ``nn.LSTM(D → hidden)`` and a linear head ``hidden → D`` (D = 2), with the
-    two methods :func:`~predictors.training.loop.trained_model_file` reads."""
+    two methods [`trained_model_file`][predictors.training.trained_model_file] reads."""
     from torch import nn
 
     class StepLSTM(nn.Module):
@@ -114,7 +117,7 @@ def train(
     steps: int = 60,
     seed: int = 0,
 ) -> Path:
-    """Train the network on :data:`ENV_ID`'s tracks and save it as ``out/NAME``; the model's path.
+    """Train the network on `ENV_ID`'s tracks and save it as ``out/NAME``; the model's path.
 
     The learned covariance is the residual variance per axis of the one-step prediction
     ``ẑ_{t+1} = z_t + Δ̂`` on the validation tracks, run through the numpy inference that tracks.
@@ -161,7 +164,7 @@ def train(
 # -- inference (numpy) ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class StepNetwork:
-    """The network of a model file in numpy: one :class:`~predictors.lstm_cell.LSTMCellWeights`
+    """The network of a model file in numpy: one [`LSTMCellWeights`][predictors.LSTMCellWeights]
     layer and the head ``Δ̂ = scale ⊙ (h W_headᵀ + b_head)``.
 
     Attributes:
@@ -291,17 +294,17 @@ class LearnedStepPredictor:
 
 
 def learned_step(*, weights: str | os.PathLike[str]) -> Predictor:
-    """The factory registered as :data:`NAME`: ``weights`` is the model file."""
+    """The factory registered as `NAME`: ``weights`` is the model file."""
     return LearnedStepPredictor(weights)
 
 
 def register() -> None:
-    """Register :func:`learned_step` as :data:`NAME`."""
+    """Register `learned_step` as `NAME`."""
     register_predictor(NAME, learned_step)
 
 
 def track(model: str | os.PathLike[str], steps: int, seed: int = 1000) -> dict[str, Any]:
-    """Check the predictor of ``model`` and track ``steps`` frames of :data:`ENV_ID` (an episode
+    """Check the predictor of ``model`` and track ``steps`` frames of `ENV_ID` (an episode
     the data did not come from: ``seed``) with gnn; the episode metrics."""
     import gymnasium as gym
 

@@ -1,9 +1,9 @@
 """Extending track-envs with a metric: the fraction of frames in which every target is tracked.
 
-A metric is a small streaming class (the :class:`track_envs.metrics.Metric` protocol, in the
-style of py-motmetrics' accumulator): ``update(truth, detection_ids, report)`` once per frame with
+A metric is a small streaming class (the [`track_envs.metrics.Metric`][track_envs.metrics.Metric] protocol, in
+the style of py-motmetrics' accumulator): ``update(truth, detection_ids, report)`` once per frame with
 exactly what the env hands out (padded, fixed shapes), ``compute()`` for the summary and
-``reset()`` for a new episode. Pass it to :class:`~track_envs.wrappers.TrackingMetrics`; nothing
+``reset()`` for a new episode. Pass it to [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics]; nothing
 registers it. Here: a frame counts as *covered* when every visible target has a reported track
 within ``radius`` of it (a distance, not an assignment: it is a coverage measure). Run it::
 
@@ -59,7 +59,7 @@ class Coverage:
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
-    """Score gnn + kf-cv on SineTarget-v0 with the default metrics plus :class:`Coverage`."""
+    """Score gnn + kf-cv on SineTarget-v0 with the default metrics plus `Coverage`."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=100, help="frames (default 100)")
     parser.add_argument("--radius", type=float, default=0.25, help="coverage radius (default 0.25)")

@@ -1,16 +1,16 @@
 """Extending track-envs with a predictor: an alpha-beta filter over a batch of tracks.
 
 One module and a ``register_predictor`` call. A predictor is a motion model with uncertainty,
-batched over the ``n`` tracks of a tracker (the :class:`predictors.base.Predictor` protocol):
+batched over the ``n`` tracks of a tracker (the [`predictors.base.Predictor`][predictors.Predictor] protocol):
 
-* ``reset(spec)`` binds it to the env's :class:`~track_envs.values.types.SensorSpec` (``dt``, noise);
+* ``reset(spec)`` binds it to the env's [`SensorSpec`][track_envs.SensorSpec] (``dt``, noise);
 * ``start(z)`` makes the states of new tracks from their first measurements ``z`` (n, D);
 * ``predict(state) -> (state, Gaussian)`` moves every track one frame on and gives its predicted
   measurement ``N(mean (n, D), cov (n, D, D))``, which the tracker gates and associates with;
 * ``update(state, z, seen) -> state`` corrects the rows with ``seen`` True; the others coast;
 * ``estimate(state) -> Gaussian`` is what the tracker reports.
 
-The state is an immutable :class:`~predictors.base.BatchState` (a frozen dataclass of arrays
+The state is an immutable [`BatchState`][predictors.BatchState] (a frozen dataclass of arrays
 whose first axis is the track), so the tracker keeps survivors with ``state.take(rows)`` and
 appends births with ``type(state).concat([a, b])`` without knowing the fields.
 
@@ -72,7 +72,7 @@ class AlphaBetaPredictor:
     """Constant-velocity alpha-beta filter: fixed gains, every axis on its own, batched over tracks.
 
     Each frame, per axis, with ``F = [[1, dt], [0, 1]]``, ``Q = σ_a² Γ Γᵀ``, ``Γ = [dt²/2, dt]ᵀ``
-    and the fixed gain ``K = [α, β/dt]ᵀ`` (:func:`alpha_beta_gains`)::
+    and the fixed gain ``K = [α, β/dt]ᵀ`` (`alpha_beta_gains`)::
 
         predict:  x ← x + v dt,           P ← F P Fᵀ + Q,       ẑ ~ N(x, P₀₀ + σ_n²)
         update:   x ← x + α (z − x),     v ← v + (β/dt)(z − x),
@@ -89,7 +89,7 @@ class AlphaBetaPredictor:
             velocity prior is given, > 0.
     """
 
-    #: The optional capabilities this predictor offers (:mod:`predictors.base`): gnn asks for
+    #: The optional capabilities this predictor offers ([`predictors.base`][predictors.base]): gnn asks for
     #: them with ``capability(predictor, Capability.VELOCITY_PRIOR)``.
     capabilities: ClassVar[frozenset[Capability]] = frozenset({Capability.VELOCITY_PRIOR})
 
@@ -168,7 +168,7 @@ class AlphaBetaPredictor:
 
 
 def register() -> None:
-    """Register the filter as :data:`NAME` (its keyword arguments are the factory's)."""
+    """Register the filter as `NAME` (its keyword arguments are the factory's)."""
     register_predictor(NAME, AlphaBetaPredictor)
 
 

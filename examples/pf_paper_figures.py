@@ -2,8 +2,8 @@
 
 Jung, Schlangen, Charlish, "Sequential Monte Carlo Filtering with Long Short-Term Memory
 Prediction" (FUSION 2019), Sec. IV, on the scenes of SineTarget-v0 and PiecewiseTarget-v0, with the
-batched runs of :mod:`track_apps.reproductions.jung2019` (every Monte Carlo run of an experiment is one
-target of one batched filter per model; both filters see the same measurements):
+batched runs of [`track_apps.reproductions.jung2019`][track_apps.reproductions.jung2019] (every Monte Carlo
+run of an experiment is one target of one batched filter per model; both filters see the same measurements):
 
 * Exp. 1 / Fig. 3 — example tracks on the sine and on the sine rotated by 45° (N = 100, p_d = 0.5,
   σ_p = σ_m = 0.5) and the mean errors of both rotations;

@@ -7,7 +7,8 @@ bb_height, conf, -1, -1, -1) that py-motmetrics reads as they are::
 
 prints MOTA, IDF1, MOTP and ID switches from py-motmetrics (IoU >= 0.5, MOTChallenge's rule:
 ``compare_to_groundtruth(gt, ts, "iou", distth=0.5)``) and, for comparison, the project's own
-scores of the same files (:func:`track_envs.metrics.score_tracks`), which equal py-motmetrics'.
+scores of the same files ([`track_envs.metrics.score_tracks`][track_envs.metrics.score_tracks]), which equal
+py-motmetrics'.
 
 py-motmetrics 1.4.0 (the newest release) calls ``np.asfarray`` in its IoU distance, a function
 numpy 2.0 removed; the one-line shim below puts it back before motmetrics is imported (it is what

@@ -1,14 +1,16 @@
-"""Motion models with uncertainty, batched over tracks (the Predictor protocol, :mod:`predictors.base`).
+"""Motion models with uncertainty, batched over tracks (the Predictor protocol,
+`predictors.base`).
 
-Registry (:mod:`predictors.registry`): :func:`make_predictor` builds a predictor by name (an
-unknown name raises a ``ValueError`` that lists the valid ones); :func:`resolve_predictor` takes a
-name or a Predictor object, as a tracker's ``predictor`` argument does. :func:`motion_models`
-lists every motion model of the three kinds (Gaussian predictor, particle displacement, pose
-hypothesis) with the agents that take it.
+Registry (`predictors.registry`): [`make_predictor`][predictors.make_predictor] builds
+a predictor by name (an unknown name raises a ``ValueError`` that lists the valid ones);
+[`resolve_predictor`][predictors.resolve_predictor] takes a name or a Predictor object, as a tracker's
+``predictor`` argument does. `motion_models` lists every motion model of the three
+kinds (Gaussian predictor, particle displacement, pose hypothesis) with the agents that take it.
 
-Training recipes (:mod:`predictors.training.recipes`): each learned family registers how ``track
-train KIND`` trains it beside its predictor (:func:`register_recipe`, :func:`available_recipes`);
-the families' modules, which import torch, load on first use.
+Training recipes (`predictors.training.recipes`): each learned family registers
+how ``track train KIND`` trains it beside its predictor ([`register_recipe`][predictors.register_recipe],
+[`available_recipes`][predictors.available_recipes]); the families' modules, which import torch, load on first
+use.
 """
 
 from __future__ import annotations

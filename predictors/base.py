@@ -11,77 +11,88 @@ state (an immutable value) and calls, each frame,
 4. ``start(z) -> state`` for new tracks, ``state.take(rows)`` for survivors and
    ``type(state).concat([a, b])`` to append births.
 
-``reset(spec)`` binds the predictor to an environment's :class:`~track_envs.values.types.SensorSpec`
+``reset(spec)`` binds the predictor to an environment's [`SensorSpec`][track_envs.SensorSpec]
 (frame period, measurement noise, dimension) before the first ``start``. These five methods are
-the core (:class:`Predictor`): a predictor with only them works in every Gaussian tracker (gnn,
-one-step, the sorting roll-out).
+the core ([`Predictor`][predictors.Predictor]): a predictor with only them works in every Gaussian tracker
+(gnn, one-step, the sorting roll-out).
 
 Optional capabilities
 ---------------------
 Anything beyond the core is a *capability*: a predictor class declares what it offers in its class
 attribute ``capabilities: frozenset[Capability]`` (none when absent), and a tracker asks for one in
-exactly one way, :func:`capability` (or :func:`has_capability`), which returns the predictor typed
-as the capability's protocol, or ``None``. Trackers never probe a method name, a signature or a
-concrete class. The declaration is read from the class, so a wrapper object declares its own.
+exactly one way, [`capability`][predictors.capability] (or [`has_capability`][predictors.has_capability]),
+which returns the predictor typed as the capability's protocol, or ``None``. Trackers never probe a method
+name, a signature or a concrete class. The declaration is read from the class, so a wrapper object declares
+its own.
 
-* ``NOISE_SCALE`` (:class:`NoiseScale`) — ``set_noise_scale(k: float) -> None``: assume the
+* ``NOISE_SCALE`` ([`NoiseScale`][predictors.base.NoiseScale]) — ``set_noise_scale(k: float) -> None``: assume
+the
   measurement noise ``R = (k σ)² I`` from now on. Used by gnn's live ``noise_scale`` knob
   (GateTuning-v0). Kalman filters.
-* ``VELOCITY_PRIOR`` (:class:`VelocityPrior`) — ``start(z, velocity=None, velocity_cov=None)``:
+* ``VELOCITY_PRIOR`` ([`VelocityPrior`][predictors.base.VelocityPrior]) —
+``start(z, velocity=None, velocity_cov=None)``:
   new tracks with a kinematic prior ``N(velocity (n, D), velocity_cov (n, D, D))``. Used by gnn
   (its learnt flow) and one-step (the mean first velocity). Kalman filters.
-* ``MEAN_ONLY_ESTIMATE`` (:class:`MeanOnlyEstimate`) — ``estimate_mean(state) -> (n, D)``: the
+* ``MEAN_ONLY_ESTIMATE`` ([`MeanOnlyEstimate`][predictors.base.MeanOnlyEstimate]) —
+``estimate_mean(state) -> (n, D)``: the
   mean of ``estimate`` without its covariance. Used by gnn every frame. Kalman filters.
-* ``FUSED_SURVIVORS_BIRTHS`` (:class:`FusedSurvivorsBirths`) — ``survivors_and_births(state,
+* ``FUSED_SURVIVORS_BIRTHS`` ([`FusedSurvivorsBirths`][predictors.base.FusedSurvivorsBirths]) —
+``survivors_and_births(state,
   keep, n_keep, z, velocity=None, velocity_cov=None) -> state``:
   ``concat([state.take(keep), start(z, ...)])`` in one pass, one prior ``velocity`` (D,),
   ``velocity_cov`` (D, D) for all births. Used by gnn's births and deletions. Kalman filters,
   belt LSTMs.
-* ``LINE_ROLLOUT`` (:class:`LineRollout`) — ``rollout_crossings(state, line, frame, dt,
+* ``LINE_ROLLOUT`` ([`LineRollout`][predictors.base.LineRollout]) —
+``rollout_crossings(state, line, frame, dt,
   max_steps) -> (ok, mean, cov) | None``: the crossings of ``x = line`` that the frame-by-frame
   roll-out finds, in one compiled pass (``None`` where that pass does not apply); and the class
   attribute ``rollout_covariance``: ``"state"`` (``estimate`` after coasting carries the
   multi-step covariance) or ``"accumulate"`` (it is only the one-step prediction, so the roll-out
   sums the one-step covariances). Used by the sorting roll-out
-  (:func:`agents.sorting.rollout.predict_crossings`). Kalman filters (closed form,
-  :mod:`predictors.kalman.rollout`), belt LSTMs.
-* ``COAST`` (:class:`Coast`) — ``coast(state) -> (state, Gaussian)``: ``predict`` then
+  ([`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings]). Kalman filters (closed
+  form, [`predictors.kalman.rollout`][predictors.kalman.rollout]), belt LSTMs.
+* ``COAST`` ([`Coast`][predictors.base.Coast]) — ``coast(state) -> (state, Gaussian)``: ``predict`` then
   ``update`` with nothing seen, in one call, returning the prediction. Used by the sorting
   roll-out. Belt LSTMs.
-* ``CALIBRATION`` (:class:`Calibrated`) — ``calibration_scale: float``: the factor ``r`` the
+* ``CALIBRATION`` ([`Calibrated`][predictors.base.Calibrated]) — ``calibration_scale: float``: the factor
+``r`` the
   predicted covariances were calibrated by (1: uncalibrated). Used by one-step, whose raw
   reliability curve divides it out. Belt LSTMs.
-* ``MIXTURE_UPDATE`` (:class:`MixtureUpdate`) — ``update_mixture(state, z_mean, z_spread,
+* ``MIXTURE_UPDATE`` ([`MixtureUpdate`][predictors.base.MixtureUpdate]) —
+``update_mixture(state, z_mean, z_spread,
   p_seen) -> state``: the moment-matched update by a mixture of measurements (probabilistic data
   association): with probability ``1 − p`` the track was not detected (it coasts), else it was
   detected with a measurement of mean ``z̄`` and spread ``Σ``; the state is the single Gaussian
   that matches the mixture's first two moments. Used by jpda. Kalman filters (Bar-Shalom's PDA
   update, exact); without it jpda falls back to ``update`` by the mixture's mean.
-* ``TRANSLATE`` (:class:`Translate`) — ``translate(state, offset) -> state``: every track moved
+* ``TRANSLATE`` ([`Translate`][predictors.base.Translate]) — ``translate(state, offset) -> state``: every
+track moved
   by ``offset`` (n, D) in measurement space, its motion unchanged (a blob that fell apart hands its
   track to one piece without a velocity jump). Used by jpda. Kalman filters, belt LSTMs.
-* ``RANDOM_STREAM`` (:class:`RandomStream`) — ``reset(spec, *, rng=None)``: the random stream
+* ``RANDOM_STREAM`` ([`RandomStream`][predictors.base.RandomStream]) — ``reset(spec, *, rng=None)``: the
+random stream
   the predictor draws from (e.g. MC-dropout masks), derived by the tracker from its seed, so the
-  same seed gives the same report. Used by every tracker's reset (:func:`reset_predictor`). Belt
-  LSTMs.
-* ``KINEMATIC_MODEL`` (:class:`KinematicModel`) — ``order: int`` and ``kinematic_model(dim, dt,
+  same seed gives the same report. Used by every tracker's reset
+  ([`reset_predictor`][predictors.base.reset_predictor]). Belt LSTMs.
+* ``KINEMATIC_MODEL`` ([`KinematicModel`][predictors.base.KinematicModel]) — ``order: int`` and
+``kinematic_model(dim, dt,
   q) -> (F, Q, H)``: the predictor is a linear Kalman filter of an ``order``-fold integrator per
   axis (1: random walk, 2: constant velocity, 3: constant acceleration) driven by white noise of
   intensity ``q``, and its factory takes the keyword ``q`` (with ``order >= 2`` also
   ``initial_velocity`` and ``initial_velocity_std``, with ``order == 3``
-  ``initial_acceleration_std``). Used by the self-calibration (:mod:`agents.sensor_model`),
+  ``initial_acceleration_std``). Used by the self-calibration ([`agents.sensor_model`][agents.sensor_model]),
   which estimates those settings. Kalman filters.
 
 A capability is a promise of the same numbers as the core calls would give where both apply
 (``coast`` equals ``predict`` + ``update``, ``survivors_and_births`` equals take/start/concat,
 ``rollout_crossings`` equals the frame-by-frame roll-out), so a tracker may always fall back to
 the core. Declaring a capability without its members is a ``TypeError`` at the first
-:func:`capability` call, naming what is missing.
+[`capability`][predictors.capability] call, naming what is missing.
 
 The same five calls fit a Kalman filter (mean and covariance per track), an LSTM (hidden state
 per track, carried and never re-run over a window), an MC-dropout LSTM (dropout masks fixed per
 track inside the state), an NLL-LSTM (predicted variance) and a per-keypoint particle predictor:
-each keeps whatever it needs per track in the fields of its :class:`BatchState`.
+each keeps whatever it needs per track in the fields of its [`BatchState`][predictors.BatchState].
 """
 
 from __future__ import annotations
@@ -102,7 +113,8 @@ from track_envs.values.types import Gaussian, SensorSpec
 class BatchState:
     """Base of per-track predictor states: every field is an array whose first axis is the track.
 
-    Subclasses only declare fields; :meth:`take`, :meth:`concat` and ``len`` work on all of them.
+    Subclasses only declare fields; [`take`][predictors.BatchState.take],
+    [`concat`][predictors.BatchState.concat] and ``len`` work on all of them.
     """
 
     def __len__(self) -> int:
@@ -391,7 +403,8 @@ PROTOCOLS: dict[Capability, type] = {
 }
 
 
-#: The capabilities of predictors, read with :func:`capability` (:mod:`track_envs.infra.declared`).
+#: The capabilities of predictors, read with [`capability`][predictors.capability]
+#: ([`track_envs.infra.declared`][track_envs.infra.declared]).
 DECLARATIONS: Declarations[Capability] = Declarations(Capability, PROTOCOLS, core=Predictor)
 
 
@@ -399,7 +412,8 @@ def declared_capabilities(predictor: object) -> frozenset[Capability]:
     """The capabilities ``predictor``'s class declares (empty when it declares none).
 
     Raises:
-        TypeError: if the class's ``capabilities`` is not a set of :class:`Capability` members.
+        TypeError: if the class's ``capabilities`` is not a set of [`Capability`][predictors.Capability]
+            members.
     """
     return DECLARATIONS.declared(predictor)
 
@@ -436,13 +450,14 @@ def capability(predictor: object, which: Capability) -> Any:
 
     Raises:
         TypeError: if the class declares ``which`` but lacks a member of its protocol (named), or
-            ``which`` is not a :class:`Capability`.
+            ``which`` is not a [`Capability`][predictors.Capability].
     """
     return DECLARATIONS.get(predictor, which)
 
 
 def has_capability(predictor: object, which: Capability) -> bool:
-    """Whether ``predictor``'s class declares capability ``which`` (checked as :func:`capability` does)."""
+    """Whether ``predictor``'s class declares capability ``which`` (checked as
+    [`capability`][predictors.capability] does)."""
     return capability(predictor, which) is not None  # type: ignore[call-overload]
 
 

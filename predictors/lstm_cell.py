@@ -8,36 +8,43 @@ torch's gate order ``i, f, g, o`` (the row blocks of ``weight_ih``, ``weight_hh`
     h' = σ(a_o) ⊙ tanh(c')
 
 with the logistic sigmoid ``σ(a) = 1 / (1 + e^{−a})``, evaluated as ``σ(a) = ½ (tanh(a/2) + 1)``
-(:func:`sigmoid`, :func:`sigmoid_tanh`): the same value, no overflow for large ``|a|``.
+([`sigmoid`][predictors.lstm_cell.sigmoid], [`sigmoid_tanh`][predictors.lstm_cell.sigmoid_tanh]): the same
+value, no overflow for large ``|a|``.
 
-:class:`LSTMCellWeights` holds one layer built from torch-layout tensors (``weight_ih``
+[`LSTMCellWeights`][predictors.LSTMCellWeights] holds one layer built from torch-layout tensors (``weight_ih``
 (4H, In), ``weight_hh`` (4H, H), ``bias_ih``, ``bias_hh`` (4H,)) in the layout the steps use:
 ``w_ih = W_ihᵀ`` (In, 4H), ``w_hh = W_hhᵀ`` (H, 4H) and ``b = b_ih + b_hh`` (4H,). Three steps
 evaluate the equations above:
 
-* :meth:`LSTMCellWeights.step`: batched numpy in the weights' dtype (the float64 reference of
+* [`LSTMCellWeights.step`][predictors.LSTMCellWeights.step]: batched numpy in the weights' dtype (the float64
+reference of
   the belt and displacement networks), ``a = (x w_ih + h w_hh) + b``;
-* :meth:`FusedLSTMCell.step` (:meth:`LSTMCellWeights.fused`): batched numpy in float32 with one
+* [`FusedLSTMCell.step`][predictors.lstm_cell.FusedLSTMCell.step]
+([`LSTMCellWeights.fused`][predictors.LSTMCellWeights.fused]): batched numpy in float32 with one
   product and one ``tanh`` per step (the belt predictors' tracking path): the fused weight
   ``W = [w_ih; w_hh; b]`` (In + H + 1, 4H) multiplies ``[x, h, 1]``, its columns reordered to
   ``i, f, o, g`` and the sigmoid gates' columns multiplied by ½, so ``tanh(xh W)`` holds
   ``tanh(a/2)`` for the three sigmoid gates and ``tanh(a_g)`` for the cell input;
-  :meth:`FusedLSTMCell.sequence` runs the same step (the same gates, :func:`_gates`) over whole
-  sequences, a block of rows at a time in the transposed layout ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (the pose
-  predictor's windows). Its products are numpy's (the default) or, with ``matmul="torch"``,
-  ``torch.matmul`` on views of the same arrays (:data:`MATMULS`; the pose predictor's, since torch's
-  GEMM follows ``torch.set_num_threads`` and gives the same bits at any thread count);
-* the compiled steps for kernels: :func:`cell_step` (one row, fused ``[w_ih; w_hh]``, scalar loops;
-  the belt LSTMs' roll-out to the nozzle bar) and :func:`cell_step_rows` (rows, the products by
-  BLAS; the displacement LSTM's particle-filter frame), both through :func:`cell_update`, the
-  gates and state update of one row from its pre-activation.
+  [`FusedLSTMCell.sequence`][predictors.lstm_cell.FusedLSTMCell.sequence] runs the same step (the same gates,
+  [`_gates`][predictors.lstm_cell._gates]) over whole sequences, a block of rows at a time in the transposed
+  layout ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (the pose predictor's windows). Its products are numpy's (the default) or,
+  with ``matmul="torch"``, ``torch.matmul`` on views of the same arrays
+  ([`MATMULS`][predictors.lstm_cell.MATMULS]; the pose predictor's, since torch's GEMM follows
+  ``torch.set_num_threads`` and gives the same bits at any thread count);
+* the compiled steps for kernels: [`cell_step`][predictors.lstm_cell.cell_step] (one row, fused
+``[w_ih; w_hh]``, scalar loops;
+  the belt LSTMs' roll-out to the nozzle bar) and [`cell_step_rows`][predictors.lstm_cell.cell_step_rows]
+  (rows, the products by BLAS; the displacement LSTM's particle-filter frame), both through
+  [`cell_update`][predictors.lstm_cell.cell_update], the gates and state update of one row from its
+  pre-activation.
 
 Two sigmoid formulas exist in compiled code, because each compiled caller reproduces the numbers
-it has always given bit for bit: :func:`sigmoid_tanh` (``½ (tanh(a/2) + 1)``, the formula of the
-numpy steps and of the belt roll-out, which equals the numpy float64 belt network to rounding)
-and :func:`sigmoid_exp` (``1 / (1 + e^{−a})`` for ``a ≥ 0``, ``e^{a} / (1 + e^{a})`` otherwise,
-with ``tanh(a) = 2 σ(2a) − 1`` (:func:`tanh_exp`); the displacement LSTM's frame, whose results
-the particle filter's metrics depend on). They agree to a few ulp.
+it has always given bit for bit: [`sigmoid_tanh`][predictors.lstm_cell.sigmoid_tanh] (``½ (tanh(a/2) + 1)``,
+the formula of the numpy steps and of the belt roll-out, which equals the numpy float64 belt network to
+rounding) and [`sigmoid_exp`][predictors.lstm_cell.sigmoid_exp] (``1 / (1 + e^{−a})`` for ``a ≥ 0``,
+``e^{a} / (1 + e^{a})`` otherwise, with ``tanh(a) = 2 σ(2a) − 1``
+([`tanh_exp`][predictors.lstm_cell.tanh_exp]); the displacement LSTM's frame, whose results the particle
+filter's metrics depend on). They agree to a few ulp.
 
 Every step equals ``torch.nn.LSTM`` to ~1e-7 in float32 and to rounding in float64 (tested);
 torch's own CPU kernel (oneDNN) rounds differently, so float32 results are not bit-equal to it.
@@ -143,7 +150,8 @@ class LSTMCellWeights:
         return int(self.w_ih.shape[0])
 
     def stacked(self) -> NDArray[np.float64]:
-        """``[w_ih; w_hh]`` (In + H, 4H), C-contiguous float64: the weight of :func:`cell_step`."""
+        """``[w_ih; w_hh]`` (In + H, 4H), C-contiguous float64: the weight of
+        `cell_step`."""
         return np.ascontiguousarray(np.vstack([self.w_ih, self.w_hh]), dtype=np.float64)
 
     def step(self, x: NDArray[F], h: NDArray[F], c: NDArray[F]) -> tuple[NDArray[F], NDArray[F]]:
@@ -161,8 +169,9 @@ class LSTMCellWeights:
         return cast("tuple[NDArray[F], NDArray[F]]", (o * np.tanh(c_new), c_new))
 
     def fused(self, matmul: str = "numpy") -> FusedLSTMCell:
-        """This layer as a float32 :class:`FusedLSTMCell` (fused and reordered in this dtype, then cast)
-        whose products run on ``matmul`` (:data:`MATMULS`)."""
+        """This layer as a float32 `FusedLSTMCell` (fused and reordered
+        in this dtype, then cast) whose products run on ``matmul``
+        (`MATMULS`)."""
         H = self.hidden
         order = np.concatenate(
             [np.arange(0, H), np.arange(H, 2 * H), np.arange(3 * H, 4 * H), np.arange(2 * H, 3 * H)]
@@ -172,9 +181,11 @@ class LSTMCellWeights:
         return FusedLSTMCell(w.astype(np.float32), self.inputs, matmul)
 
 
-#: The products a :class:`FusedLSTMCell` can run on: numpy's ``matmul`` (its BLAS), ``torch.matmul``
+#: The products a [`FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell] can run on: numpy's ``matmul`` (its
+#: BLAS), ``torch.matmul``
 #: on zero-copy views of the same arrays (torch's BLAS, which follows ``torch.set_num_threads``), or
-#: ``"ordered"``, :func:`predictors.ordered_product.ordered_product` (compiled; every element summed
+#: ``"ordered"``, [`predictors.ordered_product.ordered_product`][predictors.ordered_product.ordered_product]
+#: (compiled; every element summed
 #: in the order of ``k``, so its bits do not depend on the shapes, the layout or the threads).
 MATMULS = ("numpy", "torch", "ordered")
 
@@ -194,7 +205,7 @@ def _gates(
     tmp: NDArray[np.floating],
     axis: int = 1,
 ) -> None:
-    """The gates and state update of :class:`FusedLSTMCell`, in place.
+    """The gates and state update of [`FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell], in place.
 
     ``t = tanh(xh W)`` with the gates ``i, f, o, g`` along ``axis`` (the sigmoid gates' blocks hold
     ``tanh(a/2)``): (n, 4H) rows of the state (``axis=1``) or its transpose (4H, n) (``axis=0``,
@@ -219,10 +230,10 @@ def _gates(
 
 @njit(cache=True, nogil=True)
 def _cell_state_gathered(t: np.ndarray, c_prev: np.ndarray, parents: np.ndarray, c: np.ndarray) -> None:
-    """The first part of :func:`_gates` (``axis=0``) with the previous cell states gathered: the
-    sigmoid blocks of ``t`` (4H, n) become ``½ t + ½`` in place and ``c[:, j] = σ_f ⊙ c_prev[:,
+    """The first part of [`_gates`][predictors.lstm_cell._gates] (``axis=0``) with the previous cell states
+    gathered: the sigmoid blocks of ``t`` (4H, n) become ``½ t + ½`` in place and ``c[:, j] = σ_f ⊙ c_prev[:,
     parents_j] + σ_i ⊙ tanh(a_g)`` (``c_prev`` (H, 0): the zero state), each an IEEE float32
-    operation in the order :func:`_gates` does them, so the same bits."""
+    operation in the order [`_gates`][predictors.lstm_cell._gates] does them, so the same bits."""
     H, n = c.shape
     half = np.float32(0.5)
     zero_state = c_prev.shape[1] == 0
@@ -249,13 +260,13 @@ class FusedLSTMCell:
         w: The fused weight (In + H + 1, 4H): ``[w_ih; w_hh; b]``, columns ``i, f, o, g``, the
             sigmoid gates' columns × ½.
         n_in: Input width ``In``.
-        matmul: What computes the products (:data:`MATMULS`): ``"numpy"``, ``"torch"`` (needs
-            torch) or ``"ordered"``. They sum in different orders, so they agree to float32
+        matmul: What computes the products ([`MATMULS`][predictors.lstm_cell.MATMULS]): ``"numpy"``,
+            ``"torch"`` (needs torch) or ``"ordered"``. They sum in different orders, so they agree to float32
             rounding, not bit for bit; the gates are numpy either way.
         threads: Threads of the ``"ordered"`` products (the others follow their library's setting).
 
     Raises:
-        ValueError: ``matmul`` not in :data:`MATMULS`.
+        ValueError: ``matmul`` not in [`MATMULS`][predictors.lstm_cell.MATMULS].
     """
 
     w: NDArray[np.float32]
@@ -276,7 +287,8 @@ class FusedLSTMCell:
 
     @cached_property
     def w_t(self) -> NDArray[np.float32]:
-        """``Wᵀ`` (4H, In + H + 1), C-contiguous: the weight of :meth:`sequence`'s products."""
+        """``Wᵀ`` (4H, In + H + 1), C-contiguous: the weight of
+        [`sequence`][predictors.lstm_cell.FusedLSTMCell.sequence]'s products."""
         return np.ascontiguousarray(self.w.T)
 
     def _product(
@@ -286,7 +298,8 @@ class FusedLSTMCell:
         out: NDArray[np.float32],
         threads: int | None = None,
     ) -> NDArray[np.float32]:
-        """``out = a b`` on :attr:`matmul` (``"ordered"`` on ``threads``, default :attr:`threads`)."""
+        """``out = a b`` on [`matmul`][predictors.lstm_cell.FusedLSTMCell.matmul] (``"ordered"`` on
+        ``threads``, default [`threads`][predictors.lstm_cell.FusedLSTMCell.threads])."""
         if self.matmul == "torch":
             _torch_matmul(a, b, out)
         elif self.matmul == "ordered":
@@ -320,13 +333,16 @@ class FusedLSTMCell:
     ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """One step of rows ``x`` (n, In) from the states ``parents`` of ``state_t`` (``(hᵀ, cᵀ)``, (H, U)
         each, a state per column; the zero state if None): the new ``(hᵀ, cᵀ)`` (H, n), bit for bit
-        :meth:`sequence` of ``x[:, None]`` from ``(h[parents], c[parents])``, transposed.
+        [`sequence`][predictors.lstm_cell.FusedLSTMCell.sequence] of ``x[:, None]`` from
+        ``(h[parents], c[parents])``, transposed.
 
         With ``"ordered"`` products the pre-activation ``aᵀ`` is one compiled pass that reads the
-        parents' ``h`` in place (:func:`~predictors.ordered_product.gathered_product`), then the
-        same ``tanh`` and gate arithmetic as :meth:`sequence` (:func:`_cell_state_gathered` reads the
-        parents' ``c`` in place); on :attr:`threads` threads, contiguous ranges of the columns in
-        parallel. Other products go through :meth:`sequence`.
+        parents' ``h`` in place ([`gathered_product`][predictors.ordered_product.gathered_product]), then the
+        same ``tanh`` and gate arithmetic as [`sequence`][predictors.lstm_cell.FusedLSTMCell.sequence]
+        ([`_cell_state_gathered`][predictors.lstm_cell._cell_state_gathered] reads the parents' ``c`` in
+        place); on [`threads`][predictors.lstm_cell.FusedLSTMCell.threads] threads, contiguous ranges of the
+        columns in parallel. Other products go through
+        [`sequence`][predictors.lstm_cell.FusedLSTMCell.sequence].
         """
         H = self.hidden
         x = np.ascontiguousarray(x, dtype=np.float32)
@@ -366,12 +382,13 @@ class FusedLSTMCell:
     ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """The state ``(h, c)`` (n, H) (float32) after the ``L`` steps of sequences ``x`` (n, L, In).
 
-        From ``state`` ``(h, c)`` (n, H each; zero if None). The equations of :meth:`step` (the
-        same :func:`_gates`), run ``block`` rows at a time through all ``L`` steps in the
-        transposed layout, ``aᵀ = Wᵀ [x, h, 1]ᵀ`` (4H, block), so that a block stays in the CPU
-        cache and every gate is a contiguous array. From the zero state the first product is
-        ``Wᵀ [x, 1]ᵀ`` over the input and bias rows only (``h = 0``). The results equal
-        :meth:`step`'s to float32 rounding (the GEMM of another layout sums in another order).
+        From ``state`` ``(h, c)`` (n, H each; zero if None). The equations of
+        [`step`][predictors.lstm_cell.FusedLSTMCell.step] (the same [`_gates`][predictors.lstm_cell._gates]),
+        run ``block`` rows at a time through all ``L`` steps in the transposed layout, ``aᵀ = Wᵀ [x, h, 1]ᵀ``
+        (4H, block), so that a block stays in the CPU cache and every gate is a contiguous array. From the
+        zero state the first product is ``Wᵀ [x, 1]ᵀ`` over the input and bias rows only (``h = 0``). The
+        results equal [`step`][predictors.lstm_cell.FusedLSTMCell.step]'s to float32 rounding (the GEMM of
+        another layout sums in another order).
 
         Raises:
             ValueError: ``x`` not (n, L, In), a ``state`` not (n, H), or ``block`` < 1.
@@ -449,15 +466,16 @@ def sigmoid_exp(a: float) -> float:
 
 @njit(cache=True, inline="always")
 def tanh_exp(a: float) -> float:
-    """``tanh(a) = 2 σ(2a) − 1`` with :func:`sigmoid_exp` (compiled)."""
+    """``tanh(a) = 2 σ(2a) − 1`` with [`sigmoid_exp`][predictors.lstm_cell.sigmoid_exp] (compiled)."""
     return 2.0 * sigmoid_exp(2.0 * a) - 1.0
 
 
 @njit(cache=True, inline="always")
 def cell_update(a: np.ndarray, h: np.ndarray, c: np.ndarray, exp_form: bool) -> None:
     """Gates and state of one row from its pre-activation ``a`` (4H,) (bias included): updates ``h, c``
-    (H,) in place. ``exp_form``: :func:`sigmoid_exp` / :func:`tanh_exp` instead of
-    :func:`sigmoid_tanh` / ``tanh``."""
+    (H,) in place. ``exp_form``: [`sigmoid_exp`][predictors.lstm_cell.sigmoid_exp] /
+    [`tanh_exp`][predictors.lstm_cell.tanh_exp] instead of [`sigmoid_tanh`][predictors.lstm_cell.sigmoid_tanh]
+    / ``tanh``."""
     H = h.shape[0]
     for j in range(H):
         if exp_form:
@@ -482,9 +500,10 @@ def cell_step(
     xh: np.ndarray, w: np.ndarray, b: np.ndarray, h: np.ndarray, c: np.ndarray, a: np.ndarray
 ) -> None:
     """One row: ``xh = [x, h]`` (In + H,), ``w = [w_ih; w_hh]`` (In + H, 4H)
-    (:meth:`LSTMCellWeights.stacked`), ``b`` (4H,); updates ``h, c`` (H,) in place, ``a`` (4H,) is
-    scratch. ``a = b + Σ_k xh_k w_k`` in order of ``k``, then :func:`cell_update` with
-    :func:`sigmoid_tanh`."""
+    ([`LSTMCellWeights.stacked`][predictors.LSTMCellWeights.stacked]), ``b`` (4H,); updates ``h, c`` (H,) in
+    place, ``a`` (4H,) is scratch. ``a = b + Σ_k xh_k w_k`` in order of ``k``, then
+    [`cell_update`][predictors.lstm_cell.cell_update] with
+    [`sigmoid_tanh`][predictors.lstm_cell.sigmoid_tanh]."""
     a[:] = b
     for k in range(xh.shape[0]):
         v = xh[k]
@@ -498,7 +517,8 @@ def cell_step_rows(
     x: np.ndarray, h: np.ndarray, c: np.ndarray, w_ih: np.ndarray, w_hh: np.ndarray, b: np.ndarray
 ) -> None:
     """Rows ``x`` (n, In) with state ``h, c`` (n, H), updated in place: ``a = (h w_hh + x w_ih) + b``
-    (the products by BLAS), then :func:`cell_update` with :func:`sigmoid_exp`."""
+    (the products by BLAS), then [`cell_update`][predictors.lstm_cell.cell_update] with
+    [`sigmoid_exp`][predictors.lstm_cell.sigmoid_exp]."""
     a = np.dot(h, w_hh) + np.dot(x, w_ih)  # (n, 4H)
     for k in range(x.shape[0]):
         for g in range(a.shape[1]):

@@ -4,15 +4,17 @@ Three kinds of motion model exist, each with its own registry, because the track
 hold different state and ask different questions (docs/architecture.md, "Three kinds of motion
 model"):
 
-* ``"gaussian"`` — a :class:`~predictors.base.Predictor`: a Gaussian per track over a batch of
-  tracks (:data:`predictors.PREDICTORS`); taken as ``predictor=`` by the agents that declare
-  ``takes_predictor`` (gnn, one-step);
+* ``"gaussian"`` — a [`Predictor`][predictors.Predictor]: a Gaussian per track over a batch of
+  tracks ([`predictors.PREDICTORS`][predictors.PREDICTORS]); taken as ``predictor=`` by the agents that
+  declare ``takes_predictor`` (gnn, one-step);
 * ``"displacement"`` — a particle displacement model
-  (:data:`predictors.displacement.DISPLACEMENT_MODELS`); taken as ``model=`` by ``pf``;
-* ``"pose"`` — a pose hypothesis motion (:data:`predictors.pose.POSE_MOTIONS`), built by the pose
+  ([`predictors.displacement.DISPLACEMENT_MODELS`][predictors.displacement.DISPLACEMENT_MODELS]); taken as
+  ``model=`` by ``pf``;
+* ``"pose"`` — a pose hypothesis motion ([`predictors.pose.POSE_MOTIONS`][predictors.pose.POSE_MOTIONS]),
+built by the pose
   tracker that uses it.
 
-:func:`motion_models` lists them all; ``track list`` prints it.
+[`motion_models`][predictors.motion_models.motion_models] lists them all; ``track list`` prints it.
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ class MotionModel:
 
     Attributes:
         name: Its registered name (unique within its kind).
-        kind: One of :data:`KINDS`.
+        kind: One of `KINDS`.
         agents: The registered agents that take it.
         summary: The first line of its factory's docstring.
     """

@@ -6,7 +6,7 @@ kernels for the edges, whether the product is transposed), so an element's bits 
 many other rows or columns are computed with it. Here they do not: a row computed alone, in a
 batch, in the transposed layout or on another thread gives the same bits. That is what lets the
 SMC pose tracker compute the LSTM once per distinct window prefix and get the bits of computing
-every particle's window (:mod:`predictors.pose_lstm.prefix_tree`).
+every particle's window ([`predictors.pose_lstm.prefix_tree`][predictors.pose_lstm.prefix_tree]).
 
 The compiled loops (numba, GIL released) run along a row of ``b`` and ``out`` (vectorised without
 reordering any sum). With ``threads > 1`` the rows of ``out`` are split into contiguous ranges,
@@ -87,7 +87,8 @@ def _dropout_rows(
     """Rows ``start … stop − 1`` of ``out_i = Σ_k [fields_ik < threshold] a_{rows_i, k} w_k`` (every
     field kept if ``fields`` has no rows), each element summed in the order of ``k``; a dropped term
     adds ``+0``, which leaves every sum's bits as they are (a sum starts at ``+0`` and is never
-    ``−0``), so this is :func:`_masked_rows` with the mask ``[fields < threshold]``."""
+    ``−0``), so this is [`_masked_rows`][predictors.ordered_product._masked_rows] with the mask
+    ``[fields < threshold]``."""
     n_out, k_dim = out.shape[1], a.shape[1]
     masked = fields.shape[0] > 0
     zero = np.float32(0.0)
@@ -117,7 +118,8 @@ def _dropout_rows(
                 out[i, j] += v * w[k, j]
 
 
-#: Columns of the gathered operand a :func:`_gathered_columns` block holds (68 × 256 float32: 70 kB).
+#: Columns of the gathered operand a [`_gathered_columns`][predictors.ordered_product._gathered_columns] block
+#: holds (68 × 256 float32: 70 kB).
 GATHER_BLOCK = 256
 
 
@@ -133,8 +135,9 @@ def _gathered_columns(
 ) -> None:
     """Columns ``start … stop − 1`` of ``out_tᵀ = [x, h_tᵀ[parents], 1] w_tᵀ``, i.e. column ``i`` of
     ``out_t`` is ``w_t [x_i, h_t[:, parents_i], 1]ᵀ`` (no ``h`` terms if ``h_t`` has no columns: the
-    zero state), each element summed in the order of ``k`` as :func:`_product_rows` sums ``w_t · xh``.
-    The gathered operand ``xh`` is built a block of :data:`GATHER_BLOCK` columns at a time."""
+    zero state), each element summed in the order of ``k`` as
+    [`_product_rows`][predictors.ordered_product._product_rows] sums ``w_t · xh``. The gathered operand ``xh``
+    is built a block of [`GATHER_BLOCK`][predictors.ordered_product.GATHER_BLOCK] columns at a time."""
     n_in, G = x.shape[1], w_t.shape[0]
     H = h_t.shape[0]
     from_zero = h_t.shape[1] == 0
@@ -231,9 +234,10 @@ def gathered_product(
 ) -> NDArray[np.float32]:
     """``out_t[:, i] = w_t [x_i, h_t[:, parents_i], 1]ᵀ`` for every column ``i`` (``x`` (m, In), ``h_t``
     (H, U) states by column, or (H, 0) for the zero state, ``parents`` (m,), ``w_t`` (n, In + H + 1),
-    ``out_t`` (n, m)), each element summed in the order of ``k`` as :func:`ordered_product` sums
-    ``w_t · [x, h, 1]ᵀ`` (the zero state's terms left out, as adding ``+0`` leaves a sum's bits): an
-    LSTM step's transposed pre-activation from gathered parent states, in blocks of columns.
+    ``out_t`` (n, m)), each element summed in the order of ``k`` as
+    [`ordered_product`][predictors.ordered_product.ordered_product] sums ``w_t · [x, h, 1]ᵀ`` (the zero
+    state's terms left out, as adding ``+0`` leaves a sum's bits): an LSTM step's transposed pre-activation
+    from gathered parent states, in blocks of columns.
 
     Raises:
         ValueError: shapes that do not fit together.
@@ -261,9 +265,10 @@ def masked_rows_product(
     out: NDArray[np.float32],
     threads: int = 1,
 ) -> NDArray[np.float32]:
-    """``out_i = (a_{rows_i} ⊙ mask_i) w`` for every result row ``i``, summed as :func:`ordered_product`
-    sums (``mask`` (m, k), or (0, k) for none): a dropout layer and the linear layer after it over
-    gathered rows, without materialising the (m, k) gathered and masked rows.
+    """``out_i = (a_{rows_i} ⊙ mask_i) w`` for every result row ``i``, summed as
+    [`ordered_product`][predictors.ordered_product.ordered_product] sums (``mask`` (m, k), or (0, k) for
+    none): a dropout layer and the linear layer after it over gathered rows, without materialising the (m, k)
+    gathered and masked rows.
 
     Raises:
         ValueError: shapes that do not fit together.
@@ -288,9 +293,10 @@ def dropout_rows_product(
     threads: int = 1,
 ) -> NDArray[np.float32]:
     """``out_i = (a_{rows_i} ⊙ [fields_i < threshold]) w`` for every result row ``i``, summed as
-    :func:`ordered_product` sums: :func:`masked_rows_product` with a 0/1 mask given as 16-bit random
-    fields (``fields`` (m, k) uint16, or (0, k) for none) and a threshold in ``0 … 2¹⁶``; the
-    inverted dropout's scale ``1 / keep`` is folded into ``a`` by the caller.
+    [`ordered_product`][predictors.ordered_product.ordered_product] sums:
+    [`masked_rows_product`][predictors.ordered_product.masked_rows_product] with a 0/1 mask given as 16-bit
+    random fields (``fields`` (m, k) uint16, or (0, k) for none) and a threshold in ``0 … 2¹⁶``; the inverted
+    dropout's scale ``1 / keep`` is folded into ``a`` by the caller.
 
     Raises:
         ValueError: shapes that do not fit together, or a threshold outside ``0 … 65536``.

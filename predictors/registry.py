@@ -1,9 +1,9 @@
 """The predictor registry: build a predictor by name, or resolve a name-or-object argument.
 
-:func:`make_predictor` builds the predictor registered under a name (an unknown name raises a
-``ValueError`` that lists the valid ones); :func:`resolve_predictor` is what a tracker calls with
-its ``predictor`` argument, a registered name or an object of the
-:class:`~predictors.base.Predictor` protocol.
+[`make_predictor`][predictors.make_predictor] builds the predictor registered under a name (an unknown name
+raises a ``ValueError`` that lists the valid ones); [`resolve_predictor`][predictors.resolve_predictor] is
+what a tracker calls with its ``predictor`` argument, a registered name or an object of the
+[`Predictor`][predictors.Predictor] protocol.
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ def register_predictor(
     """Register ``factory`` under ``name`` (re-registering a name replaces it).
 
     Args:
-        name: The name :func:`make_predictor` and ``make_agent(..., predictor=name)`` take.
+        name: The name [`make_predictor`][predictors.make_predictor] and ``make_agent(..., predictor=name)``
+            take.
         factory: Builds the predictor; its keyword arguments are the predictor's.
         envs: The env ids the predictor is meant for (a learned model made for one geometry,
             e.g. the belt LSTMs: the belt envs); ``None`` (default): every point env.
@@ -49,7 +50,7 @@ def register_predictor(
 
 
 def available_predictors() -> list[str]:
-    """Names accepted by :func:`make_predictor`."""
+    """Names accepted by [`make_predictor`][predictors.make_predictor]."""
     return PREDICTORS.names()
 
 
@@ -83,7 +84,8 @@ def resolve_predictor(
     itself after checking that it has the core methods.
 
     Args:
-        predictor: A registered name (:func:`available_predictors`) or a Predictor object.
+        predictor: A registered name ([`available_predictors`][predictors.available_predictors]) or a
+            Predictor object.
         owner: The class (or factory) that takes ``predictor`` and passes ``kwargs`` on (a
             tracker); errors then name its own arguments too.
         **kwargs: Keyword arguments of the named predictor's factory; none with an object

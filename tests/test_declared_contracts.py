@@ -1,12 +1,13 @@
 """Plug-ins are asked what they offer through their declarations, never probed (AST checks).
 
 A plug-in (an agent, a predictor, a displacement model, a pose motion, a tuning policy) declares
-its optional capabilities and traits (:mod:`track_envs.infra.declared`); the code in ``agents/``,
-``predictors/`` and ``track_envs/`` asks through that declaration. These tests walk every module
+its optional capabilities and traits ([`track_envs.infra.declared`][track_envs.infra.declared]); the code in
+``agents/``, ``predictors/`` and ``track_envs/`` asks through that declaration. These tests walk every module
 there (so moving or adding modules needs no change here) and refuse:
 
-1. ``getattr(...)`` / ``hasattr(...)`` outside :mod:`track_envs.infra.declared`, except the uses listed
-   in :data:`ALLOWED_PROBES`, each with the reason it is not a plug-in probe (a dataclass's own
+1. ``getattr(...)`` / ``hasattr(...)`` outside [`track_envs.infra.declared`][track_envs.infra.declared],
+except the uses listed
+   in `ALLOWED_PROBES`, each with the reason it is not a plug-in probe (a dataclass's own
    fields, numba internals, an argparse namespace, a knob set by its declared name, ...);
 2. ``isinstance`` / ``issubclass`` against a ``typing.Protocol`` class of the project (a runtime
    protocol check recognises a plug-in by the names it happens to have);
@@ -17,7 +18,7 @@ there (so moving or adding modules needs no change here) and refuse:
    module (compiled kernels) may be imported anywhere in its top-level package (``agents``'
    trackers share ``agents.tracking._kernels``; ``predictors`` and ``track_envs`` never import
    an agent's kernels), any other private module only inside its own package. The existing
-   exceptions are listed in :data:`ALLOWED_PRIVATE_IMPORTS`, each with its reason.
+   exceptions are listed in `ALLOWED_PRIVATE_IMPORTS`, each with its reason.
 """
 
 from __future__ import annotations

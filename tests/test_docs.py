@@ -1,12 +1,12 @@
 """Every command README.md and docs/*.md show runs, and the docs site builds with ``mkdocs build --strict``.
 
 The fenced ```bash and ```python blocks are extracted and run in a temporary directory: ``track ...``
-(also ``.venv/bin/track``) through :func:`track_apps.cli.main`, ``python examples/X.py ...`` (also
-``.venv/bin/python``) through the example's ``main``, Python blocks as scripts. Long commands run
-with a small budget through the allow-listed :data:`SUBSTITUTIONS`; a command too expensive for the
-default suite (full suites, training, ``make demo``) is in :data:`SKIPPED` with the reason, and its
+(also ``.venv/bin/track``) through [`track_apps.cli.main`][track_apps.cli.main], ``python examples/X.py ...``
+(also ``.venv/bin/python``) through the example's ``main``, Python blocks as scripts. Long commands run
+with a small budget through the allow-listed `SUBSTITUTIONS`; a command too expensive for the
+default suite (full suites, training, ``make demo``) is in `SKIPPED` with the reason, and its
 flags are checked against the command's ``--help``; a command another test runs is in
-:data:`COVERED`, naming that test.
+`COVERED`, naming that test.
 """
 
 from __future__ import annotations

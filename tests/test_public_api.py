@@ -4,11 +4,11 @@ Every package (and the module ``track_envs.testing``) names its public names in 
 lists below pin them, so that a rename or a removal is a deliberate change of this file. Every
 name resolves (the heavy ones load on first access), importing the packages stays light (no torch,
 no numba), and the examples and the Python blocks of README.md and docs/ import only names a
-package exports (or from a module in :data:`MODULE_IMPORTS_ALLOWED`, none today).
+package exports (or from a module in `MODULE_IMPORTS_ALLOWED`, none today).
 
 To change a package's public names: edit its ``__init__.py`` (for ``track_envs`` and ``predictors``
-the import of the name, from which :mod:`track_envs.infra.lazy` derives ``__all__``; for ``agents``
-the import and ``__all__``), then its list in :data:`PUBLIC`.
+the import of the name, from which [`track_envs.infra.lazy`][track_envs.infra.lazy] derives ``__all__``; for
+``agents`` the import and ``__all__``), then its list in `PUBLIC`.
 """
 
 from __future__ import annotations
@@ -449,7 +449,7 @@ PUBLIC: dict[str, list[str]] = {
     ],
 }
 
-#: The top-level packages whose every package is pinned in :data:`PUBLIC`.
+#: The top-level packages whose every package is pinned in `PUBLIC`.
 PINNED_ROOTS = ("track_envs", "predictors", "agents", "track_apps")
 
 #: Top-level packages whose imports in examples and docs need only come from a package (not yet

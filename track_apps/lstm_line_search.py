@@ -5,12 +5,13 @@ identity covariance ``s·I`` and choose the scale by a line search for the best 
 accuracy. Here the candidates are ``s = f · s₀`` for factors ``f`` on a log grid around ``s₀``, the
 mean squared one-step error per axis on the validation tracks (what training stores as
 ``calibration.cov_scale``); each candidate tracks validation episodes (not trained on, but the
-search picks its scale on them) with ``gnn`` (:func:`agents.episode.run_episode`) and the scale
-with the lowest mean e_mean (ties: the one nearest ``s₀``) is written back to the model file,
-with the whole search in ``training.tuning`` (:func:`line_search`).
+search picks its scale on them) with ``gnn`` ([`agents.episode.run_episode`][agents.run_episode]) and the
+scale with the lowest mean e_mean (ties: the one nearest ``s₀``) is written back to the model file,
+with the whole search in ``training.tuning`` ([`line_search`][track_apps.lstm_line_search.line_search]).
 
-It runs a tracker, so it is no part of the belt LSTM recipe in :mod:`predictors`: ``track train
-lstm`` (:mod:`track_apps.cli.train`) runs the recipe, then :func:`lstm_tuner` on the file it wrote.
+It runs a tracker, so it is no part of the belt LSTM recipe in [`predictors`][predictors]: ``track train
+lstm`` ([`track_apps.cli.train`][track_apps.cli.train]) runs the recipe, then
+[`lstm_tuner`][track_apps.lstm_line_search.lstm_tuner] on the file it wrote.
 """
 
 from __future__ import annotations

@@ -34,7 +34,8 @@ ENV_IDS: tuple[str, ...] = tuple(ENV_SPECS)
 
 
 def register_envs() -> None:
-    """Register every id in :data:`ENV_SPECS`; ids already registered are left as they are."""
+    """Register every id in `ENV_SPECS`; ids already registered are left
+    as they are."""
     for env_id, kwargs in ENV_SPECS.items():
         if env_id not in registry:
             register(id=env_id, **kwargs)

@@ -10,8 +10,8 @@ protocols). Use them in your own tests::
     check_agent(MyTracker(), gym.make("BeltSorter-v0"))
     check_predictor(MyPredictor(), env.unwrapped.sensor_spec)
 
-:func:`stream_digest` pins what an env id emits, so that a change of its streams is noticed
-(the rule: docs/architecture.md, "Streams are versioned").
+[`stream_digest`][track_envs.testing.stream_digest] pins what an env id emits, so that a change of its streams
+is noticed (the rule: docs/architecture.md, "Streams are versioned").
 
 Nothing here imports ``predictors`` or ``agents``: the objects under test are passed in.
 """
@@ -40,7 +40,8 @@ __all__ = [
 
 #: The methods of the Predictor protocol (``predictors.base.Predictor``; not imported here).
 PREDICTOR_METHODS = ("reset", "start", "predict", "update", "estimate")
-#: The ``info`` entries :func:`stream_digest` hashes by default (those an env emits): the time,
+#: The ``info`` entries [`stream_digest`][track_envs.testing.stream_digest] hashes by default (those an env
+#: emits): the time,
 #: the truth, the truth id(s) behind every detection row and the true sensor values of a drift.
 STREAM_INFO_KEYS = ("t", "truth", "detection_ids", "detection_ids_merged", "sensor")
 
@@ -159,8 +160,8 @@ def _check_report_contract(env: gym.Env, seed: int) -> None:
 
 def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> None:
     """Check an agent on an environment: valid reports (unique track ids, in the action space,
-    accepted by :func:`~track_envs.contracts.report.validate_report`), detection rows, determinism under a
-    seed, and that it rejects (``ValueError``) observations that break the contract: mask values
+    accepted by [`validate_report`][track_envs.contracts.validate_report]), detection rows, determinism under
+    a seed, and that it rejects (``ValueError``) observations that break the contract: mask values
     other than 0/1, a float mask, NaN in a masked-in row, wrong shapes, a non-mapping observation.
 
     Raises:
@@ -204,7 +205,8 @@ def check_agent(agent: Any, env: gym.Env, steps: int = 20, seed: int = 0) -> Non
 
 def _assert_unique_ids(report: Any) -> None:
     """The live rows (mask 1) of ``report`` carry distinct ids; checked before the action space
-    and :func:`validate_report` (which would refuse the report without naming the ids)."""
+    and [`validate_report`][track_envs.contracts.validate_report] (which would refuse the report without
+    naming the ids)."""
     try:
         ids = np.asarray(report["ids"])[np.asarray(report["mask"]) == 1]
     except (KeyError, IndexError, TypeError):
@@ -312,9 +314,10 @@ def stream_digest(
     The episode starts with ``env.reset(seed=seed)`` and runs ``steps`` steps, fewer when it
     ends earlier. Hashed, in order: the reset's observation and ``info``, then for every step
     its observation, reward, ``terminated``, ``truncated`` and ``info``; of each ``info`` only
-    the entries of ``info_keys`` it holds (by default :data:`STREAM_INFO_KEYS`: the truth side).
-    Arrays are hashed with their dtype and shape, dicts with their keys sorted, so the digest
-    changes exactly when a value, dtype or shape of the stream does.
+    the entries of ``info_keys`` it holds (by default
+    `STREAM_INFO_KEYS`: the truth side). Arrays are hashed with their
+    dtype and shape, dicts with their keys sorted, so the digest changes exactly when a value, dtype or shape
+    of the stream does.
 
     Args:
         env: The environment (wrapped or not).

@@ -1,10 +1,13 @@
 """Tracking recorded files (the ``track run`` engine): any agent over a detection or pose stream.
 
-* :func:`run_agent` (:mod:`.points`) — a point or box stream (:class:`track_envs.values.Detections`)
-  through a registered agent, frame by frame, into :class:`~track_envs.values.Tracks` (with the
+* [`run_agent`][agents.run_agent] (`.points`) — a point or box stream
+([`track_envs.values.Detections`][track_envs.Detections])
+  through a registered agent, frame by frame, into [`Tracks`][track_envs.Tracks] (with the
   sensor model estimated from the data when asked: ``estimate_sensor_model=True``);
-* :func:`run_pose_agent` (:mod:`.poses`) — a pose stream through a pose tracker;
-* :func:`file_agents` / :func:`check_file_agent` (:mod:`.kinds`) — which agents can run on a kind
+* [`run_pose_agent`][agents.run_pose_agent] (`.poses`) — a pose stream through a pose
+tracker;
+* [`file_agents`][agents.files.file_agents] / [`check_file_agent`][agents.files.check_file_agent]
+(`.kinds`) — which agents can run on a kind
   of file, by their declared traits.
 """
 

@@ -1,10 +1,10 @@
 """Which agents can run on which kind of detection file.
 
 A file holds either points (MOT det.txt, wide CSV) or poses (COCO keypoint results, PoseTrack
-JSON: :mod:`track_envs.io.poses`). An agent can run on a file when it does not need truth
+JSON: [`track_envs.io.poses`][track_envs.io.poses]). An agent can run on a file when it does not need truth
 (``needs_truth``: an oracle reads the env's ``info``, which a file does not have) and its
 ``position_rank`` fits the file (1: points, 2: poses): read from the agents' declared traits
-(:func:`agents.base.agent_traits`), not from a list of names.
+([`agents.base.agent_traits`][agents.agent_traits]), not from a list of names.
 """
 
 from __future__ import annotations

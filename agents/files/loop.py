@@ -1,28 +1,30 @@
-"""The loop of :func:`agents.files.points.run_agent`: any agent over a stream of detections.
+"""The loop of [`agents.files.points.run_agent`][agents.run_agent]: any agent over a stream of detections.
 
-:func:`track_detections` is the loop of the tracking contract without an environment: it packs each
-frame's detections into an observation (:func:`track_envs.contracts.observation.pack_observation`, rows in
-the recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a
-block of frames at a time into one array (no per-frame allocation; a block holds about
-``BLOCK_ROWS`` rows, :func:`block_frames`, so that at 10^5 detections a frame it is one frame and
-the loop's memory stays that of a frame or two, not of the stream padded), and the reports' arrays
-(not the report dicts: a block of retained dicts made Python's garbage collector scan the heap,
-10 µs a frame) are turned into :class:`~track_envs.values.tracks.Tracks` a block at a time (one
-vectorised gather), so the loop adds little to the agent's own time per frame (BENCHMARKS.md).
+[`track_detections`][agents.files.loop.track_detections] is the loop of the tracking contract without an
+environment: it packs each frame's detections into an observation
+([`track_envs.contracts.observation.pack_observation`][track_envs.contracts.pack_observation], rows in the
+recorded order), hands it to ``agent.act`` and keeps the report. Observations are packed a block of frames at
+a time into one array (no per-frame allocation; a block holds about ``BLOCK_ROWS`` rows,
+[`block_frames`][agents.files.loop.block_frames], so that at 10^5 detections a frame it is one frame and the
+loop's memory stays that of a frame or two, not of the stream padded), and the reports' arrays (not the report
+dicts: a block of retained dicts made Python's garbage collector scan the heap, 10 µs a frame) are turned into
+[`Tracks`][track_envs.Tracks] a block at a time (one vectorised gather), so the loop adds little to the
+agent's own time per frame (BENCHMARKS.md).
 
-Where the detections are boxes (:attr:`~track_envs.values.detections.Detections.boxes`), every row of
+Where the detections are boxes ([`boxes`][track_envs.values.detections.Detections.boxes]), every row of
 the tracks carries the box of the detection its track was updated with that frame, and while it
-coasts the last box it had (:func:`track_envs.values.tracks.carried_boxes`, one vectorised pass after
-the loop).
+coasts the last box it had ([`track_envs.values.tracks.carried_boxes`][track_envs.values.carried_boxes], one
+vectorised pass after the loop).
 
 An agent whose tracks have covariances declares the ``TRACK_COVARIANCES`` capability
-(:mod:`agents.base`): ``track_covariances()`` returns the (n, D, D) covariances of the live rows
+([`agents.base`][agents.base]): ``track_covariances()`` returns the (n, D, D) covariances of the live rows
 of its last report, in row order (the GNN tracker: its predictor's estimate); ``covariance=True``
 collects them.
 
-This module is the part that the sensor-model estimate (:mod:`agents.sensor_model.estimate`, which
-tracks the stream with trial settings) and :func:`~agents.files.points.run_agent` (which can
-estimate the sensor model first, ``estimate_sensor_model=True``) share: it knows nothing of the estimate.
+This module is the part that the sensor-model estimate
+([`agents.sensor_model.estimate`][agents.sensor_model.estimate], which tracks the stream with trial settings)
+and [`run_agent`][agents.run_agent] (which can estimate the sensor model first,
+``estimate_sensor_model=True``) share: it knows nothing of the estimate.
 """
 
 from __future__ import annotations
@@ -52,9 +54,9 @@ MAX_BLOCK_FRAMES = 4096
 
 
 def block_frames(spec: SensorSpec) -> int:
-    """Frames per block of :func:`track_detections`' loop: ``BLOCK_ROWS`` rows of the larger of an
-    observation and a report, between 1 and ``MAX_BLOCK_FRAMES`` frames — so that the block's
-    packed observations and kept reports take ``O(BLOCK_ROWS + max_detections + max_tracks)``
+    """Frames per block of [`track_detections`][agents.files.loop.track_detections]' loop: ``BLOCK_ROWS`` rows
+    of the larger of an observation and a report, between 1 and ``MAX_BLOCK_FRAMES`` frames — so that the
+    block's packed observations and kept reports take ``O(BLOCK_ROWS + max_detections + max_tracks)``
     memory, a frame or two at 10^5 detections a frame, never the whole stream padded."""
     rows = max(spec.max_tracks, spec.max_detections, 1)
     return int(np.clip(BLOCK_ROWS // rows, 1, MAX_BLOCK_FRAMES))
@@ -88,7 +90,7 @@ def track_detections(
     grow: bool = True,
     sorting_line: float | None = None,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
-    """Track ``stream`` with ``agent`` (an Agent object): :func:`agents.files.points.run_agent`
+    """Track ``stream`` with ``agent`` (an Agent object): [`agents.files.points.run_agent`][agents.run_agent]
     without its conveniences (an agent by name, ``calibrate``); the arguments, the result and the
     errors are run_agent's (its docstring). Its warnings name the line that called run_agent.
     """
@@ -134,7 +136,8 @@ def _run(
     covariance: bool,
     progress: bool,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
-    """The loop of :func:`run_agent` over a reset agent (with ``sorting``: its crossings too)."""
+    """The loop of [`run_agent`][agents.run_agent] over a reset agent (with ``sorting``: its crossings
+    too)."""
     declared = agent_capability(agent, AgentCapability.TRACK_COVARIANCES) if covariance else None
     covariances = declared.track_covariances if declared is not None else None
     bar = _progress(stream.n_frames, progress)
@@ -180,7 +183,8 @@ def _run(
 
 class _Kept:
     """The reports' arrays of consecutive frames of one report size, from frame ``first`` on,
-    kept by reference until :meth:`tracks` gathers them (one vectorised gather)."""
+    kept by reference until [`tracks`][agents.files.loop._Kept.tracks] gathers them (one vectorised
+    gather)."""
 
     def __init__(self, covariance: bool, first: int) -> None:
         self.first, self.rows, self.frames = first, -1, 0

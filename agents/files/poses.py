@@ -1,9 +1,9 @@
 """Run a pose agent over a recorded pose stream (a pose file), outside a gym loop.
 
-:func:`run_pose_agent` is :func:`agents.files.points.run_agent` for poses: each frame of a
-:class:`~track_envs.values.poses.PoseStream` is packed as KeypointWalkers-v0 observes it
-(:func:`~track_envs.values.poses.pose_observation`), handed to ``agent.act``, and the report's live rows
-become the frame's tracked poses, a :class:`~track_envs.values.poses.PoseStream` with track ids:
+[`run_pose_agent`][agents.run_pose_agent] is [`agents.files.points.run_agent`][agents.run_agent] for poses:
+each frame of a [`PoseStream`][track_envs.PoseStream] is packed as KeypointWalkers-v0 observes it
+([`pose_observation`][track_envs.values.pose_observation]), handed to ``agent.act``, and the report's live
+rows become the frame's tracked poses, a [`PoseStream`][track_envs.PoseStream] with track ids:
 
 * a track updated with detection ``d`` keeps ``d``'s labelled keypoints (their visibility and
   confidence, at the tracker's positions) and ``d``'s pose score; the keypoints ``d`` lacks are

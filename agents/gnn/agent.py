@@ -1,12 +1,12 @@
 """Global nearest neighbour (GNN) multi-target tracker (the tracker of Pollithy et al. 2020).
 
-A :class:`~agents.tracking.tracker.PointTracker` (predict, births, misses, deletions, the learnt
+A [`PointTracker`][agents.PointTracker] (predict, births, misses, deletions, the learnt
 velocity prior, the nozzle-bar roll-out, the report) composed with gnn's association,
-:class:`~agents.tracking.gated.GatedAssignment`: squared Mahalanobis costs, χ² gate at ``p_gate``,
+[`GatedAssignment`][agents.tracking.GatedAssignment]: squared Mahalanobis costs, χ² gate at ``p_gate``,
 Hungarian (or greedy) assignment with a per-track miss cost, then the capped second chance of the
-tracks and detections left over (:mod:`agents.tracking.second_chance`: covariances scaled by
-``recovery_inflation``, jumps capped at ``k_u u + k_σ σ``, and with clutter declared the clutter
-test), wrapped in the merged blobs of :class:`~agents.tracking.merges.SharedBlobs` when
+tracks and detections left over ([`agents.tracking.second_chance`][agents.tracking.second_chance]: covariances
+scaled by ``recovery_inflation``, jumps capped at ``k_u u + k_σ σ``, and with clutter declared the clutter
+test), wrapped in the merged blobs of [`SharedBlobs`][agents.tracking.SharedBlobs] when
 ``blob_extent > 0``. Assigned tracks are corrected with their detection, the others coast.
 """
 
@@ -29,7 +29,7 @@ __all__ = ["FLOW_WINDOW", "MIN_FLOW_SAMPLES", "YOUNG_STREAK", "GnnAgent", "Veloc
 class GnnAgent(PointTracker):
     """GNN multi-target tracker: χ² gate, Hungarian, pluggable predictor (Pollithy et al. 2020).
 
-    A :class:`~agents.tracking.tracker.PointTracker` built with gnn's associator (module
+    A [`PointTracker`][agents.PointTracker] built with gnn's associator (module
     docstring); it adds no behaviour of its own.
 
     Args:
@@ -53,9 +53,9 @@ class GnnAgent(PointTracker):
             was off, a kick) take it back, and keeps it from jumping tens of millimetres onto
             another particle (at 1 m/s and 200 Hz: 15 mm).
         recovery_cap_noise: ``k_σ``, the cap's allowance in multiples of the sensor noise std, >= 0.
-        blob_extent: Merged blobs (:mod:`agents.tracking.merges`): a track left without a detection whose
-            prediction lies within this distance (sensor units) of a detection another track took,
-            itself predicted within it, shares that detection; the blob's tracks are updated as a
+        blob_extent: Merged blobs ([`agents.tracking.merges`][agents.tracking.merges]): a track left without a
+            detection whose prediction lies within this distance (sensor units) of a detection another track
+            took, itself predicted within it, shares that detection; the blob's tracks are updated as a
             rigid group, each keeping its predicted offset. 0 (the default) turns sharing off.
         noise_scale: Factor ``k`` on the sensor's declared noise std that the predictor assumes
             (``R = (k σ)² I``) and that the second-chance cap uses, > 0 (default 1). Needs a
@@ -67,11 +67,14 @@ class GnnAgent(PointTracker):
             no sorting channel, for throughput when no valve is driven.
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name; a keyword
             that neither the agent nor that predictor takes raises
-            :class:`~track_envs.infra.registry.UnknownArgumentError` listing the arguments of both.
+            [`UnknownArgumentError`][track_envs.infra.registry.UnknownArgumentError] listing the arguments of
+            both.
 
-    Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
-    between frames of a running episode (each is checked, and the next frame uses it); this is
-    how GateTuning-v0 (:mod:`track_apps.tuning`) acts on the tracker.
+    Live knobs: [`p_gate`][agents.PointTracker.p_gate],
+    [`recovery_inflation`][agents.PointTracker.recovery_inflation] and
+    [`noise_scale`][agents.PointTracker.noise_scale] may be set between frames of a running episode (each is
+    checked, and the next frame uses it); this is how GateTuning-v0 ([`track_apps.tuning`][track_apps.tuning])
+    acts on the tracker.
     """
 
     def __init__(

@@ -1,10 +1,11 @@
 r"""Compiled (numba) JPDA association of one frame, with merged blobs as joint events.
 
 For ``n`` predicted measurements ``N(ŷ_i, S_i)`` and ``m`` detections ``z_j`` (``D`` dimensions)
-one call of :func:`jpda_frame` computes, without a Python loop over tracks or clusters:
+one call of [`jpda_frame`][agents.jpda._kernels.jpda_frame] computes, without a Python loop over tracks or
+clusters:
 
 1. **Gated likelihoods.** ``S_i = L_i L_iᵀ``, ``d²_ij = ‖L_i⁻¹ (z_j − ŷ_i)‖²``, admissible when
-   ``d²_ij ≤ γ``, with log weight (:mod:`agents.jpda.weights`)
+   ``d²_ij ≤ γ``, with log weight ([`agents.jpda.weights`][agents.jpda.weights])
 
    .. math::
 
@@ -12,8 +13,8 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
 
 2. **Merged blobs.** Two tracks predicted within ``extent`` of each other form a candidate pair
    ``e = (a, b)``. Touching particles are seen as one blob at their area-weighted centroid plus
-   the sensor noise (:mod:`track_envs.envs.blobs`); for areas ``w, 1 − w`` with ``w ≈ ½ ± σ_w``
-   its predicted measurement is
+   the sensor noise ([`track_envs.envs.blobs`][track_envs.envs.blobs]); for areas ``w, 1 − w`` with
+   ``w ≈ ½ ± σ_w`` its predicted measurement is
 
    .. math::
 
@@ -30,7 +31,7 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
    over them.
 
 4. **Exact marginals per cluster** by dynamic programming over its detections with the set ``A``
-   of tracks already used as a bitmask (the recursion of :mod:`agents.jpda.exact`, with the
+   of tracks already used as a bitmask (the recursion of [`agents.jpda.exact`][agents.jpda.exact], with the
    merged hypotheses as a third kind of step), in log space:
 
    .. math::
@@ -45,49 +46,58 @@ one call of :func:`jpda_frame` computes, without a Python loop over tracks or cl
    clutter probability ``β_∅j = Σ_A F_j(A) G_{j+1}(A) / Z``. Cost ``O(m_c · 2^{n_c} · (n_c + e_c))``
    per cluster of ``n_c`` tracks, ``m_c`` detections and ``e_c`` merged hypotheses; without merged
    hypotheses the bitmask runs over the smaller side. A cluster of more than
-   :data:`MAX_MERGE_CLUSTER` tracks drops its merged hypotheses (their exact sum would cost
-   ``2^{n_c}`` masks per detection: 5.8 ms at 12 tracks); clusters of more than ``max_exact``
-   tracks are not computed here (``big`` lists their tracks for the caller's fallback).
+   [`MAX_MERGE_CLUSTER`][agents.jpda._kernels.MAX_MERGE_CLUSTER] tracks drops its merged hypotheses (their
+   exact sum would cost ``2^{n_c}`` masks per detection: 5.8 ms at 12 tracks); clusters of more than
+   ``max_exact`` tracks are not computed here (``big`` lists their tracks for the caller's fallback).
 
 5. **Moment matching.** Track ``i``'s hypotheses are its own detections (pseudo-measurement
    ``z_j``) and its merged blobs with a partner ``k`` (``z_j + ½(a_i − a_k)``: the blob moves the
-   pair as a group, as in :mod:`agents.tracking.merges`, each member keeping its offset between
-   the anchors ``a``). With the predictions as anchors (``a = ŷ``, :func:`jpda_frame`) both
-   members take the same innovation ``z_j − μ_e``, so the pair's relative motion is extrapolated
-   by the predictor for as long as the blob lasts, unobserved; with the tracks' last estimates
-   (:func:`jpda_frame_anchored`, a *rigid pair*) the offset is held where it was last seen and the
-   members' relative velocity decays. With ``p_i = Σ β`` of them (the
-   probability that the track was detected), the mixture's measurement mean and spread are
+   pair as a group, as in [`agents.tracking.merges`][agents.tracking.merges], each member keeping its offset
+   between the anchors ``a``). With the predictions as anchors (``a = ŷ``,
+   [`jpda_frame`][agents.jpda._kernels.jpda_frame]) both members take the same innovation ``z_j − μ_e``, so
+   the pair's relative motion is extrapolated by the predictor for as long as the blob lasts, unobserved; with
+   the tracks' last estimates ([`jpda_frame_anchored`][agents.jpda._kernels.jpda_frame_anchored], a *rigid
+   pair*) the offset is held where it was last seen and the members' relative velocity decays. With
+   ``p_i = Σ β`` of them (the probability that the track was detected), the mixture's measurement mean and
+   spread are
 
    .. math::
 
        \bar z_i = \frac{1}{p_i} \sum_h β_h z_h, \qquad
        Σ_i = \frac{1}{p_i} \sum_h β_h (z_h - \bar z_i)(z_h - \bar z_i)^\top,
 
-   which the PDA update of the predictor takes (:class:`predictors.base.MixtureUpdate`).
+   which the PDA update of the predictor takes
+   ([`predictors.base.MixtureUpdate`][predictors.base.MixtureUpdate]).
 
 **Candidates, linear in the scene.** No step tests all pairs. Every gate lies inside an
 axis-aligned box — the χ² ellipse ``(z − μ)ᵀ C⁻¹ (z − μ) ≤ γ`` inside ``|z_k − μ_k| ≤ sqrt(γ C_kk)``
 (``d² ≥ Δ_k² / C_kk``) — and the candidates of every box come from the uniform-grid spatial index
-of :mod:`track_envs.infra.spatial` over the first two axes: the detections of a track's gate
-(box ``sqrt(γ S_i,kk)``) and of a blob's gate (box ``sqrt(γ C_e,kk)``) from one grid of the frame's
+of [`track_envs.infra.spatial`][track_envs.infra.spatial] over the first two axes: the detections of a track's
+gate (box ``sqrt(γ S_i,kk)``) and of a blob's gate (box ``sqrt(γ C_e,kk)``) from one grid of the frame's
 detections, the candidate blob pairs from a grid of the mergeable predictions (box ``extent``),
-and the blob splits' pieces (:func:`_split_candidates`) from grids of the free detections. Each
-box is widened by :data:`BOX_MARGIN` so that rounding never drops a pair the exact test keeps;
-the exact tests then decide as before. For gates of bounded size a frame costs ``O(n + m)`` plus
-the clusters' own cost (step 4), whatever the size of the scene.
+and the blob splits' pieces ([`_split_candidates`][agents.jpda._kernels._split_candidates]) from grids of the
+free detections. Each box is widened by [`BOX_MARGIN`][agents.jpda._kernels.BOX_MARGIN] so that rounding never
+drops a pair the exact test keeps; the exact tests then decide as before. For gates of bounded size a frame
+costs ``O(n + m)`` plus the clusters' own cost (step 4), whatever the size of the scene.
 
 The hypotheses are listed in the order of a sweep along the first axis — a track's detections,
 the blob pairs and each blob's detections by ascending first coordinate, equal coordinates in the
 order of numba's ``np.argsort`` (a quicksort: its rank is computed only when two candidates'
 coordinates are equal) — since the sums of steps 4 and 5 and their ties run in that order.
 
-Each step is a compiled function of its own, called in order by :func:`jpda_frame`: 1.
-:func:`_track_factors`, :func:`_detection_grid` and :func:`_gated_pairs`; 2.
-:func:`_merged_hypotheses` (the pairs by :func:`_blob_pairs`, each pair's blob by
-:func:`_blob_gaussian`); 3. :func:`_roots` and :func:`_clusters`; 4. and 5. per cluster
-:func:`_associate_clusters`: :func:`_single_track` for a lone track, else :func:`_cluster_weights`,
-:func:`_cluster_marginals` and :func:`_cluster_mixtures`.
+Each step is a compiled function of its own, called in order by
+[`jpda_frame`][agents.jpda._kernels.jpda_frame]: 1. [`_track_factors`][agents.jpda._kernels._track_factors],
+[`_detection_grid`][agents.jpda._kernels._detection_grid] and
+[`_gated_pairs`][agents.jpda._kernels._gated_pairs]; 2.
+[`_merged_hypotheses`][agents.jpda._kernels._merged_hypotheses] (the pairs by
+[`_blob_pairs`][agents.jpda._kernels._blob_pairs], each pair's blob by
+[`_blob_gaussian`][agents.jpda._kernels._blob_gaussian]); 3. [`_roots`][agents.jpda._kernels._roots] and
+[`_clusters`][agents.jpda._kernels._clusters]; 4. and 5. per cluster
+[`_associate_clusters`][agents.jpda._kernels._associate_clusters]:
+[`_single_track`][agents.jpda._kernels._single_track] for a lone track, else
+[`_cluster_weights`][agents.jpda._kernels._cluster_weights],
+[`_cluster_marginals`][agents.jpda._kernels._cluster_marginals] and
+[`_cluster_mixtures`][agents.jpda._kernels._cluster_mixtures].
 """
 
 from __future__ import annotations
@@ -113,14 +123,14 @@ MAX_MERGE_CLUSTER = 8
 BOX_MARGIN = 1e-7
 #: Half-width of a box that holds every point (a gate of infinite or NaN size).
 BOX_ALL = 1e300
-#: Status of :func:`jpda_frame`: every covariance positive definite.
+#: Status of [`jpda_frame`][agents.jpda._kernels.jpda_frame]: every covariance positive definite.
 FRAME_OK = 0
 #: Status: the predicted covariance of track ``bad`` is not positive definite.
 FRAME_NOT_PD = 1
 
 
 class JpdaFrame(NamedTuple):
-    """Result of :func:`jpda_frame` (new arrays).
+    """Result of [`jpda_frame`][agents.jpda._kernels.jpda_frame] (new arrays).
 
     Attributes:
         p_seen: (n,) ``p_i``, the probability that the track was detected this frame.
@@ -136,7 +146,8 @@ class JpdaFrame(NamedTuple):
         cluster_of: (n,) each track's cluster (an index into ``cluster_tracks``).
         cluster_detections: (n_clusters,) detections of those clusters.
         big: tracks of the clusters with more than ``max_exact`` tracks (not computed here), ascending.
-        status: :data:`FRAME_OK` or :data:`FRAME_NOT_PD`.
+        status: [`FRAME_OK`][agents.jpda._kernels.FRAME_OK] or
+            [`FRAME_NOT_PD`][agents.jpda._kernels.FRAME_NOT_PD].
         bad: the offending track, or −1.
     """
 
@@ -221,7 +232,8 @@ def _cluster_marginals_log(
     PC: FloatArray,
 ) -> bool:
     """Exact marginals of one cluster (module docstring, step 4), local indices, in log space
-    (the fallback of :func:`_cluster_marginals` for weights beyond the float range).
+    (the fallback of [`_cluster_marginals`][agents.jpda._kernels._cluster_marginals] for weights beyond the
+    float range).
 
     Args:
         L: (nc, mc) log pair weights (−inf outside the gate).
@@ -394,9 +406,10 @@ def _cluster_marginals(
     bitmask runs over the tracks with the detections as steps, or, without merged hypotheses
     and with fewer detections than tracks, over the detections with the tracks as steps
     (``O(K · C · 2^C)`` for the smaller side ``C``). Falls back to the log-space recursion
-    (:func:`_cluster_marginals_log`) when the scaled weights leave the float range.
+    ([`_cluster_marginals_log`][agents.jpda._kernels._cluster_marginals_log]) when the scaled weights leave
+    the float range.
 
-    Args and return as :func:`_cluster_marginals_log`.
+    Args and return as [`_cluster_marginals_log`][agents.jpda._kernels._cluster_marginals_log].
     """
     nc, mc = L.shape
     ne = len(m_a)
@@ -498,9 +511,9 @@ def _track_factors(cov: FloatArray, chol: FloatArray, lnorm: FloatArray) -> int:
 
 @njit(cache=True)
 def _widen(h: float, centre: float) -> float:
-    """A box half-width ``h`` widened by :data:`BOX_MARGIN` (and a few ulps of the centre), so
-    that rounding never leaves out a point the exact test keeps; not finite: a box holding every
-    point (the test then decides alone, as a scan of all points would)."""
+    """A box half-width ``h`` widened by [`BOX_MARGIN`][agents.jpda._kernels.BOX_MARGIN] (and a few ulps of
+    the centre), so that rounding never leaves out a point the exact test keeps; not finite: a box holding
+    every point (the test then decides alone, as a scan of all points would)."""
     w = h * (1.0 + BOX_MARGIN) + 1e-12 * abs(centre)
     if not w < BOX_ALL:
         return BOX_ALL
@@ -569,9 +582,9 @@ def _in_first_axis_order(
 def _detection_grid(
     mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float
 ) -> tuple[GridIndex, FloatArray]:
-    """The spatial index of the detections (:mod:`track_envs.infra.spatial`) and every track's
-    gate box ``h_ik = sqrt(γ S_i,kk)`` on the first ``K = min(D, 2)`` axes, widened (:func:`_widen`),
-    (n, K); the grid's cells are the median box width."""
+    """The spatial index of the detections ([`track_envs.infra.spatial`][track_envs.infra.spatial]) and every
+    track's gate box ``h_ik = sqrt(γ S_i,kk)`` on the first ``K = min(D, 2)`` axes, widened
+    ([`_widen`][agents.jpda._kernels._widen]), (n, K); the grid's cells are the median box width."""
     n, D = mean.shape
     K = min(D, 2)
     half = np.empty((n, K))
@@ -601,14 +614,14 @@ def _gated_pairs(
 
     A pair outside the box ``|z_k − ŷ_ik| ≤ sqrt(γ S_i,kk)`` is outside the gate
     (``d² ≥ Δ_k² / S_kk``), so track ``i`` tests only the detections of its box, found in the
-    grid ``grid`` (``half``: the widened boxes of :func:`_detection_grid`): ``O(n + m)`` for gates of
-    bounded size. Of those it keeps the window ``ŷ_i0 − r ≤ z_0 ≤ ŷ_i0 + r``, ``r = sqrt(γ S_i,00)``
-    (the same numbers as the exact bound), then the full gate.
+    grid ``grid`` (``half``: the widened boxes of [`_detection_grid`][agents.jpda._kernels._detection_grid]):
+    ``O(n + m)`` for gates of bounded size. Of those it keeps the window ``ŷ_i0 − r ≤ z_0 ≤ ŷ_i0 + r``,
+    ``r = sqrt(γ S_i,00)`` (the same numbers as the exact bound), then the full gate.
 
     Returns:
         ``(e_t, e_d, e_w, ne, z_rank)``: track, detection and ``log w_ij`` in the first ``ne``
-        rows, tracks ascending, each track's detections by ascending first coordinate (equal ones
-        as ``np.argsort(z[:, 0])`` lists them: ``z_rank``, computed on first need).
+            rows, tracks ascending, each track's detections by ascending first coordinate (equal ones
+            as ``np.argsort(z[:, 0])`` lists them: ``z_rank``, computed on first need).
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -753,17 +766,17 @@ def _merged_hypotheses(
     work: FloatArray,
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray, int, FloatArray]:
     """Step 2: the merged-blob hypotheses, every pair of mergeable tracks at most ``extent``
-    apart (:func:`_blob_pairs`) with every detection inside its blob's gate (none when
-    ``extent`` is 0).
+    apart ([`_blob_pairs`][agents.jpda._kernels._blob_pairs]) with every detection inside its blob's gate
+    (none when ``extent`` is 0).
 
     A blob's detections are those of the box ``|z_k − μ_k| ≤ sqrt(γ C_kk)`` (the detections'
     ``grid``), in the window ``|z_0 − μ_0| ≤ sqrt(γ C_00)``, then inside the full gate; pairs in
-    the order of :func:`_blob_pairs`, each pair's detections by ascending first coordinate
-    (``z_rank`` as in :func:`_gated_pairs`).
+    the order of [`_blob_pairs`][agents.jpda._kernels._blob_pairs], each pair's detections by ascending first
+    coordinate (``z_rank`` as in [`_gated_pairs`][agents.jpda._kernels._gated_pairs]).
 
     Returns:
         ``(g_a, g_b, g_d, g_w, ng, z_rank)``: the smaller and larger track, the detection and
-        ``log w_ej`` in the first ``ng`` rows.
+            ``log w_ej`` in the first ``ng`` rows.
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -1047,8 +1060,9 @@ def _associate_clusters(
 ) -> None:
     """Steps 4 and 5 for every cluster of at most ``max_exact`` tracks that holds a detection,
     into the frame's outputs: a lone track without merged blobs in closed form
-    (:func:`_single_track`), any other cluster by its exact marginals
-    (:func:`_cluster_marginals`), then the mixture of each of its tracks."""
+    ([`_single_track`][agents.jpda._kernels._single_track]), any other cluster by its exact marginals
+    ([`_cluster_marginals`][agents.jpda._kernels._cluster_marginals]), then the mixture of each of its
+    tracks."""
     n = mean.shape[0]
     n_cl = len(cl.c_nt)
     c_nt, c_nd, t_of, t_start, d_of, d_start = cl.c_nt, cl.c_nd, cl.t_of, cl.t_start, cl.d_of, cl.d_start
@@ -1118,8 +1132,8 @@ def jpda_frame(
     max_exact: int,
     mergeable: NDArray[np.bool_],
 ) -> JpdaFrame:
-    """:func:`jpda_frame_anchored` with the predictions as the merged blobs' anchors: each member
-    of a blob keeps its predicted offset from the pair's centre."""
+    """[`jpda_frame_anchored`][agents.jpda._kernels.jpda_frame_anchored] with the predictions as the merged
+    blobs' anchors: each member of a blob keeps its predicted offset from the pair's centre."""
     return jpda_frame_anchored(
         mean, cov, z, gate, log_ratio, log_miss, extent, noise_cov, area_var, log_merge_odds,
         max_exact, mergeable, mean,
@@ -1309,7 +1323,7 @@ def _accumulate(
 
 
 class BlobSplits(NamedTuple):
-    """Result of :func:`split_blobs`: one row per split (ascending track).
+    """Result of [`split_blobs`][agents.jpda._kernels.split_blobs]: one row per split (ascending track).
 
     Attributes:
         track: the track whose blob fell apart.
@@ -1336,11 +1350,12 @@ def _split_candidates(
     area_var: float,
     extent: float,
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray]:
-    """The admissible split hypotheses of :func:`split_blobs`: ``(track, j, k, d²)`` for every
-    unseen track and pair of free detections ``j < k`` that pass the gate, in ascending track,
-    then ``j``, then ``k``.
+    """The admissible split hypotheses of [`split_blobs`][agents.jpda._kernels.split_blobs]:
+    ``(track, j, k, d²)`` for every unseen track and pair of free detections ``j < k`` that pass the gate, in
+    ascending track, then ``j``, then ``k``.
 
-    Both pieces come from spatial indexes of the free detections (:mod:`track_envs.infra.spatial`):
+    Both pieces come from spatial indexes of the free detections
+    ([`track_envs.infra.spatial`][track_envs.infra.spatial]):
     the first piece ``j`` of track ``i`` lies within ``extent`` of ``ŷ_i`` on the first axis (the
     hypothesis's condition), and on the second within ``sqrt(γ C̄_11) + extent / 2`` with
     ``C̄_11 = S_i,11 − ½ R_11 + σ_w² extent²`` (the midpoint's gate, ``d² ≥ (c_1 − ŷ_1)² / C_11``
@@ -1433,9 +1448,9 @@ def _greedy_splits(
     cand_k: IntArray,
     cand_d: FloatArray,
 ) -> tuple[IntArray, IntArray, IntArray]:
-    """The candidates of :func:`_split_candidates` taken greedily by ascending ``d²`` (stable),
-    each track and detection once: ``(track, keep, other)`` in ascending track, ``keep`` the
-    piece nearer to the track's prediction (the first on a tie)."""
+    """The candidates of [`_split_candidates`][agents.jpda._kernels._split_candidates] taken greedily by
+    ascending ``d²`` (stable), each track and detection once: ``(track, keep, other)`` in ascending track,
+    ``keep`` the piece nearer to the track's prediction (the first on a tie)."""
     n, D = mean.shape
     m = z.shape[0]
     order = np.argsort(cand_d, kind="mergesort")

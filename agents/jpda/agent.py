@@ -8,14 +8,15 @@ Every frame, for the ``n`` live tracks and the ``m`` detections:
    missed, taking one detection of its gate, or, with the merge model, taking together with a
    neighbour one detection as their *merged blob* — is weighed by its likelihood against Poisson
    clutter of density ``λ`` and the detection probability ``p_D``; the marginal probabilities of
-   the events are exact per gating cluster (:mod:`agents.jpda._kernels`, one compiled pass;
+   the events are exact per gating cluster ([`agents.jpda._kernels`][agents.jpda._kernels], one compiled pass;
    clusters of more than ``max_exact`` tracks fall back to loopy belief propagation without merged
-   blobs, :mod:`agents.jpda.lbp`, and their tracks are counted in :attr:`JpdaAgent.approximate_tracks`
-   — with the coalescence guard (step 3) such tracks take gnn's assignment instead);
+   blobs, [`agents.jpda.lbp`][agents.jpda.lbp], and their tracks are counted in
+   [`JpdaAgent.approximate_tracks`][agents.jpda.agent.JpdaAgent.approximate_tracks] — with the coalescence
+   guard (step 3) such tracks take gnn's assignment instead);
 3. **update** every track by the moment-matched mixture of its hypotheses (the PDA update):
    exactly for predictors that declare ``MIXTURE_UPDATE`` (the Kalman filters,
-   :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`); any other Gaussian
-   predictor (the belt LSTMs) is updated through the core ``update`` by the mixture's mean
+   [`predictors.kalman.predictor.KalmanPredictor.update_mixture`][predictors.kalman.predictor.KalmanPredictor.update_mixture]);
+   any other Gaussian predictor (the belt LSTMs) is updated through the core ``update`` by the mixture's mean
    ``ŷ + p (z̄ − ŷ)`` when the track was more likely detected than not (``p ≥ ½``) and coasts
    otherwise — for a predictor that reports its input, the moment-matched position. Two kinds
    of track take the frame's optimal assignment (gnn's gated Hungarian) instead: tracks not yet
@@ -24,18 +25,18 @@ Every frame, for the ``n`` live tracks and the ``m`` detections:
    whose most probable hypothesis is not a merged blob — the mixtures of competing tracks pull
    them onto each other (JPDA's coalescence; Blom and Bloem 2000 prune the joint events
    instead). On the belt ≈99 % of the tracks are alone in their cluster;
-4. **bookkeeping as gnn** (the same :class:`~agents.tracking.tracker.PointTracker` core, composed
-   with :class:`~agents.jpda.associator.JpdaAssociator`): a track counts as seen when ``p ≥ ½``
+4. **bookkeeping as gnn** (the same [`PointTracker`][agents.PointTracker] core, composed
+   with [`JpdaAssociator`][agents.jpda.associator.JpdaAssociator]): a track counts as seen when ``p ≥ ½``
    and reports the detection of its most probable hypothesis; the capped second chance for tracks
-   and detections left over (:mod:`agents.tracking.second_chance`), deletions after
-   ``max_misses`` misses or on leaving the region, births from the detections no track claims,
+   and detections left over ([`agents.tracking.second_chance`][agents.tracking.second_chance]), deletions
+   after ``max_misses`` misses or on leaving the region, births from the detections no track claims,
    the learnt velocity prior and the nozzle-bar roll-out are the core's, as for gnn.
 
 **Merged blobs.** Touching particles reach the camera as one detection at their area-weighted
-centroid (:mod:`track_envs.envs.blobs`). A plain GNN gives that detection to one of the two tracks,
-whose filter takes the jump of ≈ half the pair's distance as real motion, or starves the other.
+centroid ([`track_envs.envs.blobs`][track_envs.envs.blobs]). A plain GNN gives that detection to one of the
+two tracks, whose filter takes the jump of ≈ half the pair's distance as real motion, or starves the other.
 Here a pair of tracks predicted within ``merge_extent`` may jointly take one detection near their
-midpoint (covariance in :mod:`agents.jpda._kernels`); each is then updated as a member of a
+midpoint (covariance in [`agents.jpda._kernels`][agents.jpda._kernels]); each is then updated as a member of a
 *rigid pair*, keeping the offset from the pair's centre that their last estimates had, so a join
 is explained by both tracks and on separation each piece is closest to its own track's prediction.
 While the blob lasts the pair's relative motion is not observed: keeping the members' *predicted*
@@ -91,8 +92,8 @@ class _FromAssociator:
 class JpdaAgent(PointTracker):
     """JPDA multi-target tracker with merged-blob events and the PDA update (module docstring).
 
-    A :class:`~agents.tracking.tracker.PointTracker` built with
-    :class:`~agents.jpda.associator.JpdaAssociator`; it adds no behaviour of its own, and shows
+    A [`PointTracker`][agents.PointTracker] built with
+    [`JpdaAssociator`][agents.jpda.associator.JpdaAssociator]; it adds no behaviour of its own, and shows
     the associator's settings and figures (``p_detect``, ``clutter_density``, ``merge_model``, ...,
     ``approximate_tracks``, ``blob_splits``, ``last_cluster_tracks``, ``last_p_seen``) as its
     attributes.
@@ -118,7 +119,7 @@ class JpdaAgent(PointTracker):
         rigid_merge: The members of a merged blob keep the offset between their last estimates
             (a rigid pair: their relative motion is not extrapolated while the blob hides it;
             module docstring, *Merged blobs*). False: the offset between their predictions.
-        **gnn_kwargs: Every other argument of :class:`~agents.gnn.agent.GnnAgent` (``p_gate``,
+        **gnn_kwargs: Every other argument of [`GnnAgent`][agents.gnn.agent.GnnAgent] (``p_gate``,
             ``max_misses``, ``region_margin``, ``velocity_prior``, ``recovery_inflation``,
             ``recovery_cap_motion``, ..., and the predictor's keywords), except ``blob_extent`` and
             ``assignment`` (the merged blobs and the association are this tracker's own).

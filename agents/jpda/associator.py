@@ -1,14 +1,14 @@
 """jpda's association: JPDA marginals with merged blobs, the PDA mixture update, blob splits and
-the coalescence guard (the tracker is :mod:`agents.jpda.agent`; the method there).
+the coalescence guard (the tracker is [`agents.jpda.agent`][agents.jpda.agent]; the method there).
 
-Per frame the compiled pass :func:`agents.jpda._kernels.jpda_frame` gives every track's marginal
-probability of being seen, the mean and spread of its detections' mixture and its most probable
-hypothesis (exact per gating cluster; clusters above ``max_exact`` by loopy belief propagation,
-:mod:`agents.jpda.lbp`, or with the coalescence guard gnn's assignment). Tracks not yet settled and,
-with the guard, tracks sharing their cluster take the frame's optimal assignment instead; blobs
-that fell apart are split (:func:`agents.jpda._kernels.split_blobs`); leftover tracks get the
-capped second chance of :mod:`agents.tracking.second_chance`. The update is the moment-matched
-mixture (``MIXTURE_UPDATE`` predictors) or the core update by the mixture's mean.
+Per frame the compiled pass [`agents.jpda._kernels.jpda_frame`][agents.jpda._kernels.jpda_frame] gives every
+track's marginal probability of being seen, the mean and spread of its detections' mixture and its most
+probable hypothesis (exact per gating cluster; clusters above ``max_exact`` by loopy belief propagation,
+[`agents.jpda.lbp`][agents.jpda.lbp], or with the coalescence guard gnn's assignment). Tracks not yet settled
+and, with the guard, tracks sharing their cluster take the frame's optimal assignment instead; blobs
+that fell apart are split ([`agents.jpda._kernels.split_blobs`][agents.jpda._kernels.split_blobs]); leftover
+tracks get the capped second chance of [`agents.tracking.second_chance`][agents.tracking.second_chance]. The
+update is the moment-matched mixture (``MIXTURE_UPDATE`` predictors) or the core update by the mixture's mean.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ Shift = tuple[NDArray[np.int64], NDArray[np.float64]]
 
 class JpdaAssociator:
     """JPDA association with merged blobs and the PDA update (module docstring; the arguments as
-    :class:`~agents.jpda.agent.JpdaAgent`'s, plus the second chance's caps)."""
+    [`JpdaAgent`][agents.jpda.agent.JpdaAgent]'s, plus the second chance's caps)."""
 
     capabilities = frozenset(AssociatorCapability)
 
@@ -143,7 +143,7 @@ class JpdaAssociator:
         return np.eye(frame.spec.dim) * max((frame.noise_scale * frame.spec.noise_std) ** 2, 1e-12)
 
     def associate(self, frame: FrameContext) -> Association:
-        """JPDA marginals and each track's mixture (:mod:`agents.jpda.agent`, steps 2–4)."""
+        """JPDA marginals and each track's mixture ([`agents.jpda.agent`][agents.jpda.agent], steps 2–4)."""
         predicted, z = frame.predicted, frame.z
         cov = np.ascontiguousarray(frame.prediction.cov, dtype=np.float64)
         jf = self._marginals(frame, cov)
@@ -259,9 +259,9 @@ class JpdaAssociator:
         z_spread: NDArray[np.float64],
         settled_share: NDArray[np.float64],
     ) -> Shift | None:
-        """Blobs that fell apart (:func:`agents.jpda._kernels.split_blobs`), in place: the track is
-        updated with the pieces' midpoint (where its blob is, so no jump goes into its motion),
-        then moved onto the nearer piece (the returned shift, with ``TRANSLATE``; without it the
+        """Blobs that fell apart ([`agents.jpda._kernels.split_blobs`][agents.jpda._kernels.split_blobs]), in
+        place: the track is updated with the pieces' midpoint (where its blob is, so no jump goes into its
+        motion), then moved onto the nearer piece (the returned shift, with ``TRANSLATE``; without it the
         track stays at the midpoint this frame); the other piece is left for a new track."""
         z = frame.z
         free = np.ones(len(z), dtype=np.bool_)

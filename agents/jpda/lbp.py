@@ -2,7 +2,7 @@ r"""Approximate JPDA marginals by loopy belief propagation (Williams, Lau: Appro
 of marginal association probabilities with belief propagation, 2014).
 
 For one cluster with track weights ``w_ij`` (pairs) and ``w_i∅`` (missed) of
-:mod:`agents.jpda.weights`, let ``ψ_ij = w_ij / w_i∅``. Messages from tracks to detections
+[`agents.jpda.weights`][agents.jpda.weights], let ``ψ_ij = w_ij / w_i∅``. Messages from tracks to detections
 ``μ_ij`` and back ``ν_ji`` (start ``ν = 1``) iterate
 
 .. math::
@@ -23,7 +23,7 @@ to 1 (they come from different factors). All of it is in log space; the leave-on
 ``Σ_{j' ≠ j}`` come from prefix and suffix log-sum-exp (no subtraction, no cancellation).
 ``w_i∅ = 0`` (``p_D P_G = 1``) is floored at ``e^{-700}`` times the track's largest weight.
 
-Measured error against the exact marginals (:mod:`agents.jpda.exact`) on random clusters is
+Measured error against the exact marginals ([`agents.jpda.exact`][agents.jpda.exact]) on random clusters is
 pinned in ``tests/agents/jpda/test_lbp.py``.
 """
 

@@ -1,6 +1,7 @@
 r"""Marginal association probabilities of JPDA for a whole frame.
 
-For tracks ``i`` and detections ``j`` with the joint-event weights of :mod:`agents.jpda.weights`,
+For tracks ``i`` and detections ``j`` with the joint-event weights of
+[`agents.jpda.weights`][agents.jpda.weights],
 
 .. math::
 
@@ -12,14 +13,14 @@ For tracks ``i`` and detections ``j`` with the joint-event weights of :mod:`agen
 data association, 1983); ``Σ_j β_ij + β_i∅ = 1`` for every track and
 ``Σ_i β_ij + β_∅j = 1`` for every detection.
 
-The events factorise over the gating clusters (:mod:`agents.jpda.clusters`). Clusters of one
-track are the PDA filter's closed form, all at once. Any other cluster of
-``n`` tracks and ``m`` detections is computed exactly (:mod:`agents.jpda.exact`, bitmask over
+The events factorise over the gating clusters ([`agents.jpda.clusters`][agents.jpda.clusters]). Clusters of
+one track are the PDA filter's closed form, all at once. Any other cluster of
+``n`` tracks and ``m`` detections is computed exactly ([`agents.jpda.exact`][agents.jpda.exact], bitmask over
 the smaller side, ``O(max(n,m) · k · 2^k)`` for ``k = min(n, m)``) when ``k <= max_exact``;
 clusters go through the recursion together, one batch per bitmask width (``k`` of 1–2 padded
 to 2 rows, 3–4 to 4, larger ``k`` as they are; padded rows and columns never match). Beyond
 that bound a cluster of several tracks is approximated by loopy belief propagation
-(:mod:`agents.jpda.lbp`, Williams and Lau 2014) and its tracks are flagged ``exact = False``;
+([`agents.jpda.lbp`][agents.jpda.lbp], Williams and Lau 2014) and its tracks are flagged ``exact = False``;
 the error of that approximation, measured against the exact marginals, is pinned in
 ``tests/agents/jpda/test_jpda_lbp.py`` (max |Δβ| up to 0.19 on random 8-target frames, median
 0.02–0.05: a fallback, not a substitute).
@@ -154,7 +155,8 @@ def association_marginals(weights: EventWeights, *, max_exact: int = MAX_EXACT) 
     """``β_ij``, ``β_i∅`` and ``β_∅j`` of every track and detection of a frame.
 
     Args:
-        weights: the log joint-event weights (:func:`agents.jpda.weights.jpda_log_weights`).
+        weights: the log joint-event weights
+            ([`agents.jpda.weights.jpda_log_weights`][agents.jpda.weights.jpda_log_weights]).
         max_exact: clusters with ``min(n_tracks, n_detections) <= max_exact`` are exact (and
             clusters of one track always).
 
@@ -209,7 +211,8 @@ def jpda_marginals(
     *,
     max_exact: int = MAX_EXACT,
 ) -> Marginals:
-    """:func:`association_marginals` of :func:`agents.jpda.weights.jpda_log_weights`."""
+    """[`association_marginals`][agents.jpda.marginals.association_marginals] of
+    [`agents.jpda.weights.jpda_log_weights`][agents.jpda.weights.jpda_log_weights]."""
     weights = jpda_log_weights(log_likelihood, gate, p_detect, clutter_density, p_gate)
     return association_marginals(weights, max_exact=max_exact)
 
@@ -259,7 +262,8 @@ def merged_cluster_marginals(
     merges: NDArray[np.integer],
     log_merged: NDArray[np.floating],
 ) -> MergedMarginals:
-    """Exact marginals of one cluster with merged-blob hypotheses (:mod:`agents.jpda._kernels`).
+    """Exact marginals of one cluster with merged-blob hypotheses
+    ([`agents.jpda._kernels`][agents.jpda._kernels]).
 
     A joint event gives every track a detection of its gate, a merged blob (hypothesis
     ``e = (a, b, j)``: tracks ``a`` and ``b`` both take detection ``j``) or a miss, no detection

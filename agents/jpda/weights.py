@@ -108,8 +108,8 @@ def gaussian_log_likelihood(prediction: Gaussian, z: NDArray[np.floating]) -> tu
     """``log N(z_j; ŷ_i, S_i)`` and the squared Mahalanobis distances ``d²_ij``, both (n, m).
 
     ``log g_ij = -½ d²_ij - ½ log det(2π S_i)``, with ``d²`` from
-    :func:`agents.tracking.assign.mahalanobis_cost`; gate with ``d² <= γ``
-    (:func:`agents.tracking.assign.chi2_gate`, whose ``p_gate`` is the ``P_G`` above).
+    [`agents.tracking.assign.mahalanobis_cost`][agents.tracking.mahalanobis_cost]; gate with ``d² <= γ``
+    ([`agents.tracking.assign.chi2_gate`][agents.tracking.chi2_gate], whose ``p_gate`` is the ``P_G`` above).
     """
     d2 = mahalanobis_cost(prediction, z)
     cov = np.asarray(prediction.cov, dtype=np.float64)

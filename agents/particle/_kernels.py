@@ -1,15 +1,20 @@
 """Compiled (numba) kernels of the batched bootstrap particle filter (agents/particle/agent.py).
 
 For a displacement model that moves every particle of target ``t`` by one common displacement
-``d_t`` plus white noise of std ``s_t``, a frame of :class:`agents.particle.agent.BatchParticleFilter` is
-a few single passes over the (T, N) particles instead of the numpy path's many temporaries:
+``d_t`` plus white noise of std ``s_t``, a frame of
+[`agents.particle.agent.BatchParticleFilter`][agents.particle.agent.BatchParticleFilter] is a few single
+passes over the (T, N) particles instead of the numpy path's many temporaries:
 
-1. **predict** (:func:`predict_common`): ``x⁽ⁱ⁾ ← x⁽ⁱ⁾ + s_t·ε⁽ⁱ⁾ + d_t``, ``ε⁽ⁱ⁾ ~ N(0, I_2)``;
-2. **update** (Eq. (4) of Jung, Schlangen, Charlish, FUSION 2019; :func:`log_likelihood`, numpy's
-   vectorised ``exp``, :func:`update_rows`): ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z_t||² / (2σ_m²))``, or a
-   new cloud ``x⁽ⁱ⁾ = z_t + σ₀·ε⁽ⁱ⁾`` with ``w = 1/N`` for a target whose filter starts this frame;
+1. **predict** ([`predict_common`][agents.particle._kernels.predict_common]):
+``x⁽ⁱ⁾ ← x⁽ⁱ⁾ + s_t·ε⁽ⁱ⁾ + d_t``, ``ε⁽ⁱ⁾ ~ N(0, I_2)``;
+2. **update** (Eq. (4) of Jung, Schlangen, Charlish, FUSION 2019;
+[`log_likelihood`][agents.particle._kernels.log_likelihood], numpy's
+   vectorised ``exp``, [`update_rows`][agents.particle._kernels.update_rows]):
+   ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z_t||² / (2σ_m²))``, or a new cloud ``x⁽ⁱ⁾ = z_t + σ₀·ε⁽ⁱ⁾`` with ``w = 1/N``
+   for a target whose filter starts this frame;
 3. **estimate**: ``x*_t = Σ_i w⁽ⁱ⁾ x⁽ⁱ⁾``, in the same pass as ``N_eff = 1 / Σ_i (w⁽ⁱ⁾)²``;
-4. **resample** (:func:`resample_rows`): systematic resampling where ``N_eff < threshold·N``.
+4. **resample** ([`resample_rows`][agents.particle._kernels.resample_rows]): systematic resampling where
+``N_eff < threshold·N``.
 
 Every random number comes from the filter's ``np.random.Generator`` (numba draws from it exactly as
 numpy does), in the numpy path's order: the prediction noise of all rows (C order of (T, N, 2)),
@@ -20,13 +25,17 @@ to rounding (sequential sums against numpy's pairwise ones).
 Kernels and their results (the filter's arrays are written in place; none returns more than one
 value):
 
-* :func:`predict_common`, :func:`add_common` → None: step 1, drawing the noise or given it.
-* :func:`count_new` → int: the rows that start this frame.
-* :func:`log_likelihood` → None: the shifted log-likelihoods of step 2 into ``out``.
-* :func:`update_rows` → int: steps 2–3 in place, the number of rows to resample.
-* :func:`resample_rows` → None: step 4 in place; :func:`systematic_indices` → None: the
+* [`predict_common`][agents.particle._kernels.predict_common],
+[`add_common`][agents.particle._kernels.add_common] → None: step 1, drawing the noise or given it.
+* [`count_new`][agents.particle._kernels.count_new] → int: the rows that start this frame.
+* [`log_likelihood`][agents.particle._kernels.log_likelihood] → None: the shifted log-likelihoods of step 2
+into ``out``.
+* [`update_rows`][agents.particle._kernels.update_rows] → int: steps 2–3 in place, the number of rows to
+resample.
+* [`resample_rows`][agents.particle._kernels.resample_rows] → None: step 4 in place;
+[`systematic_indices`][agents.particle._kernels.systematic_indices] → None: the
   resampling indices of one row into ``out``.
-* :func:`all_finite` → bool: whether a 2-D array holds only finite numbers.
+* [`all_finite`][agents.particle._kernels.all_finite] → bool: whether a 2-D array holds only finite numbers.
 """
 
 from __future__ import annotations
@@ -47,7 +56,8 @@ def systematic_indices(weights: NDArray[np.float64], u: float, out: NDArray[np.i
     rounding puts it beyond the last cumulative sum (filterpy's rule, bit for bit). Without the
     data-dependent branches of the sequential merge: ``n_j = #{k : p_k < cumsum_j}`` is
     ``⌈N·cumsum_j − u⌉`` corrected by one step against the exact comparison (as in
-    :func:`agents.particle.agent.systematic_resample_batch`), and ``out[k] = #{j : n_j ≤ k}``.
+    [`agents.particle.agent.systematic_resample_batch`][agents.particle.agent.systematic_resample_batch]), and
+    ``out[k] = #{j : n_j ≤ k}``.
     """
     n = weights.shape[0]
     marks = np.zeros(n + 1, np.intp)
@@ -91,7 +101,8 @@ def add_common(
     std: NDArray[np.float64],
     noise: NDArray[np.float64],
 ) -> None:
-    """:func:`predict_common` with the draws ``noise`` (T, N, 2) made beforehand."""
+    """[`predict_common`][agents.particle._kernels.predict_common] with the draws ``noise`` (T, N, 2) made
+    beforehand."""
     n_t, n = particles.shape[0], particles.shape[1]
     for t in range(n_t):
         s = std[t] if std.shape[0] == n_t else std[0]
@@ -164,7 +175,7 @@ def update_rows(
         started: (T,) whether each filter has started; set for the rows that start now.
         z: (T, 2) measurements; row ``t`` is read only where ``has_z[t]``.
         has_z: (T,) whether row ``t`` has a measurement this frame.
-        lik: (T, N) likelihoods, ``exp`` of :func:`log_likelihood`.
+        lik: (T, N) likelihoods, ``exp`` of [`log_likelihood`][agents.particle._kernels.log_likelihood].
         cloud: (n_new, N, 2) standard-normal draws of the starting rows' clouds, in row order.
         sigma_0: (T,) std of a starting cloud.
         threshold: Resample where ``N_eff < threshold·N``.
@@ -227,8 +238,9 @@ def resample_rows(
     low: NDArray[np.bool_],
     u: NDArray[np.float64],
 ) -> None:
-    """Systematic resampling (:func:`systematic_indices`) in place of the rows where ``low`` (T,),
-    the ``k``-th of them with the uniform draw ``u[k]``; their weights become ``1/N``."""
+    """Systematic resampling ([`systematic_indices`][agents.particle._kernels.systematic_indices]) in place of
+    the rows where ``low`` (T,), the ``k``-th of them with the uniform draw ``u[k]``; their weights become
+    ``1/N``."""
     n_t, n = weights.shape
     picks = np.empty(n, np.intp)
     copy = np.empty((n, 2))

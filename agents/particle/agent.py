@@ -4,12 +4,14 @@ State of ``T`` independent single-target filters with ``N`` particles each: part
 (T, N, 2), weights ``w⁽ⁱ⁾`` (T, N), and the history of weighted-mean estimates (T, t, 2). One
 frame (Jung, Schlangen, Charlish, FUSION 2019, Sec. II–III):
 
-1. **predict**: a displacement model (:mod:`predictors.displacement`) moves every particle,
+1. **predict**: a displacement model ([`predictors.displacement`][predictors.displacement]) moves every
+particle,
    ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})``; the Brownian model adds white noise ``σ_p`` (in multiples
    of ``Δ``), the constant-velocity model adds the last estimated displacement plus that noise, and
-   the LSTM model of Jung et al. (2019) (:class:`predictors.displacement_lstm.model.LSTMDisplacement`,
-   ``model="lstm"``) predicts one common (rotation, speed) step from the estimate history plus that
-   noise — all through the :class:`~predictors.displacement.base.DisplacementModel` protocol, so the
+   the LSTM model of Jung et al. (2019)
+   ([`predictors.displacement_lstm.model.LSTMDisplacement`][predictors.displacement_lstm.model.LSTMDisplacement],
+   ``model="lstm"``) predicts one common (rotation, speed) step from the estimate history plus that noise —
+   all through the [`DisplacementModel`][predictors.displacement.base.DisplacementModel] protocol, so the
    filter never changes;
 2. **update** (only when a measurement ``z`` arrives, Eq. (4)):
    ``w⁽ⁱ⁾ ∝ w⁽ⁱ⁾ · exp(−||x⁽ⁱ⁾ − z||² / (2σ_m²))``; without a measurement the filter only predicts;
@@ -21,15 +23,16 @@ A filter starts at its first measurement ``z₀``: ``x⁽ⁱ⁾ ~ N(z₀, Σ₀)
 All per-frame work is batched over (T, N); parameters may differ per target ((T,) arrays), which is
 how ``examples/pf_paper_figures.py`` runs whole parameter grids and Monte Carlo runs at once.
 A model that declares it moves every particle of a target by one common displacement plus white
-noise (``COMMON_DISPLACEMENT``, :class:`~predictors.displacement.base.CommonDisplacementModel`:
+noise (``COMMON_DISPLACEMENT``,
+[`CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel]:
 Brownian, constant velocity, the LSTM of Jung et al.) runs the frame in a few compiled single passes
-(:mod:`agents.particle._kernels`); any other
-:class:`~predictors.displacement.base.DisplacementModel` runs the numpy path through its
+([`agents.particle._kernels`][agents.particle._kernels]); any other
+[`DisplacementModel`][predictors.displacement.base.DisplacementModel] runs the numpy path through its
 ``propose``. Both draw the same random numbers from the filter's generator in the same order, and
 agree to rounding.
 
-The agent ``"pf"`` (:class:`ParticleFilterAgent`) tracks one target with ``T = 1``.
-Clutter: when the sensor has clutter (``spec.clutter_rate > 0``) or a frame holds more than one
+The agent ``"pf"`` ([`ParticleFilterAgent`][agents.particle.agent.ParticleFilterAgent]) tracks one target with
+``T = 1``. Clutter: when the sensor has clutter (``spec.clutter_rate > 0``) or a frame holds more than one
 detection, the update uses the detection nearest to the predicted mean in Mahalanobis distance
 under ``S = Cov_w(x⁽ⁱ⁾) + σ_m² I`` if it lies inside the χ²₂ gate of probability ``p_gate``,
 and no detection otherwise (the frame is then a prediction-only frame). With clutter the filter
@@ -258,10 +261,11 @@ class BatchParticleFilter:
         return estimate
 
     def step(self, z: ArrayLike, has_z: ArrayLike) -> NDArray[np.float64]:
-        """One frame: :meth:`predict` then :meth:`update`; returns the estimates (T, 2).
+        """One frame: [`predict`][agents.particle.agent.BatchParticleFilter.predict] then
+        [`update`][agents.particle.agent.BatchParticleFilter.update]; returns the estimates (T, 2).
 
         For a model that declares ``COMMON_DISPLACEMENT`` the frame runs the compiled kernels
-        (:mod:`agents.particle._kernels`)."""
+        ([`agents.particle._kernels`][agents.particle._kernels])."""
         if self.fused:
             return self._compiled_frame(z, has_z, predict=True)
         self.predict()
@@ -285,8 +289,8 @@ class BatchParticleFilter:
         return displacement, std
 
     def _compiled_frame(self, z: ArrayLike, has_z: ArrayLike, *, predict: bool) -> NDArray[np.float64]:
-        """Frame of the compiled path (:mod:`agents.particle._kernels`), the same steps and draws as
-        predict (optionally) + update of the numpy path; ``exp`` is numpy's (vectorised)."""
+        """Frame of the compiled path ([`agents.particle._kernels`][agents.particle._kernels]), the same steps
+        and draws as predict (optionally) + update of the numpy path; ``exp`` is numpy's (vectorised)."""
         z = np.ascontiguousarray(z, dtype=np.float64).reshape(self.T, 2)
         has = np.ascontiguousarray(has_z, dtype=bool).reshape(self.T)
         if predict:
@@ -393,10 +397,12 @@ class ParticleFilterAgent:
 
     Args:
         n_particles: ``N`` (default 100).
-        model: A name of :data:`predictors.displacement.DISPLACEMENT_MODELS`: ``"brownian"``
-            (default), ``"cv"``, ``"lstm"`` (the learned displacement model of Jung et al. 2019,
-            :class:`predictors.displacement_lstm.model.LSTMDisplacement`); or a
-            :class:`~predictors.displacement.base.DisplacementModel`.
+        model: A name of
+            [`predictors.displacement.DISPLACEMENT_MODELS`][predictors.displacement.DISPLACEMENT_MODELS]:
+            ``"brownian"`` (default), ``"cv"``, ``"lstm"`` (the learned displacement model of Jung et al.
+            2019,
+            [`predictors.displacement_lstm.model.LSTMDisplacement`][predictors.displacement_lstm.model.LSTMDisplacement]);
+            or a [`DisplacementModel`][predictors.displacement.base.DisplacementModel].
         model_weights: The ``displacement-lstm`` model file of ``model="lstm"`` (path with or
             without suffix); default the shipped weights trained on the noiseless sine.
         sigma_p: Process noise in multiples of ``step`` (default 1.0); used by the named models.
@@ -459,7 +465,8 @@ class ParticleFilterAgent:
         self.filter: BatchParticleFilter | None = None
 
     def reset(self, spec: SensorSpec, *, seed: int | None = None) -> None:
-        """Start a new episode with the sensor ``spec``; every draw comes from :func:`agent_rng` (seed)."""
+        """Start a new episode with the sensor ``spec``; every draw comes from
+        [`agent_rng`][agents.particle.agent.agent_rng] (seed)."""
         if spec.dim != 2:
             raise ValueError(f"the particle filter tracks 2-D points, got a sensor of dim {spec.dim}")
         self._spec = spec

@@ -1,6 +1,6 @@
 """Multi-person pose trackers: the pose-tracking loop of Okada et al. (2020) with a pluggable motion
-hypothesis (:mod:`.tracker`), its constant-velocity agent (``pose-baseline``) and the SMC pose tracker
-(:mod:`.smc`, ``pose-smc``)."""
+hypothesis ([`.tracker`][agents.pose.tracker]), its constant-velocity agent (``pose-baseline``) and the SMC
+pose tracker ([`.smc`][agents.pose.smc], ``pose-smc``)."""
 
 from agents.pose.smc import PoseSmcAgent
 from agents.pose.tracker import PoseBaselineAgent, PoseTracker, PoseTrackingOptions

@@ -1,7 +1,7 @@
 """Figures of a pose-tracking run that say it went wrong, and the warnings that name them.
 
-The pose runs' counterpart of :mod:`agents.sensor_model.diagnostics` (the same two signs, the
-same limits), counted over the tracked poses:
+The pose runs' counterpart of [`agents.sensor_model.diagnostics`][agents.sensor_model.diagnostics] (the same
+two signs, the same limits), counted over the tracked poses:
 
 * **most poses start a track**: track ids / poses above ``MAX_ID_RATIO`` — a person seen for
   ``L`` frames should give one id, not ``L``; the warning gives the peak number of poses in a
@@ -39,8 +39,8 @@ def pose_run_figures(tracks: PoseStream, detections: PoseStream) -> dict[str, fl
 
 
 def pose_run_warnings(tracks: PoseStream, detections: PoseStream) -> list[str]:
-    """The warnings of a pose run whose figures (:func:`pose_run_figures`) look wrong, each naming
-    its figure."""
+    """The warnings of a pose run whose figures
+    ([`pose_run_figures`][agents.pose.diagnostics.pose_run_figures]) look wrong, each naming its figure."""
     f = pose_run_figures(tracks, detections)
     out = []
     if f["ids_per_pose"] > MAX_ID_RATIO:

@@ -1,8 +1,8 @@
 """pose-baseline's gate sized from the data: the OKS area factor at which people moving as fast as
 a file's people still match their tracks.
 
-The tracking loop (:class:`agents.pose.tracker.PoseTracker`) matches a track and a detected pose
-when their OKS is at least ``τ`` (``oks_threshold``). With the detection's area
+The tracking loop ([`agents.pose.tracker.PoseTracker`][agents.pose.tracker.PoseTracker]) matches a track and a
+detected pose when their OKS is at least ``τ`` (``oks_threshold``). With the detection's area
 ``A = a · L²`` (``L`` the longer side of its keypoint box, ``a`` the ``area_factor``), a keypoint
 ``j`` off by ``d`` scores ``exp(−d² / (2 a L² κ_j²))``, ``κ_j = 2 σ_j`` (the COCO sigmas). A new
 track has no velocity yet, so its first prediction is off by the person's whole per-frame

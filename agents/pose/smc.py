@@ -2,10 +2,11 @@
 
 Okada, Takenaka and Taniguchi, "Multi-person Pose Tracking using Sequential Monte Carlo with
 Probabilistic Neural Pose Predictor" (ICRA 2020), Sec. II and IV, Algorithm 1: the agent
-``pose-smc`` (:class:`PoseSmcAgent`) is the loop :class:`agents.pose.tracker.PoseTracker` (OKS
-scores, bipartite matching with a threshold, lifetimes, births, ``F_max`` filters) with the motion
-hypothesis :class:`predictors.pose_lstm.motion.SmcPoseMotion` (``P`` particles per filter, each a
-queue of the last ``L`` poses, proposed by the probabilistic pose predictor, resampled and
+``pose-smc`` ([`PoseSmcAgent`][agents.pose.smc.PoseSmcAgent]) is the loop
+[`agents.pose.tracker.PoseTracker`][agents.pose.tracker.PoseTracker] (OKS scores, bipartite matching with a
+threshold, lifetimes, births, ``F_max`` filters) with the motion hypothesis
+[`predictors.pose_lstm.motion.SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion] (``P`` particles per
+filter, each a queue of the last ``L`` poses, proposed by the probabilistic pose predictor, resampled and
 selected for matched filters; the algorithm is described there).
 """
 
@@ -29,9 +30,9 @@ class PoseSmcAgent(PoseTracker):
             ``pose-lstm-walkers``, the default, and the ablation's retrained
             ``pose-lstm-walkers-no-dropout``, ``-mse`` and ``-no-dropout-mse``).
         max_filters: ``F_max``, the most active filters (the loop's ``max_active``).
-        options: The keywords of :class:`~predictors.pose_lstm.motion.SmcSettings` (``particles``,
+        options: The keywords of [`SmcSettings`][predictors.pose_lstm.motion.SmcSettings] (``particles``,
             ``window``, ``alpha``, ``elite``, ``device``, …) and of
-            :class:`~agents.pose.tracker.PoseTrackingOptions` but ``max_active``;
+            [`PoseTrackingOptions`][agents.pose.tracker.PoseTrackingOptions] but ``max_active``;
             the signature lists them with their defaults.
     """
 

@@ -1,12 +1,14 @@
 """The pose-tracking loop of Okada et al. (2020), Algorithm 1, with a pluggable motion hypothesis.
 
-:class:`PoseTracker` is the loop every keypoint tracker here shares. Every frame, for the ``n``
-active tracks and the ``m`` detected poses:
+[`PoseTracker`][agents.pose.tracker.PoseTracker] is the loop every keypoint tracker here shares. Every frame,
+for the ``n`` active tracks and the ``m`` detected poses:
 
-1. **predict**: the motion hypothesis (:class:`predictors.pose.base.PoseMotion`) predicts every
+1. **predict**: the motion hypothesis ([`predictors.pose.base.PoseMotion`][predictors.pose.base.PoseMotion])
+predicts every
    track's next pose — one pose per track
-   (:class:`predictors.pose.constant_velocity.ConstantVelocityPose`) or a cloud of particles per
-   track (:class:`predictors.pose_lstm.motion.SmcPoseMotion`);
+   ([`predictors.pose.constant_velocity.ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose])
+   or a cloud of particles per track
+   ([`predictors.pose_lstm.motion.SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion]);
 2. **similarity**: the motion scores every track against every detection, an (n, m) matrix of
    OKS values (for one pose: OKS; for particles: the elite-weighted mean OKS), with the detection's
    area ``area_factor · max(w, h)²`` from its keypoint bounding box;
@@ -22,7 +24,7 @@ The report holds the tracks updated or started this frame (as Algorithm 1 output
 poses with their track ids), or every active track with ``report_coasting=True``.
 
 ``PoseBaselineAgent`` ("pose-baseline") is the loop with
-:class:`~predictors.pose.constant_velocity.ConstantVelocityPose`: the tracker
+[`ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose]: the tracker
 Okada et al. (2020) improve on (the Simple-Baseline tracker of Xiao et al., ECCV 2018, with the
 lifetime bookkeeping of Algorithm 1).
 """
@@ -50,7 +52,8 @@ MAX_LIFETIME = 30
 
 @dataclass(frozen=True)
 class PoseTrackingOptions:
-    """The settings of the pose-tracking loop (:class:`PoseTracker`; keywords of every pose agent).
+    """The settings of the pose-tracking loop ([`PoseTracker`][agents.pose.tracker.PoseTracker]; keywords of
+    every pose agent).
 
     Attributes:
         oks_threshold: Smallest score at which a track and a detected pose may be matched, in (0, 1).
@@ -108,12 +111,12 @@ class PoseTracker:
 
     Args:
         motion: The motion hypothesis (what the tracks predict), a
-            :class:`~predictors.pose.base.PoseMotion`.
-        options: The keywords of :class:`PoseTrackingOptions` (``oks_threshold``, ``assignment``,
-            …, ``max_active``), kept as :attr:`options`.
+            [`PoseMotion`][predictors.pose.base.PoseMotion].
+        options: The keywords of [`PoseTrackingOptions`][agents.pose.tracker.PoseTrackingOptions]
+            (``oks_threshold``, ``assignment``, …, ``max_active``), kept as `options`.
     """
 
-    #: Tracks poses (17, 2), not points (see :func:`agents.agent_applies_to`).
+    #: Tracks poses (17, 2), not points (see [`agents.agent_applies_to`][agents.agent_applies_to]).
     traits = AgentTraits(position_rank=2)
 
     @takes_keywords_of(PoseTrackingOptions)
@@ -196,13 +199,14 @@ def detection_areas(xy: NDArray, found: NDArray, area_factor: float) -> NDArray[
 class PoseBaselineAgent(PoseTracker):
     """Single-hypothesis pose tracker (the baseline of Okada et al. 2020): constant velocity, OKS, Hungarian.
 
-    The :class:`PoseTracker` loop with the
-    :class:`~predictors.pose.constant_velocity.ConstantVelocityPose` motion.
+    The [`PoseTracker`][agents.pose.tracker.PoseTracker] loop with the
+    [`ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose] motion.
 
     Args:
-        options: The keywords of :class:`~predictors.pose.constant_velocity.ConstantVelocityPose`
-            (``smoothing``) and of :class:`PoseTrackingOptions`; the signature lists them with
-            their defaults.
+        options: The keywords of
+            [`ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose] (``smoothing``)
+            and of [`PoseTrackingOptions`][agents.pose.tracker.PoseTrackingOptions]; the signature lists them
+            with their defaults.
     """
 
     @takes_keywords_of(ConstantVelocityPose, PoseTrackingOptions)

@@ -1,17 +1,18 @@
 """The sensor model from the data: noise, motion, velocity prior, coasting, detection probability,
 clutter and merges from the detections.
 
-:func:`estimate_sensor_model` (:mod:`agents.sensor_model.estimate`) estimates the measurement
-noise, the process noise, the velocity prior and the coasting length of a Kalman tracker, the
-detection probability and the clutter density (:mod:`agents.sensor_model.detection`) and jpda's
-merge extent (:mod:`agents.sensor_model.merging`) from its own confident tracks (what ``track
-run`` does when no noise is declared, ``run_agent(..., estimate_sensor_model=True)``);
-:mod:`agents.sensor_model.diagnostics` names the figures of a run that looks wrong and
-:mod:`agents.sensor_model.summary` prints and writes the estimate.
+[`estimate_sensor_model`][agents.estimate_sensor_model]
+(`agents.sensor_model.estimate`) estimates the measurement noise, the process
+noise, the velocity prior and the coasting length of a Kalman tracker, the detection probability and the
+clutter density (`agents.sensor_model.detection`) and jpda's merge extent
+(`agents.sensor_model.merging`) from its own confident tracks (what
+``track run`` does when no noise is declared, ``run_agent(..., estimate_sensor_model=True)``);
+`agents.sensor_model.diagnostics` names the figures of a run that looks
+wrong and `agents.sensor_model.summary` prints and writes the estimate.
 
 Words: *calibration* in this project is a learned model's stated uncertainty made to match its
-errors (:mod:`predictors.training.calibration`); estimating the sensor from a file is the *sensor
-model* (this package).
+errors (`predictors.training.calibration`); estimating the sensor from a
+file is the *sensor model* (this package).
 """
 
 from agents.sensor_model.diagnostics import run_warnings

@@ -5,9 +5,10 @@ misses for longer into two tracks, one ending at frame ``t_e`` and one starting 
 pairs are found in a run's confident tracks: an end ``(t_e, z_e, v_e)`` — last detection, and the
 velocity over its last ``START_SPAN`` frames — and a later start ``z_s`` that lies within the
 coasted gate of the end, ``|z_s − (z_e + v_e (t_s − t_e) dt)| <= ρ(t_s − t_e − 1)``, where ``ρ(k)``
-is the gate radius of a track after ``k`` missed frames (:func:`coasting_radii`). Each end takes its
-earliest such start, each start once. The gaps ``t_s − t_e − 1`` of these re-appearances are the
-detector's misses as the data show them: a track should coast through the usual ones.
+is the gate radius of a track after ``k`` missed frames
+([`coasting_radii`][agents.sensor_model.coasting.coasting_radii]). Each end takes its earliest such start,
+each start once. The gaps ``t_s − t_e − 1`` of these re-appearances are the detector's misses as the data show
+them: a track should coast through the usual ones.
 
 Looked for only up to the ambiguity bound (the missed frames after which ``ρ`` exceeds half the
 stream's nearest-neighbour distance), so that a start is not another target's.

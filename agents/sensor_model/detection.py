@@ -12,10 +12,11 @@ are a geometric truncated at ``K``:
     P(g \\mid g \\le K) = \\frac{p (1 − p)^g}{1 − (1 − p)^{K+1}}, \\qquad g = 0..K,
 
 whose maximum-likelihood ``p̂_D`` matches the mean gap: ``E[g | g ≤ K; p̂_D] = ḡ``
-(:func:`truncated_geometric_p`; the mean falls from ``K / 2`` at ``p → 0`` to 0 at ``p = 1``,
-so bisection finds it). No gap at all gives ``p̂_D = 1``; ``p̂_D >= MIN_P_DETECT``. The frames
-before a track's first and after its last detection are not counted: whether the target was in
-view there is not known. A count of frames, so positions × k leave ``p̂_D`` as it is.
+([`truncated_geometric_p`][agents.sensor_model.detection.truncated_geometric_p]; the mean falls from ``K / 2``
+at ``p → 0`` to 0 at ``p = 1``, so bisection finds it). No gap at all gives ``p̂_D = 1``;
+``p̂_D >= MIN_P_DETECT``. The frames before a track's first and after its last detection are not counted:
+whether the target was in view there is not known. A count of frames, so positions × k leave ``p̂_D`` as it
+is.
 
 **Clutter density.** The detections that no track of at least ``CLUTTER_TRACK_LENGTH``
 detections claims are the clutter, spread over the area the detections cover and every frame.
@@ -50,7 +51,8 @@ CLUTTER_TRACK_LENGTH = 3
 MIN_P_DETECT = 0.05
 #: Share of the detections on either side of each axis left out of the area's box.
 AREA_QUANTILE = 0.01
-#: Bisection steps of :func:`truncated_geometric_p` (to below 1e-15).
+#: Bisection steps of [`truncated_geometric_p`][agents.sensor_model.detection.truncated_geometric_p] (to below
+#: 1e-15).
 BISECTION_STEPS = 60
 
 

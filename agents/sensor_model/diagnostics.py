@@ -46,7 +46,8 @@ def run_figures(tracks: Tracks, n_detections: int) -> dict[str, float]:
 
 
 def run_warnings(tracks: Tracks, n_detections: int) -> list[str]:
-    """The warnings of a run whose figures (:func:`run_figures`) look wrong, each naming its figure."""
+    """The warnings of a run whose figures (`run_figures`) look
+    wrong, each naming its figure."""
     f = run_figures(tracks, n_detections)
     out = []
     if f["ids_per_detection"] > MAX_ID_RATIO:

@@ -1,26 +1,29 @@
 """Self-calibration: the sensor and motion noise of a Kalman tracker estimated from its own tracks.
 
-:func:`estimate_sensor_model` needs nothing but the detections and the frame period. It iterates
+[`estimate_sensor_model`][agents.estimate_sensor_model] needs nothing but the detections and the frame period.
+It iterates
 
-1. **first settings from the data** (:mod:`agents.sensor_model.scales`): the flow ``ū`` and
+1. **first settings from the data** ([`agents.sensor_model.scales`][agents.sensor_model.scales]): the flow
+``ū`` and
    spread ``s`` of the frame-to-frame displacements give the measurement noise std ``s / 2``, a
    process noise whose one-frame position std is ``s``, a velocity prior ``N(ū / dt, (2 s / dt)²)``
    and an acceleration std ``2 s / dt²``;
-2. **track** the stream with the GNN tracker and the chosen Kalman model (:mod:`agents.gnn`);
+2. **track** the stream with the GNN tracker and the chosen Kalman model ([`agents.gnn`][agents.gnn]);
 3. **estimate** from the confident tracks (at least ``MIN_TRACK_LENGTH`` detections) the
    measurement variance ``r`` and the process-noise intensity ``q`` of the model by autocovariance
-   least squares on the differenced detections (:mod:`agents.sensor_model.noise`; Odelson,
-   Rajamani and Rawlings 2006), and the velocity prior — median and robust spread of each track's
+   least squares on the differenced detections ([`agents.sensor_model.noise`][agents.sensor_model.noise];
+   Odelson, Rajamani and Rawlings 2006), and the velocity prior — median and robust spread of each track's
    first velocity — and, for the constant-acceleration model, the spread of the first accelerations;
 4. **estimate** from the same confident tracks the detection probability ``p_D`` (their gaps)
    and the clutter density ``λ`` (the detections none of them claims, per unit area and frame):
-   :mod:`agents.sensor_model.detection`; the next run's sensor is told them, so that gnn's
-   second chance weighs a coasting track against clutter, ``(p_D − a) N(z) ≥ (1 − p_D) λ``;
+   [`agents.sensor_model.detection`][agents.sensor_model.detection]; the next run's sensor is told them, so
+   that gnn's second chance weighs a coasting track against clutter, ``(p_D − a) N(z) ≥ (1 − p_D) λ``;
 5. **repeat** 2–4 with the new settings until ``r`` and ``q`` change by less than ``SETTLED``
    (relative) or ``max_iterations`` runs were made;
-6. from the last run: the coasting length (:mod:`agents.sensor_model.coasting`) and jpda's merge
-   extent (:mod:`agents.sensor_model.merging`: the boxes' size, or the closest approaches of the
-   confident track pairs).
+6. from the last run: the coasting length ([`agents.sensor_model.coasting`][agents.sensor_model.coasting]) and
+jpda's merge
+   extent ([`agents.sensor_model.merging`][agents.sensor_model.merging]: the boxes' size, or the closest
+   approaches of the confident track pairs).
 
 The tracking runs work on the detections divided by a power of two near the stream's length
 ``ℓ`` (exact in floating point), so the filters' absolute floors (``R >= 1e-12``) never meet the
@@ -62,7 +65,8 @@ from track_envs.values.types import SensorSpec
 #: The predictor whose kinematic model calibrates a predictor that declares none
 #: (``Capability.KINEMATIC_MODEL``): only its measurement noise (the sensor spec's) is then used.
 FALLBACK_PREDICTOR = "kf-cv"
-#: The name of each kinematic order (:attr:`SensorModelEstimate.model`).
+#: The name of each kinematic order
+#: ([`SensorModelEstimate.model`][agents.sensor_model.estimate.SensorModelEstimate.model]).
 MODEL_NAMES: dict[int, str] = {1: "random-walk", 2: "cv", 3: "ca"}
 #: Fewest detections of a track that the estimate takes.
 MIN_TRACK_LENGTH = 6
@@ -78,7 +82,8 @@ DEFAULT_P_GATE = 0.999
 MIN_MAX_MISSES = 2
 #: Most frames a track may coast.
 MAX_MAX_MISSES = 100
-#: Share of track ends whose target re-appears (:mod:`agents.sensor_model.coasting`) from which
+#: Share of track ends whose target re-appears
+#: ([`agents.sensor_model.coasting`][agents.sensor_model.coasting]) from which
 #: tracks coast through the longest gap seen.
 REAPPEAR_SHARE = 0.05
 
@@ -106,7 +111,8 @@ class Settings:
 
 @dataclass(frozen=True)
 class SensorModelEstimate:
-    """What :func:`estimate_sensor_model` estimated, in the units of the input (positions as given, seconds).
+    """What [`estimate_sensor_model`][agents.estimate_sensor_model] estimated, in the units of the input
+    (positions as given, seconds).
 
     Attributes:
         dt: Frame period (s).
@@ -123,19 +129,20 @@ class SensorModelEstimate:
         threshold: The default metric match distance, ``length / 2`` (units).
         max_misses: Frames a track may coast: when at least ``REAPPEAR_SHARE`` of the confident
             tracks' ends are followed by a start of the same target (their re-appearances,
-            :mod:`agents.sensor_model.coasting`, looked for while the coasted gate radius stays
-            within ``length / 2``), the longest gap of those; else ``MIN_MAX_MISSES``.
+            `agents.sensor_model.coasting`, looked for while the coasted gate
+            radius stays within ``length / 2``), the longest gap of those; else ``MIN_MAX_MISSES``.
         reappearing: That share; ``reappearance_gaps``: the gaps seen (frames).
         iterations: Tracking runs made; ``settled``: whether ``r`` and ``q`` settled.
         n_tracks: Confident tracks of the last estimate; ``n_differences``: differences it used.
-        p_detect: ``p_D``, the detection probability (:mod:`agents.sensor_model.detection`: from
-            the ``n_gaps`` gaps of the confident tracks; 1 without any).
+        p_detect: ``p_D``, the detection probability
+            (`agents.sensor_model.detection`: from the ``n_gaps`` gaps of the
+            confident tracks; 1 without any).
         clutter_density: ``λ``, clutter detections per unit area (input units^D) and frame: the
             ``n_unclaimed`` detections no confident track claims over ``clutter_area`` (the area
             the detections cover, input units^D) and the frames; 0 without an area.
-        merge_extent: jpda's merge extent (input units; :mod:`agents.sensor_model.merging`), by
-            ``merge_rule`` (``"boxes"``, ``"closest approaches"``, ``"given"``); None: no merge
-            model (rule ``"none"``).
+        merge_extent: jpda's merge extent (input units;
+            `agents.sensor_model.merging`), by ``merge_rule`` (``"boxes"``,
+            ``"closest approaches"``, ``"given"``); None: no merge model (rule ``"none"``).
         sources: For each setting, ``"estimated"`` or ``"given"``.
         history: ``(σ, q)`` after each run.
     """
@@ -172,9 +179,10 @@ class SensorModelEstimate:
 
     def agent_kwargs(self, agent: str = "gnn") -> dict[str, Any]:
         """``make_agent(agent, predictor=..., **kwargs)`` keywords that carry the settings (the
-        measurement noise, ``p_D`` and ``λ`` go in the sensor spec, :meth:`sensor_spec`); empty
-        for a predictor without a kinematic model (:func:`kinematics`). For ``agent="jpda"`` also
-        its ``merge_extent`` (or ``merge_model=False`` where none was found)."""
+        measurement noise, ``p_D`` and ``λ`` go in the sensor spec,
+        [`sensor_spec`][agents.SensorModelEstimate.sensor_spec]); empty for a predictor without a kinematic
+        model (`kinematics`). For ``agent="jpda"`` also its
+        ``merge_extent`` (or ``merge_model=False`` where none was found)."""
         merge: dict[str, Any] = {}
         if agent == "jpda":
             merge = (
@@ -234,7 +242,8 @@ def kinematics(predictor: str) -> KinematicModel | None:
 
 def tracking_model(predictor: str) -> tuple[str, KinematicModel]:
     """The predictor the tracking runs use and its kinematic model: ``predictor`` itself where it
-    has one (:func:`kinematics`), else :data:`FALLBACK_PREDICTOR`."""
+    has one ([`kinematics`][agents.sensor_model.estimate.kinematics]), else
+    [`FALLBACK_PREDICTOR`][agents.sensor_model.estimate.FALLBACK_PREDICTOR]."""
     own = kinematics(predictor)
     if own is not None:
         return predictor, own
@@ -401,7 +410,8 @@ def estimate_sensor_model(
         spec: Its sensor spec (``dt``, region, sizes; its ``noise_std`` is not used).
         predictor: The predictor the settings are for: one with a kinematic model
             (``Capability.KINEMATIC_MODEL``: ``kf-ca``, ``kf-cv``, ``random-walk``); any other:
-            only the measurement noise applies, estimated with :data:`FALLBACK_PREDICTOR`'s model.
+            only the measurement noise applies, estimated with
+            `FALLBACK_PREDICTOR`'s model.
         noise_std: A given measurement noise std (input units), kept instead of estimated.
         q: A given process noise intensity, kept instead of estimated.
         velocity_mean: A given velocity prior mean (input units per second), kept as given.
@@ -417,7 +427,7 @@ def estimate_sensor_model(
         max_iterations: Most tracking runs, >= 1.
 
     Returns:
-        :class:`SensorModelEstimate`.
+        [`SensorModelEstimate`][agents.SensorModelEstimate].
 
     Raises:
         ValueError: a stream without two consecutive frames holding detections (nothing to
@@ -532,8 +542,9 @@ def _given_settings(
     velocity_std: float | None,
     agent_kwargs: dict[str, Any],
 ) -> dict[str, Any]:
-    """The settings given (``None``: estimate it), by :class:`Settings` field; the ones given as
-    gnn keywords are taken out of ``agent_kwargs`` (and ``velocity_fallback`` dropped)."""
+    """The settings given (``None``: estimate it), by [`Settings`][agents.sensor_model.estimate.Settings]
+    field; the ones given as gnn keywords are taken out of ``agent_kwargs`` (and ``velocity_fallback``
+    dropped)."""
     given = {
         "noise_std": noise_std,
         "q": q if q is not None else agent_kwargs.pop("q", None),
@@ -617,8 +628,9 @@ class _SensorGiven:
 
 @dataclass(frozen=True)
 class _Runs:
-    """What the tracking runs of :func:`_iterate` left: the last settings, the labels of the last
-    run, the last noise estimate, and the figures of :class:`SensorModelEstimate`."""
+    """What the tracking runs of [`_iterate`][agents.sensor_model.estimate._iterate] left: the last settings,
+    the labels of the last run, the last noise estimate, and the figures of
+    [`SensorModelEstimate`][agents.SensorModelEstimate]."""
 
     settings: Settings
     labels: NDArray[np.int64]
@@ -692,8 +704,9 @@ def _iterate(
 def _reappearances(
     detections: Detections, labels: NDArray[np.int64], dt: float, radii: NDArray[np.float64], length: float
 ) -> tuple[NDArray[np.int64], float]:
-    """The gaps of the confident tracks' re-appearances (:mod:`agents.sensor_model.coasting`)
-    up to the ambiguity bound, and the share of track ends they are."""
+    """The gaps of the confident tracks' re-appearances
+    ([`agents.sensor_model.coasting`][agents.sensor_model.coasting]) up to the ambiguity bound, and the share
+    of track ends they are."""
     # the ambiguity bound: missed frames after which the gate still lies within length / 2
     horizon = int(np.sum(np.cumprod(radii[1:] <= length / 2)))
     gaps, n_ends = reappearance_gaps(

@@ -1,6 +1,6 @@
 """jpda's merge extent from the data: how close two targets come and are still seen apart.
 
-jpda's merge model (:mod:`agents.jpda`) lets two tracks predicted within ``merge_extent`` take
+jpda's merge model ([`agents.jpda`][agents.jpda]) lets two tracks predicted within ``merge_extent`` take
 one detection together, as the merged blob that two touching objects give. Two objects touch when
 their centres are about one object's size apart, so the extent is the objects' size, in the
 input's units:

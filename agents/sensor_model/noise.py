@@ -3,8 +3,8 @@
 A track's detections ``z_t = p_t + e_t`` at consecutive frames, with white measurement noise
 ``e_t ~ N(0, r I)`` and a position ``p_t`` that is an ``m``-fold integrator of continuous white
 noise of intensity ``q`` per axis (``m = 1``: random walk, ``2``: constant velocity, ``3``:
-constant acceleration — the models of :mod:`predictors.kalman.predictor`), are made stationary by
-the ``m``-th difference ``d_t = Δ^m z_t``. Its autocovariance at lag ``k`` is linear in the two
+constant acceleration — the models of [`predictors.kalman.predictor`][predictors.kalman.predictor]), are made
+stationary by the ``m``-th difference ``d_t = Δ^m z_t``. Its autocovariance at lag ``k`` is linear in the two
 unknowns:
 
 .. math::
@@ -95,8 +95,8 @@ def track_differences(
 
     Returns:
         ``(d, run)``: (K, D) differences in frame order within each run, and (K,) an integer that is
-        the same for differences of one run and whose consecutive entries are consecutive frames
-        (``run[i + 1] == run[i]`` means ``d[i + 1]`` is the next frame's difference of the same run).
+            the same for differences of one run and whose consecutive entries are consecutive frames
+            (``run[i + 1] == run[i]`` means ``d[i + 1]`` is the next frame's difference of the same run).
     """
     keep = labels >= 0
     idx = np.flatnonzero(keep)

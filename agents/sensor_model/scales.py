@@ -94,8 +94,8 @@ def displacements(detections: Detections) -> NDArray[np.float64]:
 
 
 def data_scales(detections: Detections) -> DataScales | None:
-    """The stream's :class:`DataScales`; None for a stream without two consecutive frames holding
-    detections (nothing moves that could be measured)."""
+    """The stream's [`DataScales`][agents.sensor_model.scales.DataScales]; None for a stream without two
+    consecutive frames holding detections (nothing moves that could be measured)."""
     d = displacements(detections)
     if len(d) == 0:
         return None

@@ -1,6 +1,7 @@
 """What a self-calibrated run prints and writes: the estimates in the input's units, the run's
 figures and warnings, as text lines and as a JSON sidecar next to the track file (written
-atomically: a failed write leaves the old sidecar or none, :mod:`track_envs.infra.atomic`)."""
+atomically: a failed write leaves the old sidecar or none,
+[`track_envs.infra.atomic`][track_envs.infra.atomic])."""
 
 from __future__ import annotations
 
@@ -81,7 +82,8 @@ def calibration_lines(cal: SensorModelEstimate) -> list[str]:
 
 
 def sidecar_path(out: str | os.PathLike[str]) -> str:
-    """The sidecar of a track file: its path plus :data:`SIDECAR_SUFFIX`."""
+    """The sidecar of a track file: its path plus
+    [`SIDECAR_SUFFIX`][agents.sensor_model.summary.SIDECAR_SUFFIX]."""
     return os.fspath(out) + SIDECAR_SUFFIX
 
 

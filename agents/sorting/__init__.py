@@ -1,17 +1,21 @@
 """Sorting prediction: when and where each particle passes the nozzle bar, the tracker's side.
 
-* :func:`predict_crossings` (:mod:`.rollout`) — a predictor rolled forward without measurements
+* [`predict_crossings`][agents.sorting.predict_crossings] (`.rollout`) — a predictor
+rolled forward without measurements
   to the line ``x = L`` (what a point tracker reports in its sorting channel for the tracks it
   lets go);
-* :class:`SortingCollector` (:mod:`.collect`) — the sorting channel of a stream of reports,
-  gathered into :class:`track_envs.io.crossings.PredictedCrossings`;
-* :func:`check_sorting` (:mod:`.check`) — the truth-free check of those predictions on a
+* [`SortingCollector`][agents.sorting.SortingCollector] (`.collect`) — the sorting
+channel of a stream of reports,
+  gathered into [`track_envs.io.crossings.PredictedCrossings`][track_envs.io.PredictedCrossings];
+* [`check_sorting`][agents.sorting.check_sorting] (`.check`) — the truth-free check of
+those predictions on a
   recording that ends before the bar.
 
 The report's sorting channel (a contract), its CSV file and its scores live with the other
-contracts, files and scores: :mod:`track_envs.contracts.sorting_channel`,
-:mod:`track_envs.io.crossings`, :mod:`track_envs.metrics.crossing_check` and
-:mod:`track_envs.metrics.sorting`.
+contracts, files and scores: `track_envs.contracts.sorting_channel`,
+`track_envs.io.crossings`,
+`track_envs.metrics.crossing_check` and
+`track_envs.metrics.sorting`.
 """
 
 from agents.sorting.check import SortingCheck, check_sorting

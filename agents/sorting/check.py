@@ -6,20 +6,23 @@ camera window, put a virtual line ``x = L`` and a cut-off ``x_cut < L``.
 
 1. **Reference run**: the tracker over the whole recording; where each of its tracks crossed
    ``L`` (interpolated between the two detections around it:
-   :func:`track_envs.metrics.crossing_check.observed_crossings`) stands in for the truth.
+   [`track_envs.metrics.crossing_check.observed_crossings`][track_envs.metrics.crossing_check.observed_crossings])
+   stands in for the truth.
 2. **Cut run**: the same tracker over the detections at ``x <= x_cut`` only, told that its camera
    window ends at ``x_cut`` and that the sorting line is ``L``; it predicts each track's crossing
    when it lets the track go, from the track's state at its last detection before the cut-off
-   (the gnn agent's sorting channel, collected by :func:`agents.files.points.run_agent`).
+   (the gnn agent's sorting channel, collected by [`agents.files.points.run_agent`][agents.run_agent]).
 3. **Matching**: a cut-run track is the reference track that was updated with the same detection
    as the cut-run track's last one (the detection the prediction starts from).
-4. **Score** (:func:`track_envs.metrics.crossing_check.score_crossings`): hit rate within ``±w_y`` and
+4. **Score** ([`track_envs.metrics.crossing_check.score_crossings`][track_envs.metrics.score_crossings]): hit
+rate within ``±w_y`` and
    ``±w_t``, percentiles of the temporal and lateral errors, predictions of tracks that never
    crossed.
 
 The distance from the last detection to the line, ``L − x_seen``, is how far the predictor
-extrapolated; :attr:`SortingCheck.distance` gives it per scored prediction (for plots).
-Everything is vectorised over detections and tracks; the two runs are the tracker's own time.
+extrapolated; [`SortingCheck.distance`][agents.sorting.check.SortingCheck.distance] gives it per scored
+prediction (for plots). Everything is vectorised over detections and tracks; the two runs are the tracker's
+own time.
 """
 
 from __future__ import annotations
@@ -52,7 +55,7 @@ from track_envs.values.types import SensorSpec
 
 @dataclass(frozen=True)
 class SortingCheck:
-    """What :func:`check_sorting` found.
+    """What [`check_sorting`][agents.sorting.check_sorting] found.
 
     Attributes:
         line, cut: ``L`` and ``x_cut``.

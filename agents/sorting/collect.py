@@ -1,10 +1,11 @@
 """Collect the sorting channel of an agent's reports over a stream (for
-:func:`agents.files.points.run_agent`).
+[`agents.files.points.run_agent`][agents.run_agent]).
 
 An agent told of a sorting line (``SensorSpec.sorting_line``) adds to each report the predicted
-crossings of the tracks it let go in that frame (:mod:`track_envs.contracts.sorting_channel`). The collector
-keeps each report's four sorting arrays by reference (no per-track work per frame) and gathers the
-live rows of a block of frames at once into :class:`~track_envs.io.crossings.PredictedCrossings`.
+crossings of the tracks it let go in that frame
+([`track_envs.contracts.sorting_channel`][track_envs.contracts.sorting_channel]). The collector keeps each
+report's four sorting arrays by reference (no per-track work per frame) and gathers the live rows of a block
+of frames at once into [`PredictedCrossings`][track_envs.io.PredictedCrossings].
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 When a belt tracker sees a track for the last time it must tell the sorter when and where across
 the belt the particle will pass the nozzle bar ``x = L`` downstream of the camera (Pfaff et al.,
 "TrackSort: Predictive Tracking for Sorting Uncooperative Bulk Materials", 2015). With any
-predictor of the :class:`~predictors.base.Predictor` protocol this is a roll-out: frame after
+predictor of the [`Predictor`][predictors.Predictor] protocol this is a roll-out: frame after
 frame ``predict`` then ``update`` with ``seen=False`` (which, for a Kalman filter, is the
 filter's own time update, and for the learned predictors feeds their prediction back as the next
 input; a predictor that declares the ``COAST`` capability, ``coast(state) -> (state,
@@ -37,10 +37,10 @@ belt to ``δy − (v_y / v_x)\\,δx``, so
 A track whose predicted ``x`` stops advancing, or that has not reached the line after
 ``max_steps`` frames, gets no prediction.
 
-A predictor that declares ``LINE_ROLLOUT`` (:class:`~predictors.base.LineRollout`) is first asked
+A predictor that declares ``LINE_ROLLOUT`` ([`LineRollout`][predictors.base.LineRollout]) is first asked
 for the same crossings in one compiled pass (``rollout_crossings``): the Kalman filters in closed
-form (:mod:`predictors.kalman.rollout`), the belt LSTMs in one compiled loop over the tracks; where
-it answers ``None`` the roll-out runs frame by frame as above. A predictor with only the core
+form ([`predictors.kalman.rollout`][predictors.kalman.rollout]), the belt LSTMs in one compiled loop over the
+tracks; where it answers ``None`` the roll-out runs frame by frame as above. A predictor with only the core
 methods is rolled frame by frame.
 """
 
@@ -77,7 +77,7 @@ def predict_crossings(
 
     Returns:
         ``ok`` (k,) whether a crossing was found, ``mean`` (k, 2) ``(t̂, ŷ)`` and ``cov`` (k, 2, 2)
-        (NaN where not ``ok``).
+            (NaN where not ``ok``).
     """
     k = len(state)
     ok = np.zeros(k, dtype=bool)

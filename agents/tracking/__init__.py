@@ -1,7 +1,9 @@
-"""The multi-target point tracker and what its trackers share: the core (:mod:`.tracker`: track
-table, life cycle, velocity prior, report), the association components (:mod:`.associator`: the
-protocol and registry; :mod:`.gated`, :mod:`.second_chance`, :mod:`.merges`), gating and
-assignment (the sorting roll-out to the nozzle bar is :mod:`agents.sorting`)."""
+"""The multi-target point tracker and what its trackers share: the core
+(`.tracker`: track table, life cycle, velocity prior, report), the association
+components (`.associator`: the protocol and registry;
+`.gated`, `.second_chance`,
+`.merges`), gating and assignment (the sorting roll-out to the nozzle bar is
+[`agents.sorting`][agents.sorting])."""
 
 from agents.tracking.assign import chi2_gate, mahalanobis_cost
 from agents.tracking.associator import (

@@ -11,9 +11,9 @@ one Cholesky factor and its triangular inverse per track, then for every pair ``
 ``L⁻¹`` times the difference. The planar case ``D = 2`` has its own closed-form factor; other
 dimensions run a generic Cholesky and triangular inverse.
 
-**Gating without an n × m array** (:func:`gated_pairs`). A pair is admissible when
-``d²_ij <= γ``. Writing ``y = L_i⁻¹ (z_j − ŷ_i)``, the difference is ``z_j − ŷ_i = L_i y`` and by
-Cauchy–Schwarz on row ``k`` of ``L_i``
+**Gating without an n × m array** ([`gated_pairs`][agents.tracking._kernels.gated_pairs]). A pair is
+admissible when ``d²_ij <= γ``. Writing ``y = L_i⁻¹ (z_j − ŷ_i)``, the difference is ``z_j − ŷ_i = L_i y`` and
+by Cauchy–Schwarz on row ``k`` of ``L_i``
 
 .. math::
 
@@ -21,31 +21,38 @@ Cauchy–Schwarz on row ``k`` of ``L_i``
     \\le \\sqrt{S_{i,kk}} \\sqrt{γ} = h_{ik},
 
 so every admissible detection lies in the axis-aligned box of half-widths ``h_ik`` around
-``ŷ_i``. The spatial index (:func:`track_envs.infra.spatial.box_candidates`, a uniform grid) lists
-the detections in each box in ``O(n + m)`` for boxes of bounded size, and only those candidates
-get the exact test, with the same floating-point expressions as the dense
-:func:`mahalanobis_costs` (so the costs are bit-identical). The box is widened by a relative
-``1e-9`` and an absolute ``1e-300``: the computed ``d²`` differs from the exact one by a few units
-in the last place of the terms, so a pair the dense code admits is never outside the widened box.
+``ŷ_i``. The spatial index
+([`track_envs.infra.spatial.box_candidates`][track_envs.infra.spatial.box_candidates], a uniform grid) lists
+the detections in each box in ``O(n + m)`` for boxes of bounded size, and only those candidates get the exact
+test, with the same floating-point expressions as the dense
+[`mahalanobis_costs`][agents.tracking._kernels.mahalanobis_costs] (so the costs are bit-identical). The box is
+widened by a relative ``1e-9`` and an absolute ``1e-300``: the computed ``d²`` differs from the exact one by a
+few units in the last place of the terms, so a pair the dense code admits is never outside the widened box.
 The result is the admissible pairs as compressed sparse rows; the assignment runs on that list
-(:mod:`track_envs.infra.assignment.components`, :mod:`track_envs.infra.assignment.greedy`).
+([`track_envs.infra.assignment.components`][track_envs.infra.assignment.components],
+[`track_envs.infra.assignment.greedy`][track_envs.infra.assignment.greedy]).
 
-:func:`blob_measurements` is the compiled pass of :func:`agents.tracking.merges.share_blobs`:
+[`blob_measurements`][agents.tracking._kernels.blob_measurements] is the compiled pass of
+[`agents.tracking.merges.share_blobs`][agents.tracking.merges.share_blobs]:
 the tracks that join a merged detection's blob and the rigid-group measurement of each; the
 taken detections near a leftover track come from the same index (a Euclidean ball of radius
 ``extent`` lies in the box of half-width ``extent``).
 
 Kernels and their results (inputs are float64 / int64 C-contiguous arrays):
 
-* :func:`mahalanobis_costs` → ``(cost, bad)``: the dense (n, m) squared distances (the public
-  :func:`agents.tracking.assign.mahalanobis_cost`, and the reference of the tests).
-* :func:`gated_pairs` → :class:`GatedPairs` ``(ptr, cols, cost, bad, wide)``: the admissible
+* [`mahalanobis_costs`][agents.tracking._kernels.mahalanobis_costs] → ``(cost, bad)``: the dense (n, m)
+squared distances (the public
+  [`agents.tracking.assign.mahalanobis_cost`][agents.tracking.mahalanobis_cost], and the reference of the
+  tests).
+* [`gated_pairs`][agents.tracking._kernels.gated_pairs] → [`GatedPairs`][agents.tracking._kernels.GatedPairs]
+``(ptr, cols, cost, bad, wide)``: the admissible
   pairs and their costs.
-* :func:`blob_measurements` → ``(det_of_track, z_tracks)``: blob members added, the measurement
+* [`blob_measurements`][agents.tracking._kernels.blob_measurements] → ``(det_of_track, z_tracks)``: blob
+members added, the measurement
   of each track.
 
-:func:`~track_envs.infra.assignment.lone_pairs.rest_problem` and
-:func:`~track_envs.infra.assignment.lone_pairs.merge_solution` are importable from here, for
+[`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem] and
+[`merge_solution`][track_envs.infra.assignment.lone_pairs.merge_solution] are importable from here, for
 compiled callers.
 """
 
@@ -76,7 +83,8 @@ __all__ = [
 
 
 class GatedPairs(NamedTuple):
-    """Result of :func:`gated_pairs`: the admissible pairs of a frame as compressed sparse rows.
+    """Result of [`gated_pairs`][agents.tracking._kernels.gated_pairs]: the admissible pairs of a frame as
+    compressed sparse rows.
 
     Attributes:
         ptr: (n + 1,) track ``i``'s pairs are ``ptr[i]:ptr[i + 1]``.
@@ -193,7 +201,7 @@ def mahalanobis_costs(mean: FloatArray, cov: FloatArray, z: FloatArray) -> tuple
 
     Returns:
         ``(cost (n, m), bad)``: ``bad`` is -1, or the first track whose covariance is not
-        positive definite (the costs are then not meaningful).
+            positive definite (the costs are then not meaningful).
     """
     n, D = mean.shape
     cost = np.empty((n, z.shape[0]))
@@ -210,8 +218,9 @@ BOX_TINY = 1e-300
 
 @njit(cache=True)
 def _planar_factors(cov: FloatArray) -> tuple[FloatArray, int]:
-    """``(i00, i10, i11)`` of every ``L⁻¹`` for ``D = 2`` (:func:`_planar_costs`'s expressions);
-    and −1, or the first track whose covariance is not positive definite."""
+    """``(i00, i10, i11)`` of every ``L⁻¹`` for ``D = 2``
+    ([`_planar_costs`][agents.tracking._kernels._planar_costs]'s expressions); and −1, or the first track
+    whose covariance is not positive definite."""
     n = cov.shape[0]
     inv = np.empty((n, 3))
     for i in range(n):
@@ -284,15 +293,16 @@ def gated_pairs(mean: FloatArray, cov: FloatArray, z: FloatArray, gate: float) -
 
     Every covariance is factored first (the first one that is not positive definite is
     ``bad``); the spatial index then gives the detections inside each track's box
-    ``|z_k − ŷ_k| <= h_k`` (:func:`gate_half_widths`; a half-width that is not finite is ``wide``),
-    and the exact test runs on those with the floating-point expressions of
-    :func:`mahalanobis_costs`, so every cost is bit-identical to the dense one. A detection with a
-    non-finite coordinate is no candidate (its dense cost is NaN or inf, never admissible); a
-    track with a non-finite mean has none.
+    ``|z_k − ŷ_k| <= h_k`` ([`gate_half_widths`][agents.tracking._kernels.gate_half_widths]; a half-width that
+    is not finite is ``wide``), and the exact test runs on those with the floating-point expressions of
+    [`mahalanobis_costs`][agents.tracking._kernels.mahalanobis_costs], so every cost is bit-identical to the
+    dense one. A detection with a non-finite coordinate is no candidate (its dense cost is NaN or inf, never
+    admissible); a track with a non-finite mean has none.
 
     Returns:
-        :class:`GatedPairs` ``(ptr, cols, cost, bad, wide)``; with no track or no detection, no
-        pairs and no check (as :func:`mahalanobis_costs`).
+        [`GatedPairs`][agents.tracking._kernels.GatedPairs] ``(ptr, cols, cost, bad, wide)``; with no track or
+            no detection, no pairs and no check (as
+            [`mahalanobis_costs`][agents.tracking._kernels.mahalanobis_costs]).
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -363,7 +373,8 @@ def blob_measurements(
     high: FloatArray,
 ) -> tuple[IntArray, FloatArray]:
     """The blob members of every track and the measurement each is updated with (the compiled pass
-    of :func:`agents.tracking.merges.share_blobs`, whose docstring has the equations).
+    of [`agents.tracking.merges.share_blobs`][agents.tracking.merges.share_blobs], whose docstring has the
+    equations).
 
     A track ``j`` without a detection and predicted inside ``[low, high]`` joins the detection
     ``d`` taken by another track ``i`` for which ``‖ŷ_j − z_d‖ ≤ extent`` (the nearest such ``d``)
@@ -379,7 +390,7 @@ def blob_measurements(
 
     Returns:
         ``(det_of_track (n,), z_tracks (n, D))``: a new detection array with the blob members
-        added, and the measurement of each track (zero rows for tracks without a detection).
+            added, and the measurement of each track (zero rows for tracks without a detection).
     """
     n, dim = predicted.shape
     m = z.shape[0]

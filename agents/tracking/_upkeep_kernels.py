@@ -21,16 +21,23 @@ and the detections no track took start new tracks.
 Kernels and their results (inputs are float64 / int64 C-contiguous arrays; no input is written
 except the flow's ring buffer):
 
-* :func:`frame_upkeep` → :class:`FrameUpkeep` ``(seen, misses, streak, keep, n_keep, young,
+* [`frame_upkeep`][agents.tracking._upkeep_kernels.frame_upkeep] →
+[`FrameUpkeep`][agents.tracking._upkeep_kernels.FrameUpkeep] ``(seen, misses, streak, keep, n_keep, young,
   n_young, unused)``: the per-track counters and masks above.
-* :func:`learn_flow` → :class:`FlowUpdate` ``(n_samples, head, fresh, median, variance,
+* [`learn_flow`][agents.tracking._upkeep_kernels.learn_flow] →
+[`FlowUpdate`][agents.tracking._upkeep_kernels.FlowUpdate] ``(n_samples, head, fresh, median, variance,
   updated)``: the velocity prior's ring buffer after a push, and the re-estimated prior.
-* :func:`recovery_costs` → :class:`RecoveryCosts` ``(tracks, dets, ptr, cols, cost, n_admissible,
+* [`recovery_costs`][agents.tracking._upkeep_kernels.recovery_costs] →
+[`RecoveryCosts`][agents.tracking._upkeep_kernels.RecoveryCosts]
+``(tracks, dets, ptr, cols, cost, n_admissible,
   bad, wide, cap)``: the admissible pairs of the second chance of the leftover tracks and
   detections (through the spatial index: no leftover-tracks × leftover-detections array).
-* :func:`survivors_and_births` → :class:`TrackArrays` ``(ids, misses, streak, estimate,
+* [`survivors_and_births`][agents.tracking._upkeep_kernels.survivors_and_births] →
+[`TrackArrays`][agents.tracking._upkeep_kernels.TrackArrays] ``(ids, misses, streak, estimate,
   detection_rows)``: the per-track arrays of the kept and the new tracks.
-* :func:`median_and_mad_variance` → ``(median, variance)``; :func:`median_displacement` → a float.
+* [`median_and_mad_variance`][agents.tracking._upkeep_kernels.median_and_mad_variance] →
+``(median, variance)``; [`median_displacement`][agents.tracking._upkeep_kernels.median_displacement] → a
+float.
 """
 
 from __future__ import annotations
@@ -49,7 +56,8 @@ BoolArray = NDArray[np.bool_]
 
 
 class FrameUpkeep(NamedTuple):
-    """Result of :func:`frame_upkeep`: new arrays, one row per track (the inputs are not written).
+    """Result of [`frame_upkeep`][agents.tracking._upkeep_kernels.frame_upkeep]: new arrays, one row per track
+    (the inputs are not written).
 
     Attributes:
         seen: (n,) ``det_i >= 0``, the tracks updated this frame.
@@ -73,7 +81,8 @@ class FrameUpkeep(NamedTuple):
 
 
 class FlowUpdate(NamedTuple):
-    """Result of :func:`learn_flow`: the ring buffer's counters after the push and the estimate.
+    """Result of [`learn_flow`][agents.tracking._upkeep_kernels.learn_flow]: the ring buffer's counters after
+    the push and the estimate.
 
     Attributes:
         n_samples: Samples held (at most the buffer's length ``W``).
@@ -93,8 +102,8 @@ class FlowUpdate(NamedTuple):
 
 
 class RecoveryCosts(NamedTuple):
-    """Result of :func:`recovery_costs`: the second-chance problem of the leftovers, as a sparse
-    list of its admissible pairs.
+    """Result of [`recovery_costs`][agents.tracking._upkeep_kernels.recovery_costs]: the second-chance problem
+    of the leftovers, as a sparse list of its admissible pairs.
 
     Attributes:
         tracks: (k,) the tracks without a detection, ascending.
@@ -123,8 +132,8 @@ class RecoveryCosts(NamedTuple):
 
 
 class TrackArrays(NamedTuple):
-    """Result of :func:`survivors_and_births`: the per-track arrays of the kept tracks, in order,
-    followed by the new ones.
+    """Result of [`survivors_and_births`][agents.tracking._upkeep_kernels.survivors_and_births]: the per-track
+    arrays of the kept tracks, in order, followed by the new ones.
 
     Attributes:
         ids: Track ids.
@@ -167,9 +176,9 @@ def frame_upkeep(
         n_detections: ``m``, detections in the frame.
 
     Returns:
-        :class:`FrameUpkeep` ``(seen, misses, streak, keep, n_keep, young, n_young, unused)``: new
-        arrays (the inputs are not written), and ``unused``, the detections (ascending) that no
-        track took.
+        [`FrameUpkeep`][agents.tracking._upkeep_kernels.FrameUpkeep]
+            ``(seen, misses, streak, keep, n_keep, young, n_young, unused)``: new arrays (the inputs are not
+            written), and ``unused``, the detections (ascending) that no track took.
     """
     n = det_of_track.shape[0]
     D = predicted.shape[1]
@@ -243,7 +252,9 @@ def learn_flow(
     min_samples: int,
 ) -> FlowUpdate:
     """Push the velocities ``(x̂_i − x̂_i^{prev}) / dt`` of the ``young`` tracks into a ring buffer;
-    re-estimate the prior (:func:`median_and_mad_variance` of the buffer) when enough is new.
+    re-estimate the prior
+    ([`median_and_mad_variance`][agents.tracking._upkeep_kernels.median_and_mad_variance] of the buffer) when
+    enough is new.
 
     The estimate is refreshed once ``n_samples >= min_samples`` and at least
     ``max(1, n_samples // 8)`` samples arrived since the last one: with every sample while the
@@ -261,8 +272,9 @@ def learn_flow(
         min_samples: Fewest samples for an estimate.
 
     Returns:
-        :class:`FlowUpdate` ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the
-        buffer's state after the push and, when ``updated``, the new estimate (else zeros).
+        [`FlowUpdate`][agents.tracking._upkeep_kernels.FlowUpdate]
+            ``(n_samples, head, fresh, median (D,), variance (D,), updated)``: the buffer's state after the
+            push and, when ``updated``, the new estimate (else zeros).
     """
     window, dim = samples.shape
     for i in range(young.shape[0]):
@@ -348,7 +360,8 @@ def _capped_pairs(
     clutter_log_odds: float,
 ) -> tuple[IntArray, IntArray, FloatArray]:
     """The pairs (compressed sparse rows) within ``cap`` of their track and, with clutter, at or
-    below the track's bound ``2κ − ln|f S_i|`` (:func:`recovery_costs`)."""
+    below the track's bound ``2κ − ln|f S_i|``
+    ([`recovery_costs`][agents.tracking._upkeep_kernels.recovery_costs])."""
     n_tracks, dim = loose_mean.shape
     cap2 = cap * cap
     out_ptr = np.zeros(n_tracks + 1, dtype=np.int64)
@@ -405,13 +418,15 @@ def recovery_costs(
     is only computed when some pair passes the inflated gate.
 
     The pairs passing the inflated gate come from the spatial index, never a (k, l) array
-    (:func:`agents.tracking._kernels.gated_pairs` on the leftovers with covariances ``f S_i``:
+    ([`agents.tracking._kernels.gated_pairs`][agents.tracking._kernels.gated_pairs] on the leftovers with
+    covariances ``f S_i``:
     the box ``sqrt(γ f S_kk)`` around each leftover track, then the exact test with the dense
     expressions); the cap and the clutter test then filter that list.
 
-    With clutter (``clutter_log_odds = κ`` finite, :func:`clutter_log_odds`), a pair is also
-    refused unless the track's target, detected outside its gate and spread by the inflated
-    covariance, explains the detection better than a miss and a clutter detection do:
+    With clutter (``clutter_log_odds = κ`` finite,
+    [`clutter_log_odds`][agents.tracking._upkeep_kernels.clutter_log_odds]), a pair is also refused unless the
+    track's target, detected outside its gate and spread by the inflated covariance, explains the detection
+    better than a miss and a clutter detection do:
 
     .. math::
 
@@ -421,11 +436,12 @@ def recovery_costs(
     ``κ = +inf`` (no clutter, or ``p_D = 1``) skips the test.
 
     Returns:
-        :class:`RecoveryCosts` ``(tracks, dets, ptr, cols, cost, n_admissible, bad, wide, cap)``:
-        the leftover tracks and detections (ascending), their admissible pairs (``cols`` index
-        ``dets``), their number, ``bad`` (−1, or a leftover track whose covariance is not positive
-        definite), ``wide`` (−1, or a leftover track whose inflated gate is unbounded) and the cap
-        ``r`` (inf when not computed).
+        [`RecoveryCosts`][agents.tracking._upkeep_kernels.RecoveryCosts]
+            ``(tracks, dets, ptr, cols, cost, n_admissible, bad, wide, cap)``:
+            the leftover tracks and detections (ascending), their admissible pairs (``cols`` index
+            ``dets``), their number, ``bad`` (−1, or a leftover track whose covariance is not positive
+            definite), ``wide`` (−1, or a leftover track whose inflated gate is unbounded) and the cap
+            ``r`` (inf when not computed).
     """
     tracks, dets = _leftovers(det_of_track, mean.shape[0], z.shape[0])
     loose_mean, loose_cov, loose_z = _leftover_rows(mean, cov, z, tracks, dets, inflation)
@@ -446,7 +462,8 @@ def recovery_costs(
 def clutter_log_odds(
     p_detect: float, clutter_density: float, hit_rate: float, p_gate: float, dim: int
 ) -> float:
-    """``κ``, the log odds of the second chance's clutter test (:func:`recovery_costs`).
+    """``κ``, the log odds of the second chance's clutter test
+    ([`recovery_costs`][agents.tracking._upkeep_kernels.recovery_costs]).
 
     A track left without a detection in its χ² gate has either not been detected, or been
     detected outside its gate (a kick, a velocity that was off: what the second chance is for).
@@ -507,8 +524,8 @@ def survivors_and_births(
     as estimate and ``rows_new`` as detection rows.
 
     Returns:
-        :class:`TrackArrays` ``(ids, misses, streak, estimate, detection_rows)`` of the
-        ``n_keep + k`` tracks.
+        [`TrackArrays`][agents.tracking._upkeep_kernels.TrackArrays]
+            ``(ids, misses, streak, estimate, detection_rows)`` of the ``n_keep + k`` tracks.
     """
     k = z_new.shape[0]
     dim = estimate.shape[1]

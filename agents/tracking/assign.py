@@ -12,22 +12,27 @@ admissible when ``d_{ij}^2 \\le γ = F^{-1}_{χ^2_D}(p_{gate})`` (``p_gate = 0.9
 000). The global nearest neighbour assignment minimises the summed cost over admissible pairs,
 where leaving a track unassigned costs ``γ``.
 
-The trackers call the one-pass :data:`ASSOCIATORS` (prediction, detections, gate → pairs), which
-never build an (n, m) array: the spatial index lists the detections inside a box around each
-track's gate and the exact test keeps the admissible pairs (:func:`gated_pairs`,
-:mod:`agents.tracking._kernels`), as compressed sparse rows. The optimal assignment then takes the
-lone pairs (alone in their row and column) directly and solves every other connected component
-of the pairs exactly as its own ``[C | M]`` problem, with per-track miss columns (``γ`` on the
-diagonal of ``M``, one finite stand-in for every inadmissible entry, so it stays feasible when a
-row is gated out and the solver never sees ``inf``, the failure of Stone Soup issue 824):
-:mod:`track_envs.infra.assignment.components`. Greedy takes the admissible pairs by ascending
-cost (:mod:`track_envs.infra.assignment.greedy`). A frame costs ``O(n + m)`` for gates and
-components of bounded size. :data:`SPARSE_ASSIGNERS` assign such a list (the second chance).
+The trackers call the one-pass [`ASSOCIATORS`][agents.tracking.assign.ASSOCIATORS] (prediction, detections,
+gate → pairs), which never build an (n, m) array: the spatial index lists the detections inside a box around
+each track's gate and the exact test keeps the admissible pairs
+([`gated_pairs`][agents.tracking.assign.gated_pairs], [`agents.tracking._kernels`][agents.tracking._kernels]),
+as compressed sparse rows. The optimal assignment then takes the lone pairs (alone in their row and column)
+directly and solves every other connected component of the pairs exactly as its own ``[C | M]`` problem, with
+per-track miss columns (``γ`` on the diagonal of ``M``, one finite stand-in for every inadmissible entry, so
+it stays feasible when a row is gated out and the solver never sees ``inf``, the failure of Stone Soup issue
+824):
+[`track_envs.infra.assignment.components`][track_envs.infra.assignment.components]. Greedy takes the
+admissible pairs by ascending cost
+([`track_envs.infra.assignment.greedy`][track_envs.infra.assignment.greedy]). A frame costs ``O(n + m)`` for
+gates and components of bounded size. [`SPARSE_ASSIGNERS`][agents.tracking.assign.SPARSE_ASSIGNERS] assign
+such a list (the second chance).
 
-:data:`ASSIGNERS` take a dense cost matrix (the pose tracker's, and the reference of the tests):
-:func:`assign_hungarian` is :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`
-(lone pairs, then the rest as one ``[C | M]`` problem), :func:`assign_greedy` the rounds of mutual
-best matches.
+[`ASSIGNERS`][agents.tracking.assign.ASSIGNERS] take a dense cost matrix (the pose tracker's, and the
+reference of the tests):
+[`assign_hungarian`][agents.tracking.assign.assign_hungarian] is
+[`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`][track_envs.infra.assignment.lone_pairs.min_cost_with_misses]
+(lone pairs, then the rest as one ``[C | M]`` problem),
+[`assign_greedy`][agents.tracking.assign.assign_greedy] the rounds of mutual best matches.
 """
 
 from __future__ import annotations
@@ -80,7 +85,7 @@ def mahalanobis_cost(prediction: Gaussian, z: NDArray[np.floating]) -> NDArray[n
     """Squared Mahalanobis distances (n, m) of detections ``z`` (m, D) to ``n`` predicted measurements.
 
     ``S_i = L_i L_iᵀ`` (Cholesky), ``d²_ij = |L_i⁻¹ (z_j − ŷ_i)|²``: one compiled loop over the
-    pairs (:func:`agents.tracking._kernels.mahalanobis_costs`).
+    pairs (`agents.tracking._kernels.mahalanobis_costs`).
 
     Raises:
         ValueError: if ``z`` is not (m, D).
@@ -94,9 +99,9 @@ def mahalanobis_cost(prediction: Gaussian, z: NDArray[np.floating]) -> NDArray[n
 def assign_hungarian(cost: NDArray[np.floating], gate: float) -> Pairs:
     """Optimal assignment of tracks (rows) to detections (columns) with a per-track miss cost ``gate``.
 
-    See :func:`track_envs.infra.assignment.lone_pairs.min_cost_with_misses` (lone pairs first, then
-    Hungarian on
-    ``[C | M]`` with finite stand-ins for gated pairs).
+    See
+    [`track_envs.infra.assignment.lone_pairs.min_cost_with_misses`][track_envs.infra.assignment.lone_pairs.min_cost_with_misses]
+    (lone pairs first, then Hungarian on ``[C | M]`` with finite stand-ins for gated pairs).
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs (``cost <= gate``), sorted by row.
@@ -142,7 +147,8 @@ ASSIGNERS = {"hungarian": assign_hungarian, "greedy": assign_greedy}
 
 def gated_pairs(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> _kernels.GatedPairs:
     """The admissible pairs ``d²_ij <= gate`` of a frame and their costs, as compressed sparse rows
-    (:func:`agents.tracking._kernels.gated_pairs`: spatial index, then the exact test).
+    ([`agents.tracking._kernels.gated_pairs`][agents.tracking._kernels.gated_pairs]: spatial index, then the
+    exact test).
 
     Raises:
         ValueError: if ``z`` is not (m, D), or a track's gate half-width ``sqrt(γ S_kk)`` is not
@@ -168,10 +174,10 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
     ``assign_hungarian(mahalanobis_cost(prediction, z), gate)`` (the same pairs where the optimum
     is unique).
 
-    The admissible pairs come from the spatial index and the exact test (:func:`gated_pairs`), never
-    an (n, m) array; lone pairs are taken directly and every other connected component of the
-    pairs is solved exactly as its own ``[C | M]`` problem
-    (:func:`track_envs.infra.assignment.components.solve_sparse`).
+    The admissible pairs come from the spatial index and the exact test
+    ([`gated_pairs`][agents.tracking.assign.gated_pairs]), never an (n, m) array; lone pairs are taken
+    directly and every other connected component of the pairs is solved exactly as its own ``[C | M]`` problem
+    ([`track_envs.infra.assignment.components.solve_sparse`][track_envs.infra.assignment.components.solve_sparse]).
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs, sorted by row.
@@ -186,7 +192,8 @@ def associate_hungarian(prediction: Gaussian, z: NDArray[np.floating], gate: flo
 
 def associate_greedy(prediction: Gaussian, z: NDArray[np.floating], gate: float) -> Pairs:
     """``assign_greedy(mahalanobis_cost(prediction, z), gate)``, on the list of admissible pairs
-    (:func:`gated_pairs`, :func:`track_envs.infra.assignment.greedy.greedy_sparse`)."""
+    ([`gated_pairs`][agents.tracking.assign.gated_pairs],
+    [`track_envs.infra.assignment.greedy.greedy_sparse`][track_envs.infra.assignment.greedy.greedy_sparse])."""
     pairs = gated_pairs(prediction, z, gate)
     return greedy_sparse(pairs.ptr, pairs.cols, pairs.cost, len(z), float(gate))
 

@@ -1,18 +1,18 @@
 """The association step of a point tracker as a component: what it is given, what it returns.
 
-A :class:`~agents.tracking.tracker.PointTracker` owns the track table and its life cycle
+A [`PointTracker`][agents.PointTracker] owns the track table and its life cycle
 (predict, births, misses, deletion, the velocity prior, the nozzle-bar roll-out, the report);
-every frame it hands its :class:`Associator` a read-only :class:`FrameContext` — the predicted
-measurements ``N(ŷ_i, S_i)`` of the ``n`` live tracks, the ``m`` detections, the χ² gate and what
-the tracker knows of its tracks — and gets back an :class:`Association`: the detection of every
-track (what the bookkeeping counts as seen), the measurement each track is updated with, and
+every frame it hands its [`Associator`][agents.Associator] a read-only [`FrameContext`][agents.FrameContext] —
+the predicted measurements ``N(ŷ_i, S_i)`` of the ``n`` live tracks, the ``m`` detections, the χ² gate and
+what the tracker knows of its tracks — and gets back an [`Association`][agents.Association]: the detection of
+every track (what the bookkeeping counts as seen), the measurement each track is updated with, and
 which of the detections no track took may start a track. The associator then corrects the
-predicted state (:meth:`Associator.update`): the predictor's ``update`` for a hard assignment, a
-mixture update for a probabilistic one.
+predicted state ([`Associator.update`][agents.Associator.update]): the predictor's ``update`` for a hard
+assignment, a mixture update for a probabilistic one.
 
-Associators are registered by name (:func:`register_associator`, :func:`make_associator`,
-:func:`available_associators`), as agents and predictors are; an unknown name raises a
-``ValueError`` listing the valid ones.
+Associators are registered by name ([`register_associator`][agents.register_associator],
+[`make_associator`][agents.make_associator], [`available_associators`][agents.available_associators]), as
+agents and predictors are; an unknown name raises a ``ValueError`` listing the valid ones.
 """
 
 from __future__ import annotations
@@ -32,11 +32,12 @@ from track_envs.values.types import Gaussian, SensorSpec
 
 
 class AssociatorCapability(StrEnum):
-    """What an associator may declare it does beyond the core (:data:`ASSOCIATOR_DECLARATIONS`).
+    """What an associator may declare it does beyond the core
+    (`ASSOCIATOR_DECLARATIONS`).
 
     * ``SECOND_CHANCE`` — it runs the capped second chance of leftover tracks and detections
-      (:mod:`agents.tracking.second_chance`, its ``second_chance`` attribute), so it reads
-      ``FrameContext.recovery_inflation``;
+      (`agents.tracking.second_chance`, its ``second_chance`` attribute), so
+      it reads ``FrameContext.recovery_inflation``;
     * ``MIXTURE_UPDATE`` — it updates tracks by the moment-matched mixture of their hypotheses;
     * ``SHARED_DETECTIONS`` — several tracks may take one detection (a merged blob);
     * ``BIRTH_FILTER`` — it keeps some unclaimed detections from starting tracks
@@ -96,8 +97,8 @@ class Association:
             without a detection are never read by a hard update).
         may_start: (m,) bool, which detections may start a track if no track took them; None:
             all of them.
-        detail: Whatever else the associator's own :meth:`Associator.update` reads (e.g. jpda's
-            mixture), opaque to the tracker.
+        detail: Whatever else the associator's own [`Associator.update`][agents.Associator.update] reads (e.g.
+            jpda's mixture), opaque to the tracker.
     """
 
     det_of_track: NDArray[np.int64]
@@ -109,8 +110,9 @@ class Association:
 @runtime_checkable
 class Associator(Protocol):
     """A tracker's association step (module docstring). What it does beyond the core it declares
-    in its class attribute ``capabilities`` (a frozenset of :class:`AssociatorCapability`), asked
-    with :func:`associator_capability`."""
+    in its class attribute ``capabilities`` (a frozenset of
+    [`AssociatorCapability`][agents.AssociatorCapability]), asked with
+    [`associator_capability`][agents.tracking.associator_capability]."""
 
     def reset(self, spec: SensorSpec, predictor: Predictor) -> None:
         """Start an episode with sensor ``spec``; ``predictor`` is the tracker's (for its
@@ -148,7 +150,7 @@ class _Declared(Associator, Protocol):
     """A capability that adds no member to the core (what the associator does, not what it has)."""
 
 
-#: The capabilities of associators (:mod:`track_envs.infra.declared`).
+#: The capabilities of associators ([`track_envs.infra.declared`][track_envs.infra.declared]).
 ASSOCIATOR_DECLARATIONS: Declarations[AssociatorCapability] = Declarations(
     AssociatorCapability,
     {
@@ -181,7 +183,7 @@ def register_associator(name: str, factory: Callable[..., Associator]) -> None:
 
 
 def available_associators() -> list[str]:
-    """Names accepted by :func:`make_associator`."""
+    """Names accepted by [`make_associator`][agents.make_associator]."""
     return ASSOCIATOR_REGISTRY.names()
 
 

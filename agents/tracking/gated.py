@@ -3,10 +3,10 @@
 For the ``n`` live tracks and ``m`` detections of a frame: the admissible pairs of the χ² gate at
 ``p_gate`` from the spatial index and the exact squared Mahalanobis test, then the optimal
 assignment with a per-track miss cost (lone pairs, then each connected component of the pairs on
-its own) or the greedy one (:mod:`agents.tracking.assign`); tracks and detections left over then
-get the second chance of :mod:`agents.tracking.second_chance` when ``recovery_inflation > 1``.
-Nothing of size ``n × m`` is built: a frame costs ``O(n + m)`` at a bounded density. Every track is updated by
-the predictor's ``update`` with its detection; the others coast.
+its own) or the greedy one ([`agents.tracking.assign`][agents.tracking.assign]); tracks and detections left
+over then get the second chance of [`agents.tracking.second_chance`][agents.tracking.second_chance] when
+``recovery_inflation > 1``. Nothing of size ``n × m`` is built: a frame costs ``O(n + m)`` at a bounded
+density. Every track is updated by the predictor's ``update`` with its detection; the others coast.
 """
 
 from __future__ import annotations
@@ -29,7 +29,8 @@ class GatedAssignment:
 
     Args:
         assignment: ``"hungarian"`` (optimal) or ``"greedy"``.
-        recovery_cap_motion: ``k_u`` of the second chance's cap (:mod:`agents.tracking.second_chance`), >= 0.
+        recovery_cap_motion: ``k_u`` of the second chance's cap
+            (`agents.tracking.second_chance`), >= 0.
         recovery_cap_noise: ``k_σ`` of the cap, >= 0.
     """
 
@@ -64,7 +65,7 @@ class GatedAssignment:
         return det_of_track
 
     def associate(self, frame: FrameContext) -> Association:
-        """:meth:`assign`, each seen track measured by its detection."""
+        """[`assign`][agents.tracking.GatedAssignment.assign], each seen track measured by its detection."""
         det_of_track = self.assign(frame)
         # rows of coasting tracks (detection −1) are never read by the update
         z = frame.z

@@ -1,9 +1,10 @@
 """The point trackers' live knobs (gnn, jpda): the settings that may change between frames, with
 their defaults and valid values.
 
-:class:`~agents.gnn.agent.GnnAgent` takes its defaults from here and checks a new value with
-:meth:`LiveKnob.check`; the gate tuning (:mod:`track_apps.tuning`) reads the same table for its
-action ranges and its fixed baselines, so neither restates a number of the other.
+[`GnnAgent`][agents.gnn.agent.GnnAgent] takes its defaults from here and checks a new value with
+[`LiveKnob.check`][agents.tracking.knobs.LiveKnob.check]; the gate tuning
+([`track_apps.tuning`][track_apps.tuning]) reads the same table for its action ranges and its fixed baselines,
+so neither restates a number of the other.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ class LiveKnob:
     """A setting of the gnn tracker that may change between frames.
 
     Attributes:
-        name: The :class:`~agents.gnn.agent.GnnAgent` argument and attribute.
+        name: The [`GnnAgent`][agents.gnn.agent.GnnAgent] argument and attribute.
         default: Its default value.
         valid: Its valid values in words (for error messages), e.g. ``"a finite number >= 1"``.
         accepts: Whether a real number is valid.
@@ -36,7 +37,7 @@ class LiveKnob:
 
         Raises:
             ValueError: naming the knob and its valid values, if ``value`` is not a real number
-                (bools are not) that :attr:`accepts` takes.
+                (bools are not) that [`accepts`][agents.tracking.knobs.LiveKnob.accepts] takes.
         """
         real = isinstance(value, int | float | np.integer | np.floating) and not isinstance(
             value, bool | np.bool_

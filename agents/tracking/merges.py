@@ -30,8 +30,8 @@ get one track for the pair, and sharing cannot create the missing one. On stream
 it costs little at 6 mm (cylinders unchanged, spheres at 500 /s 0.066 → 0.076). Sharing before
 the recovery association instead of after it was worse in every case.
 
-As a component: :class:`SharedBlobs` wraps another associator (gnn's
-:class:`~agents.tracking.gated.GatedAssignment`): after its association and second chance, before
+As a component: [`SharedBlobs`][agents.tracking.SharedBlobs] wraps another associator (gnn's
+[`GatedAssignment`][agents.tracking.GatedAssignment]): after its association and second chance, before
 the per-track upkeep, ``det_of_track, z_tracks = share_blobs(prediction.mean, z, det_of_track,
 extent, *region)``, then ``predictor.update(state, z_tracks, seen)`` with those rows (the
 tracker's upkeep kernel counts a detection shared by several tracks once when it lists the unused
@@ -74,8 +74,8 @@ def share_blobs(
 
     Returns:
         ``(det_of_track, z_tracks)``: the detection of each track with blob members added (a
-        detection may now appear more than once), and (n, D) the measurement of each track
-        (rows of tracks without a detection are zero and unused).
+            detection may now appear more than once), and (n, D) the measurement of each track
+            (rows of tracks without a detection are zero and unused).
     """
     if not (np.isfinite(extent) and extent >= 0):
         raise ValueError(f"extent must be a finite distance >= 0, got {extent!r}")
@@ -94,11 +94,12 @@ def share_blobs(
 
 
 class SharedBlobs:
-    """Another associator's association, then the merged blobs of :func:`share_blobs`.
+    """Another associator's association, then the merged blobs of
+    `share_blobs`.
 
     Args:
         inner: The associator whose association the blobs extend (default gnn's
-            :class:`~agents.tracking.gated.GatedAssignment`); its update corrects the tracks.
+            [`GatedAssignment`][agents.tracking.GatedAssignment]); its update corrects the tracks.
         blob_extent: Largest distance (sensor units) of a leftover track's prediction from a taken
             detection it may share, >= 0; 0 turns sharing off.
     """

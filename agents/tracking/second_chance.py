@@ -22,7 +22,7 @@ established tracks (updated the last two frames, predicted inside the region) fi
 their gate (measured over the last ≈100 frames; ``p_D − a`` at least ``p_D (1 − p_gate)``). The
 second chance then takes a pair only when the kicked-target hypothesis beats a miss plus a clutter
 detection, ``(p_D − a) N(z; ŷ, f S) ≥ (1 − p_D) λ``
-(:func:`agents.tracking._upkeep_kernels.clutter_log_odds`):
+([`agents.tracking._upkeep_kernels.clutter_log_odds`][agents.tracking._upkeep_kernels.clutter_log_odds]):
 on a stream whose motion model holds (``a ≈ p_D``) a coasting track no longer takes the clutter
 detection or another target's first detection in its inflated gate, while on a belt whose
 collisions knock particles out of their gates (``a < p_D``) it still recovers them. Without
@@ -30,9 +30,11 @@ clutter, or with ``p_D = 1``, the second chance is as above.
 
 The leftovers' admissible pairs come from the spatial index (a box of half-widths
 ``sqrt(γ f S_kk)`` around each leftover track, the exact inflated test on the detections inside,
-then the cap and the clutter test on that list: :func:`agents.tracking._upkeep_kernels.recovery_costs`),
-and are assigned as a sparse list (:data:`agents.tracking.assign.SPARSE_ASSIGNERS`): no array of
-leftover tracks × leftover detections, so a frame costs ``O(n + m)``.
+then the cap and the clutter test on that list:
+[`agents.tracking._upkeep_kernels.recovery_costs`][agents.tracking._upkeep_kernels.recovery_costs]), and are
+assigned as a sparse list
+([`agents.tracking.assign.SPARSE_ASSIGNERS`][agents.tracking.assign.SPARSE_ASSIGNERS]): no array of leftover
+tracks × leftover detections, so a frame costs ``O(n + m)``.
 
 One component, used by gnn's gated assignment and by jpda alike.
 """
@@ -148,7 +150,8 @@ class SecondChance:
     ) -> None:
         """Add this frame's established tracks (updated in each of the last ``HIT_STREAK`` frames,
         predicted inside the observed region: a target that left gives no detection) and those of
-        them that found a detection in their gate to the forgetting sums of :meth:`gate_hit_rate`."""
+        them that found a detection in their gate to the forgetting sums of
+        [`gate_hit_rate`][agents.tracking.SecondChance.gate_hit_rate]."""
         assert self._spec is not None
         inside = np.all(
             (predicted >= np.asarray(self._spec.region_low))

@@ -3,29 +3,34 @@
 Every frame, for the ``n`` live tracks and the ``m`` detections of the observation:
 
 1. **predict**: ``predictor.predict`` gives each track's predicted measurement ``N(ŷ_i, S_i)``;
-2. **associate**: the :class:`~agents.tracking.associator.Associator` component gets a read-only
-   :class:`~agents.tracking.associator.FrameContext` (predictions, detections, the χ² gate at
+2. **associate**: the [`Associator`][agents.Associator] component gets a read-only
+   [`FrameContext`][agents.FrameContext] (predictions, detections, the χ² gate at
    ``p_gate``, the tracks' streaks and last estimates, the stream's motion, the noise) and returns
-   an :class:`~agents.tracking.associator.Association`: the detection of every track and the
+   an [`Association`][agents.Association]: the detection of every track and the
    measurement it is updated with (gnn's gated assignment with the capped second chance,
-   :mod:`agents.tracking.gated`; jpda's marginals, :mod:`agents.jpda.associator`; ...);
+   [`agents.tracking.gated`][agents.tracking.gated]; jpda's marginals,
+   [`agents.jpda.associator`][agents.jpda.associator]; ...);
 3. **update / coast**: the associator corrects the tracks it found detected
-   (:meth:`~agents.tracking.associator.Associator.update`), the others coast;
+   ([`update`][agents.Associator.update]), the others coast;
 4. **delete**: tracks with more than ``max_misses`` consecutive misses, and tracks that were not
    updated and whose predicted measurement has left the observed region (grown by ``region_margin``);
 5. **initiate**: a new track from every detection left unassigned that the association lets start
-   one, with the velocity prior (:mod:`agents.tracking.velocity_prior`: learnt online from the
-   young tracks with ``velocity_prior="auto"``, fixed, or none; ``velocity_fallback`` until it is
-   learnt). :attr:`PointTracker.velocity_prior_state` shows the prior.
+   one, with the velocity prior ([`agents.tracking.velocity_prior`][agents.tracking.velocity_prior]: learnt
+   online from the young tracks with ``velocity_prior="auto"``, fixed, or none; ``velocity_fallback`` until it
+   is learnt). [`PointTracker.velocity_prior_state`][agents.PointTracker.velocity_prior_state] shows the
+   prior.
 
 The report holds every live track at its current (posterior) estimate, and the detection row it
 was updated with (−1 when it coasted). When the sensor has a nozzle bar downstream
 (``SensorSpec.sorting_line``, BeltSorter-v0), every track deleted in a frame gets a predicted
-crossing of the bar in the report's sorting channel (:mod:`track_envs.contracts.sorting_channel`): its
-predictor rolled forward from the track's state without further measurements
-(:func:`agents.sorting.rollout.predict_crossings`; a track slower than a sixth of the flow is given
-up, see :meth:`PointTracker._rollout_steps`). A deleted track has coasted since its last update,
-and coasting is that roll-out, so the prediction is the one from the last update.
+crossing of the bar in the report's sorting channel
+([`track_envs.contracts.sorting_channel`][track_envs.contracts.sorting_channel]): its predictor rolled forward
+from the track's state without further measurements
+([`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings]; a track slower than a sixth
+of the flow is given up, see
+[`PointTracker._rollout_steps`][agents.tracking.tracker.PointTracker._rollout_steps]). A deleted track has
+coasted since its last update, and coasting is that roll-out, so the prediction is the one from the last
+update.
 
 The sizes follow the scene: an observation with more rows than the spec's ``max_detections`` (an
 env with ``overflow="grow"`` that grew its rows) is read as it is, and more live tracks than
@@ -34,11 +39,12 @@ env follows the report's rows), as ``track run``'s reports grow — no track is 
 
 All per-frame work is batched over tracks and detections: with the Kalman predictors, the filter
 steps, the start states, the gated costs, the second-chance costs and the per-track bookkeeping
-are each one compiled loop (numba: :mod:`predictors.kalman._kernels`,
-:mod:`agents.tracking._kernels`, :mod:`agents.tracking._upkeep_kernels`), so a frame is a few dozen calls
+are each one compiled loop (numba: [`predictors.kalman._kernels`][predictors.kalman._kernels],
+[`agents.tracking._kernels`][agents.tracking._kernels],
+[`agents.tracking._upkeep_kernels`][agents.tracking._upkeep_kernels]), so a frame is a few dozen calls
 whatever the number of tracks. The kernels compile (or load from numba's cache) on first use;
-:meth:`PointTracker.warm_up` runs every one of them once on a tiny synthetic input, so that a live
-stream does not pause on its first frames.
+[`PointTracker.warm_up`][agents.PointTracker.warm_up] runs every one of them once on a tiny synthetic input,
+so that a live stream does not pause on its first frames.
 """
 
 from __future__ import annotations
@@ -93,7 +99,7 @@ class PointTracker:
     Args:
         predictor: Registered predictor name (``"kf-ca"``, ``"kf-cv"``, ``"random-walk"``, ...) or an
             object implementing the Predictor protocol (its methods are checked here).
-        associator: The association component (:class:`~agents.tracking.associator.Associator`,
+        associator: The association component ([`Associator`][agents.Associator],
             e.g. ``make_associator("gnn")``).
         p_gate: Gate probability of the χ² gate (Pollithy et al. 2020: 0.999).
         max_misses: A track is deleted after more than this many consecutive misses.
@@ -112,11 +118,13 @@ class PointTracker:
         owner: The class or factory named in the errors of unknown keywords (default this class).
         **predictor_kwargs: Passed to ``make_predictor`` when ``predictor`` is a name.
 
-    Live knobs: :attr:`p_gate`, :attr:`recovery_inflation` and :attr:`noise_scale` may be set
-    between frames of a running episode (each is checked, and the next frame uses it).
+    Live knobs: [`p_gate`][agents.PointTracker.p_gate],
+    [`recovery_inflation`][agents.PointTracker.recovery_inflation] and
+    [`noise_scale`][agents.PointTracker.noise_scale] may be set between frames of a running episode (each is
+    checked, and the next frame uses it).
     """
 
-    #: What every point tracker offers (:class:`agents.base.AgentCapability`).
+    #: What every point tracker offers ([`agents.base.AgentCapability`][agents.AgentCapability]).
     capabilities = frozenset(
         {
             AgentCapability.WARM_UP,
@@ -375,8 +383,8 @@ class PointTracker:
         """More live tracks than ``max_tracks``: the report (and its sorting channel) grows from
         now on — doubled until the ``n`` tracks fit (an env with ``overflow="grow"`` follows the
         report's rows), or to ``n`` rows inside ``track run``'s
-        :func:`~track_envs.contracts.report.growable_reports` —, warned once per episode; never
-        inside :func:`~track_envs.contracts.report.fixed_reports` (the report then raises)."""
+        [`growable_reports`][track_envs.contracts.report.growable_reports] —, warned once per episode; never
+        inside [`fixed_reports`][track_envs.contracts.report.fixed_reports] (the report then raises)."""
         assert self._spec is not None
         growth = report_growth()
         if growth == "fixed":  # pack_report raises ReportOverflowError, as a fixed report must

@@ -3,10 +3,10 @@
 Every frame, each young track (updated ``YOUNG_STREAK`` = 3–6 times in a row) gives one sample,
 its frame-to-frame velocity; the last ``FLOW_WINDOW`` samples, over as many frames as it takes to
 collect them, give the prior's median ``v̄`` and robust variance ``(1.4826 MAD)²``
-(:func:`agents.tracking._upkeep_kernels.learn_flow`: re-estimated with every new sample while there are few,
-every ``FLOW_WINDOW / 8`` samples once the window is full). On a belt this is the flow where
-particles enter, so a track's second measurement is predicted where the flow takes it. The prior
-forms from ``MIN_FLOW_SAMPLES`` samples. A new track starts from ``v̄`` with the covariance
+([`agents.tracking._upkeep_kernels.learn_flow`][agents.tracking._upkeep_kernels.learn_flow]: re-estimated with
+every new sample while there are few, every ``FLOW_WINDOW / 8`` samples once the window is full). On a belt
+this is the flow where particles enter, so a track's second measurement is predicted where the flow takes it.
+The prior forms from ``MIN_FLOW_SAMPLES`` samples. A new track starts from ``v̄`` with the covariance
 
 .. math::
 

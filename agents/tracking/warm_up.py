@@ -11,8 +11,8 @@ from track_envs.values.types import SensorSpec
 def warm_up_stream(dim: int, sorting: bool = True) -> tuple[SensorSpec, list[dict[str, NDArray]]]:
     """A few frames that run every path of a frame: births, lone and competing pairs, the
     second chance, coasting, deletions and an empty frame (for
-    :meth:`agents.tracking.tracker.PointTracker.warm_up`); with ``sorting`` (and ``dim >= 2``) the
-    sensor has a nozzle bar, so that the deletions run the sorting roll-out too."""
+    [`agents.tracking.tracker.PointTracker.warm_up`][agents.PointTracker.warm_up]); with ``sorting`` (and
+    ``dim >= 2``) the sensor has a nozzle bar, so that the deletions run the sorting roll-out too."""
     dt = 0.01
     spec = SensorSpec(
         dt=dt,

@@ -1,8 +1,8 @@
 """Compiled roll-out of the belt LSTMs (``lstm``, ``nll-lstm``) to a line ``x = L``, row by row.
 
-The generic roll-out (:func:`agents.sorting.rollout.predict_crossings`) calls the predictor once per
-roll-out frame on the few tracks deleted in a frame, so numpy's per-call cost dominates. This
-kernel runs the same recursion for one track at a time in compiled scalar loops: from the
+The generic roll-out ([`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings]) calls
+the predictor once per roll-out frame on the few tracks deleted in a frame, so numpy's per-call cost
+dominates. This kernel runs the same recursion for one track at a time in compiled scalar loops: from the
 standardised head output ``o`` and the last input ``z_prev`` the prediction is
 
     p = z_prev + size ⊙ (μ_out + σ_out ⊙ o[:D]),
@@ -10,9 +10,10 @@ standardised head output ``o`` and the last input ``z_prev`` the prediction is
 
 the position covariance accumulates ``P ← P + S``, and the prediction is fed back as the next
 input ``((u, u − u_prev) − μ_in) / σ_in`` with ``u = (p − low) / size`` through both LSTM layers
-(:func:`predictors.lstm_cell.cell_step`) and the head. The crossing between the frames around the
-line is interpolated exactly as :func:`agents.sorting.rollout._crossing` does. Float64 throughout; it
-equals the generic float64 roll-out to rounding (tested).
+([`predictors.lstm_cell.cell_step`][predictors.lstm_cell.cell_step]) and the head. The crossing between the
+frames around the line is interpolated exactly as
+[`agents.sorting.rollout._crossing`][agents.sorting.rollout._crossing] does. Float64 throughout; it equals the
+generic float64 roll-out to rounding (tested).
 """
 
 from __future__ import annotations
@@ -50,8 +51,8 @@ def _write_crossing(
 ) -> None:
     """Row ``r``'s crossing of ``x = line`` between the roll-out's frames ``step − 1`` (position
     ``pp``, covariance ``Q``) and ``step`` (``pp + s``, ``N``), interpolated as
-    :func:`agents.sorting.rollout._crossing` does: at ``φ = (L − pp_x) / s_x`` the time
-    ``(frame + step − 1 + φ) dt`` and ``y = pp_y + φ s_y``; the covariance ``C = Q + w (N − Q)``
+    [`agents.sorting.rollout._crossing`][agents.sorting.rollout._crossing] does: at ``φ = (L − pp_x) / s_x``
+    the time ``(frame + step − 1 + φ) dt`` and ``y = pp_y + φ s_y``; the covariance ``C = Q + w (N − Q)``
     (``w = φ`` clipped to [0, 1]) mapped to ``(t, y)`` by ``J = [[−1/v_x, 0], [−v_y/v_x, 1]]``
     (``v = s / dt``) and symmetrised."""
     phi = (line - pp0) / s0

@@ -1,7 +1,7 @@
-"""The belt LSTMs' float32 step: :class:`~predictors.lstm_cell.FusedLSTMCell`'s, with compiled gates.
+"""The belt LSTMs' float32 step: [`FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell]'s, with compiled gates.
 
 One step of ``n`` rows (tracks, or Monte Carlo sample rows) computes, as
-:meth:`FusedLSTMCell.step <predictors.lstm_cell.FusedLSTMCell.step>` does,
+[`FusedLSTMCell.step`][predictors.lstm_cell.FusedLSTMCell.step] does,
 
     t = tanh([x, h, 1] W)                       (n, 4H), columns i, f, o, g (sigmoid gates × ½)
     σ_q = ½ t_q + ½  (q = i, f, o),   c' = σ_f ⊙ c + σ_i ⊙ t_g,   h' = σ_o ⊙ tanh(c')
@@ -12,9 +12,10 @@ glue around them is compiled: packing ``[x, h, 1]`` and the gate arithmetic (eac
 the dtype numpy uses, no fused multiply-add), one pass each instead of about ten numpy calls on
 column blocks. For 150 tracks that is about a third of the step.
 
-:class:`RowsLSTMCell` is the cell of :class:`~predictors.belt_lstm.inference.FastLSTMWeights`;
-its products run on whatever BLAS threads the caller allows (the predictor limits them to one,
-:func:`track_envs.infra.blas_threads.frame_blas`).
+[`RowsLSTMCell`][predictors.belt_lstm.cell.RowsLSTMCell] is the cell of
+[`FastLSTMWeights`][predictors.belt_lstm.inference.FastLSTMWeights]; its products run on whatever BLAS threads
+the caller allows (the predictor limits them to one,
+[`track_envs.infra.blas_threads.frame_blas`][track_envs.infra.blas_threads.frame_blas]).
 """
 
 from __future__ import annotations
@@ -67,15 +68,17 @@ def cell_output(t: np.ndarray, tanh_c: np.ndarray, h_out: np.ndarray) -> None:
 
 @dataclass(frozen=True)
 class RowsLSTMCell(FusedLSTMCell):
-    """:class:`~predictors.lstm_cell.FusedLSTMCell` whose :meth:`step` compiles the gates (module
-    docstring); ``matmul`` is numpy's."""
+    """[`FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell] whose
+    [`step`][predictors.belt_lstm.cell.RowsLSTMCell.step] compiles the gates (module docstring); ``matmul`` is
+    numpy's."""
 
     @classmethod
     def of(cls, cell: FusedLSTMCell) -> RowsLSTMCell:
         """The same weights (numpy products).
 
         Raises:
-            ValueError: ``cell`` runs its products on another :attr:`matmul`.
+            ValueError: ``cell`` runs its products on another
+                [`matmul`][predictors.belt_lstm.cell.RowsLSTMCell.matmul].
         """
         if cell.matmul != "numpy":
             raise ValueError(f"RowsLSTMCell runs numpy's products; the cell's matmul is {cell.matmul!r}")
@@ -85,7 +88,7 @@ class RowsLSTMCell(FusedLSTMCell):
         self, x: NDArray[np.floating], h: NDArray[np.floating], c: NDArray[np.floating]
     ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
         """New ``(h, c)`` of rows ``x`` (n, In) with state ``h, c`` (n, H): the bits of
-        :meth:`FusedLSTMCell.step <predictors.lstm_cell.FusedLSTMCell.step>` (float32, or the
+        [`FusedLSTMCell.step`][predictors.lstm_cell.FusedLSTMCell.step] (float32, or the
         state's dtype where it is wider)."""
         H, k = self.hidden, self.n_in
         n = len(x)

@@ -1,10 +1,10 @@
 """The belt LSTMs' features: region-relative, standardised measurement sequences.
 
-Separate from :mod:`predictors.belt_lstm.network` so that inference with a shipped model needs no
-torch; the network module re-exports :class:`Features`. The per-frame inputs of a batch of tracks
-(:meth:`Features.inputs`) and nll-lstm's predicted Gaussian (:func:`nll_gaussian`) are compiled
-passes with the same floating-point operations as the numpy expressions they replace (the same
-bits; tested).
+Separate from [`predictors.belt_lstm.network`][predictors.belt_lstm.network] so that inference with a shipped
+model needs no torch; the network module re-exports [`Features`][predictors.belt_lstm.features.Features]. The
+per-frame inputs of a batch of tracks ([`Features.inputs`][predictors.belt_lstm.features.Features.inputs]) and
+nll-lstm's predicted Gaussian ([`nll_gaussian`][predictors.belt_lstm.features.nll_gaussian]) are compiled
+passes with the same floating-point operations as the numpy expressions they replace (the same bits; tested).
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ def standardised_inputs(
 ) -> None:
     """``out = ((u, Δu) − μ_in) / σ_in`` (n, 2D) with ``u = (z − low) / size`` and
     ``Δu = u − (z_prev − low) / size`` (``Δu = 0`` without ``has_prev``), element by element in
-    float64 (the operations of the numpy form in :meth:`Features.inputs`)."""
+    float64 (the operations of the numpy form in
+    [`Features.inputs`][predictors.belt_lstm.features.Features.inputs])."""
     n, d = z.shape
     for r in range(n):
         for j in range(d):
@@ -55,9 +56,9 @@ def nll_gaussian(
     cov: np.ndarray,
 ) -> None:
     """The nll-lstm prediction in one pass: ``mean = z_prev + size ⊙ (μ_out + σ_out ⊙ out)`` (n, D)
-    (:meth:`Features.position`) and ``cov = r · diag(var_std ⊙ scale)`` (n, D, D) with
-    ``var_std = exp(log σ²)`` (computed by numpy's ``exp``) and ``r = calibration``, element by
-    element in float64 (the operations of the numpy form)."""
+    ([`Features.position`][predictors.belt_lstm.features.Features.position]) and
+    ``cov = r · diag(var_std ⊙ scale)`` (n, D, D) with ``var_std = exp(log σ²)`` (computed by numpy's ``exp``)
+    and ``r = calibration``, element by element in float64 (the operations of the numpy form)."""
     n, d = z_prev.shape
     for r in range(n):
         for j in range(d):
@@ -107,7 +108,7 @@ class Features:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Features:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of [`to_dict`][predictors.belt_lstm.features.Features.to_dict]."""
         return cls(**{k: np.asarray(d[k], dtype=np.float64) for k in cls.__dataclass_fields__})
 
     def inputs(self, z: NDArray[np.float64], z_prev: NDArray[np.float64] | None) -> NDArray[np.float64]:
@@ -133,7 +134,8 @@ class Features:
         return (np.concatenate([u, du], axis=-1) - self.in_mean) / self.in_std
 
     def sequence_inputs(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
-        """:meth:`inputs` of a padded batch of sequences ``(B, T, D)`` → ``(B, T, 2D)``."""
+        """[`inputs`][predictors.belt_lstm.features.Features.inputs] of a padded batch of sequences
+        ``(B, T, D)`` → ``(B, T, 2D)``."""
         u = (z - self.low) / self.size
         du = np.concatenate([np.zeros_like(u[:, :1]), np.diff(u, axis=1)], axis=1)
         return (np.concatenate([u, du], axis=-1) - self.in_mean) / self.in_std

@@ -1,12 +1,13 @@
 """Inference of the belt LSTM network in numpy, from the weights of a model file (no torch).
 
-Two LSTM layers (the one cell of :mod:`predictors.lstm_cell`) and the linear head
-``y = h₂ Wᵀ + b`` make one step of :class:`~predictors.belt_lstm.network.BeltLSTMNet`;
-:class:`LSTMWeights` runs it for a batch of rows (tracks, or tracks × Monte Carlo samples) in
-float64 (:class:`~predictors.lstm_cell.LSTMCellWeights` layers), :class:`FastLSTMWeights` in
-float32 (:class:`~predictors.belt_lstm.cell.RowsLSTMCell` layers: the fused cell with compiled
-gates), with optional variational dropout masks on the same five places as the torch network.
-It equals the torch network to ~1e-6 (tested).
+Two LSTM layers (the one cell of [`predictors.lstm_cell`][predictors.lstm_cell]) and the linear head
+``y = h₂ Wᵀ + b`` make one step of [`BeltLSTMNet`][predictors.belt_lstm.network.BeltLSTMNet];
+[`LSTMWeights`][predictors.belt_lstm.inference.LSTMWeights] runs it for a batch of rows (tracks, or tracks ×
+Monte Carlo samples) in float64 ([`LSTMCellWeights`][predictors.LSTMCellWeights] layers),
+[`FastLSTMWeights`][predictors.belt_lstm.inference.FastLSTMWeights] in float32
+([`RowsLSTMCell`][predictors.belt_lstm.cell.RowsLSTMCell] layers: the fused cell with compiled gates), with
+optional variational dropout masks on the same five places as the torch network. It equals the torch network
+to ~1e-6 (tested).
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ LSTMState = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 
 def two_layer_step(net: Any, x: Any, state: Any, masks: Any = None) -> tuple[Any, Any]:
-    """Both layers and the head of ``net`` (:class:`LSTMWeights` or :class:`FastLSTMWeights`).
+    """Both layers and the head of ``net`` ([`LSTMWeights`][predictors.belt_lstm.inference.LSTMWeights] or
+    [`FastLSTMWeights`][predictors.belt_lstm.inference.FastLSTMWeights]).
 
     ``masks``: ``None``, or five arrays ``(m_x, m_h1, m_x2, m_h2, m_head)`` multiplying the
     layer-1 input and state, the layer-2 input and state and the head input.
@@ -54,7 +56,7 @@ class LSTMWeights:
 
     @classmethod
     def from_tensors(cls, t: Mapping[str, NDArray[np.floating]]) -> LSTMWeights:
-        """From the state-dict arrays of :class:`~predictors.belt_lstm.network.BeltLSTMNet`."""
+        """From the state-dict arrays of [`BeltLSTMNet`][predictors.belt_lstm.network.BeltLSTMNet]."""
 
         return cls(
             LSTMCellWeights.from_tensors(t, "cell1."),
@@ -74,14 +76,16 @@ class LSTMWeights:
         """One step of ``n`` rows: input ``x`` (n, In) → head output (n, outputs), new state.
 
         ``masks``: five (n, width) arrays (keep / (1 − p)) for the layer-1 input and state, the
-        layer-2 input and state and the head input, as :meth:`BeltLSTMNet.step` applies them.
+        layer-2 input and state and the head input, as
+        [`BeltLSTMNet.step`][predictors.belt_lstm.network.BeltLSTMNet.step] applies them.
         """
         return two_layer_step(self, x, state, masks)
 
 
 @dataclass(frozen=True)
 class FastLSTMWeights:
-    """:class:`LSTMWeights` in float32 with :class:`~predictors.lstm_cell.FusedLSTMCell` layers (tracking).
+    """[`LSTMWeights`][predictors.belt_lstm.inference.LSTMWeights] in float32 with
+    [`FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell] layers (tracking).
 
     Equals the float64 reference to float32 rounding (≈1e-7 on standardised outputs, tested) and
     torch's float32 network to 1e-6.
@@ -119,5 +123,5 @@ class FastLSTMWeights:
         state: tuple[NDArray[np.floating], ...],
         masks: tuple[NDArray[np.floating], ...] | None = None,
     ) -> tuple[NDArray[np.float32], tuple[NDArray[np.float32], ...]]:
-        """One step, as :meth:`LSTMWeights.step`, in float32."""
+        """One step, as [`LSTMWeights.step`][predictors.belt_lstm.inference.LSTMWeights.step], in float32."""
         return two_layer_step(self, x, state, masks)

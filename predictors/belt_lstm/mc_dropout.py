@@ -20,8 +20,8 @@ instead of all of them, with the same result as the plain ``T``-sample computati
 (3)–(4)) are accumulated from the groups with their counts.
 
 Sample rows are kept per track in padded blocks (``(n, K, ...)`` with a validity mask), so the
-state has tracks on its first axis like every predictor state; :meth:`MCState.concat` pads blocks
-of different ``K``.
+state has tracks on its first axis like every predictor state;
+[`MCState.concat`][predictors.belt_lstm.mc_dropout.MCState.concat] pads blocks of different ``K``.
 """
 
 from __future__ import annotations
@@ -52,7 +52,8 @@ class MCState(BatchState):
             validity, own layer-2 states.
         c_mask, c_valid: head-only group: head masks (n, KC, H2), validity.
         mean, cov: predictive mean (n, D) and sample covariance (n, D, D) of the head outputs.
-        z, z_cov, z_prev: as in :class:`predictors.belt_lstm.predictor.LSTMTrackState`.
+        z, z_cov, z_prev: as in
+            [`predictors.belt_lstm.predictor.LSTMTrackState`][predictors.belt_lstm.predictor.LSTMTrackState].
     """
 
     h1: FloatArray
@@ -114,11 +115,11 @@ def _block(selected: BoolArray, values: np.ndarray, dtype: type = np.float64) ->
 
 
 class GroupedMC:
-    """MC-dropout inference of :class:`~predictors.belt_lstm.inference.LSTMWeights` by sample groups.
+    """MC-dropout inference of [`LSTMWeights`][predictors.belt_lstm.inference.LSTMWeights] by sample groups.
 
     Args:
-        net: The network weights (:class:`~predictors.belt_lstm.inference.LSTMWeights` or its float32
-            twin :class:`~predictors.belt_lstm.inference.FastLSTMWeights`).
+        net: The network weights ([`LSTMWeights`][predictors.belt_lstm.inference.LSTMWeights] or its float32
+            twin [`FastLSTMWeights`][predictors.belt_lstm.inference.FastLSTMWeights]).
         widths: Mask widths ``(In, H1, H1, H2, H2)``.
         keep: Keep probability ``1 − p``.
     """

@@ -5,7 +5,8 @@
   predictions and ``λ = 1e-5`` the L2 weight; stored in standardised output units.
 * ``calibration.cov_scale`` (``lstm``): the mean squared one-step error per axis on the validation
   tracks (sensor units²), the covariance ``s·I`` of a model that predicts none.
-* ``calibration.scale``: the factor ``r`` of :mod:`predictors.training.calibration`, fitted on the
+* ``calibration.scale``: the factor ``r`` of
+[`predictors.training.calibration`][predictors.training.calibration], fitted on the
   validation tracks at ``p_des = 0.999``.
 * ``metrics``: on the test tracks, the mean per-track one-step error (sensor units), the NEES and
   the empirical coverage at 0.999 before and after calibration.

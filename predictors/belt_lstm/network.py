@@ -12,14 +12,14 @@ the three belt models; they differ in the head and the loss:
   mask per track for the input of each layer, each layer's recurrent state and the head's input,
   held fixed over all time steps of the track.
 
-Features (:class:`Features`): a measurement ``z`` is first expressed relative to the sensor region,
-``u = (z − low) / (high − low)``, so a model trained on one camera window works on a window placed
-elsewhere; the input at step ``t`` is ``(u_t, u_t − u_{t−1})`` (the difference is 0 at a track's
-first step) and the target is the next displacement ``u_{t+1} − u_t``, both standardised by the
+Features ([`Features`][predictors.belt_lstm.features.Features]): a measurement ``z`` is first expressed
+relative to the sensor region, ``u = (z − low) / (high − low)``, so a model trained on one camera window works
+on a window placed elsewhere; the input at step ``t`` is ``(u_t, u_t − u_{t−1})`` (the difference is 0 at a
+track's first step) and the target is the next displacement ``u_{t+1} − u_t``, both standardised by the
 training set's mean and std. The network itself never sees metres.
 
-The network runs step by step (:meth:`BeltLSTMNet.step`) with explicit ``(h, c)`` per layer, so a
-tracker carries the hidden state per track and never re-runs a window.
+The network runs step by step ([`BeltLSTMNet.step`][predictors.belt_lstm.network.BeltLSTMNet.step]) with
+explicit ``(h, c)`` per layer, so a tracker carries the hidden state per track and never re-runs a window.
 """
 
 from __future__ import annotations

@@ -21,8 +21,9 @@ The covariance of the predicted measurement depends on the model:
 ``r`` is the calibration factor of the model file (1 when uncalibrated). Inputs are relative to
 the sensor region: the offset is the bound spec's ``region_low`` (so a model works on a camera
 window placed elsewhere), the scale the one the model was trained with.
-Inference runs in numpy (:mod:`predictors.belt_lstm.inference`); torch is not needed to track.
-Every network step runs with numpy's BLAS on one thread (:func:`track_envs.infra.blas_threads.frame_blas`):
+Inference runs in numpy ([`predictors.belt_lstm.inference`][predictors.belt_lstm.inference]); torch is not
+needed to track. Every network step runs with numpy's BLAS on one thread
+([`track_envs.infra.blas_threads.frame_blas`][track_envs.infra.blas_threads.frame_blas]):
 its products are too small to gain from more, and a split product stalls when another process is
 busy on the other cores.
 """
@@ -81,23 +82,23 @@ class LSTMTrackState(BatchState):
 
 
 class LSTMPredictor:
-    """A belt LSTM (``kind`` one of :data:`KINDS`) as a batched Predictor.
+    """A belt LSTM (``kind`` one of [`KINDS`][predictors.belt_lstm.predictor.KINDS]) as a batched Predictor.
 
     Args:
         kind: ``"lstm"``, ``"nll-lstm"`` or ``"mc-lstm"``.
         weights: A model file (path with or without suffix) or a loaded
-            :class:`~predictors.training.model_file.ModelFile`; ``None`` takes the shipped weights for
+            [`ModelFile`][predictors.training.ModelFile]; ``None`` takes the shipped weights for
             ``particle_kind``.
         particle_kind: Which shipped weights to load when ``weights`` is ``None``.
         samples: Monte Carlo passes ``T`` of mc-lstm (Pollithy et al. 2020 use 250).
         mc_inference: ``"grouped"`` computes each distinct dropout sample once
-            (:mod:`predictors.belt_lstm.mc_dropout`, exact and several times faster); ``"plain"`` runs all
-            ``T`` masked passes (the reference it is tested against).
+            ([`predictors.belt_lstm.mc_dropout`][predictors.belt_lstm.mc_dropout], exact and several times
+            faster); ``"plain"`` runs all ``T`` masked passes (the reference it is tested against).
         precision: ``"float32"`` (the fast path, equal to torch's float32 network to ~1e-7) or
             ``"float64"`` (the reference path the tests compare with).
     """
 
-    #: The optional capabilities (:mod:`predictors.base`) every belt LSTM offers.
+    #: The optional capabilities ([`predictors.base`][predictors.base]) every belt LSTM offers.
     capabilities: ClassVar[frozenset[Capability]] = frozenset(
         {
             Capability.RANDOM_STREAM,
@@ -300,10 +301,11 @@ class LSTMPredictor:
         return dataclasses.replace(state, z=state.z + off, z_prev=state.z_prev + off)
 
     def coast(self, state: Any) -> tuple[Any, Gaussian]:
-        """:meth:`predict` then :meth:`update` with nothing seen, in one pass: every track is fed
-        its own prediction. Returns the new state and the prediction (the roll-out step of
-        :func:`agents.sorting.rollout.predict_crossings`; the same numbers as the two calls, without
-        their argument checks)."""
+        """[`predict`][predictors.belt_lstm.predictor.LSTMPredictor.predict] then
+        [`update`][predictors.belt_lstm.predictor.LSTMPredictor.update] with nothing seen, in one pass: every
+        track is fed its own prediction. Returns the new state and the prediction (the roll-out step of
+        [`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings]; the same numbers as
+        the two calls, without their argument checks)."""
         self._need_spec()
         prediction = self._prediction(state)
         z_in, z_cov = prediction.mean, prediction.cov
@@ -319,10 +321,12 @@ class LSTMPredictor:
     def rollout_crossings(
         self, state: Any, line: float, frame: int, dt: float, max_steps: int
     ) -> Crossings | None:
-        """The crossings of ``x = line`` that :func:`agents.sorting.rollout.predict_crossings` finds by
-        rolling ``state`` forward with :meth:`coast`, in one compiled pass over the tracks
-        (:func:`predictors.belt_lstm._kernels.lstm_crossings_kernel`, float64); ``None`` where that
-        pass does not apply (mc-lstm, other than 2-D measurements)."""
+        """The crossings of ``x = line`` that
+        [`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings] finds by rolling
+        ``state`` forward with [`coast`][predictors.belt_lstm.predictor.LSTMPredictor.coast], in one compiled
+        pass over the tracks
+        ([`predictors.belt_lstm._kernels.lstm_crossings_kernel`][predictors.belt_lstm._kernels.lstm_crossings_kernel],
+        float64); ``None`` where that pass does not apply (mc-lstm, other than 2-D measurements)."""
         if self.kind == "mc-lstm" or self.model.dim != 2 or type(state) is not LSTMTrackState:
             return None
         from predictors.belt_lstm._kernels import lstm_crossings_kernel
@@ -364,7 +368,7 @@ class LSTMPredictor:
         velocity_cov: NDArray[np.floating] | None = None,
     ) -> Any:
         """``concat([state.take(keep), start(z)])``, the survivors' fields written once
-        (:meth:`~predictors.base.BatchState.take_and_append`). A belt LSTM takes no velocity
+        ([`take_and_append`][predictors.BatchState.take_and_append]). A belt LSTM takes no velocity
         prior: ``velocity`` and ``velocity_cov`` are ignored."""
         del velocity, velocity_cov
         if not len(z):
@@ -396,7 +400,7 @@ class LSTMPredictor:
         self, x: FloatArray, state: tuple[FloatArray, ...], masks: FloatArray | None
     ) -> tuple[FloatArray, tuple[FloatArray, ...]]:
         """One network step; mc-lstm runs ``T`` masked rows per track. Its products run on
-        :func:`~track_envs.infra.blas_threads.frame_blas`'s BLAS threads (one by default)."""
+        [`frame_blas`][track_envs.infra.blas_threads.frame_blas]'s BLAS threads (one by default)."""
         if self.kind != "mc-lstm" or masks is None:
             with frame_blas():
                 out, new = self.net.step(x, state)

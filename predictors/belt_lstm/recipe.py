@@ -1,6 +1,7 @@
 """``track train lstm | nll-lstm | mc-lstm``: the belt LSTMs' training recipe (registered in
-:mod:`predictors`), on top of their training (:mod:`predictors.belt_lstm.training`) and model
-statistics (:mod:`predictors.belt_lstm.model_stats`)."""
+[`predictors`][predictors]), on top of their training
+([`predictors.belt_lstm.training`][predictors.belt_lstm.training]) and model statistics
+([`predictors.belt_lstm.model_stats`][predictors.belt_lstm.model_stats])."""
 
 from __future__ import annotations
 

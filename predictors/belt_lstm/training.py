@@ -1,7 +1,7 @@
 """Training the belt LSTMs (``lstm``, ``nll-lstm``, ``mc-lstm``) on true tracks.
 
 Losses (per step ``t`` of track ``i`` with ``T_i`` steps; ``e = ŷ_t − f_y(x_{t−1})`` in
-standardised units, see :class:`~predictors.belt_lstm.network.Features`), averaged first over a
+standardised units, see [`Features`][predictors.belt_lstm.features.Features]), averaged first over a
 track's ``T_i − 1`` predictions and then over tracks, as in Pollithy et al. (2020), eq. (7):
 
 * ``lstm``, ``mc-lstm``: ``‖e‖²`` (MSE). ``mc-lstm`` draws one variational dropout mask per track
@@ -13,8 +13,9 @@ positions afresh for every mini-batch (from the training loop's seeded generator
 sees what a tracker sees and cannot memorise one noisy copy; the validation tracks get one fixed
 noisy copy, so their loss is comparable between epochs.
 
-Training recipes (:mod:`predictors.training.recipes`): :func:`recipe` gives ``track train KIND``
-for each of the three kinds, :func:`train_command` runs one.
+Training recipes ([`predictors.training.recipes`][predictors.training.recipes]):
+[`recipe`][predictors.belt_lstm.recipe] gives ``track train KIND`` for each of the three kinds,
+`train_command` runs one.
 """
 
 from __future__ import annotations
@@ -204,5 +205,5 @@ def train_belt_model(
 
 
 def to_model_file(net: BeltLSTMNet, features: Features, **meta: Any) -> ModelFile:
-    """A :class:`~predictors.training.model_file.ModelFile` of a trained belt network."""
+    """A [`ModelFile`][predictors.training.ModelFile] of a trained belt network."""
     return trained_model_file(net, kind=net.kind, dim=net.dim, normalisation=features.to_dict(), **meta)

@@ -1,12 +1,16 @@
 """Particle displacement models: how a particle filter moves its particles one frame on.
 
-* :mod:`~predictors.displacement.base`: the protocols (:class:`DisplacementModel`, the core,
-  and :class:`CommonDisplacementModel`, the ``COMMON_DISPLACEMENT`` capability a model declares);
-* :mod:`~predictors.displacement.models`: :class:`Brownian` and :class:`ConstantVelocityDisplacement`;
-* :mod:`~predictors.displacement.registry`: :data:`DISPLACEMENT_MODELS` and
-  :func:`make_displacement_model` (the learned model, ``"lstm"``, lives in
-  :mod:`predictors.displacement_lstm`);
-* :mod:`~predictors.displacement.geometry`: the relative displacement (rotation, speed) maths.
+* [`base`][predictors.displacement.base]: the protocols
+([`DisplacementModel`][predictors.displacement.base.DisplacementModel], the core,
+  and [`CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel], the
+  ``COMMON_DISPLACEMENT`` capability a model declares);
+* [`models`][predictors.displacement.models]: [`Brownian`][predictors.displacement.models.Brownian] and
+[`ConstantVelocityDisplacement`][predictors.displacement.models.ConstantVelocityDisplacement];
+* [`registry`][predictors.displacement.registry]:
+[`DISPLACEMENT_MODELS`][predictors.displacement.DISPLACEMENT_MODELS] and
+  [`make_displacement_model`][predictors.displacement.registry.make_displacement_model] (the learned model,
+  ``"lstm"``, lives in [`predictors.displacement_lstm`][predictors.displacement_lstm]);
+* [`geometry`][predictors.displacement.geometry]: the relative displacement (rotation, speed) maths.
 """
 
 from predictors.displacement.base import (

@@ -1,19 +1,22 @@
 """The particle displacement model: how a particle filter moves its particles one frame on.
 
 A displacement model is the prediction step of a bootstrap particle filter that tracks ``T``
-targets with ``N`` particles each (:class:`agents.particle.agent.BatchParticleFilter`). It differs
-from a :class:`predictors.base.Predictor` in what it carries: no Gaussian per track, only a
-proposal ``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})`` that moves every particle (T, N, 2) by a sampled
-displacement, given the history of the filter's weighted-mean estimates ``x*`` (T, t, 2). The
-filter owns the particles and their weights; the weights come from the measurement likelihood,
-never from the model.
+targets with ``N`` particles each
+([`agents.particle.agent.BatchParticleFilter`][agents.particle.agent.BatchParticleFilter]). It differs from a
+[`predictors.base.Predictor`][predictors.Predictor] in what it carries: no Gaussian per track, only a proposal
+``x⁽ⁱ⁾ ← propose(x⁽ⁱ⁾, x*_{0:t−1})`` that moves every particle (T, N, 2) by a sampled displacement, given the
+history of the filter's weighted-mean estimates ``x*`` (T, t, 2). The filter owns the particles and their
+weights; the weights come from the measurement likelihood, never from the model.
 
 The core and one optional capability, declared as every plug-in's are
-(:mod:`track_envs.infra.declared`: the class attribute ``capabilities``, asked with
-:func:`displacement_capability`; a model that declares nothing runs everywhere on its core):
+([`track_envs.infra.declared`][track_envs.infra.declared]: the class attribute ``capabilities``, asked with
+[`displacement_capability`][predictors.displacement.base.displacement_capability]; a model that declares
+nothing runs everywhere on its core):
 
-* :class:`DisplacementModel` (the core): ``propose`` only; the filter runs its numpy path.
-* ``COMMON_DISPLACEMENT`` (:class:`CommonDisplacementModel`): one common displacement per target
+* [`DisplacementModel`][predictors.displacement.base.DisplacementModel] (the core): ``propose`` only; the
+filter runs its numpy path.
+* ``COMMON_DISPLACEMENT`` ([`CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel]):
+one common displacement per target
   plus white noise, ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``; the filter
   runs its compiled path and calls ``displacement`` once per frame. Brownian, constant velocity,
   the LSTM of Jung et al.
@@ -48,9 +51,10 @@ class CommonDisplacementModel(DisplacementModel, Protocol):
     """A displacement model that moves every particle of a target by one common displacement plus
     white noise: ``propose(x, h, rng) = x + displacement(h)[:, None, :] + std·ε``, ``ε ~ N(0, I_2)``.
 
-    The filter runs such models on its compiled path (:mod:`agents.particle._kernels`) and calls
-    :meth:`displacement` exactly once per frame, before the update, with the history of all ``T``
-    targets; after a (re)start a target's history is NaN except its newest estimate.
+    The filter runs such models on its compiled path ([`agents.particle._kernels`][agents.particle._kernels])
+    and calls [`displacement`][predictors.displacement.base.CommonDisplacementModel.displacement] exactly once
+    per frame, before the update, with the history of all ``T`` targets; after a (re)start a target's history
+    is NaN except its newest estimate.
     """
 
     #: ``σ_p·Δ``, the white-noise std per axis: a scalar or one per target (T,).
@@ -69,7 +73,7 @@ class DisplacementCapability(StrEnum):
     COMMON_DISPLACEMENT = "common-displacement"
 
 
-#: The capabilities of displacement models (:mod:`track_envs.infra.declared`).
+#: The capabilities of displacement models ([`track_envs.infra.declared`][track_envs.infra.declared]).
 DISPLACEMENT_DECLARATIONS: Declarations[DisplacementCapability] = Declarations(
     DisplacementCapability,
     {DisplacementCapability.COMMON_DISPLACEMENT: CommonDisplacementModel},

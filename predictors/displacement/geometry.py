@@ -14,12 +14,14 @@ undefined. The choice made here: such a step has ``r_t = 0`` and leaves the *hea
 of the last non-zero step — unchanged; the next non-zero step turns relative to that kept heading,
 ``r_t = wrap(c_t − c_last)``. Before the first non-zero step there is no heading, and the first
 non-zero step gets ``r = 0`` (its course becomes the heading). With this choice the map is
-invertible given ``x_0`` and that first course (:func:`positions_from_displacements`), also across
+invertible given ``x_0`` and that first course
+([`positions_from_displacements`][predictors.displacement.geometry.positions_from_displacements]), also across
 stops; wherever ``v_{t−1} ≠ 0`` it is the paper's ``r_t`` exactly.
 
-The inverse of one step (:func:`apply_displacement`) turns a heading by ``r̂`` and moves a position
-``ŝ`` along the new heading, ``c' = c + r̂``, ``x' = x + ŝ (cos c', sin c')`` — the prediction step of
-the LSTM particle filter. Every function is batched over leading axes (targets).
+The inverse of one step ([`apply_displacement`][predictors.displacement.geometry.apply_displacement]) turns a
+heading by ``r̂`` and moves a position ``ŝ`` along the new heading, ``c' = c + r̂``,
+``x' = x + ŝ (cos c', sin c')`` — the prediction step of the LSTM particle filter. Every function is batched
+over leading axes (targets).
 """
 
 from __future__ import annotations
@@ -95,7 +97,8 @@ def displacements_of(positions: ArrayLike) -> Displacements:
 def observe_step(
     step: ArrayLike, heading: ArrayLike, has_heading: ArrayLike
 ) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
-    """Streaming form of :func:`displacements_of`: the ``(r, s)`` of one new step per target.
+    """Streaming form of [`displacements_of`][predictors.displacement.geometry.displacements_of]: the
+    ``(r, s)`` of one new step per target.
 
     Args:
         step: ``v_t`` (T, 2), finite.
@@ -104,7 +107,7 @@ def observe_step(
 
     Returns:
         ``(r, s, heading', has_heading')``: ``r = wrap(c_t − heading)`` where ``v_t ≠ 0`` and a
-        heading exists, else 0; the heading becomes ``c_t`` where ``v_t ≠ 0`` and is kept otherwise.
+            heading exists, else 0; the heading becomes ``c_t`` where ``v_t ≠ 0`` and is kept otherwise.
     """
     v = np.asarray(step, dtype=np.float64)
     h = np.asarray(heading, dtype=np.float64)
@@ -141,9 +144,10 @@ def positions_from_displacements(
 ) -> FloatArray:
     """The trajectories (..., n, 2) of ``(r, s)`` (..., n) from ``x_0 = start`` (..., 2).
 
-    ``first_heading`` (...,) is the heading before step 1 (:attr:`Displacements.first_heading`), so
-    ``positions_from_displacements(*displacements_of(x), x[..., 0, :]...)`` returns ``x`` to float
-    rounding: ``c_t = c_first + Σ_{k≤t} r_k``, ``x_t = x_0 + Σ_{k≤t} s_k (cos c_k, sin c_k)``.
+    ``first_heading`` (...,) is the heading before step 1
+    ([`Displacements.first_heading`][predictors.displacement.geometry.Displacements.first_heading]), so
+    ``positions_from_displacements(*displacements_of(x), x[..., 0, :]...)`` returns ``x`` to float rounding:
+    ``c_t = c_first + Σ_{k≤t} r_k``, ``x_t = x_0 + Σ_{k≤t} s_k (cos c_k, sin c_k)``.
     """
     r = np.asarray(rotation, dtype=np.float64)
     s = np.asarray(speed, dtype=np.float64)

@@ -1,11 +1,12 @@
 """The hand-made particle displacement models: Brownian motion and constant velocity on the estimates.
 
 Both declare ``COMMON_DISPLACEMENT``
-(:class:`~predictors.displacement.base.CommonDisplacementModel`): every particle of a target moves
-by one common displacement ``d_t`` (zero for Brownian motion, the last estimated displacement for
+([`CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel]): every particle of a
+target moves by one common displacement ``d_t`` (zero for Brownian motion, the last estimated displacement for
 constant velocity) plus white noise ``σ_p·Δ·ε``, ``ε ~ N(0, I_2)``, with ``σ_p`` in multiples of the
 step length ``Δ`` (Jung, Schlangen, Charlish, FUSION 2019, Sec. II). The learned model of the same
-paper is :class:`predictors.displacement_lstm.model.LSTMDisplacement`.
+paper is
+[`predictors.displacement_lstm.model.LSTMDisplacement`][predictors.displacement_lstm.model.LSTMDisplacement].
 """
 
 from __future__ import annotations

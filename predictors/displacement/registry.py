@@ -1,11 +1,13 @@
 """The registry of particle displacement models by name, and the factory the ``pf`` agent uses.
 
 ``make_agent("pf", model=NAME)`` and the experiments of Jung et al. (2019)
-(:mod:`track_apps.reproductions.jung2019`) build their displacement model with
-:func:`make_displacement_model`: ``"brownian"`` (:class:`~predictors.displacement.models.Brownian`),
-``"cv"`` (:class:`~predictors.displacement.models.ConstantVelocityDisplacement`) or ``"lstm"``
-(:class:`predictors.displacement_lstm.model.LSTMDisplacement`, the one learned model: it takes a
-model file). Every factory takes ``(sigma_p, step)``; a learned one also ``weights``.
+([`track_apps.reproductions.jung2019`][track_apps.reproductions.jung2019]) build their displacement model with
+[`make_displacement_model`][predictors.displacement.registry.make_displacement_model]: ``"brownian"``
+([`Brownian`][predictors.displacement.models.Brownian]), ``"cv"``
+([`ConstantVelocityDisplacement`][predictors.displacement.models.ConstantVelocityDisplacement]) or ``"lstm"``
+([`predictors.displacement_lstm.model.LSTMDisplacement`][predictors.displacement_lstm.model.LSTMDisplacement],
+the one learned model: it takes a model file). Every factory takes ``(sigma_p, step)``; a learned one also
+``weights``.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ AGENTS = ("pf",)
 
 
 def lstm(sigma_p: ArrayLike, step: float, weights: str | os.PathLike[str] | Any = None) -> Any:
-    """The learned displacement model of Jung et al. (2019) (:mod:`predictors.displacement_lstm.model`)."""
+    """The learned displacement model of Jung et al. (2019)
+    ([`predictors.displacement_lstm.model`][predictors.displacement_lstm.model])."""
     from predictors.displacement_lstm.model import LSTMDisplacement
 
     return LSTMDisplacement(weights, sigma_p, step)
@@ -47,7 +50,8 @@ def make_displacement_model(
     """A model by name (``"brownian"``, ``"cv"``, ``"lstm"``) or the object itself.
 
     Args:
-        model: A name of :data:`DISPLACEMENT_MODELS` or a :class:`DisplacementModel`.
+        model: A name of [`DISPLACEMENT_MODELS`][predictors.displacement.registry.DISPLACEMENT_MODELS] or a
+            [`DisplacementModel`][predictors.displacement.base.DisplacementModel].
         sigma_p: Process noise in multiples of ``step`` (named models), scalar or one per target.
         step: ``Δ`` in trajectory units (named models).
         weights: The model file of a learned model (``"lstm"``; ``None``: its shipped weights).

@@ -2,12 +2,13 @@
 
 For each target ``k`` with its newest two estimates ``x*_{t−1}, x*_{t−2}`` (NaN before its filter
 (re)started), in one loop: the ``(r, s)`` of the last estimated step
-(:func:`predictors.displacement.geometry.observe_step`, the heading kept through zero-length steps), one
-LSTM step (:func:`predictors.lstm_cell.cell_step_rows`), the head, and
-the common displacement ``ŝ (cos(c + r̂), sin(c + r̂))``
-(:func:`predictors.displacement.geometry.apply_displacement`).
-A (re)started target's state is zeroed first. It equals the numpy composition of those functions
-(tested) at a fraction of its ~70 small numpy calls per frame.
+([`predictors.displacement.geometry.observe_step`][predictors.displacement.geometry.observe_step], the heading
+kept through zero-length steps), one LSTM step
+([`predictors.lstm_cell.cell_step_rows`][predictors.lstm_cell.cell_step_rows]), the head, and the common
+displacement ``ŝ (cos(c + r̂), sin(c + r̂))``
+([`predictors.displacement.geometry.apply_displacement`][predictors.displacement.geometry.apply_displacement]).
+A (re)started target's state is zeroed first. It equals the numpy composition of those functions (tested) at a
+fraction of its ~70 small numpy calls per frame.
 """
 
 from __future__ import annotations

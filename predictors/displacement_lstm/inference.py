@@ -1,15 +1,16 @@
 """The displacement LSTM in numpy (no torch): one step batched over targets, from a model file.
 
 One step of the LSTM layer (torch's gate order ``i, f, g, o``;
-:class:`~predictors.lstm_cell.LSTMCellWeights`) and the head, for ``T`` targets at once with
+[`LSTMCellWeights`][predictors.LSTMCellWeights]) and the head, for ``T`` targets at once with
 state ``h, c`` (T, H):
 
     a = x W_ihᵀ + h W_hhᵀ + b,   c' = σ(a_f) c + σ(a_i) tanh(a_g),   h' = σ(a_o) tanh(c'),
     (r̂, ŝ) = (r̄, s̄) ⊙ (h' W_headᵀ + b_head),   x = (r / r̄, s / s̄).
 
-It equals :class:`~predictors.displacement_lstm.network.DisplacementLSTMNet` to 1e-6 (tested). The
-scales ``r̄, s̄`` (:class:`DisplacementFeatures`) come from the model file's ``normalisation``;
-``speed_scale`` may be overridden to run a model in another unit system.
+It equals [`DisplacementLSTMNet`][predictors.displacement_lstm.network.DisplacementLSTMNet] to 1e-6 (tested).
+The scales ``r̄, s̄`` ([`DisplacementFeatures`][predictors.displacement_lstm.inference.DisplacementFeatures])
+come from the model file's ``normalisation``; ``speed_scale`` may be overridden to run a model in another unit
+system.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ from predictors.lstm_cell import LSTMCellWeights
 from predictors.training.model_file import ModelFile, ModelFileError, load_model, require_shapes
 
 FloatArray = NDArray[np.float64]
-#: The model kind of the displacement LSTM (also :data:`predictors.displacement_lstm.network.KIND`).
+#: The model kind of the displacement LSTM (also
+#: [`predictors.displacement_lstm.network.KIND`][predictors.displacement_lstm.network.KIND]).
 KIND = "displacement-lstm"
 #: Name of the shipped weights, trained on the noiseless sine of Jung et al. (2019), eq. (5).
 SHIPPED = "displacement-lstm-sine"
@@ -79,7 +81,8 @@ class DisplacementFeatures:
 
     @classmethod
     def from_dict(cls, d: Any, where: Any = "<model>") -> DisplacementFeatures:
-        """Inverse of :meth:`to_dict` (a missing or non-positive scale raises :class:`ModelFileError`)."""
+        """Inverse of [`to_dict`][predictors.displacement_lstm.inference.DisplacementFeatures.to_dict] (a
+        missing or non-positive scale raises [`ModelFileError`][predictors.training.ModelFileError])."""
         try:
             rs, ss = float(d["rotation_scale"]), float(d["speed_scale"])
         except (KeyError, TypeError, ValueError):
@@ -117,7 +120,8 @@ class DisplacementLSTM:
 
     @classmethod
     def from_model_file(cls, model: ModelFile) -> DisplacementLSTM:
-        """From a loaded model file of kind ``displacement-lstm`` (else :class:`ModelFileError`)."""
+        """From a loaded model file of kind ``displacement-lstm`` (else
+        [`ModelFileError`][predictors.training.ModelFileError])."""
         where = model.path or f"<{model.kind} model>"
         if model.kind != KIND:
             raise ModelFileError(f"{where} holds a {model.kind!r} model; expected {KIND!r}")
@@ -132,8 +136,8 @@ class DisplacementLSTM:
 
     @classmethod
     def load(cls, weights: str | os.PathLike[str] | ModelFile | None = None) -> DisplacementLSTM:
-        """From a model file path (suffix optional), a loaded :class:`ModelFile`, or ``None`` for the
-        shipped sine-trained weights.
+        """From a model file path (suffix optional), a loaded [`ModelFile`][predictors.training.ModelFile], or
+        ``None`` for the shipped sine-trained weights.
 
         Raises:
             ModelFileError: a missing or corrupt file, another kind or dimension, wrong shapes.
@@ -193,9 +197,10 @@ class DisplacementLSTM:
 
         From the newest two estimates ``newest, previous`` (T, 2) (NaN where unknown): the
         ``(r, s)`` of the last step, one LSTM step, and ``ŝ (cos(c + r̂), sin(c + r̂))`` applied to
-        the heading ``c`` (:func:`predictors.displacement_lstm._kernels.displacement_frame`).
-        ``state = (h, c, heading, has_heading)`` ((T, H), (T, H), (T,), (T,)) is updated in place;
-        a target whose ``previous`` is NaN (re)starts from the zero state.
+        the heading ``c``
+        ([`predictors.displacement_lstm._kernels.displacement_frame`][predictors.displacement_lstm._kernels.displacement_frame]).
+        ``state = (h, c, heading, has_heading)`` ((T, H), (T, H), (T,), (T,)) is updated in place; a target
+        whose ``previous`` is NaN (re)starts from the zero state.
         """
         from predictors.displacement_lstm._kernels import displacement_frame
 

@@ -1,11 +1,13 @@
 """The LSTM displacement model of the LSTM particle filter (Jung et al. 2019, Sec. II-B, Fig. 2).
 
 Jung, Schlangen and Charlish, "Sequential Monte Carlo Filtering with Long Short-Term Memory
-Prediction" (FUSION 2019): a displacement LSTM (:mod:`predictors.displacement_lstm.inference`) runs on
-the trajectory of the filter's own weighted-mean estimates ``x*_{0:t−1}``; each frame it reads the
-``(r_{t−1}, s_{t−1})`` of the last two estimates (:func:`predictors.displacement.geometry.observe_step`) and
-predicts ``(r̂_t, ŝ_t)``, which turns the heading ``c`` of the last estimated (non-zero)
-displacement and is applied equally to every particle of the target, plus white noise:
+Prediction" (FUSION 2019): a displacement LSTM
+([`predictors.displacement_lstm.inference`][predictors.displacement_lstm.inference]) runs on the trajectory of
+the filter's own weighted-mean estimates ``x*_{0:t−1}``; each frame it reads the ``(r_{t−1}, s_{t−1})`` of the
+last two estimates
+([`predictors.displacement.geometry.observe_step`][predictors.displacement.geometry.observe_step]) and
+predicts ``(r̂_t, ŝ_t)``, which turns the heading ``c`` of the last estimated (non-zero) displacement and is
+applied equally to every particle of the target, plus white noise:
 
     d_t = ŝ_t (cos(c + r̂_t), sin(c + r̂_t)),    x⁽ⁱ⁾ ← x⁽ⁱ⁾ + d_t + σ_p Δ ε⁽ⁱ⁾.
 
@@ -13,7 +15,7 @@ The hidden state ``(h, c)`` (T, 25) is carried per target, so a frame costs one 
 target whatever the particle count ``N`` (the paper's O(N + H)). A target's state is reset when
 its history says its filter (re)started (the newest estimate is its only finite one); until it has
 a heading (two distinct estimates) its displacement is zero. The step's products run with BLAS on
-one thread (:func:`track_envs.infra.blas_threads.frame_blas`).
+one thread ([`track_envs.infra.blas_threads.frame_blas`][track_envs.infra.blas_threads.frame_blas]).
 """
 
 from __future__ import annotations
@@ -37,11 +39,11 @@ BACKENDS = ("numba", "numpy")
 
 class LSTMDisplacement:
     """The learned common-displacement model ``"lstm"`` of the particle filter (module docstring), a
-    :class:`~predictors.displacement.base.CommonDisplacementModel`.
+    [`CommonDisplacementModel`][predictors.displacement.base.CommonDisplacementModel].
 
     Args:
         weights: A ``displacement-lstm`` model file (path with or without suffix, or a loaded
-            :class:`~predictors.training.model_file.ModelFile`); ``None`` takes the shipped weights trained
+            [`ModelFile`][predictors.training.ModelFile]); ``None`` takes the shipped weights trained
             on the noiseless sine (``predictors/weights/displacement-lstm-sine``).
         sigma_p: White-noise std in multiples of ``step``, scalar or one per target (T,).
         step: ``Δ`` in trajectory units (default 0.2).
@@ -49,9 +51,11 @@ class LSTMDisplacement:
             file's, rescaled by ``step / Δ_model`` where the file records the step ``Δ_model`` of
             its training data (so the sine model follows a sine drawn with another ``Δ`` or unit).
         backend: ``"numba"`` (one compiled pass over the targets,
-            :meth:`predictors.displacement_lstm.inference.DisplacementLSTM.frame`) or ``"numpy"`` (the
-            composition of :mod:`predictors.displacement.geometry` and
-            :mod:`predictors.displacement_lstm.inference` it is tested equal to).
+            [`predictors.displacement_lstm.inference.DisplacementLSTM.frame`][predictors.displacement_lstm.inference.DisplacementLSTM.frame])
+            or ``"numpy"`` (the composition of
+            [`predictors.displacement.geometry`][predictors.displacement.geometry] and
+            [`predictors.displacement_lstm.inference`][predictors.displacement_lstm.inference] it is tested
+            equal to).
 
     Raises:
         ModelFileError: a missing or corrupt model file, or one of another kind.

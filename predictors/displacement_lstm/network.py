@@ -2,16 +2,20 @@
 
 Jung, Schlangen and Charlish, "Sequential Monte Carlo Filtering with Long Short-Term Memory
 Prediction" (FUSION 2019), Fig. 1 and Sec. IV-A: an LSTM of ``H = 25`` hidden units reads the
-previous rotation and speed ``(r_{t−1}, s_{t−1})`` of a trajectory (:mod:`predictors.displacement.geometry`)
-and a linear head predicts the current ``(r̂_t, ŝ_t)``; during training the *input* activations are
-dropped independently with probability 0.25. Both inputs and outputs are scaled, ``(r / r̄, s / s̄)``
-(:class:`~predictors.displacement_lstm.inference.DisplacementFeatures`): ``s̄`` is the mean speed of the
-training data, so a model learnt in one unit system runs in another by passing that system's speed
-scale.
+previous rotation and speed ``(r_{t−1}, s_{t−1})`` of a trajectory
+([`predictors.displacement.geometry`][predictors.displacement.geometry]) and a linear head predicts the
+current ``(r̂_t, ŝ_t)``; during training the *input* activations are dropped independently with probability
+0.25. Both inputs and outputs are scaled, ``(r / r̄, s / s̄)``
+([`DisplacementFeatures`][predictors.displacement_lstm.inference.DisplacementFeatures]): ``s̄`` is the mean
+speed of the training data, so a model learnt in one unit system runs in another by passing that system's
+speed scale.
 
-The network runs whole sequences for training (:meth:`DisplacementLSTMNet.forward`, from the zero
-state) and one step at a time with an explicit ``(h, c)`` (:meth:`DisplacementLSTMNet.step`);
-tracking runs the same weights in numpy (:mod:`predictors.displacement_lstm.inference`).
+The network runs whole sequences for training
+([`DisplacementLSTMNet.forward`][predictors.displacement_lstm.network.DisplacementLSTMNet.forward], from the
+zero state) and one step at a time with an explicit ``(h, c)``
+([`DisplacementLSTMNet.step`][predictors.displacement_lstm.network.DisplacementLSTMNet.step]); tracking runs
+the same weights in numpy
+([`predictors.displacement_lstm.inference`][predictors.displacement_lstm.inference]).
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ class DisplacementLSTMNet(nn.Module):
     Args:
         hidden: Hidden units ``H`` (default 25).
         dropout: Input dropout rate used in training (default 0.25); the network applies the masks
-            it is given (:meth:`draw_masks`), so the training loop's seeded generator draws them.
+            it is given ([`draw_masks`][predictors.displacement_lstm.network.DisplacementLSTMNet.draw_masks]),
+            so the training loop's seeded generator draws them.
     """
 
     def __init__(self, hidden: int = HIDDEN, dropout: float = DROPOUT):

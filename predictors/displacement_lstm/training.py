@@ -1,13 +1,14 @@
 """Training the displacement LSTM of the LSTM particle filter (Jung et al. 2019) on trajectories.
 
-Data: any :class:`~predictors.training.data.TrackSet` — the noiseless sine of eq. (5)
-(:func:`predictors.training.data.sine_tracks`), a point env's truth or a user's track file —
-optionally cut into overlapping windows (:func:`predictors.training.data.window_tracks`), so one
-long curve gives many training sequences that start at every phase (a filter may (re)start
-anywhere on it). Each track ``x_0 … x_n`` becomes
-``(r_t, s_t)`` (:func:`predictors.displacement.geometry.displacements_of`, ``r_0 = s_0 = 0``); the network
-reads ``(r_{t−1}, s_{t−1})`` and predicts ``(r_t, s_t)``, ``t = 1 … n``, from the zero state at the
-track's first frame, as a filter does from its first estimate.
+Data: any [`TrackSet`][predictors.training.TrackSet] — the noiseless sine of eq. (5)
+([`predictors.training.data.sine_tracks`][predictors.training.data.sine_tracks]), a point env's truth or a
+user's track file — optionally cut into overlapping windows
+([`predictors.training.data.window_tracks`][predictors.training.data.window_tracks]), so one long curve gives
+many training sequences that start at every phase (a filter may (re)start anywhere on it). Each track
+``x_0 … x_n`` becomes ``(r_t, s_t)``
+([`predictors.displacement.geometry.displacements_of`][predictors.displacement.geometry.displacements_of],
+``r_0 = s_0 = 0``); the network reads ``(r_{t−1}, s_{t−1})`` and predicts ``(r_t, s_t)``, ``t = 1 … n``, from
+the zero state at the track's first frame, as a filter does from its first estimate.
 
 Loss: the squared error of the scaled outputs, ``(Δr / r̄)² + (Δs / s̄)²``, averaged over a track's
 steps and then over tracks; the inputs are dropped with probability ``dropout`` (0.25) during
@@ -16,8 +17,9 @@ Metrics (test tracks, numpy inference): RMS rotation and speed errors and the me
 position error ``‖x̂_t − x_t‖`` with ``x̂_t`` the predicted step applied to the true ``x_{t−1}`` and
 its heading.
 
-Training recipe (:mod:`predictors.training.recipes`): :func:`recipe` gives ``track train
-displacement-lstm``, :func:`train_command` runs it.
+Training recipe ([`predictors.training.recipes`][predictors.training.recipes]):
+[`recipe`][predictors.displacement_lstm.training.recipe] gives ``track train displacement-lstm``,
+[`train_command`][predictors.displacement_lstm.training.train_command] runs it.
 """
 
 from __future__ import annotations
@@ -86,7 +88,8 @@ def train_displacement_model(
     step: float | None = None,
     progress: bool = True,
 ) -> tuple[DisplacementLSTMNet, DisplacementFeatures, History]:
-    """Train a displacement LSTM on ``split`` (train / validation tracks) with :func:`fit`.
+    """Train a displacement LSTM on ``split`` (train / validation tracks) with
+    [`fit`][predictors.training.fit].
 
     Args:
         step: The data's step ``Δ`` where it has one (recorded in the normalisation).
@@ -111,7 +114,7 @@ def train_displacement_model(
 
 
 def to_model_file(net: DisplacementLSTMNet, features: DisplacementFeatures, **meta: Any) -> ModelFile:
-    """A :class:`~predictors.training.model_file.ModelFile` of a trained displacement network."""
+    """A [`ModelFile`][predictors.training.ModelFile] of a trained displacement network."""
     return trained_model_file(net, kind=KIND, dim=2, normalisation=features.to_dict(), **meta)
 
 

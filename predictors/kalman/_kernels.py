@@ -1,8 +1,8 @@
 """Compiled (numba) kernels of the batched linear Kalman filter: one loop over tracks per call.
 
-Each kernel runs the equations of :mod:`predictors.kalman.predictor` track by track with explicit loops over
-the small matrices (``S`` state entries, ``D`` measured ones), so a frame of ``n`` tracks costs
-one call instead of a few dozen numpy operations on ``(n, S, S)`` stacks.
+Each kernel runs the equations of [`predictors.kalman.predictor`][predictors.kalman.predictor] track by track
+with explicit loops over the small matrices (``S`` state entries, ``D`` measured ones), so a frame of ``n``
+tracks costs one call instead of a few dozen numpy operations on ``(n, S, S)`` stacks.
 
 * Entries of ``F`` and ``H`` that are exactly zero are skipped (the kinematic ``F = A ⊗ I_D`` and
   ``H = [I_D, 0]`` are mostly zeros); leaving out a zero term changes no sum of finite numbers.
@@ -13,21 +13,29 @@ one call instead of a few dozen numpy operations on ``(n, S, S)`` stacks.
   loops the compiler unrolls (2–3x faster); every other shape runs the same code with run-time
   sizes.
 
-Inputs are float64 C-contiguous arrays (the callers in :mod:`predictors.kalman.predictor` make sure of it);
-the kernels allocate their outputs and never write to their inputs.
+Inputs are float64 C-contiguous arrays (the callers in
+[`predictors.kalman.predictor`][predictors.kalman.predictor] make sure of it); the kernels allocate their
+outputs and never write to their inputs.
 
 Kernels and their results (``n`` tracks, ``S`` state entries, ``D`` measured ones):
 
-* :func:`project_tracks` → ``(z_mean (n, D), z_cov (n, D, D))``: ``(H x, H P Hᵀ + R)``.
-* :func:`predict_tracks` → ``(mean (n, S), cov (n, S, S))``: ``(F x, F P Fᵀ + Q)``.
-* :func:`predict_and_project_tracks` → :class:`PredictedTracks` ``(mean, cov, z_mean, z_cov)``:
+* [`project_tracks`][predictors.kalman._kernels.project_tracks] → ``(z_mean (n, D), z_cov (n, D, D))``:
+``(H x, H P Hᵀ + R)``.
+* [`predict_tracks`][predictors.kalman._kernels.predict_tracks] → ``(mean (n, S), cov (n, S, S))``:
+``(F x, F P Fᵀ + Q)``.
+* [`predict_and_project_tracks`][predictors.kalman._kernels.predict_and_project_tracks] →
+[`PredictedTracks`][predictors.kalman._kernels.PredictedTracks] ``(mean, cov, z_mean, z_cov)``:
   both of the above in one call.
-* :func:`update_tracks` → :class:`UpdatedTracks` ``(mean, cov, status, row)``: the Joseph-form
+* [`update_tracks`][predictors.kalman._kernels.update_tracks] →
+[`UpdatedTracks`][predictors.kalman._kernels.UpdatedTracks] ``(mean, cov, status, row)``: the Joseph-form
   update of the seen tracks.
-* :func:`mixture_update_tracks` → :class:`UpdatedTracks`: the PDA update by each track's
+* [`mixture_update_tracks`][predictors.kalman._kernels.mixture_update_tracks] →
+[`UpdatedTracks`][predictors.kalman._kernels.UpdatedTracks]: the PDA update by each track's
   measurement mixture.
-* :func:`start_tracks` → ``(mean (n, S), cov (n, S, S))``: the states of new tracks.
-* :func:`keep_and_start_tracks` → :class:`KeptAndStarted` ``(mean, cov, status)``: the survivors
+* [`start_tracks`][predictors.kalman._kernels.start_tracks] → ``(mean (n, S), cov (n, S, S))``: the states of
+new tracks.
+* [`keep_and_start_tracks`][predictors.kalman._kernels.keep_and_start_tracks] →
+[`KeptAndStarted`][predictors.kalman._kernels.KeptAndStarted] ``(mean, cov, status)``: the survivors
   followed by new tracks.
 """
 
@@ -42,18 +50,19 @@ from predictors.base import Crossings
 from track_envs.infra.compiled import njit
 from track_envs.values.types import FloatArray
 
-#: Status codes of :func:`update_tracks`.
+#: Status codes of [`update_tracks`][predictors.kalman._kernels.update_tracks].
 UPDATE_OK = 0
 UPDATE_NONFINITE_Z = 1
 UPDATE_NOT_PD = 2
-#: Status codes of :func:`keep_and_start_tracks`.
+#: Status codes of [`keep_and_start_tracks`][predictors.kalman._kernels.keep_and_start_tracks].
 START_OK = 0
 START_BAD_KEEP = 1
 START_NONFINITE_VELOCITY = 2
 
 
 class PredictedTracks(NamedTuple):
-    """Result of :func:`predict_and_project_tracks`: the predicted states and measurements.
+    """Result of [`predict_and_project_tracks`][predictors.kalman._kernels.predict_and_project_tracks]: the
+    predicted states and measurements.
 
     Attributes:
         mean: (n, S) predicted state means ``x⁻ = F x``.
@@ -69,13 +78,14 @@ class PredictedTracks(NamedTuple):
 
 
 class UpdatedTracks(NamedTuple):
-    """Result of :func:`update_tracks`.
+    """Result of [`update_tracks`][predictors.kalman._kernels.update_tracks].
 
     Attributes:
         mean: (n, S) state means ``x⁺`` (unchanged for the tracks not seen).
         cov: (n, S, S) state covariances ``P⁺``, exactly symmetric.
-        status: :data:`UPDATE_OK`, :data:`UPDATE_NONFINITE_Z` or :data:`UPDATE_NOT_PD` (the
-            arrays are then not meaningful).
+        status: [`UPDATE_OK`][predictors.kalman._kernels.UPDATE_OK],
+            [`UPDATE_NONFINITE_Z`][predictors.kalman._kernels.UPDATE_NONFINITE_Z] or
+            [`UPDATE_NOT_PD`][predictors.kalman._kernels.UPDATE_NOT_PD] (the arrays are then not meaningful).
         row: −1, or the first offending row (a seen row of ``z`` holding NaN or inf; a seen
             track whose ``S`` is not positive definite).
     """
@@ -87,13 +97,16 @@ class UpdatedTracks(NamedTuple):
 
 
 class KeptAndStarted(NamedTuple):
-    """Result of :func:`keep_and_start_tracks`: the survivors, in order, then the new tracks.
+    """Result of [`keep_and_start_tracks`][predictors.kalman._kernels.keep_and_start_tracks]: the survivors,
+    in order, then the new tracks.
 
     Attributes:
         mean: (n_keep + k, S) state means.
         cov: (n_keep + k, S, S) state covariances.
-        status: :data:`START_OK`, :data:`START_BAD_KEEP` or :data:`START_NONFINITE_VELOCITY`
-            (the arrays are then not meaningful).
+        status: [`START_OK`][predictors.kalman._kernels.START_OK],
+            [`START_BAD_KEEP`][predictors.kalman._kernels.START_BAD_KEEP] or
+            [`START_NONFINITE_VELOCITY`][predictors.kalman._kernels.START_NONFINITE_VELOCITY] (the arrays are
+            then not meaningful).
     """
 
     mean: FloatArray
@@ -139,7 +152,8 @@ def _update_rows(
     mean: FloatArray, cov: FloatArray, z: FloatArray, seen: NDArray[np.bool_], H: FloatArray,
     R: FloatArray, mean_u: FloatArray, cov_u: FloatArray, S: int, D: int,
 ) -> int:  # fmt: skip
-    """Joseph-form update of the seen tracks into ``mean_u``, ``cov_u`` (see :func:`update_tracks`).
+    """Joseph-form update of the seen tracks into ``mean_u``, ``cov_u`` (see
+    [`update_tracks`][predictors.kalman._kernels.update_tracks]).
 
     Returns:
         -1, or the first seen track whose innovation covariance is not positive definite.
@@ -283,10 +297,12 @@ def predict_tracks(
 def predict_and_project_tracks(
     mean: FloatArray, cov: FloatArray, F: FloatArray, Q: FloatArray, H: FloatArray, R: FloatArray
 ) -> PredictedTracks:
-    """:func:`predict_tracks`, then :func:`project_tracks` of the prediction, in one call.
+    """[`predict_tracks`][predictors.kalman._kernels.predict_tracks], then
+    [`project_tracks`][predictors.kalman._kernels.project_tracks] of the prediction, in one call.
 
     Returns:
-        :class:`PredictedTracks` ``(x⁻ (n, S), P⁻ (n, S, S), H x⁻ (n, D), H P⁻ Hᵀ + R (n, D, D))``.
+        [`PredictedTracks`][predictors.kalman._kernels.PredictedTracks]
+            ``(x⁻ (n, S), P⁻ (n, S, S), H x⁻ (n, D), H P⁻ Hᵀ + R (n, D, D))``.
     """
     mean_p, cov_p = predict_tracks(mean, cov, F, Q)
     z_mean, z_cov = project_tracks(mean_p, cov_p, H, R)
@@ -318,10 +334,13 @@ def update_tracks(
         R: (D, D), symmetric.
 
     Returns:
-        :class:`UpdatedTracks` ``(x⁺ (n, S), P⁺ (n, S, S), status, row)``: status
-        :data:`UPDATE_OK` (row −1), or :data:`UPDATE_NONFINITE_Z` / :data:`UPDATE_NOT_PD` and the
-        first offending ``row`` (a seen row of ``z`` holding NaN or inf; a seen track whose ``S``
-        is not positive definite), in which case the arrays are not meaningful.
+        [`UpdatedTracks`][predictors.kalman._kernels.UpdatedTracks]
+            ``(x⁺ (n, S), P⁺ (n, S, S), status, row)``: status
+            [`UPDATE_OK`][predictors.kalman._kernels.UPDATE_OK] (row −1), or
+            [`UPDATE_NONFINITE_Z`][predictors.kalman._kernels.UPDATE_NONFINITE_Z] /
+            [`UPDATE_NOT_PD`][predictors.kalman._kernels.UPDATE_NOT_PD] and the first offending ``row`` (a
+            seen row of ``z`` holding NaN or inf; a seen track whose ``S`` is not positive definite), in which
+            case the arrays are not meaningful.
     """
     n, S = mean.shape
     D = H.shape[0]
@@ -348,8 +367,8 @@ def _mixture_rows(
     mean: FloatArray, cov: FloatArray, z_mean: FloatArray, z_spread: FloatArray, p_seen: FloatArray,
     H: FloatArray, R: FloatArray, mean_u: FloatArray, cov_u: FloatArray, S: int, D: int,
 ) -> tuple[int, int]:  # fmt: skip
-    """The PDA update of :func:`mixture_update_tracks` into ``mean_u``, ``cov_u``; returns the
-    status and the offending row (−1)."""
+    """The PDA update of [`mixture_update_tracks`][predictors.kalman._kernels.mixture_update_tracks] into
+    ``mean_u``, ``cov_u``; returns the status and the offending row (−1)."""
     n = mean.shape[0]
     PHt = np.empty((S, D))
     Sm = np.empty((D, D))
@@ -445,7 +464,7 @@ def mixture_update_tracks(
     H: FloatArray, R: FloatArray,
 ) -> UpdatedTracks:  # fmt: skip
     """PDA update of every track with ``p_seen > 0`` (see
-    :meth:`predictors.kalman.predictor.KalmanPredictor.update_mixture`):
+    [`predictors.kalman.predictor.KalmanPredictor.update_mixture`][predictors.kalman.predictor.KalmanPredictor.update_mixture]):
 
     .. math::
 
@@ -456,9 +475,11 @@ def mixture_update_tracks(
     on the upper triangle and mirrored. Tracks with ``p_seen = 0`` are copied unchanged.
 
     Returns:
-        :class:`UpdatedTracks`: status :data:`UPDATE_NOT_PD` and the row of the first track whose
-        ``S`` is not positive definite, or :data:`UPDATE_NONFINITE_Z` for a non-finite ``z̄`` or
-        ``Σ`` where ``p > 0``.
+        [`UpdatedTracks`][predictors.kalman._kernels.UpdatedTracks]: status
+            [`UPDATE_NOT_PD`][predictors.kalman._kernels.UPDATE_NOT_PD] and the row of the first track whose
+            ``S`` is not positive definite, or
+            [`UPDATE_NONFINITE_Z`][predictors.kalman._kernels.UPDATE_NONFINITE_Z] for a non-finite ``z̄`` or
+            ``Σ`` where ``p > 0``.
     """
     S = mean.shape[1]
     D = H.shape[0]
@@ -526,13 +547,17 @@ def keep_and_start_tracks(
     Args:
         mean, cov: (n, S) and (n, S, S) states of the live tracks.
         keep: (n,) survivors; n_keep: their number.
-        z, P0, velocity, velocity_cov: as in :func:`start_tracks` (``velocity`` (D,) or (0,),
-            ``velocity_cov`` (D, D) or (0, 0): the same prior for every new track).
+        z, P0, velocity, velocity_cov: as in [`start_tracks`][predictors.kalman._kernels.start_tracks]
+            (``velocity`` (D,) or (0,), ``velocity_cov`` (D, D) or (0, 0): the same prior for every new
+            track).
 
     Returns:
-        :class:`KeptAndStarted` ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
-        :data:`START_OK`, :data:`START_BAD_KEEP` (``keep`` does not hold ``n_keep`` True) or
-        :data:`START_NONFINITE_VELOCITY` (the arrays are then not meaningful).
+        [`KeptAndStarted`][predictors.kalman._kernels.KeptAndStarted]
+            ``(mean (n_keep + k, S), cov (n_keep + k, S, S), status)``: status
+            [`START_OK`][predictors.kalman._kernels.START_OK],
+            [`START_BAD_KEEP`][predictors.kalman._kernels.START_BAD_KEEP] (``keep`` does not hold ``n_keep``
+            True) or [`START_NONFINITE_VELOCITY`][predictors.kalman._kernels.START_NONFINITE_VELOCITY] (the
+            arrays are then not meaningful).
     """
     k, D = z.shape
     S = P0.shape[0]

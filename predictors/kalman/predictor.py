@@ -5,17 +5,20 @@ The state of a track in ``D`` dimensions is ordered by derivative, one block of 
 walk), so every model matrix is ``A_axis ⊗ I_D`` for a per-axis block ``A_axis``; the measurement
 is the position, ``H = [I_D, 0]``.
 
-The pure functions :func:`kf_predict`, :func:`kf_update` and :func:`measurement_prediction` work
-on ``n`` tracks at once, each one compiled loop over the tracks (:mod:`predictors.kalman._kernels`,
-no Python per track); :class:`KalmanPredictor` wraps the same kernels in the
-:class:`~predictors.base.Predictor` protocol, its ``predict`` fusing the prediction and the
-predicted measurement into one call. New tracks' states are compiled too
-(:func:`~predictors.kalman._kernels.start_tracks`), and
-:meth:`KalmanPredictor.survivors_and_births` gives ``concat([state.take(keep), start(z)])`` in
-one pass, which a tracker may call instead of the three. The optional capabilities the filters
-declare (:class:`~predictors.base.Capability`): a scalable measurement noise, a velocity prior at
-start, a mean-only estimate, the fused survivors and births, and the roll-out to a line in closed
-form (:mod:`predictors.kalman.rollout`), and their kinematic model (for the self-calibration).
+The pure functions [`kf_predict`][predictors.kalman.predictor.kf_predict],
+[`kf_update`][predictors.kalman.predictor.kf_update] and
+[`measurement_prediction`][predictors.kalman.predictor.measurement_prediction] work on ``n`` tracks at once,
+each one compiled loop over the tracks ([`predictors.kalman._kernels`][predictors.kalman._kernels], no Python
+per track); [`KalmanPredictor`][predictors.kalman.predictor.KalmanPredictor] wraps the same kernels in the
+[`Predictor`][predictors.Predictor] protocol, its ``predict`` fusing the prediction and the predicted
+measurement into one call. New tracks' states are compiled too
+([`start_tracks`][predictors.kalman._kernels.start_tracks]), and
+[`KalmanPredictor.survivors_and_births`][predictors.kalman.predictor.KalmanPredictor.survivors_and_births]
+gives ``concat([state.take(keep), start(z)])`` in one pass, which a tracker may call instead of the three. The
+optional capabilities the filters declare ([`Capability`][predictors.Capability]): a scalable measurement
+noise, a velocity prior at start, a mean-only estimate, the fused survivors and births, and the roll-out to a
+line in closed form ([`predictors.kalman.rollout`][predictors.kalman.rollout]), and their kinematic model (for
+the self-calibration).
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ ModelName = Literal["cv", "ca", "random-walk"]
 #: Number of kinematic orders (position, velocity, ...) kept per axis by each model.
 MODEL_ORDERS: dict[str, int] = {"cv": 2, "ca": 3, "random-walk": 1}
 
-#: Default process-noise intensity per model (see :class:`KalmanPredictor` for the reasoning).
+#: Default process-noise intensity per model (see
+#: [`KalmanPredictor`][predictors.kalman.predictor.KalmanPredictor] for the reasoning).
 DEFAULT_Q: dict[str, float] = {"cv": 1.0, "ca": 300.0, "random-walk": 0.02}
 
 #: Floor on the measurement variance (sensor units², 1e-12 m² = (1 µm)²) so that the innovation
@@ -110,7 +114,8 @@ def kf_update(
     with ``Kᵀ = S⁻¹ H P`` from a Cholesky factor and two triangular solves per track; the Joseph
     form is evaluated expanded as ``P − KHP − (KHP)ᵀ + K S Kᵀ`` (equal to it for any ``K``) and
     symmetrised. Unlike ``(I − KH)P`` it keeps ``P⁺`` positive semi-definite under rounding.
-    (One compiled loop over the tracks, :func:`predictors.kalman._kernels.update_tracks`.)
+    (One compiled loop over the tracks,
+    [`predictors.kalman._kernels.update_tracks`][predictors.kalman._kernels.update_tracks].)
 
     Args:
         mean: Predicted means ``x``, shape (n, S).
@@ -134,7 +139,7 @@ def kf_update(
 def _checked_update(
     mean: FloatArray, cov: FloatArray, z: FloatArray, seen: NDArray[np.bool_], H: FloatArray, R: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """:func:`~predictors.kalman._kernels.update_tracks`, its status turned into an exception."""
+    """[`update_tracks`][predictors.kalman._kernels.update_tracks], its status turned into an exception."""
     updated = _kernels.update_tracks(mean, cov, z, seen, H, R)
     row = updated.row
     if updated.status == _kernels.UPDATE_NONFINITE_Z:
@@ -154,7 +159,7 @@ def measurement_prediction(mean: FloatArray, cov: FloatArray, H: FloatArray, R: 
         R: Measurement-noise covariance, shape (D, D).
 
     Returns:
-        A :class:`~track_envs.values.types.Gaussian` with mean (n, D) and cov (n, D, D) (exactly symmetric).
+        A [`Gaussian`][track_envs.Gaussian] with mean (n, D) and cov (n, D, D) (exactly symmetric).
 
     Raises:
         ValueError: if the shapes disagree.
@@ -266,7 +271,7 @@ def _optional_std(name: str, value: float | None, default: float) -> float:
 
 
 class KalmanPredictor:
-    """Linear Kalman filter over ``n`` tracks (the :class:`~predictors.base.Predictor` protocol).
+    """Linear Kalman filter over ``n`` tracks (the [`Predictor`][predictors.Predictor] protocol).
 
     Defaults are chosen for the belt sorter (metres, ``dt = 0.01`` s, particles landing at
     ≈0.85–1 m/s and sliding up to the belt speed ≈1.44 m/s at ≈1.6 m/s², then moving uniformly;
@@ -292,8 +297,9 @@ class KalmanPredictor:
 
     The measurement covariance is ``R = max((k σ)², 1e-12) · I_D`` from the sensor spec's
     ``σ = noise_std`` and the measurement-noise scale ``k`` (1 unless set with
-    :meth:`set_noise_scale`, e.g. by a tracker that adapts to a drifting sensor): the floor
-    (:data:`R_FLOOR`, (1 µm)²) keeps ``S = H P Hᵀ + R`` invertible for a noise-free sensor.
+    [`set_noise_scale`][predictors.kalman.predictor.KalmanPredictor.set_noise_scale], e.g. by a tracker that
+    adapts to a drifting sensor): the floor ([`R_FLOOR`][predictors.kalman.predictor.R_FLOOR], (1 µm)²) keeps
+    ``S = H P Hᵀ + R`` invertible for a noise-free sensor.
 
     Args:
         model: ``"cv"``, ``"ca"`` or ``"random-walk"``.
@@ -303,14 +309,15 @@ class KalmanPredictor:
             Not accepted for ``random-walk``.
         initial_acceleration_std: Std of the initial acceleration per axis (m/s²), >= 0; ``None``
             for 2. Only accepted for ``ca``.
-        initial_velocity: Mean initial velocity, length ``D`` (checked at :meth:`reset`);
-            ``None`` for zeros. Not accepted for ``random-walk``.
+        initial_velocity: Mean initial velocity, length ``D`` (checked at
+            [`reset`][predictors.kalman.predictor.KalmanPredictor.reset]); ``None`` for zeros. Not accepted
+            for ``random-walk``.
 
     Raises:
         ValueError: for an unknown model (listing the valid ones) or an out-of-range argument.
     """
 
-    #: The optional capabilities (:mod:`predictors.base`) every Kalman model offers.
+    #: The optional capabilities ([`predictors.base`][predictors.base]) every Kalman model offers.
     capabilities: ClassVar[frozenset[Capability]] = frozenset(
         {
             Capability.NOISE_SCALE,
@@ -366,7 +373,8 @@ class KalmanPredictor:
     def set_noise_scale(self, scale: float) -> None:
         """Scale the measurement noise std the filter assumes by ``scale`` (> 0, finite):
         ``R = max((scale · noise_std)², 1e-12) · I_D`` from the next predict/update on, and new
-        tracks start with that ``R``. Kept across :meth:`reset`.
+        tracks start with that ``R``. Kept across
+        [`reset`][predictors.kalman.predictor.KalmanPredictor.reset].
 
         Raises:
             ValueError: if ``scale`` is not a finite number > 0.
@@ -520,8 +528,9 @@ class KalmanPredictor:
         return KalmanState(out.mean, out.cov)
 
     def estimate_mean(self, state: KalmanState) -> FloatArray:
-        """The mean of :meth:`estimate`, ``H x`` (n, D), without its covariance: the position block
-        of the state (``H = [I_D, 0]``), as a new C-contiguous array."""
+        """The mean of [`estimate`][predictors.kalman.predictor.KalmanPredictor.estimate], ``H x`` (n, D),
+        without its covariance: the position block of the state (``H = [I_D, 0]``), as a new C-contiguous
+        array."""
         self._need_reset()
         mean, _ = self._check_state(state)
         return np.ascontiguousarray(mean[:, : self.dim])
@@ -533,7 +542,7 @@ class KalmanPredictor:
         return Gaussian(*_kernels.project_tracks(mean, cov, self.H, self._no_noise))
 
     def predict(self, state: KalmanState) -> tuple[KalmanState, Gaussian]:
-        """Move every track one frame on (:func:`kf_predict`).
+        """Move every track one frame on ([`kf_predict`][predictors.kalman.predictor.kf_predict]).
 
         Returns:
             The predicted state and the predicted measurement ``N(H x⁻, H P⁻ Hᵀ + R)``.
@@ -544,7 +553,8 @@ class KalmanPredictor:
         return KalmanState(p.mean, p.cov), Gaussian(p.z_mean, p.z_cov)
 
     def update(self, state: KalmanState, z: NDArray[np.floating], seen: NDArray[np.bool_]) -> KalmanState:
-        """Correct the tracks with ``seen`` True by their rows of ``z`` (:func:`kf_update`).
+        """Correct the tracks with ``seen`` True by their rows of ``z``
+        ([`kf_update`][predictors.kalman.predictor.kf_update]).
 
         Rows with ``seen`` False keep their state exactly; their rows of ``z`` are never read
         (they may be NaN).
@@ -600,7 +610,8 @@ class KalmanPredictor:
             x^+ = x^- + p K δ, \\qquad
             P^+ = P^- - p K S K^\\top + p K (Σ + (1 - p) δ δ^\\top) K^\\top .
 
-        ``p = 0`` leaves the track exactly as predicted; ``p = 1`` and ``Σ = 0`` is :meth:`update`.
+        ``p = 0`` leaves the track exactly as predicted; ``p = 1`` and ``Σ = 0`` is
+        [`update`][predictors.kalman.predictor.KalmanPredictor.update].
 
         Args:
             state: Predicted state of ``n`` tracks.
@@ -636,8 +647,9 @@ class KalmanPredictor:
         self, state: KalmanState, line: float, frame: int, dt: float, max_steps: int
     ) -> Crossings | None:
         """The crossings of ``x = line`` that rolling ``state`` forward frame by frame finds, in
-        closed form (:func:`predictors.kalman.rollout.kalman_crossings`); ``None`` for a state that
-        is not a :class:`KalmanState`."""
+        closed form
+        ([`predictors.kalman.rollout.kalman_crossings`][predictors.kalman.rollout.kalman_crossings]); ``None``
+        for a state that is not a [`KalmanState`][predictors.kalman.predictor.KalmanState]."""
         if not isinstance(state, KalmanState):
             return None
         return kalman_crossings(self, state, line, frame, dt, max_steps)

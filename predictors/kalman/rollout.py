@@ -1,7 +1,7 @@
 """Nozzle-bar crossings of Kalman tracks in closed form: the Kalman filters' ``LINE_ROLLOUT`` capability.
 
-The generic roll-out (:func:`agents.sorting.rollout.predict_crossings`) steps a predictor frame
-by frame without measurements until the predicted position passes the line ``x = L``. For a
+The generic roll-out ([`agents.sorting.rollout.predict_crossings`][agents.sorting.predict_crossings]) steps a
+predictor frame by frame without measurements until the predicted position passes the line ``x = L``. For a
 linear Kalman filter the ``j``-step roll-out is known in closed form,
 
 .. math::
@@ -10,9 +10,9 @@ linear Kalman filter the ``j``-step roll-out is known in closed form,
 
 so the powers ``H₂ F^j`` and ``H₂ B_j H₂ᵀ`` (``H₂`` the first two rows of ``H``) are computed once
 per model and roll-out length, and one compiled pass over the tracks
-(:func:`predictors.kalman._kernels.kalman_crossings_kernel`) finds every crossing and maps its
-interpolated position Gaussian to ``(t̂, ŷ)`` exactly as the generic roll-out does: the same
-numbers, without a predictor call per frame.
+([`predictors.kalman._kernels.kalman_crossings_kernel`][predictors.kalman._kernels.kalman_crossings_kernel])
+finds every crossing and maps its interpolated position Gaussian to ``(t̂, ŷ)`` exactly as the generic
+roll-out does: the same numbers, without a predictor call per frame.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from predictors.kalman._kernels import kalman_crossings_kernel
 
 class LinearGaussianModel(Protocol):
     """What the closed-form roll-out reads of a Kalman filter
-    (:class:`~predictors.kalman.predictor.KalmanPredictor`): its transition ``F`` (S, S), process
+    ([`KalmanPredictor`][predictors.kalman.predictor.KalmanPredictor]): its transition ``F`` (S, S), process
     noise ``Q`` (S, S) and measurement matrix ``H`` (D, S)."""
 
     F: NDArray[Any]
@@ -39,7 +39,7 @@ class LinearGaussianModel(Protocol):
 
 class GaussianStates(Protocol):
     """What it reads of a batch of Kalman tracks
-    (:class:`~predictors.kalman.predictor.KalmanState`): means (k, S) and covariances (k, S, S)."""
+    ([`KalmanState`][predictors.kalman.predictor.KalmanState]): means (k, S) and covariances (k, S, S)."""
 
     @property
     def mean(self) -> ArrayLike: ...

@@ -1,12 +1,17 @@
 """Pose hypothesis motions: what the tracks of a multi-person pose tracker predict.
 
-* :mod:`~predictors.pose.base`: the :class:`PoseMotion` protocol (per-track state changed in place,
+* [`base`][predictors.pose.base]: the [`PoseMotion`][predictors.pose.base.PoseMotion] protocol (per-track
+state changed in place,
   OKS scores instead of a Gaussian, whole 17-keypoint poses), its declared capabilities
-  (:class:`PoseMotionCapability`) and :func:`centroid_fill`;
-* :mod:`~predictors.pose.constant_velocity`: :class:`ConstantVelocityPose`;
-* :mod:`~predictors.pose.registry`: :data:`POSE_MOTIONS` (the SMC motion of the pose LSTM lives in
-  :mod:`predictors.pose_lstm.motion`). The pose trackers take the keywords of the settings they
-  forward (each declared once) with :func:`track_envs.infra.registry.takes_keywords_of`.
+  ([`PoseMotionCapability`][predictors.pose.base.PoseMotionCapability]) and
+  [`centroid_fill`][predictors.pose.base.centroid_fill];
+* [`constant_velocity`][predictors.pose.constant_velocity]:
+[`ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose];
+* [`registry`][predictors.pose.registry]: [`POSE_MOTIONS`][predictors.pose.POSE_MOTIONS] (the SMC motion of
+the pose LSTM lives in
+  [`predictors.pose_lstm.motion`][predictors.pose_lstm.motion]). The pose trackers take the keywords of the
+  settings they forward (each declared once) with
+  [`track_envs.infra.registry.takes_keywords_of`][track_envs.infra.registry.takes_keywords_of].
 """
 
 from predictors.pose.base import (

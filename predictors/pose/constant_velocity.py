@@ -1,6 +1,6 @@
 """Constant keypoint velocity, one pose hypothesis per track: the motion of ``pose-baseline``.
 
-A :class:`~predictors.pose.base.PoseMotion` that predicts ``ŷ_t = y_{t−1} + v_{t−1}`` per keypoint
+A [`PoseMotion`][predictors.pose.base.PoseMotion] that predicts ``ŷ_t = y_{t−1} + v_{t−1}`` per keypoint
 (the tracker Okada et al. 2020 improve on: the Simple-Baseline tracker of Xiao et al., ECCV 2018,
 with a constant velocity standing in for optical-flow propagation). Deterministic.
 """

@@ -1,10 +1,11 @@
 """The registry of pose hypothesis motions by name.
 
-``"constant-velocity"`` (:class:`~predictors.pose.constant_velocity.ConstantVelocityPose`, the
-motion of ``pose-baseline``) and ``"smc"`` (:class:`predictors.pose_lstm.motion.SmcPoseMotion`
-with its pose predictor loaded, the motion of ``pose-smc``). Each pose agent builds its own motion
-from its keyword arguments; the registry names them and builds one for a
-:class:`agents.pose.tracker.PoseTracker` of your own.
+``"constant-velocity"`` ([`ConstantVelocityPose`][predictors.pose.constant_velocity.ConstantVelocityPose], the
+motion of ``pose-baseline``) and ``"smc"``
+([`predictors.pose_lstm.motion.SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion] with its pose
+predictor loaded, the motion of ``pose-smc``). Each pose agent builds its own motion from its keyword
+arguments; the registry names them and builds one for a
+[`agents.pose.tracker.PoseTracker`][agents.pose.tracker.PoseTracker] of your own.
 """
 
 from __future__ import annotations
@@ -22,9 +23,11 @@ AGENTS = {"constant-velocity": ("pose-baseline",), "smc": ("pose-smc",)}
 
 
 def smc(model: str | os.PathLike[str] | None = None, **kwargs: Any) -> Any:
-    """:class:`predictors.pose_lstm.motion.SmcPoseMotion` with the pose predictor of ``model`` (a
-    ``pose-lstm`` model file; ``None``: the shipped ``pose-lstm-walkers``); ``kwargs`` are the
-    keywords of :class:`predictors.pose_lstm.motion.SmcSettings` (``particles``, ``window``, …)."""
+    """[`predictors.pose_lstm.motion.SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion] with the pose
+    predictor of ``model`` (a ``pose-lstm`` model file; ``None``: the shipped ``pose-lstm-walkers``);
+    ``kwargs`` are the keywords of
+    [`predictors.pose_lstm.motion.SmcSettings`][predictors.pose_lstm.motion.SmcSettings] (``particles``,
+    ``window``, …)."""
     from predictors.pose_lstm.motion import DEFAULT_MODEL, SmcPoseMotion
     from predictors.pose_lstm.predictor import PosePredictor
 

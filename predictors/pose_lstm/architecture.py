@@ -1,6 +1,7 @@
 """The fixed parts of the pose predictor's network that both of its implementations build: the
-torch module (:mod:`predictors.pose_lstm.network`, training) and the numpy inference
-(:mod:`predictors.pose_lstm.predictor`), so neither reads them from the other."""
+torch module ([`predictors.pose_lstm.network`][predictors.pose_lstm.network], training) and the numpy
+inference ([`predictors.pose_lstm.predictor`][predictors.pose_lstm.predictor]), so neither reads them from the
+other."""
 
 from __future__ import annotations
 

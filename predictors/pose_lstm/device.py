@@ -1,14 +1,14 @@
 """The pose predictor and the particles' OKS in torch on a device (a GPU when torch sees one).
 
 ``make_agent("pose-smc", device="cuda")`` swaps the CPU predictor
-(:class:`~predictors.pose_lstm.predictor.PosePredictor`: compiled products in a fixed order, the
-prefix tree) for :class:`TorchPosePredictor`: the network's own ``nn.LSTM`` (cuDNN on a GPU) over
-the distinct queues' windows and its FC head, on the device, with the LSTM output kept there
-between the two; and the OKS of every candidate (filter, detection) pair's particles
-(:func:`paired_oks_torch`, the arithmetic of
-:func:`track_envs.metrics.keypoints.paired_oks`) on the device. The random draws stay the
-tracker's numpy generator's (dropout masks are drawn on the CPU and moved), so the tracks equal
-the CPU path's to float tolerance: the GEMMs of cuDNN and of the CPU path sum in other orders
+([`PosePredictor`][predictors.pose_lstm.predictor.PosePredictor]: compiled products in a fixed order, the
+prefix tree) for [`TorchPosePredictor`][predictors.pose_lstm.device.TorchPosePredictor]: the network's own
+``nn.LSTM`` (cuDNN on a GPU) over the distinct queues' windows and its FC head, on the device, with the LSTM
+output kept there between the two; and the OKS of every candidate (filter, detection) pair's particles
+([`paired_oks_torch`][predictors.pose_lstm.device.paired_oks_torch], the arithmetic of
+[`track_envs.metrics.keypoints.paired_oks`][track_envs.metrics.keypoints.paired_oks]) on the device. The
+random draws stay the tracker's numpy generator's (dropout masks are drawn on the CPU and moved), so the
+tracks equal the CPU path's to float tolerance: the GEMMs of cuDNN and of the CPU path sum in other orders
 (about 1e-6 in the LSTM output). Window features, the Gaussian draw, matching, resampling and
 selection stay on the CPU (numpy; a few ms per frame at 10 people, P = 300).
 
@@ -57,14 +57,18 @@ def torch_device(device: str) -> Any:
 
 
 class TorchPosePredictor(PosePredictor):
-    """:class:`PosePredictor` computed by the network in torch on ``device`` (module docstring).
+    """[`PosePredictor`][predictors.pose_lstm.predictor.PosePredictor] computed by the network in torch on
+    ``device`` (module docstring).
 
-    :meth:`encode` and :meth:`encode_shared` return the LSTM output as a torch tensor on the
-    device, which :meth:`head_of` takes; :meth:`step` (the carried recurrence) returns numpy.
+    [`encode`][predictors.pose_lstm.device.TorchPosePredictor.encode] and
+    [`encode_shared`][predictors.pose_lstm.device.TorchPosePredictor.encode_shared] return the LSTM output as
+    a torch tensor on the device, which [`head_of`][predictors.pose_lstm.device.TorchPosePredictor.head_of]
+    takes; [`step`][predictors.pose_lstm.device.TorchPosePredictor.step] (the carried recurrence) returns
+    numpy.
 
     Args:
         model: A ``pose-lstm`` model file (path or loaded).
-        device: A torch device name (:func:`torch_device`).
+        device: A torch device name ([`torch_device`][predictors.pose_lstm.device.torch_device]).
     """
 
     def __init__(self, model: ModelFile | str | os.PathLike[str], device: str) -> None:
@@ -80,11 +84,13 @@ class TorchPosePredictor(PosePredictor):
             return self.net.lstm(x)[1][0][0]
 
     def encode_shared(self, inputs: NDArray[np.float32]) -> Any:
-        """:meth:`encode` (on a GPU every window costs about the same as its distinct prefixes)."""
+        """[`encode`][predictors.pose_lstm.device.TorchPosePredictor.encode] (on a GPU every window costs
+        about the same as its distinct prefixes)."""
         return self.encode(inputs)
 
     def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[Any, NDArray[np.intp]]:
-        """:meth:`encode` of every window, each window its own row."""
+        """[`encode`][predictors.pose_lstm.device.TorchPosePredictor.encode] of every window, each window its
+        own row."""
         return self.encode(inputs), np.arange(len(inputs))
 
     def head_of(
@@ -131,8 +137,9 @@ class TorchPosePredictor(PosePredictor):
 def paired_oks_torch(
     a: NDArray, a_valid: NDArray, b: NDArray, b_valid: NDArray, area: NDArray, device: Any
 ) -> FloatArray:
-    """:func:`track_envs.metrics.keypoints.paired_oks` in float64 torch on ``device``: (c, P) OKS of
-    the poses ``a`` (c, P, K, 2) of each row against the pose ``b`` (c, K, 2) of that row."""
+    """[`track_envs.metrics.keypoints.paired_oks`][track_envs.metrics.keypoints.paired_oks] in float64 torch
+    on ``device``: (c, P) OKS of the poses ``a`` (c, P, K, 2) of each row against the pose ``b`` (c, K, 2) of
+    that row."""
     import torch
 
     def t(v: NDArray, dtype: Any = torch.float64) -> Any:

@@ -2,10 +2,10 @@
 
 Okada, Takenaka and Taniguchi, "Multi-person Pose Tracking using Sequential Monte Carlo with
 Probabilistic Neural Pose Predictor" (ICRA 2020), Sec. II and IV, Algorithm 1. This module is the
-motion hypothesis, :class:`SmcPoseMotion` (a :class:`~predictors.pose.base.PoseMotion`); the loop
-(OKS scores, bipartite matching with a threshold, lifetimes, births, ``F_max`` filters) is
-:class:`agents.pose.tracker.PoseTracker`, and the agent ``pose-smc`` is
-:class:`agents.pose.smc.PoseSmcAgent`.
+motion hypothesis, [`SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion] (a
+[`PoseMotion`][predictors.pose.base.PoseMotion]); the loop (OKS scores, bipartite matching with a threshold,
+lifetimes, births, ``F_max`` filters) is [`agents.pose.tracker.PoseTracker`][agents.pose.tracker.PoseTracker],
+and the agent ``pose-smc`` is [`agents.pose.smc.PoseSmcAgent`][agents.pose.smc.PoseSmcAgent].
 
 Each active filter ``k`` holds ``P`` particles; particle ``n`` is a queue of the last ``L`` poses
 ``z^{(k,n)}_{t−L:t−1}`` (per keypoint ``(x, y, v)``), and the filter keeps the queue of its matched
@@ -13,9 +13,10 @@ observations ``x_{t−L+1:t}`` (zeros in frames without a match and for undetect
 Every frame, batched over filters × particles × keypoints (no Python loop over any of them):
 
 1. **proposal** (eq. 5): every particle's queue goes through the pose predictor
-   (:class:`predictors.pose_lstm.predictor.PosePredictor`), one dropout mask per sequence (epistemic;
-   its decisions 16-bit random fields, :func:`~predictors.pose_lstm.predictor.dropout_fields`) and
-   a Gaussian draw ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
+   ([`predictors.pose_lstm.predictor.PosePredictor`][predictors.pose_lstm.predictor.PosePredictor]), one
+   dropout mask per sequence (epistemic; its decisions 16-bit random fields,
+   [`dropout_fields`][predictors.pose_lstm.predictor.dropout_fields]) and a Gaussian draw
+   ``z = a + s · (μ + σ ε)`` (aleatoric) — ``F_t × P × 17`` pointwise sequences;
 2. **likelihood** (eq. 4): ``OKS(x_j, z^{(k,n)})`` of every particle against every detection
    (over the keypoints the detection holds and the particle has an anchor for);
 3. **matching score** (footnote 2): elite weights — the top ``e = 15 %`` particles by OKS weigh 1,
@@ -36,7 +37,7 @@ frame (``L`` LSTM steps per sequence from the zero state). Resampled copies of o
 particles that selected the observation history hold the same queue, and queues with a common
 ancestor share their older poses, so the LSTM steps once per *distinct prefix* of the distinct
 queues' pointwise windows, all filters together
-(:class:`~predictors.pose_lstm.prefix_tree.PrefixTree`; about 9,700 steps per frame instead of
+([`PrefixTree`][predictors.pose_lstm.prefix_tree.PrefixTree]; about 9,700 steps per frame instead of
 485,000 at 10 people, P = 300, L = 10), and the FC block's first layer once per distinct queue;
 the dropout mask and the Gaussian draw stay per particle. Every product sums in a fixed order, so
 this gives the bits of re-running every particle's window (``share_windows=False``).
@@ -75,9 +76,10 @@ DEFAULT_MODEL = WEIGHTS / "pose-lstm-walkers"
 
 
 def pose_model_path(model: Any) -> Any:
-    """The model file ``model`` names: ``None`` is the shipped :data:`DEFAULT_MODEL`; a bare name
-    that is no file here but a shipped model (``"pose-lstm-walkers-mse"``) is that shipped model;
-    any other path, or a loaded model file, is returned as given."""
+    """The model file ``model`` names: ``None`` is the shipped
+    [`DEFAULT_MODEL`][predictors.pose_lstm.motion.DEFAULT_MODEL]; a bare name that is no file here but a
+    shipped model (``"pose-lstm-walkers-mse"``) is that shipped model; any other path, or a loaded model file,
+    is returned as given."""
     if model is None:
         return DEFAULT_MODEL
     if not isinstance(model, str | Path):
@@ -173,10 +175,11 @@ def advance_queues(
     idx: np.ndarray,
     own: np.ndarray,
 ) -> None:
-    """:func:`push_queues` and then :func:`select_queues` in one pass from ``old`` into ``out`` (both
+    """[`push_queues`][predictors.pose_lstm.motion.push_queues] and then
+    [`select_queues`][predictors.pose_lstm.motion.select_queues] in one pass from ``old`` into ``out`` (both
     (n, P, K, L, 3)): particle ``p`` of filter ``f`` takes the pushed queue of particle ``src``
-    (``idx[sel[f], p]`` for a selected filter, ``sel[f] >= 0``, that keeps its own history; ``p``
-    for the others) or, where ``own[sel[f], p]`` is False, the observation queue ``obs[f]``."""
+    (``idx[sel[f], p]`` for a selected filter, ``sel[f] >= 0``, that keeps its own history; ``p`` for the
+    others) or, where ``own[sel[f], p]`` is False, the observation queue ``obs[f]``."""
     n, P, k_dim, L = old.shape[0], old.shape[1], old.shape[2], old.shape[3]
     for f in range(n):
         j = sel[f]
@@ -212,7 +215,8 @@ def queue_representatives(idx: np.ndarray, own: np.ndarray, rep: np.ndarray) -> 
 
 @dataclass(frozen=True)
 class SmcSettings:
-    """The settings of the SMC pose motion (:class:`SmcPoseMotion`; the keywords of ``pose-smc``).
+    """The settings of the SMC pose motion ([`SmcPoseMotion`][predictors.pose_lstm.motion.SmcPoseMotion]; the
+    keywords of ``pose-smc``).
 
     Attributes:
         particles: ``P`` particles per filter (>= 1).
@@ -229,8 +233,8 @@ class SmcSettings:
             re-running every particle's window, which ``False`` does.
         device: ``None`` (the CPU path: compiled products, the prefix tree) or a torch device
             (``"cuda"``; ``"cpu"`` to check the path without a GPU): the predictor and the
-            particles' OKS in torch there (:mod:`predictors.pose_lstm.device`), the same tracks to
-            float tolerance (``"cuda"`` has never run on a GPU; ``"cpu"`` is tested).
+            particles' OKS in torch there ([`predictors.pose_lstm.device`][predictors.pose_lstm.device]), the
+            same tracks to float tolerance (``"cuda"`` has never run on a GPU; ``"cpu"`` is tested).
     """
 
     particles: int = 300
@@ -266,8 +270,9 @@ class SmcPoseMotion:
     """Particles of pose queues proposed by the probabilistic pose predictor (see module docstring).
 
     Args:
-        predictor: A :class:`~predictors.pose_lstm.predictor.PosePredictor`.
-        settings: The keywords of :class:`SmcSettings` (``particles``, ``window``, ``alpha``, …).
+        predictor: A [`PosePredictor`][predictors.pose_lstm.predictor.PosePredictor].
+        settings: The keywords of [`SmcSettings`][predictors.pose_lstm.motion.SmcSettings] (``particles``,
+            ``window``, ``alpha``, …).
     """
 
     @takes_keywords_of(SmcSettings)
@@ -347,7 +352,7 @@ class SmcPoseMotion:
 
         With ``floor > 0`` only the pairs that could reach it are scored (the others score 0): a
         filter's particles lie in a box per keypoint, and
-        :func:`~track_envs.metrics.keypoints.oks_upper_bound` of that box below ``floor`` bounds
+        [`oks_upper_bound`][track_envs.metrics.keypoints.oks_upper_bound] of that box below ``floor`` bounds
         every particle's OKS, hence the elite mean, below it. The loop matches no pair under its
         threshold, so passing the threshold as ``floor`` changes no match and no estimate.
         """
@@ -418,7 +423,8 @@ class SmcPoseMotion:
 
     def _resample_and_select(self, ti: NDArray, elite: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         """The draws of resampling and selection of the matched filters ``ti``: ``(idx, own)`` (k, P);
-        the queues move in :meth:`update` (window) or here, in place (carried)."""
+        the queues move in [`update`][predictors.pose_lstm.motion.SmcPoseMotion.update] (window) or here, in
+        place (carried)."""
         weights = elite / self.q[ti]  # eq. (7) with the elite weights of footnote 2
         idx = resample_indices(weights, self.rng)  # (k, P)
         rows = ti[:, None]

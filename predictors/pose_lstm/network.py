@@ -3,10 +3,10 @@
 Okada, Takenaka and Taniguchi, "Multi-person Pose Tracking using Sequential Monte Carlo with
 Probabilistic Neural Pose Predictor" (ICRA 2020), Sec. III. Pointwise: every keypoint of a pose is
 one sequence. Each of the ``L`` steps of a sequence is ``(Δx, Δy, v)``
-(:func:`predictors.pose_lstm.predictor.window_features`); an LSTM of 64 units reads the sequence from the
-zero state (stateless, the window is the whole context); its last output goes through a
-fully-connected block with one hidden layer of 40 leaky-ReLU units and dropout 0.3, and a linear
-layer gives the mean ``μ`` and ``log σ`` of a Gaussian over the residual from the last visible
+([`predictors.pose_lstm.predictor.window_features`][predictors.pose_lstm.predictor.window_features]); an LSTM
+of 64 units reads the sequence from the zero state (stateless, the window is the whole context); its last
+output goes through a fully-connected block with one hidden layer of 40 leaky-ReLU units and dropout 0.3, and
+a linear layer gives the mean ``μ`` and ``log σ`` of a Gaussian over the residual from the last visible
 coordinate of the sequence (the "attention" step of Fig. 4, done outside the network).
 
 * **Epistemic uncertainty**: the dropout of the FC block is applied at training *and* test time

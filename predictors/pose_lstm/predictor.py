@@ -2,11 +2,11 @@
 
 Inputs are *pointwise windows*: the last ``L`` observations ``(x, y, v)`` of one keypoint, ``v``
 the visible flag (an invisible step holds ``(0, 0, 0)``, as a new filter's queue in Algorithm 1
-does). :func:`window_features` turns a window into the network's steps ``(Δx, Δy, v)`` — the
-difference to the previous step where both are visible (0 otherwise), in units of ``scale`` px —
-and the *attention* step of Fig. 4: the last visible coordinate ``a`` of the window. The network
-(:class:`~predictors.pose_lstm.network.PosePredictorNet`) gives ``μ, log σ`` of the residual, so the
-predicted coordinate is ``a + scale · (μ + σ ε)``, ``ε ~ N(0, I)``.
+does). [`window_features`][predictors.pose_lstm.predictor.window_features] turns a window into the network's
+steps ``(Δx, Δy, v)`` — the difference to the previous step where both are visible (0 otherwise), in units of
+``scale`` px — and the *attention* step of Fig. 4: the last visible coordinate ``a`` of the window. The
+network ([`PosePredictorNet`][predictors.pose_lstm.network.PosePredictorNet]) gives ``μ, log σ`` of the
+residual, so the predicted coordinate is ``a + scale · (μ + σ ε)``, ``ε ~ N(0, I)``.
 
 Uncertainty switches (the ablation of Okada et al. 2020, Table II):
 
@@ -51,8 +51,8 @@ def window_features(
 
     Returns:
         ``inputs`` (..., L, 3) float32 ``(Δx / scale, Δy / scale, v)`` with ``Δ`` zero unless the step
-        and its predecessor are visible; ``anchor`` (..., 2) the last visible coordinate (px), and
-        ``has_anchor`` (...,) whether the window has a visible step.
+            and its predecessor are visible; ``anchor`` (..., 2) the last visible coordinate (px), and
+            ``has_anchor`` (...,) whether the window has a visible step.
     """
     w = np.asarray(windows)
     if w.dtype not in (np.float32, np.float64):
@@ -71,8 +71,9 @@ def window_features(
 def _window_features(
     w: np.ndarray, scale: float, inputs: np.ndarray, anchor: np.ndarray, has: np.ndarray
 ) -> None:
-    """:func:`window_features` of windows ``w`` (n, L, 3), into ``inputs`` (n, L, 3), ``anchor``
-    (n, 2), ``has`` (n,): ``Δ = (p_t − p_{t−1}) / scale`` in float64, then float32."""
+    """[`window_features`][predictors.pose_lstm.predictor.window_features] of windows ``w`` (n, L, 3), into
+    ``inputs`` (n, L, 3), ``anchor`` (n, 2), ``has`` (n,): ``Δ = (p_t − p_{t−1}) / scale`` in float64, then
+    float32."""
     n, L = w.shape[0], w.shape[1]
     for r in range(n):
         last = -1
@@ -98,7 +99,8 @@ def _window_features(
             anchor[r, 1] = 0.0
 
 
-#: Bits of the random field that decides one dropout unit (:func:`dropout_fields`).
+#: Bits of the random field that decides one dropout unit
+#: ([`dropout_fields`][predictors.pose_lstm.predictor.dropout_fields]).
 FIELD_BITS = 16
 
 
@@ -114,8 +116,9 @@ def dropout_fields(rng: np.random.Generator, rows: int, units: int) -> NDArray[n
 
     One draw ``rng.integers(0, 2⁶⁴, ⌈rows · units / 4⌉, dtype=uint64)`` read as consecutive 16-bit
     fields (the machine's byte order, little-endian on x86 and ARM), row by row: unit ``k`` of mask
-    ``i`` is kept iff field ``(i, k)`` is below :func:`keep_threshold`. Four decisions per 64 random
-    bits, instead of one float uniform each.
+    ``i`` is kept iff field ``(i, k)`` is below
+    [`keep_threshold`][predictors.pose_lstm.predictor.keep_threshold]. Four decisions per 64 random bits,
+    instead of one float uniform each.
     """
     n = rows * units
     words = rng.integers(0, 1 << 64, size=-(-n // 4), dtype=np.uint64)
@@ -123,8 +126,9 @@ def dropout_fields(rng: np.random.Generator, rows: int, units: int) -> NDArray[n
 
 
 def dropout_masks(rng: np.random.Generator, rows: int, units: int, dropout: float) -> NDArray[np.float32]:
-    """Inverted-dropout masks (rows, units) float32 of :func:`dropout_fields`: ``1 / (1 − p)`` for a
-    kept unit (``1 − p`` in float32), 0 for a dropped one (what the CPU head applies, as a matrix)."""
+    """Inverted-dropout masks (rows, units) float32 of
+    [`dropout_fields`][predictors.pose_lstm.predictor.dropout_fields]: ``1 / (1 − p)`` for a kept unit
+    (``1 − p`` in float32), 0 for a dropped one (what the CPU head applies, as a matrix)."""
     keep = np.float32(1.0 - dropout)
     kept = dropout_fields(rng, rows, units) < keep_threshold(dropout)
     return (kept / keep).astype(np.float32, copy=False)
@@ -142,14 +146,14 @@ class PosePredictor:
     """The probabilistic pose predictor: pointwise windows → sampled next coordinates.
 
     The LSTM runs through the inference cell of every learned family,
-    :class:`predictors.lstm_cell.FusedLSTMCell` (float32, built from the model file's ``lstm.*``
-    tensors; :meth:`~predictors.lstm_cell.FusedLSTMCell.sequence` over the windows, blocks of rows),
-    and the fully-connected head runs in numpy; every product of both sums each element in a fixed
-    order (:mod:`predictors.ordered_product`, on ``torch.get_num_threads()`` threads), so a window's
-    result has the same bits whichever other windows are computed with it. That makes
-    :meth:`encode_shared` (one LSTM step per distinct window prefix) and ``head_of(..., rows=...)``
-    (the head's first layer once per distinct window) exact shortcuts of :meth:`encode` and the
-    head over every row.
+    [`predictors.lstm_cell.FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell] (float32, built from the model
+    file's ``lstm.*`` tensors; [`sequence`][predictors.lstm_cell.FusedLSTMCell.sequence] over the windows,
+    blocks of rows), and the fully-connected head runs in numpy; every product of both sums each element in a
+    fixed order ([`predictors.ordered_product`][predictors.ordered_product], on ``torch.get_num_threads()``
+    threads), so a window's result has the same bits whichever other windows are computed with it. That makes
+    [`encode_shared`][predictors.pose_lstm.predictor.PosePredictor.encode_shared] (one LSTM step per distinct
+    window prefix) and ``head_of(..., rows=...)`` (the head's first layer once per distinct window) exact
+    shortcuts of [`encode`][predictors.pose_lstm.predictor.PosePredictor.encode] and the head over every row.
 
     Tolerance: the outputs equal the network's (``PosePredictorNet``, torch's oneDNN LSTM and its
     GEMMs) to 1e-6 (tested on the shipped weights), not bit for bit: torch sums in other orders.
@@ -194,7 +198,8 @@ class PosePredictor:
     @property
     def cell(self) -> FusedLSTMCell:
         """The LSTM layer as the shared float32 cell, its products summed in a fixed order
-        (:mod:`predictors.ordered_product`) on ``torch.get_num_threads()`` threads."""
+        ([`predictors.ordered_product`][predictors.ordered_product]) on ``torch.get_num_threads()``
+        threads."""
         import torch
 
         threads = torch.get_num_threads()
@@ -220,14 +225,16 @@ class PosePredictor:
         return self.cell.sequence(np.asarray(inputs, dtype=np.float32))[0]
 
     def encode_shared(self, inputs: NDArray[np.float32]) -> NDArray[np.float32]:
-        """:meth:`encode` with one LSTM step per distinct input prefix
-        (:class:`~predictors.pose_lstm.prefix_tree.PrefixTree`): the same bits, fewer steps."""
+        """[`encode`][predictors.pose_lstm.predictor.PosePredictor.encode] with one LSTM step per distinct
+        input prefix ([`PrefixTree`][predictors.pose_lstm.prefix_tree.PrefixTree]): the same bits, fewer
+        steps."""
         x = np.ascontiguousarray(inputs, dtype=np.float32)
         return PrefixTree.of(x).encode(self.cell, x)
 
     def encode_leaves(self, inputs: NDArray[np.float32]) -> tuple[NDArray[np.float32], NDArray[np.intp]]:
-        """:meth:`encode_shared` as the outputs ``h`` (k, H) of the distinct windows and each window's
-        row ``leaf`` (M,) among them (``h[leaf]`` is :meth:`encode`'s result, bit for bit), for
+        """[`encode_shared`][predictors.pose_lstm.predictor.PosePredictor.encode_shared] as the outputs ``h``
+        (k, H) of the distinct windows and each window's row ``leaf`` (M,) among them (``h[leaf]`` is
+        [`encode`][predictors.pose_lstm.predictor.PosePredictor.encode]'s result, bit for bit), for
         ``head_of(h, ..., rows=leaf[...])``."""
         x = np.ascontiguousarray(inputs, dtype=np.float32)
         tree = PrefixTree.of(x)
@@ -241,15 +248,16 @@ class PosePredictor:
         rows: NDArray[np.intp] | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """``μ, σ`` (M, 2) of LSTM outputs: row ``r`` of the result reads ``h[rows[r]]`` (``h`` (U, H),
-        ``rows`` (M,); every row of ``h`` once if None), as :meth:`distribution`.
+        ``rows`` (M,); every row of ``h`` once if None), as
+        [`distribution`][predictors.pose_lstm.predictor.PosePredictor.distribution].
 
         The FC block ``y = W₂ (m ⊙ leaky(W₁ h + b₁)) + b₂`` with one dropout mask ``m`` per result
         row (``epistemic``; inverted, ``keep / (1 − p)``; its decisions drawn from ``rng`` as one
-        block of 16-bit fields, :func:`dropout_fields`): ``leaky(W₁ h + b₁) / (1 − p)`` is computed
-        once per row of ``h`` and shared by the result rows that read it. Products by
-        :func:`~predictors.ordered_product.ordered_product` and
-        :func:`~predictors.ordered_product.dropout_rows_product`, so a result row's bits do not
-        depend on which other rows are computed with it.
+        block of 16-bit fields, [`dropout_fields`][predictors.pose_lstm.predictor.dropout_fields]):
+        ``leaky(W₁ h + b₁) / (1 − p)`` is computed once per row of ``h`` and shared by the result rows that
+        read it. Products by [`ordered_product`][predictors.ordered_product.ordered_product] and
+        [`dropout_rows_product`][predictors.ordered_product.dropout_rows_product], so a result row's bits do
+        not depend on which other rows are computed with it.
 
         Raises:
             ValueError: ``epistemic`` sampling without ``rng``.

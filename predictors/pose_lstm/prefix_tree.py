@@ -9,16 +9,16 @@ LSTM steps: on the benchmark scene of ``benchmarks/bench_pose_smc.py`` (10 peopl
 about 9,200 node steps per frame instead of 96,000 for the distinct queues and 485,000 for every
 particle's window.
 
-The tree (:class:`PrefixTree`): sort the windows lexicographically by their steps (the bits of their
-float32 inputs as unsigned numbers, two to a 64-bit sort key, so equal means bit-equal); in sorted
-order a window starts a new node at depth ``d`` iff its prefix ``0..d`` differs from the previous
-window's, i.e. it started a new node at depth ``d − 1`` or its step ``d`` differs. Node ``j`` at
+The tree ([`PrefixTree`][predictors.pose_lstm.prefix_tree.PrefixTree]): sort the windows lexicographically by
+their steps (the bits of their float32 inputs as unsigned numbers, two to a 64-bit sort key, so equal means
+bit-equal); in sorted order a window starts a new node at depth ``d`` iff its prefix ``0..d`` differs from the
+previous window's, i.e. it started a new node at depth ``d − 1`` or its step ``d`` differs. Node ``j`` at
 depth ``d`` has one representative window (its first in sorted order), whose step ``d`` is the
-node's input, and a parent, the node at depth ``d − 1`` of that window. :meth:`PrefixTree.encode`
-steps the cell once per node, depth by depth, from its parent's state; each window's output is its
-leaf's state. The arithmetic per node is the arithmetic the plain pass does for each of its windows
-(the same cell, the same product per column:
-:meth:`~predictors.lstm_cell.FusedLSTMCell.step_gathered` reads the parents' states in place), so
+node's input, and a parent, the node at depth ``d − 1`` of that window.
+[`PrefixTree.encode`][predictors.pose_lstm.prefix_tree.PrefixTree.encode] steps the cell once per node, depth
+by depth, from its parent's state; each window's output is its leaf's state. The arithmetic per node is the
+arithmetic the plain pass does for each of its windows (the same cell, the same product per column:
+[`step_gathered`][predictors.lstm_cell.FusedLSTMCell.step_gathered] reads the parents' states in place), so
 the outputs are the plain pass's.
 """
 
@@ -34,7 +34,8 @@ from track_envs.infra.compiled import njit
 
 
 class SequenceCell(Protocol):
-    """What :meth:`PrefixTree.encode` needs of a cell (:class:`predictors.lstm_cell.FusedLSTMCell`)."""
+    """What [`PrefixTree.encode`][predictors.pose_lstm.prefix_tree.PrefixTree.encode] needs of a cell
+    ([`predictors.lstm_cell.FusedLSTMCell`][predictors.lstm_cell.FusedLSTMCell])."""
 
     def sequence(
         self,
@@ -134,13 +135,16 @@ class PrefixTree:
 
     def encode(self, cell: SequenceCell, x: NDArray[np.float32]) -> NDArray[np.float32]:
         """The last output ``h`` (n, H) of every window of ``x`` (the windows the tree was built of)
-        from the zero state: :meth:`encode_nodes` read at each window's :attr:`leaf`."""
+        from the zero state: [`encode_nodes`][predictors.pose_lstm.prefix_tree.PrefixTree.encode_nodes] read
+        at each window's [`leaf`][predictors.pose_lstm.prefix_tree.PrefixTree.leaf]."""
         return self.encode_nodes(cell, x)[self.leaf]
 
     def encode_nodes(self, cell: SequenceCell, x: NDArray[np.float32]) -> NDArray[np.float32]:
         """The last output ``h`` (k, H) of every node at the last depth (a distinct window of ``x``;
-        window ``r``'s is row :attr:`leaf` ``[r]``), one cell step per node
-        (:meth:`SequenceCell.step_gathered`, depth by depth, each node from its parent's state)."""
+        window ``r``'s is row [`leaf`][predictors.pose_lstm.prefix_tree.PrefixTree.leaf] ``[r]``), one cell
+        step per node
+        ([`SequenceCell.step_gathered`][predictors.pose_lstm.prefix_tree.SequenceCell.step_gathered], depth by
+        depth, each node from its parent's state)."""
         state_t: tuple[NDArray[np.float32], NDArray[np.float32]] | None = None  # (hᵀ, cᵀ) per node
         for d, (rows, parents) in enumerate(zip(self.rows, self.parents, strict=True)):
             state_t = cell.step_gathered(x[rows, d], state_t, parents)  # from the parents' states

@@ -1,9 +1,9 @@
 """Training the probabilistic pose predictor (Okada et al. 2020, Sec. III) on KeypointWalkers-v0.
 
-Data (:func:`pose_windows_from_env`): episodes of a keypoint env run with empty reports. For
-every person and frame ``t`` with the person in the truth, the *input* is the person's detected
-poses at frames ``t − L … t − 1`` (``(x, y, v)`` per keypoint, ``(0, 0, 0)`` where the detector
-missed the person or the keypoint, as the env's occlusions and misses make them) and the *target*
+Data ([`pose_windows_from_env`][predictors.pose_lstm.training.pose_windows_from_env]): episodes of a keypoint
+env run with empty reports. For every person and frame ``t`` with the person in the truth, the *input* is the
+person's detected poses at frames ``t − L … t − 1`` (``(x, y, v)`` per keypoint, ``(0, 0, 0)`` where the
+detector missed the person or the keypoint, as the env's occlusions and misses make them) and the *target*
 the true pose at ``t``. Poses are windows of 17 pointwise sequences; the split is by person, so no
 person contributes to two sets; one training item is one pose window (17 sequences), so a
 mini-batch of 30 holds 510 sequences.
@@ -26,8 +26,9 @@ the same for the last visible coordinate alone, the NLL, and the homoscedastic `
 After ``loss="mse"`` the NLL and mean σ are those of the untrained ``log σ`` outputs (no meaning);
 ``fixed_sigma`` is the σ of such a model.
 
-Training recipe (:mod:`predictors.training.recipes`): :func:`recipe` gives ``track train
-pose-lstm``, :func:`train_command` runs it.
+Training recipe ([`predictors.training.recipes`][predictors.training.recipes]):
+[`recipe`][predictors.pose_lstm.training.recipe] gives ``track train pose-lstm``,
+[`train_command`][predictors.pose_lstm.training.train_command] runs it.
 """
 
 from __future__ import annotations
@@ -224,7 +225,8 @@ def gaussian_nll(
 
 def mean_squared_error(mu: torch.Tensor, r: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     """Weighted mean over sequences of ``Σ_d (μ_d − r_d)² / 2``: the mean over both axes of the squared
-    error of ``μ``, i.e. :func:`gaussian_nll` with ``log σ = 0`` (σ plays no part)."""
+    error of ``μ``, i.e. [`gaussian_nll`][predictors.pose_lstm.training.gaussian_nll] with ``log σ = 0`` (σ
+    plays no part)."""
     per = (mu - r).pow(2).sum(dim=-1) / 2
     return (per * weight).sum() / weight.sum().clamp(min=1.0)
 
@@ -234,15 +236,16 @@ LOSSES = ("nll", "mse")
 
 
 def check_loss(loss: str) -> str:
-    """``loss`` if it names a training loss (:data:`LOSSES`), else a ValueError naming the valid ones."""
+    """``loss`` if it names a training loss ([`LOSSES`][predictors.pose_lstm.training.LOSSES]), else a
+    ValueError naming the valid ones."""
     if loss not in LOSSES:
         raise ValueError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
     return loss
 
 
 def pose_loss(scale: float, window: int, min_window: int, loss: str = "nll") -> LossFn:
-    """``loss`` (eq. (8) ``"nll"`` or :func:`mean_squared_error` ``"mse"``) on batches cut to a random
-    length in ``[min_window, window]`` (training mode only)."""
+    """``loss`` (eq. (8) ``"nll"`` or [`mean_squared_error`][predictors.pose_lstm.training.mean_squared_error]
+    ``"mse"``) on batches cut to a random length in ``[min_window, window]`` (training mode only)."""
     mse = check_loss(loss) == "mse"
 
     def loss_fn(model: torch.nn.Module, batch: Any, generator: torch.Generator) -> torch.Tensor:
@@ -270,7 +273,8 @@ def train_pose_model(
     loss: str = "nll",
     progress: bool = True,
 ) -> tuple[PosePredictorNet, History]:
-    """Train a pose predictor with :func:`~predictors.training.loop.fit` on ``loss`` (:data:`LOSSES`:
+    """Train a pose predictor with [`fit`][predictors.training.fit] on ``loss``
+    ([`LOSSES`][predictors.pose_lstm.training.LOSSES]:
     ``"nll"`` eq. (8), ``"mse"`` the squared error of μ alone); the validation loss, which picks the
     kept epoch, is the same loss."""
     check_loss(loss)
@@ -314,7 +318,7 @@ def pose_metrics(
 
 
 def to_model_file(net: PosePredictorNet, scale_per_height: float, **meta: Any) -> ModelFile:
-    """A :class:`~predictors.training.model_file.ModelFile` of a trained pose predictor."""
+    """A [`ModelFile`][predictors.training.ModelFile] of a trained pose predictor."""
     normalisation = {"scale_per_height": scale_per_height}
     return trained_model_file(net, kind=KIND, dim=2, normalisation=normalisation, **meta)
 
@@ -335,7 +339,7 @@ def recipe(kind: str = KIND) -> TrainingRecipe:
     return TrainingRecipe(KIND, HELP, train=train_command, options=(LOSS_OPTION,))
 
 
-#: ``--loss``: the pose predictor's loss (:data:`LOSSES`).
+#: ``--loss``: the pose predictor's loss ([`LOSSES`][predictors.pose_lstm.training.LOSSES]).
 LOSS_OPTION = RecipeOption(
     "loss",
     "nll",

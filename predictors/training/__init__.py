@@ -1,17 +1,22 @@
 """Training learned motion models: data from env truth or track files, one loop, one model file.
 
-* :mod:`predictors.training.data` — tracks from an env's truth or a recorded track file, the
+* `predictors.training.data` — tracks from an env's truth or a recorded track
+file, the
   train / validation / test split by track, padding;
-* :mod:`predictors.training.loop` — the seeded Adam loop every learned model trains with;
-* :mod:`predictors.training.recipes` — the training recipes by model kind (``track train KIND``),
+* `predictors.training.loop` — the seeded Adam loop every learned model trains
+with;
+* `predictors.training.recipes` — the training recipes by model kind
+(``track train KIND``),
   each registered beside its family's predictor, trained with typed settings
-  (:mod:`predictors.training.settings`); :mod:`predictors.training.command` — what every
-  recipe's ``train(settings)`` shares (data from the settings, the config, the sidecar's record);
-* :mod:`predictors.belt_lstm.training` — losses and data of the belt LSTMs;
-* :mod:`predictors.displacement_lstm.training` — the sine data, loss and metrics of the displacement
+  (`predictors.training.settings`);
+  `predictors.training.command` — what every recipe's ``train(settings)``
+  shares (data from the settings, the config, the sidecar's record);
+* `predictors.belt_lstm.training` — losses and data of the belt LSTMs;
+* `predictors.displacement_lstm.training` — the sine data, loss and
+metrics of the displacement
   LSTM of the LSTM particle filter.
 
-torch is imported by these modules; nothing else in :mod:`predictors` needs it to run a tracker.
+torch is imported by these modules; nothing else in [`predictors`][predictors] needs it to run a tracker.
 """
 
 from __future__ import annotations

@@ -2,11 +2,11 @@
 
 With ``d² = (y − ŷ)ᵀ Σ⁻¹ (y − ŷ)`` of held-out predictions, the *reliability curve* gives for each
 expected confidence level ``p`` the empirical level ``p_emp(p) = P̂(d² ≤ F⁻¹(p))``, with ``F`` the
-χ² CDF with ``D`` degrees of freedom (:class:`track_envs.metrics.prediction.Reliability`).
-Following Kuleshov, Fenner and Ermon ("Accurate Uncertainties for Deep Learning Using Calibrated
-Regression", 2018), an isotonic regression fits the monotone map ``R: p_emp → p`` from empirical
-to expected levels (``scipy.optimize.isotonic_regression``). The covariances are then scaled,
-keeping their shapes, by
+χ² CDF with ``D`` degrees of freedom
+([`track_envs.metrics.prediction.Reliability`][track_envs.metrics.Reliability]). Following Kuleshov, Fenner
+and Ermon ("Accurate Uncertainties for Deep Learning Using Calibrated Regression", 2018), an isotonic
+regression fits the monotone map ``R: p_emp → p`` from empirical to expected levels
+(``scipy.optimize.isotonic_regression``). The covariances are then scaled, keeping their shapes, by
 
     r = F⁻¹(R(p_des)) / F⁻¹(p_des),       Σ_cal = r Σ,
 

@@ -1,9 +1,9 @@
 """What every training recipe's ``train(settings)`` shares: the data its settings name, the printed
-split, the :class:`~predictors.training.loop.TrainConfig` and the sidecar's ``training`` record.
+split, the [`TrainConfig`][predictors.training.TrainConfig] and the sidecar's ``training`` record.
 
-The settings (:mod:`predictors.training.settings`): the data (an env's truth, a track file or the
-sine, and their options), the training loop's settings and the command, as typed (``track
-train KIND ...``, :mod:`track_apps.cli.train`, builds them from its arguments).
+The settings ([`predictors.training.settings`][predictors.training.settings]): the data (an env's truth, a
+track file or the sine, and their options), the training loop's settings and the command, as typed (``track
+train KIND ...``, [`track_apps.cli.train`][track_apps.cli.train], builds them from its arguments).
 """
 
 from __future__ import annotations
@@ -61,8 +61,9 @@ def print_split(n_tracks: int, split: Any, min_length: int) -> dict[str, int]:
 def training_record(
     settings: TrainingSettings, config: TrainConfig, history: History, **extra: Any
 ) -> dict[str, Any]:
-    """The sidecar's ``training`` entry: the exact command, the :class:`TrainConfig`, the
-    command's own settings ``extra`` and the loss history (the caller adds the wall time)."""
+    """The sidecar's ``training`` entry: the exact command, the
+    [`TrainConfig`][predictors.training.TrainConfig], the command's own settings ``extra`` and the loss
+    history (the caller adds the wall time)."""
     return {
         "command": settings.command,
         "config": {k: getattr(config, k) for k in config.__dataclass_fields__},
@@ -72,7 +73,7 @@ def training_record(
 
 
 def train_config(settings: TrainingSettings) -> TrainConfig:
-    """The :class:`~predictors.training.loop.TrainConfig` of the training settings."""
+    """The [`TrainConfig`][predictors.training.TrainConfig] of the training settings."""
     from predictors.training.loop import TrainConfig
 
     return TrainConfig(

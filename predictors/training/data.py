@@ -3,15 +3,17 @@
 A *track* is the sequence of positions ``(T, D)`` of one target over consecutive frames. Tracks
 come from
 
-* :func:`tracks_from_env`: the truth of any point environment (``info["truth"]``), run with empty
+* [`tracks_from_env`][predictors.training.tracks_from_env]: the truth of any point environment
+(``info["truth"]``), run with empty
   reports (the tracker does not influence the targets), or
-* :func:`tracks_from_file`: a recorded track file in the BeltReplay layout (CSV or zip, one x, y
+* [`tracks_from_file`][predictors.training.tracks_from_file]: a recorded track file in the BeltReplay layout
+(CSV or zip, one x, y
   column pair per particle, NaN while it is not in view) — a sorting engineer's recordings.
 
-:func:`split_tracks` drops tracks shorter than a minimum length (and says how many) and splits the
-rest into train / validation / test sets *by track* with a seeded generator, so no track
-contributes to two sets. :func:`pad_tracks` stacks tracks of different lengths into one padded
-array with a validity mask, which is how the training loop feeds whole tracks at once.
+[`split_tracks`][predictors.training.split_tracks] drops tracks shorter than a minimum length (and says how
+many) and splits the rest into train / validation / test sets *by track* with a seeded generator, so no track
+contributes to two sets. [`pad_tracks`][predictors.training.pad_tracks] stacks tracks of different lengths
+into one padded array with a validity mask, which is how the training loop feeds whole tracks at once.
 """
 
 from __future__ import annotations

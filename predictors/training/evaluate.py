@@ -8,7 +8,8 @@ measurement, so association plays no part. For step ``t`` of track ``i`` this re
 
 * the *per-track mean prediction error* (Pollithy et al. 2020, Fig. 6: the mean over a track's
   predictions, one value per track), and
-* the reliability curve and calibration of :mod:`predictors.training.calibration`
+* the reliability curve and calibration of
+[`predictors.training.calibration`][predictors.training.calibration]
 
 are computed.
 """

@@ -2,9 +2,9 @@
 
 Pollithy et al. (2020, Sec. IV-A) train with Adam (β₁ = 0.9, β₂ = 0.999, ε = 1e-7), an initial
 learning rate of 0.01 decayed every 200 epochs, 1,000 epochs and an L2 penalty λ = 1e-5; these are
-the defaults of :class:`TrainConfig` (the decay factor, which the paper does not state, is 0.5).
-The loss is whatever the model family defines (:data:`LossFn`), evaluated on padded whole
-sequences with a validity mask, so backpropagation runs through whole tracks.
+the defaults of [`TrainConfig`][predictors.training.TrainConfig] (the decay factor, which the paper does not
+state, is 0.5). The loss is whatever the model family defines ([`LossFn`][predictors.training.loop.LossFn]),
+evaluated on padded whole sequences with a validity mask, so backpropagation runs through whole tracks.
 
 Determinism: parameters are initialised, batches shuffled and dropout masks drawn from torch
 generators seeded by ``seed`` (the global torch RNG is forked, not consumed), and torch runs
@@ -188,7 +188,7 @@ def fit(
 def trained_model_file(
     net: Any, *, kind: str, dim: int, normalisation: dict[str, Any], **meta: Any
 ) -> ModelFile:
-    """The :class:`~predictors.training.model_file.ModelFile` of a trained network ``net`` (any module with
+    """The [`ModelFile`][predictors.training.ModelFile] of a trained network ``net`` (any module with
     ``architecture()`` and ``numpy_weights()``): its weights, its input normalisation, the
     package versions it was trained with, and ``meta``."""
     import numpy as np

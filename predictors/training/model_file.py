@@ -19,11 +19,11 @@ used and trusted:
     the exact command line and its wall time, the data description, test-split metrics, package
     versions).
 
-Use :func:`save_model` and :func:`load_model`; both take the path with or without a suffix
-(``weights/nll-lstm``, ``weights/nll-lstm.json`` and ``weights/nll-lstm.safetensors`` name the
-same model). Every problem on load raises :class:`ModelFileError` naming the file and what is
-wrong: a missing file, a corrupt one, another kind, another dimension or a tensor whose shape
-does not match the sidecar.
+Use [`save_model`][predictors.training.save_model] and [`load_model`][predictors.training.load_model]; both
+take the path with or without a suffix (``weights/nll-lstm``, ``weights/nll-lstm.json`` and
+``weights/nll-lstm.safetensors`` name the same model). Every problem on load raises
+[`ModelFileError`][predictors.training.ModelFileError] naming the file and what is wrong: a missing file, a
+corrupt one, another kind, another dimension or a tensor whose shape does not match the sidecar.
 """
 
 from __future__ import annotations
@@ -84,9 +84,9 @@ def save_model(path: str | os.PathLike[str], model: ModelFile) -> tuple[Path, Pa
 
     The sidecar records each tensor's shape, so a loader can check the weights before using them.
     Both files are written as any file is (permissions from the umask, e.g. 0644): the tensors are
-    serialised in memory and each file is written atomically (:mod:`track_envs.infra.atomic`: a
-    temporary file beside it, renamed; a failed write leaves the old model), not with safetensors'
-    ``save_file`` (a private 0600 file).
+    serialised in memory and each file is written atomically
+    (`track_envs.infra.atomic`: a temporary file beside it, renamed; a failed write
+    leaves the old model), not with safetensors' ``save_file`` (a private 0600 file).
     """
     from safetensors.numpy import save
 
@@ -117,8 +117,10 @@ def load_model(
 
     Args:
         path: The model's name, with or without ``.json`` / ``.safetensors``.
-        kind: The kind (or kinds) the caller can use; another raises :class:`ModelFileError`.
-        dim: The measurement dimension the caller needs; another raises :class:`ModelFileError`.
+        kind: The kind (or kinds) the caller can use; another raises
+            [`ModelFileError`][predictors.training.ModelFileError].
+        dim: The measurement dimension the caller needs; another raises
+            [`ModelFileError`][predictors.training.ModelFileError].
 
     Raises:
         ModelFileError: naming the file and the problem (missing, corrupt, kind, dimension, shapes).

@@ -1,20 +1,20 @@
 """Training recipes: how ``track train KIND`` trains each learned model kind, registered by kind.
 
-A :class:`TrainingRecipe` declares one model kind's subcommand: its one-line help, the options
-it adds to the shared data and training settings (:class:`~predictors.training.settings.RecipeOption`),
+A [`TrainingRecipe`][predictors.TrainingRecipe] declares one model kind's subcommand: its one-line help, the
+options it adds to the shared data and training settings ([`RecipeOption`][predictors.training.RecipeOption]),
 and ``train(settings)``, which trains the model on the data the settings name
-(:class:`~predictors.training.settings.TrainingSettings`), writes ``settings.out``
-(``.safetensors`` + ``.json``, see :mod:`predictors.training.model_file`), prints one summary line
-and returns the sidecar's path.
+([`TrainingSettings`][predictors.training.TrainingSettings]), writes ``settings.out``
+(``.safetensors`` + ``.json``, see [`predictors.training.model_file`][predictors.training.model_file]), prints
+one summary line and returns the sidecar's path.
 Each learned family registers its recipes beside its predictor registration
-(:mod:`predictors`), so ``track train`` (:mod:`track_apps.cli.train`) lists whatever is registered
-and a new learned family edits no command-line code::
+([`predictors`][predictors]), so ``track train`` ([`track_apps.cli.train`][track_apps.cli.train]) lists
+whatever is registered and a new learned family edits no command-line code::
 
     register_recipe("my-lstm", TrainingRecipe("my-lstm", "my model", train=train_my_lstm))
 
 A family whose modules import torch registers the *name of the module* instead; its
-``recipe(kind)`` builds the recipe on first use (:func:`training_recipe`), so importing
-:mod:`predictors` stays free of torch.
+``recipe(kind)`` builds the recipe on first use ([`training_recipe`][predictors.training.training_recipe]), so
+importing [`predictors`][predictors] stays free of torch.
 
 A step after training that runs a tracker (the ``lstm`` covariance line search) is no part of a
 recipe: the application that trains runs it on the written model file (``track train lstm``).
@@ -60,7 +60,7 @@ class _OrderedRegistry(Registry):
         return list(self._factories)
 
 
-#: Recipe loaders by kind: each returns the kind's :class:`TrainingRecipe`.
+#: Recipe loaders by kind: each returns the kind's [`TrainingRecipe`][predictors.TrainingRecipe].
 RECIPES = _OrderedRegistry("training recipe")
 
 

@@ -1,10 +1,11 @@
 """The settings a training recipe takes: what to train on and how (typed, no command line).
 
-:class:`DataSettings` names the tracks (an env's truth, a recorded track file or the sine) and
-how they are cut and split; :class:`TrainingSettings` adds the training loop's settings, the model
-file to write and the recipe's own options (:class:`RecipeOption`, declared by the recipe).
-``track train`` (:mod:`track_apps.cli.train`) builds them from its arguments; a script builds
-them directly::
+[`DataSettings`][predictors.training.DataSettings] names the tracks (an env's truth, a recorded track file or
+the sine) and how they are cut and split; [`TrainingSettings`][predictors.training.TrainingSettings] adds the
+training loop's settings, the model file to write and the recipe's own options
+([`RecipeOption`][predictors.training.RecipeOption], declared by the recipe). ``track train``
+([`track_apps.cli.train`][track_apps.cli.train]) builds them from its arguments; a script builds them
+directly::
 
     from predictors.training.recipes import training_recipe
     from predictors.training.settings import DataSettings, TrainingSettings
@@ -103,8 +104,8 @@ class TrainingSettings:
         seed: Seed of the split, the initialisation, the shuffling and the masks.
         device: The torch device (``"cpu"`` or ``"cuda"``).
         progress: Show a progress bar.
-        options: The recipe's own options by name (:class:`RecipeOption`; missing ones take
-            their defaults).
+        options: The recipe's own options by name ([`RecipeOption`][predictors.training.RecipeOption]; missing
+            ones take their defaults).
     """
 
     kind: str

@@ -1,4 +1,5 @@
-"""The one episode loop (:func:`agents.run_episode`): the bench's metrics, truth for oracles, a step limit."""
+"""The one episode loop ([`agents.run_episode`][agents.run_episode]): the bench's metrics, truth for oracles,
+a step limit."""
 
 from __future__ import annotations
 

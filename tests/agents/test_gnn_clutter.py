@@ -7,8 +7,8 @@ chance used to let coasting tracks take clutter and other targets' first detecti
 inflated gates: on the stream below gnn's defaults scored a lower IDF1 than the plain GNN (kf-cv,
 0.887 against 0.902 on seed 0) and made 1.9x (kf-cv) and 1.3x (kf-ca) the ID switches of the same
 tracker without the second chance. With the clutter test of the second chance
-(:func:`agents.tracking._upkeep_kernels.clutter_log_odds`) every measure of the defaults is at least the
-plain GNN's.
+([`agents.tracking._upkeep_kernels.clutter_log_odds`][agents.tracking._upkeep_kernels.clutter_log_odds]) every
+measure of the defaults is at least the plain GNN's.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The layers of agents import only downwards, and agents imports no application (track_apps).
 
 Layers, lowest first, each a set of modules (a module belongs to the layer of the longest dotted
-prefix of its name in :data:`MODULE_LAYERS`):
+prefix of its name in `MODULE_LAYERS`):
 
 * ``base`` — the Agent protocol, its declared traits and capabilities, the registry;
 * ``trackers`` — the tracker core and its components (``tracking``), the named trackers (gnn,

@@ -1,13 +1,14 @@
 """Merged-blob events on a sorter belt (joins, separations, missed pairs): the bounds a tracker
 that handles them meets, and gnn breaking them today.
 
-The streams are :mod:`track_envs.streams.merge_events` (20 instances of each event per stream, two
-streams), the scores :mod:`track_envs.streams.merge_scoring` (run by :mod:`agents.merge_scoring`).
-Bounds, per scenario: >= 95 % of
-the events resolved (both particles keep their tracks for the 20 frames after the event, no new
-track, or for a separation exactly one new track on the second piece, and no track further than
-0.3 mm = 10 σ from its particle), and a lateral kick (the sideways velocity a track put into its
-state at the event, beyond its particle's) <= 0.5 mm per frame at the 95th percentile.
+The streams are [`track_envs.streams.merge_events`][track_envs.streams.merge_events] (20 instances of each
+event per stream, two streams), the scores
+[`track_envs.streams.merge_scoring`][track_envs.streams.merge_scoring] (run by
+[`agents.merge_scoring`][agents.merge_scoring]). Bounds, per scenario: >= 95 % of the events resolved (both
+particles keep their tracks for the 20 frames after the event, no new track, or for a separation exactly one
+new track on the second piece, and no track further than 0.3 mm = 10 σ from its particle), and a lateral kick
+(the sideways velocity a track put into its state at the event, beyond its particle's) <= 0.5 mm per frame at
+the 95th percentile.
 
 gnn today, on streams 0–2 (60 events per scenario): events resolved, and the kick's median in
 mm per frame (``blob_extent`` 4 mm as 2 mm)::

@@ -216,7 +216,7 @@ def test_pose_network_numpy_equals_torch() -> None:
 
 @pytest.mark.parametrize("matmul", ["numpy", "torch", "ordered"])
 def test_the_blocked_sequence_equals_the_steps_and_torch(matmul: str) -> None:
-    """:meth:`FusedLSTMCell.sequence` (blocks of rows, transposed layout) equals :meth:`step` run
+    """`FusedLSTMCell.sequence` (blocks of rows, transposed layout) equals `step` run
     L times and torch's LSTM to float32 rounding, from the zero state and from a given one, for
     blocks that do and do not divide the rows."""
     net = _torch_lstm(3, 20, torch.float32, seed=7)

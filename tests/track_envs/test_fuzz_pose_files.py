@@ -1,5 +1,5 @@
 """Fuzzed pose files: every mutation of a valid COCO results or PoseTrack file is either read or
-stopped with a :class:`~track_envs.io.poses.PoseFileError` — never another exception — and
+stopped with a [`PoseFileError`][track_envs.io.PoseFileError] — never another exception — and
 ``track run`` on it ends with exit code 0 and a whole results file, or a one-line error and no
 file at all.
 

@@ -3,8 +3,8 @@
 The rule, and when a re-pin is allowed, are in docs/architecture.md ("Streams are versioned").
 
 For every id (the ids of ``track_envs`` and GateTuning-v0 of ``track_apps.tuning``) and two seeds,
-:func:`track_envs.testing.stream_digest` hashes the first :data:`STEPS` steps (fewer where the
-episode ends earlier: GateTuning-v0 ends after 100 steps of 10 tracked frames each):
+[`track_envs.testing.stream_digest`][track_envs.testing.stream_digest] hashes the first `STEPS` steps (fewer
+where the episode ends earlier: GateTuning-v0 ends after 100 steps of 10 tracked frames each):
 observations, rewards, ``terminated`` / ``truncated`` and the truth side of ``info``. The
 digests are recorded in ``data/stream_digests.json``, one entry per id and seed: the digest and
 the re-pins it went through, each with its reason. A change of what an id emits fails here and
@@ -49,7 +49,7 @@ from track_envs.testing import stream_digest
 DIGESTS = Path(__file__).parent / "data" / "stream_digests.json"
 #: "1": record the digests of ids that have none (never those of an id that has some).
 RECORD = os.environ.get("TRACK_ENVS_RECORD_DIGESTS") == "1"
-#: Comma-separated ids whose digests are replaced, with :data:`REPIN_REASON` stored beside them.
+#: Comma-separated ids whose digests are replaced, with `REPIN_REASON` stored beside them.
 REPIN = tuple(filter(None, (n.strip() for n in os.environ.get("TRACK_ENVS_REPIN_DIGESTS", "").split(","))))
 REPIN_REASON = os.environ.get("TRACK_ENVS_REPIN_REASON", "").strip()
 #: The libraries whose bits a re-pin may follow, noted beside its reason.

@@ -1,22 +1,25 @@
 """Cells, suites and applicability: what the benchmark runs.
 
 A **cell** is one unit of work: (env id, env kwargs, agent, predictor, agent kwargs, seed) plus
-the episode budget (episodes, steps per episode). Its :attr:`Cell.key` is a stable hash of exactly
-those fields, so the record file of a cell has the same name on every machine and every run; every
-field but the seed is also one of the cell's :meth:`Cell.params`, which the report groups seeds by.
+the episode budget (episodes, steps per episode). Its [`Cell.key`][track_apps.bench.Cell.key] is a stable hash
+of exactly those fields, so the record file of a cell has the same name on every machine and every run; every
+field but the seed is also one of the cell's [`Cell.params`][track_apps.bench.Cell.params], which the report
+groups seeds by.
 
-A **suite** is a list of :class:`Group` s, read from a TOML file (:func:`load_suite`; the shipped
-ones are ``track_apps/bench/suites/NAME.toml``); a group is a cartesian product (envs × agents ×
-predictors × sweep values × seeds) that :func:`expand` turns into the cells that *apply*, by the
-one rule :func:`why_not` (which ``track list`` shows too):
+A **suite** is a list of [`Group`][track_apps.bench.Group] s, read from a TOML file
+([`load_suite`][track_apps.bench.load_suite]; the shipped ones are ``track_apps/bench/suites/NAME.toml``); a
+group is a cartesian product (envs × agents × predictors × sweep values × seeds) that
+[`expand`][track_apps.bench.expand] turns into the cells that *apply*, by the one rule
+[`why_not`][track_apps.bench.cells.why_not] (which ``track list`` shows too):
 
 - the env reports ground truth to score against (not ``DetectionReplay-v0``);
 - an agent applies to an env when its position rank matches the env's ``position_shape``
-  (:func:`agents.agent_applies_to`: point trackers on point envs, pose trackers on keypoints);
+  ([`agents.agent_applies_to`][agents.agent_applies_to]: point trackers on point envs, pose trackers on
+  keypoints);
 - a predictor applies to an agent that takes a ``predictor`` argument (``"gnn"``); an agent
   without one (``"detections"``, ``"pf"``, ``"pose-baseline"``) runs once with predictor ``"-"``.
 
-:func:`plan` also returns the combinations that do not apply, with the reason, so that the
+[`plan`][track_apps.bench.plan] also returns the combinations that do not apply, with the reason, so that the
 command reports them instead of dropping them.
 """
 
@@ -105,7 +108,7 @@ class Cell:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Cell:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of [`to_dict`][track_apps.bench.Cell.to_dict]."""
         kwargs = kwarg_items(data.get("env_kwargs"))
         agent_kwargs = kwarg_items(data.get("agent_kwargs"))
         return cls(
@@ -134,7 +137,7 @@ class Cell:
 
     @property
     def filename(self) -> str:
-        """Record file name: readable prefix plus :attr:`key`."""
+        """Record file name: readable prefix plus [`key`][track_apps.bench.Cell.key]."""
         return f"{self.env_id}_{self.agent}_{self.predictor}_s{self.seed}_{self.key}.json"
 
 
@@ -144,7 +147,8 @@ class Group:
 
     Attributes:
         envs: Env ids; empty means every registered env.
-        agents: Agent names; empty means every registered tracker (:func:`trackers`).
+        agents: Agent names; empty means every registered tracker
+            (`trackers`).
         predictors: Predictor names for agents that take one; empty means every registered one.
         seeds: Seeds of the cells.
         episodes: Episodes per cell.
@@ -172,7 +176,7 @@ class Group:
 
 
 #: Envs without truth (a replay of a user's detections): nothing to score, so no cell of them
-#: applies (:func:`why_not`; the env class declares ``has_truth = False``).
+#: applies ([`why_not`][track_apps.bench.cells.why_not]; the env class declares ``has_truth = False``).
 NO_TRUTH_ENVS = ("DetectionReplay-v0",)
 
 
@@ -245,8 +249,9 @@ def check_kwarg_type(env_id: str, name: str, value: Any, default: Any) -> None:
 
 def trackers() -> list[str]:
     """The registered agents a group without ``agents`` runs: every agent but the oracles that
-    read the truth (``AgentTraits(needs_truth=True)``, :class:`agents.one_step.OneStepAgent`), which run
-    only where a suite names them."""
+    read the truth (``AgentTraits(needs_truth=True)``,
+    [`agents.one_step.OneStepAgent`][agents.one_step.OneStepAgent]), which run only where a suite names
+    them."""
     return [a for a in available_agents() if not agent_traits(AGENTS.factory(a)).needs_truth]
 
 
@@ -265,13 +270,14 @@ def why_not(env_id: str, agent: str, predictor: str | None = None) -> str | None
     """Why the cell (``env_id``, ``agent``[, ``predictor``]) cannot run, or ``None`` when it can.
 
     The reason is a phrase about "the env", "the agent" or "the predictor", to print after the
-    combination (:func:`format_skipped`).
+    combination ([`format_skipped`][track_apps.bench.cells.format_skipped]).
 
     The one applicability rule of the benchmark (``track list`` and ``track bench run`` both ask
     it): the env must report truth to score against; the agent must track the env's targets
-    (:func:`agents.agent_applies_to`: position rank, and how many targets it follows at once);
-    a ``predictor`` other than ``"-"`` needs an agent that takes one and must be meant for the env
-    (:func:`predictors.predictor_applies_to`: the belt LSTMs run on the belt envs only).
+    ([`agents.agent_applies_to`][agents.agent_applies_to]: position rank, and how many targets it follows at
+    once); a ``predictor`` other than ``"-"`` needs an agent that takes one and must be meant for the env
+    ([`predictors.predictor_applies_to`][predictors.predictor_applies_to]: the belt LSTMs run on the belt envs
+    only).
     """
     if not env_has_truth(env_id):
         return "the env has no ground truth to score against (track its detections with 'track run')"
@@ -290,14 +296,14 @@ def why_not(env_id: str, agent: str, predictor: str | None = None) -> str | None
 
 
 def agent_applies_to_env(env_id: str, agent: str) -> bool:
-    """Whether some cell of ``agent`` on ``env_id`` can run (:func:`why_not`)."""
+    """Whether some cell of ``agent`` on ``env_id`` can run ([`why_not`][track_apps.bench.cells.why_not])."""
     return why_not(env_id, agent) is None
 
 
 def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
     """Predictor column values for ``agent`` on ``env_id``: ``[]`` if the agent does not apply,
     ``["-"]`` if it takes no predictor, else those of ``predictors`` meant for the env
-    (all by :func:`why_not`)."""
+    (all by [`why_not`][track_apps.bench.cells.why_not])."""
     if not agent_applies_to_env(env_id, agent):
         return []
     if not agent_takes_predictor(agent):
@@ -307,7 +313,7 @@ def applicable(env_id: str, agent: str, predictors: Sequence[str]) -> list[str]:
 
 @dataclass(frozen=True)
 class Skipped:
-    """A combination of a suite that does not run, and why (:func:`why_not`).
+    """A combination of a suite that does not run, and why ([`why_not`][track_apps.bench.cells.why_not]).
 
     Attributes:
         env_id: The env id.
@@ -357,14 +363,15 @@ def validate_group(group: Group) -> None:
 
 
 def expand(groups: Iterable[Group]) -> list[Cell]:
-    """Every applicable cell of ``groups``, in order, without duplicates (:func:`plan` also
+    """Every applicable cell of ``groups``, in order, without duplicates ([`plan`][track_apps.bench.plan] also
     says which combinations do not apply and why)."""
     return plan(groups)[0]
 
 
 def plan(groups: Iterable[Group]) -> tuple[list[Cell], list[Skipped]]:
     """The cells of ``groups`` that apply (in order, without duplicates) and every combination
-    of env, agent and predictor of theirs that does not, with the reason (:func:`why_not`)."""
+    of env, agent and predictor of theirs that does not, with the reason
+    (`why_not`)."""
     cells: dict[str, Cell] = {}
     skipped: dict[tuple[str, str, str | None], Skipped] = {}
     for group in groups:
@@ -409,8 +416,8 @@ def override(groups: Sequence[Group], **changes: Any) -> tuple[Group, ...]:
     """``groups`` with the non-``None`` ``changes`` applied to every group (CLI flags over a suite).
 
     ``envs`` selects rather than replaces: a group keeps those of its envs
-    (:meth:`Group.env_ids`) that are also in ``envs`` and is dropped if none is. So
-    ``--envs BeltReplay-v0`` on a suite with a group per env family runs just that env's group,
+    ([`Group.env_ids`][track_apps.bench.Group.env_ids]) that are also in ``envs`` and is dropped if none is.
+    So ``--envs BeltReplay-v0`` on a suite with a group per env family runs just that env's group,
     with that group's env kwargs. Every other key replaces the group's value.
     """
     changes = {k: v for k, v in changes.items() if v is not None}
@@ -433,8 +440,8 @@ SUITE_FOLDER = "suites"
 
 
 def packaged_suites() -> dict[str, Path]:
-    """Name → path of every TOML suite shipped in :data:`SUITE_FOLDER` (``quick``, ``full``,
-    ``sorting``, ``pollithy2020``, ...)."""
+    """Name → path of every TOML suite shipped in [`SUITE_FOLDER`][track_apps.bench.cells.SUITE_FOLDER]
+    (``quick``, ``full``, ``sorting``, ``pollithy2020``, ...)."""
     from importlib import resources
 
     folder = resources.files("track_apps.bench") / SUITE_FOLDER
@@ -447,13 +454,14 @@ def packaged_suites() -> dict[str, Path]:
     }
 
 
-#: The suites :func:`suite_names` lists first, in this order (the others follow by name).
+#: The suites [`suite_names`][track_apps.bench.suite_names] lists first, in this order (the others follow by
+#: name).
 MAIN_SUITES = ("quick", "full", "sorting")
 
 
 def suite_names() -> list[str]:
-    """Every suite name :func:`load_suite` accepts: ``quick``, ``full``, ``sorting``, then the
-    other shipped TOMLs by name."""
+    """Every suite name [`load_suite`][track_apps.bench.load_suite] accepts: ``quick``, ``full``, ``sorting``,
+    then the other shipped TOMLs by name."""
     shipped = packaged_suites()
     return [*(n for n in MAIN_SUITES if n in shipped), *(n for n in shipped if n not in MAIN_SUITES)]
 
@@ -482,7 +490,7 @@ def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
     group with neither runs unchanged in the quick variant.
 
     Args:
-        source: A suite name (:func:`suite_names`) or a path ending in ``.toml``.
+        source: A suite name ([`suite_names`][track_apps.bench.suite_names]) or a path ending in ``.toml``.
         quick: The suite's quick variant: each group's ``quick`` keys replace its own.
 
     Raises:
@@ -520,7 +528,8 @@ def load_suite(source: str, *, quick: bool = False) -> tuple[Group, ...]:
 
 
 def group_from_mapping(data: Mapping[str, Any]) -> Group:
-    """A :class:`Group` from a TOML table (see :func:`load_suite`)."""
+    """A [`Group`][track_apps.bench.Group] from a TOML table (see
+    [`load_suite`][track_apps.bench.load_suite])."""
     allowed = {"envs", "agents", "predictors", "seeds", "episodes", "steps", "env_kwargs", "sweep"}
     allowed |= {"agent_kwargs", "name", "quick", "exclude_envs"}
     check_names("suite key", data, sorted(allowed))

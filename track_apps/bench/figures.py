@@ -1,19 +1,23 @@
 """Plot kinds of ``track bench report`` for predictor scores: box plots, reliability diagrams and
 the area-over-age scatter with Pearson's r.
 
-They read the aggregated :class:`~track_apps.bench.rows.Row` s (means over seeds) of the keys that
-:class:`agents.one_step.OneStepAgent` records:
+They read the aggregated [`Row`][track_apps.bench.rows.Row] s (means over seeds) of the keys that
+[`agents.one_step.OneStepAgent`][agents.one_step.OneStepAgent] records:
 
-* **box plot** (:func:`box_figure`): the per-track mean absolute prediction error
-  (``track_error_p05`` … ``p95``, :mod:`track_envs.metrics.track_error`), box 25–75 %, median,
-  whiskers 5 % and 95 %, one box per contestant; each quantile is the mean of the seeds'
+* **box plot** ([`box_figure`][track_apps.bench.figures.box_figure]): the per-track mean absolute prediction
+error
+  (``track_error_p05`` … ``p95``, [`track_envs.metrics.track_error`][track_envs.metrics.track_error]), box
+  25–75 %, median, whiskers 5 % and 95 %, one box per contestant; each quantile is the mean of the seeds'
   quantiles (the seeds are episodes of equal length, so this is close to the pooled quantile).
-* **reliability diagram** (:func:`reliability_figure`): the empirical against the expected
+* **reliability diagram** ([`reliability_figure`][track_apps.bench.figures.reliability_figure]): the empirical
+against the expected
   confidence level (``reliability@p``, and ``reliability_raw@p`` before calibration), with the
   cumulative histogram of the predictions' levels as light bars (Pollithy et al. 2020, Figs. 3–4).
-* **scatter with r** (:func:`age_scatter_figure`): the mean bounding-box area ``4 σ_x σ_y`` per
+* **scatter with r** ([`age_scatter_figure`][track_apps.bench.figures.age_scatter_figure]): the mean
+bounding-box area ``4 σ_x σ_y`` per
   number of observations of the track, ± its std, marker area ∝ the number of predictions, and
-  Pearson's r over all predictions (Pollithy et al. 2020, Fig. 8; :mod:`track_envs.metrics.aleatoric`).
+  Pearson's r over all predictions (Pollithy et al. 2020, Fig. 8;
+  [`track_envs.metrics.aleatoric`][track_envs.metrics.aleatoric]).
 
 Units: the belt's sensor unit is the metre; errors are drawn in mm and areas in mm² there
 (``unit_scale``).

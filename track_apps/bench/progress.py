@@ -2,8 +2,8 @@
 
 The first cell a worker runs also compiles the numba kernels (tens of seconds on a fresh clone),
 so a rate over every finished cell (tqdm's own) extrapolates that compilation to every cell
-left: a run of five minutes showed over an hour to go. :class:`WarmEta` takes the rate from the
-cells finished after the first ``warm_up`` (one per worker: the ones that compiled),
+left: a run of five minutes showed over an hour to go. [`WarmEta`][track_apps.bench.progress.WarmEta] takes
+the rate from the cells finished after the first ``warm_up`` (one per worker: the ones that compiled),
 
 .. math::
 
@@ -11,7 +11,7 @@ cells finished after the first ``warm_up`` (one per worker: the ones that compil
 
 with ``c_k`` the clock when the ``k``-th cell finished, ``n`` cells finished of ``N`` and
 ``w = warm_up``; until cell ``w + 1`` finished the rate (and so the time left) is unknown, shown
-as ``?``. :class:`CellBar` is the tqdm bar that shows it.
+as ``?``. [`CellBar`][track_apps.bench.progress.CellBar] is the tqdm bar that shows it.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ class WarmEta:
     Args:
         total: Cells to run.
         warm_up: Cells whose time is left out of the rate: the first to finish (one per worker).
-        clock: Seconds, monotonic (default :func:`time.monotonic`; a test passes a fake one).
+        clock: Seconds, monotonic (default `time.monotonic`; a test passes a fake one).
 
     Raises:
         ValueError: ``total`` below 0 or ``warm_up`` below 1.
@@ -64,18 +64,19 @@ class WarmEta:
         return (self.done - self._warm_done) / elapsed if elapsed > 0 else None
 
     def remaining_s(self) -> float | None:
-        """Seconds left at :meth:`rate`, ``None`` while it is unknown."""
+        """Seconds left at [`rate`][track_apps.bench.progress.WarmEta.rate], ``None`` while it is unknown."""
         rate = self.rate()
         return None if rate is None else max(self.total - self.done, 0) / rate
 
 
 class CellBar(tqdm):
-    """A tqdm bar over cells whose rate and time left are :class:`WarmEta`'s (``?`` until known).
+    """A tqdm bar over cells whose rate and time left are [`WarmEta`][track_apps.bench.progress.WarmEta]'s
+    (``?`` until known).
 
     Args:
         *args: tqdm's.
         warm_up: Cells left out of the rate (one per worker).
-        clock: The :class:`WarmEta` clock.
+        clock: The [`WarmEta`][track_apps.bench.progress.WarmEta] clock.
         **kwargs: tqdm's (``total`` is required).
     """
 

@@ -2,8 +2,9 @@
 
 A table marks the best value of a metric among the trackers only: neither a reference that keeps
 no identity from one frame to the next (the no-tracking ``detections`` floor, whose e1 and so
-e_mean are 0 by construction: :data:`REFERENCE_AGENTS`) nor an oracle that reads the truth (an
-agent that declares ``needs_truth``, :class:`agents.base.AgentTraits`) is ever marked best.
+e_mean are 0 by construction: [`REFERENCE_AGENTS`][track_apps.bench.ranking.REFERENCE_AGENTS]) nor an oracle
+that reads the truth (an agent that declares ``needs_truth``, [`agents.base.AgentTraits`][agents.AgentTraits])
+is ever marked best.
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ REFERENCE_AGENTS = frozenset({"detections"})
 
 def agent_is_ranked(name: str) -> bool:
     """Whether agent ``name`` competes in the results tables: not a reference
-    (:data:`REFERENCE_AGENTS`) and sees no truth (not ``needs_truth``). A name not registered
-    here (a record from an agent of your own) is ranked."""
+    ([`REFERENCE_AGENTS`][track_apps.bench.ranking.REFERENCE_AGENTS]) and sees no truth (not ``needs_truth``).
+    A name not registered here (a record from an agent of your own) is ranked."""
     if name not in AGENTS.names():
         return True
     return name not in REFERENCE_AGENTS and not agent_traits(AGENTS.factory(name)).needs_truth

@@ -1,15 +1,17 @@
 """Rows: the records of a bench run aggregated per contestant and setting, and what every table,
 figure and claim check built on them shares (their labels, writing a figure).
 
-A :class:`Row` is one (env, params, agent, predictor) with mean ± std over the seeds (sample std,
-0 for a single seed; NaN values, e.g. an occlusion error without occlusion, are left out). The
-params are everything else that changes a cell's result (:meth:`track_apps.bench.cells.Cell.params`):
+A [`Row`][track_apps.bench.rows.Row] is one (env, params, agent, predictor) with mean ± std over the seeds
+(sample std, 0 for a single seed; NaN values, e.g. an occlusion error without occlusion, are left out). The
+params are everything else that changes a cell's result
+([`track_apps.bench.cells.Cell.params`][track_apps.bench.Cell.params]):
 the env kwargs, ``steps``, ``episodes`` (shown when not 1) and the agent kwargs (``agent.NAME``),
 so records made with other steps, episodes or kwargs in the same out dir are separate rows,
 never pooled.
 
-:mod:`track_apps.bench.tables` (tables and plots), :mod:`track_apps.bench.figures` (the predictor-score
-plots) and :mod:`track_apps.bench.claims` (paper reproductions) import from here and not from each
+[`track_apps.bench.tables`][track_apps.bench.tables] (tables and plots),
+[`track_apps.bench.figures`][track_apps.bench.figures] (the predictor-score plots) and
+[`track_apps.bench.claims`][track_apps.bench.claims] (paper reproductions) import from here and not from each
 other's private names.
 """
 
@@ -37,7 +39,7 @@ def params_text(params: Sequence[tuple[str, Any]]) -> str:
 class Row:
     """Aggregate of the records of one (env, params, agent, predictor).
 
-    ``params`` is :meth:`Cell.params <track_apps.bench.cells.Cell.params>`: env kwargs, steps,
+    ``params`` is [`Cell.params`][track_apps.bench.Cell.params]: env kwargs, steps,
     episodes, and agent kwargs as ``agent.NAME``.
     """
 

@@ -1,7 +1,7 @@
 """Run cells, write one record per cell, skip finished cells; local and Ray engines.
 
-A record is one JSON file in the out dir (name: :attr:`Cell.filename`, from a stable hash of the
-cell)::
+A record is one JSON file in the out dir (name: [`Cell.filename`][track_apps.bench.Cell.filename], from a
+stable hash of the cell)::
 
     {"schema": 1, "key": "<hash>", "cell": {...},
      "metrics": {"e1": ..., "mota": ..., ...},          # mean over the cell's episodes
@@ -103,7 +103,7 @@ def _json_float(value: Any) -> float | str:
 
 
 def make_env(cell: Cell) -> gym.Env:
-    """The cell's env wrapped in :class:`TrackingMetrics`."""
+    """The cell's env wrapped in [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics]."""
     kwargs = dict(cell.env_kwargs)
     if cell.steps is not None:
         kwargs["max_episode_steps"] = cell.steps
@@ -206,8 +206,8 @@ def run_cell(cell: Cell) -> dict[str, Any]:
 
 
 def write_record(out_dir: str | os.PathLike[str], record: dict[str, Any]) -> Path:
-    """Write ``record`` atomically (:func:`track_envs.infra.atomic.atomic_write`: a temporary file in
-    ``out_dir``, fsync, ``os.replace``)."""
+    """Write ``record`` atomically ([`track_envs.infra.atomic.atomic_write`][track_envs.io.atomic_write]: a
+    temporary file in ``out_dir``, fsync, ``os.replace``)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = out / Cell.from_dict(record["cell"]).filename
@@ -221,7 +221,7 @@ class RecordError(ValueError):
 
 
 class SkippedRecordWarning(UserWarning):
-    """:func:`load_records` left a file out (the message names it and says why)."""
+    """[`load_records`][track_apps.bench.load_records] left a file out (the message names it and says why)."""
 
 
 def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -261,7 +261,8 @@ def read_record(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class RecordScan:
-    """What :func:`scan_records` found: the records and the skipped files with the reason."""
+    """What [`scan_records`][track_apps.bench.runner.scan_records] found: the records and the skipped files
+    with the reason."""
 
     records: list[dict[str, Any]]
     skipped: list[tuple[Path, str]]
@@ -283,7 +284,8 @@ def load_records(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """Every record in ``out_dir``, sorted by file name.
 
     Each ``*.json`` file that is not a readable record is left out with a
-    :class:`SkippedRecordWarning` naming it and the reason (see :func:`scan_records`).
+    `SkippedRecordWarning` naming it and the reason (see
+    `scan_records`).
     """
     scan = scan_records(out_dir)
     for path, reason in scan.skipped:
@@ -309,7 +311,7 @@ def is_finished(out_dir: Path, cell: Cell) -> bool:
 
 @dataclass(frozen=True)
 class RunResult:
-    """What :func:`run_cells` did."""
+    """What [`run_cells`][track_apps.bench.run_cells] did."""
 
     total: int
     computed: int
@@ -389,15 +391,17 @@ def run_cells(
     """Run every cell of ``cells`` that has no record in ``out_dir`` yet and write its record.
 
     Args:
-        cells: The cells (see :func:`track_apps.bench.cells.expand`).
+        cells: The cells (see [`track_apps.bench.cells.expand`][track_apps.bench.expand]).
         out_dir: Directory of the records (created if missing).
         engine: ``"local"`` (process pool, or in-process with ``workers=1``) or ``"ray"``.
         workers: Local processes (default: the CPU count); ignored by ``"ray"``.
         address: Ray cluster address (``ray.init(address=...)``); ``None`` starts a local Ray.
         progress: Show a tqdm bar over the cells (its time left leaves out each worker's first
-            cell, which compiles the kernels: :class:`track_apps.bench.progress.CellBar`).
+            cell, which compiles the kernels:
+            `track_apps.bench.progress.CellBar`).
         check: Build every distinct env and agent of the cells to run first
-            (:func:`check_cells`), so a bad argument stops the run before any cell ran.
+            (`check_cells`), so a bad argument stops the run before any
+            cell ran.
 
     Returns:
         Counts of computed and skipped cells and the wall time.

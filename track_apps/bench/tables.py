@@ -1,18 +1,20 @@
 """Tables and plots from stored records: terminal, markdown, CSV and PNG (matplotlib Agg).
 
-Rows (:mod:`track_apps.bench.rows`) are (env, params, agent, predictor) with mean ± std over the
-seeds; records made with other steps, episodes or kwargs in the same out dir are separate rows.
+Rows ([`track_apps.bench.rows`][track_apps.bench.rows]) are (env, params, agent, predictor) with mean ± std
+over the seeds; records made with other steps, episodes or kwargs in the same out dir are separate rows.
 The terminal and markdown tables show the headline metrics of each env family
-(:data:`HEADLINE`); the CSV files hold every metric. Within each env and setting (the params but
-the agent kwargs) the best value of each headline metric is marked ``*`` (and bold on a
-terminal / in markdown), using :data:`LOWER_IS_BETTER` and :data:`HIGHER_IS_BETTER`.
+([`HEADLINE`][track_apps.bench.tables.HEADLINE]); the CSV files hold every metric. Within each env and setting
+(the params but the agent kwargs) the best value of each headline metric is marked ``*`` (and bold on a
+terminal / in markdown), using [`LOWER_IS_BETTER`][track_apps.bench.tables.LOWER_IS_BETTER] and
+[`HIGHER_IS_BETTER`][track_apps.bench.tables.HIGHER_IS_BETTER].
 
-Plot axes (:func:`axis_scale`, :func:`error_band`): a metric that cannot be negative
-(:data:`NON_NEGATIVE`) gets a log y axis when its positive values span more than
-:data:`LOG_SPAN` (two decades, e.g. 1.5 and 4,672 id switches), and its ±std bars and bands are
-clipped at 0 (on a log axis, at the bottom of the axis).
+Plot axes ([`axis_scale`][track_apps.bench.tables.axis_scale],
+[`error_band`][track_apps.bench.tables.error_band]): a metric that cannot be negative
+([`NON_NEGATIVE`][track_apps.bench.tables.NON_NEGATIVE]) gets a log y axis when its positive values span more
+than [`LOG_SPAN`][track_apps.bench.tables.LOG_SPAN] (two decades, e.g. 1.5 and 4,672 id switches), and its
+±std bars and bands are clipped at 0 (on a log axis, at the bottom of the axis).
 
-Files written into the out dir by :func:`write_report`:
+Files written into the out dir by [`write_report`][track_apps.bench.write_report]:
     ``results.md``: the headline tables; ``summary.csv``: long form, one row per
     (group, metric) with mean, std, n; ``records.csv``: one row per cell, every metric;
     ``plots/<env>_bars.png``: metric per agent/predictor (error bars: std over seeds);
@@ -21,7 +23,8 @@ Files written into the out dir by :func:`write_report`:
     ``plots/<env>_sorting_errors.png`` (envs with ``sorting_*`` metrics): the distribution of the
     temporal and lateral errors of the predicted nozzle-bar crossings, as their percentiles
     (50, 90, 95, 99) per agent/predictor and setting, at the default noise when it was swept;
-    for records of predictor scores (agent ``one-step``, :mod:`track_apps.bench.figures`):
+    for records of predictor scores (agent ``one-step``,
+    [`track_apps.bench.figures`][track_apps.bench.figures]):
     ``plots/<env>_track_error_box*.png`` (box plots of the per-track prediction error),
     ``plots/<env>_reliability.png`` (reliability diagrams before and after calibration) and
     ``plots/<env>_aleatoric_age.png`` (covariance area over the track's age, with Pearson's r).
@@ -85,8 +88,10 @@ def headline(rows: Sequence[Row]) -> list[str]:
 
 def best_rows(rows: Sequence[Row], metric: str) -> set[int]:
     """Indices (into ``rows``) of the best value of ``metric`` within each (env, setting), among
-    the trackers only (:func:`track_apps.bench.ranking.agent_is_ranked`): the no-tracking ``detections``
-    reference (e1 = 0, so e_mean = 0, by construction) and truth-reading oracles are never best."""
+    the trackers only
+    ([`track_apps.bench.ranking.agent_is_ranked`][track_apps.bench.ranking.agent_is_ranked]): the no-tracking
+    ``detections`` reference (e1 = 0, so e_mean = 0, by construction) and truth-reading oracles are never
+    best."""
     if metric not in LOWER_IS_BETTER | HIGHER_IS_BETTER:
         return set()
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
@@ -206,8 +211,8 @@ def _swept(rows: Sequence[Row]) -> list[str]:
 
 
 def axis_scale(metric: str, values: ArrayLike) -> str:
-    """``"log"`` for a :data:`NON_NEGATIVE` metric whose positive finite ``values`` span more than
-    :data:`LOG_SPAN` (max / min), else ``"linear"``.
+    """``"log"`` for a [`NON_NEGATIVE`][track_apps.bench.tables.NON_NEGATIVE] metric whose positive finite
+    ``values`` span more than [`LOG_SPAN`][track_apps.bench.tables.LOG_SPAN] (max / min), else ``"linear"``.
 
     Counts such as id switches differ by decades between trackers (1.5 and 4,672 on one belt);
     on a linear axis the small ones read as 0.
@@ -226,8 +231,8 @@ def error_band(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lower and upper ends of a mean ± std bar or band.
 
-    For a :data:`NON_NEGATIVE` metric the lower end is clipped at 0 (a count or an error
-    cannot be negative); on a log axis, where 0 has no place, at half the smallest positive
+    For a [`NON_NEGATIVE`][track_apps.bench.tables.NON_NEGATIVE] metric the lower end is clipped at 0 (a count
+    or an error cannot be negative); on a log axis, where 0 has no place, at half the smallest positive
     mean or upper end instead. NaN std (no finite value) gives NaN ends.
     """
     m, sd = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
@@ -244,7 +249,7 @@ def error_band(
 
 def bar_figure(env_rows: Sequence[Row]) -> Any:
     """The bar chart of one env: one panel per headline metric, one bar per contestant and
-    setting, error bars ± std over seeds (clipped, see :func:`error_band`)."""
+    setting, error bars ± std over seeds (clipped, see [`error_band`][track_apps.bench.tables.error_band])."""
     import matplotlib.pyplot as plt
 
     metrics = headline(env_rows)
@@ -277,7 +282,7 @@ def bar_figure(env_rows: Sequence[Row]) -> Any:
 
 def sweep_figure(env_rows: Sequence[Row], param: str) -> Any:
     """Metric versus ``param``: one curve per contestant (and per value of the other params,
-    when they vary), with a ± std band (clipped, see :func:`error_band`)."""
+    when they vary), with a ± std band (clipped, see [`error_band`][track_apps.bench.tables.error_band])."""
     import matplotlib.pyplot as plt
 
     metrics = headline(env_rows)

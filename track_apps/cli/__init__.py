@@ -1,7 +1,7 @@
 """The ``track`` command: ``track bench|run|train|tune|list ...``.
 
 One console script with a subcommand per job; each subcommand's parser lives in its own module of
-this package and reads its shared flags from :mod:`track_apps.cli.arguments`.
+this package and reads its shared flags from `track_apps.cli.arguments`.
 """
 
 from __future__ import annotations

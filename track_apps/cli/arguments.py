@@ -150,7 +150,8 @@ def parse_assignments(text: str, flag: str = "--env-kwargs") -> dict[str, Any]:
 
 
 def kwargs_type(flag: str) -> Callable[[str], dict[str, Any]]:
-    """An argparse ``type`` reading ``flag``'s value with :func:`parse_assignments`."""
+    """An argparse ``type`` reading ``flag``'s value with
+    [`parse_assignments`][track_apps.cli.arguments.parse_assignments]."""
 
     def parse(text: str) -> dict[str, Any]:
         return parse_assignments(text, flag)
@@ -161,13 +162,13 @@ def kwargs_type(flag: str) -> Callable[[str], dict[str, Any]]:
 
 def parse_kwargs(text: str) -> tuple[tuple[str, Any], ...]:
     """``"p_gate=0.99,max_misses=3"`` → sorted ``(name, value)`` pairs (hashable: a cell's
-    ``agent_kwargs``); the grammar of :func:`parse_assignments`."""
+    ``agent_kwargs``); the grammar of [`parse_assignments`][track_apps.cli.arguments.parse_assignments]."""
     return tuple(sorted(parse_assignments(text, "--agent-kwargs").items()))
 
 
 def parse_sweep(text: str) -> tuple[str, tuple[Any, ...]]:
     """``"noise_std=0,1e-4,2e-4"`` → ``("noise_std", (0, 0.0001, 0.0002))``: one name, then its
-    values (each as in :func:`parse_value`, each at most once)."""
+    values (each as in [`parse_value`][track_apps.cli.arguments.parse_value], each at most once)."""
     name, rest = parse_assignment("--sweep", text)
     values = []
     try:
@@ -260,7 +261,8 @@ def add_seed(parser: Any, *, help: str, default: int = 0) -> None:
 
 
 def add_seeds(parser: Any, *, help: str, default: tuple[int, ...] | None = None) -> None:
-    """``--seeds N|A:B|a,b,c``: seeds 0..N-1, A..B-1 or those listed (:func:`parse_seeds`)."""
+    """``--seeds N|A:B|a,b,c``: seeds 0..N-1, A..B-1 or those listed
+    ([`parse_seeds`][track_apps.cli.arguments.parse_seeds])."""
     parser.add_argument("--seeds", type=parse_seeds, default=default, metavar="N|A:B|a,b,c", help=help)
 
 
@@ -337,7 +339,7 @@ def example_block(epilog: str | None) -> list[str]:
 
 def example_lines(epilog: str | None, prog: str) -> Iterator[str]:
     """The example commands of a help epilog that start with ``prog``: lines of its examples
-    block (:func:`example_block`), with ``\\``-continued lines joined."""
+    block ([`example_block`][track_apps.cli.arguments.example_block]), with ``\\``-continued lines joined."""
     lines = example_block(epilog)
     i = 0
     while i < len(lines):

@@ -87,7 +87,7 @@ def describe(factory: Any) -> str:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    """Print every env, agent and predictor, what each is and where it applies (:func:`why_not`)."""
+    """Print every env, agent and predictor, what each is and where it applies (`why_not`)."""
     from gymnasium.envs.registration import load_env_creator
 
     why_not = cells_mod.why_not

@@ -246,7 +246,7 @@ def _read_options(args: argparse.Namespace, fmt: str) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Read, track, write, score (the body of :func:`main`)."""
+    """Read, track, write, score (the body of [`main`][track_apps.cli.run.main])."""
     from agents.sensor_model.diagnostics import count_distinct, run_figures, run_warnings
     from agents.sensor_model.summary import write_sidecar
     from track_envs.io.poses import is_pose_file
@@ -448,8 +448,8 @@ SPEC_FLAGS = {
 
 class FlagNames:
     """A context that re-raises a ``ValueError`` whose message names an argument of
-    :func:`~track_envs.values.detections.detection_sensor_spec` (``measurement_noise_std must be ...``)
-    naming the flag instead (:data:`SPEC_FLAGS`)."""
+    [`detection_sensor_spec`][track_envs.detection_sensor_spec] (``measurement_noise_std must be ...``)
+    naming the flag instead ([`SPEC_FLAGS`][track_apps.cli.run.SPEC_FLAGS])."""
 
     def __init__(self) -> None:
         self.flags = dict(SPEC_FLAGS)
@@ -467,7 +467,7 @@ class FlagNames:
 
 @contextlib.contextmanager
 def file_warnings(prog: str) -> Iterator[None]:
-    """Print the readers' :class:`~track_envs.io.csv_parser.DetectionFileWarning` (repeated
+    """Print the readers' [`DetectionFileWarning`][track_envs.io.DetectionFileWarning] (repeated
     detections dropped, rows sorted into frame order) as ``PROG: warning: ...`` lines on stderr."""
     from track_envs.io.csv_parser import DetectionFileWarning
 
@@ -486,8 +486,8 @@ def file_warnings(prog: str) -> Iterator[None]:
 def check_out_file(path: str, flag: str = "--out") -> None:
     """Raise ``ValueError`` naming ``flag`` unless ``path`` can be written: not a directory, its
     directory exists and is writable (and an existing file is writable), and a file can be made
-    there (:func:`track_envs.infra.atomic.check_writable`: ``/proc/x`` cannot) — checked before
-    anything is read, so that a long run does not fail at its end."""
+    there ([`track_envs.infra.atomic.check_writable`][track_envs.io.check_writable]: ``/proc/x`` cannot) —
+    checked before anything is read, so that a long run does not fail at its end."""
     from track_envs.infra.atomic import check_writable
 
     folder = os.path.dirname(os.path.abspath(path))

@@ -1,18 +1,20 @@
-"""``track run`` on pose files (COCO keypoint results, PoseTrack JSON: :mod:`track_envs.io.poses`).
+"""``track run`` on pose files (COCO keypoint results, PoseTrack JSON:
+[`track_envs.io.poses`][track_envs.io.poses]).
 
-The file is read into a :class:`~track_envs.values.poses.PoseStream`, tracked with a pose agent
-(:func:`agents.files.poses.run_pose_agent`), written as PoseTrack results and, with ``--gt`` and
-``--metrics``, scored with per-joint MOTA and HOTA
-(:func:`track_envs.metrics.pose_scoring.score_poses`). Which agents run on which kind of file:
-:mod:`agents.files.kinds`.
+The file is read into a [`PoseStream`][track_envs.PoseStream], tracked with a pose agent
+([`agents.files.poses.run_pose_agent`][agents.run_pose_agent]), written as PoseTrack results and, with
+``--gt`` and ``--metrics``, scored with per-joint MOTA and HOTA
+([`track_envs.metrics.pose_scoring.score_poses`][track_envs.metrics.score_poses]). Which agents run on which
+kind of file:
+[`agents.files.kinds`][agents.files.kinds].
 
 Everything that can stop a run is checked before tracking: ``--out`` can be written, the pose
 file and the ground truth read whole (with ``--metrics`` every ground-truth pose needs its
-``track_id`` and ``bbox_head``: :func:`track_envs.io.poses.read_pose_file`), their keypoints
-agree. ``pose-baseline`` sizes its OKS gate (``area_factor``) from how far the file's poses move
-a frame (:mod:`agents.pose.gate`; ``--agent-kwargs area_factor=A`` sets it), printed; a run
+``track_id`` and ``bbox_head``: [`track_envs.io.poses.read_pose_file`][track_envs.io.read_pose_file]), their
+keypoints agree. ``pose-baseline`` sizes its OKS gate (``area_factor``) from how far the file's poses move
+a frame ([`agents.pose.gate`][agents.pose.gate]; ``--agent-kwargs area_factor=A`` sets it), printed; a run
 whose ids look wrong (most poses start a track, most tracks 1-2 frames long) is warned about
-(:mod:`agents.pose.diagnostics`). The results file is written atomically.
+([`agents.pose.diagnostics`][agents.pose.diagnostics]). The results file is written atomically.
 """
 
 from __future__ import annotations
@@ -136,7 +138,7 @@ def _read_inputs(args: argparse.Namespace) -> tuple[str, Any, Any]:
 
 def _agent_kwargs(args: argparse.Namespace, name: str, stream: Any) -> dict[str, Any]:
     """``--agent-kwargs``, with pose-baseline's ``area_factor`` sized from the data
-    (:mod:`agents.pose.gate`) unless given; the gate printed."""
+    ([`agents.pose.gate`][agents.pose.gate]) unless given; the gate printed."""
     from agents.pose.gate import DEFAULT_AREA_FACTOR, pose_gate
 
     kwargs = dict(args.agent_kwargs)

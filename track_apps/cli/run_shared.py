@@ -1,6 +1,6 @@
-"""What the point and the pose paths of ``track run`` share (:mod:`track_apps.cli.run`,
-:mod:`track_apps.cli.run_pose`): the agent built from ``--agent`` and ``--predictor``, and the
-table of the metrics."""
+"""What the point and the pose paths of ``track run`` share ([`track_apps.cli.run`][track_apps.cli.run],
+[`track_apps.cli.run_pose`][track_apps.cli.run_pose]): the agent built from ``--agent`` and ``--predictor``,
+and the table of the metrics."""
 
 from __future__ import annotations
 

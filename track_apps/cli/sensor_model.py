@@ -1,8 +1,8 @@
 """The self-calibration of ``track run``: its options, and how they turn into the agent and sensor spec.
 
 With ``--calibrate auto`` (the default) a run without ``--declared-noise-std`` calibrates itself
-(:func:`agents.sensor_model.estimate`); ``--calibrate on`` calibrates whatever is not given
-(``--declared-noise-std``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
+([`agents.sensor_model.estimate`][agents.sensor_model.estimate]); ``--calibrate on`` calibrates whatever is
+not given (``--declared-noise-std``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
 ``--p-detect``, ``--clutter-rate`` or ``--clutter-density``, ``--merge-extent`` and ``max_misses``
 in ``--agent-kwargs`` each override their estimate), ``off`` never.
 
@@ -34,7 +34,8 @@ class Untyped(float):
 
 
 def typed(value: object) -> bool:
-    """Whether a flag's value was typed (not its :class:`Untyped` default, not None)."""
+    """Whether a flag's value was typed (not its [`Untyped`][track_apps.cli.sensor_model.Untyped] default, not
+    None)."""
     return value is not None and not isinstance(value, Untyped)
 
 

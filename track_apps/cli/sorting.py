@@ -4,12 +4,12 @@
     The tracker is told of a sorting line (the nozzle bar) at ``x = X``, downstream of the
     camera window (the region's ``x_high``), and predicts each track's crossing of it when it
     lets the track go (the gnn agent). The predictions go to a CSV
-    (:mod:`track_envs.io.crossings`: ``id,frame,t_cross,y_cross,var_t,cov_ty,var_y``),
+    ([`track_envs.io.crossings`][track_envs.io.crossings]: ``id,frame,t_cross,y_cross,var_t,cov_ty,var_y``),
     by default ``OUT.sorting.csv`` beside ``--out`` (``OUT`` its path without suffix). Tracks still
     alive at the recording's end get none.
 ``--sorting-check line=L,cut=C[,lateral_tolerance=W,time_tolerance=T,min_seen=N]``
-    The truth-free check of :mod:`agents.sorting.check` (NAME=VALUE grammar): a virtual line
-    ``x = L`` inside the camera window, predictions from the detections at ``x <= C`` (``C < L``),
+    The truth-free check of [`agents.sorting.check`][agents.sorting.check] (NAME=VALUE grammar): a virtual
+    line ``x = L`` inside the camera window, predictions from the detections at ``x <= C`` (``C < L``),
     scored against where the tracks of ``--out`` crossed ``L``. Prints the figures (hit rate,
     error percentiles) and writes the scored predictions, by default to
     ``OUT.sorting-check.csv`` (the prediction columns, then ``track,x_seen,t_true,y_true``).

@@ -2,23 +2,28 @@
 or the sine, or recalibrate one.
 
 Model kinds (one subcommand each) are the training recipes registered beside the predictors
-(:func:`predictors.available_recipes`, :mod:`predictors.training.recipes`): the belt LSTMs
-(``lstm``, ``nll-lstm``, ``mc-lstm``, :mod:`predictors.belt_lstm.training`), the displacement LSTM of
-the LSTM particle filter (``displacement-lstm``, :mod:`predictors.displacement_lstm.training`) and
-the probabilistic pose predictor of the SMC pose tracker (``pose-lstm``,
-:mod:`predictors.pose_lstm.training`). Each subcommand takes the shared data and training
-arguments and its recipe's own options, turns them into the recipe's typed settings
-(:func:`training_settings`, :mod:`predictors.training.settings`) and runs the recipe's ``train``;
-a newly registered recipe is a new subcommand. ``calibrate`` refits a model file's covariance scale
-on the tracks it is given (calibration data: tracks the model was not trained on; the reliability
-curves it plots are of those same tracks).
+([`predictors.available_recipes`][predictors.available_recipes],
+[`predictors.training.recipes`][predictors.training.recipes]): the belt LSTMs (``lstm``, ``nll-lstm``,
+``mc-lstm``, [`predictors.belt_lstm.training`][predictors.belt_lstm.training]), the displacement LSTM of the
+LSTM particle filter (``displacement-lstm``,
+[`predictors.displacement_lstm.training`][predictors.displacement_lstm.training]) and the probabilistic pose
+predictor of the SMC pose tracker (``pose-lstm``,
+[`predictors.pose_lstm.training`][predictors.pose_lstm.training]). Each subcommand takes the shared data and
+training arguments and its recipe's own options, turns them into the recipe's typed settings
+([`training_settings`][track_apps.cli.train.training_settings],
+[`predictors.training.settings`][predictors.training.settings]) and runs the recipe's ``train``; a newly
+registered recipe is a new subcommand. ``calibrate`` refits a model file's covariance scale on the tracks it
+is given (calibration data: tracks the model was not trained on; the reliability curves it plots are of those
+same tracks).
 
-The output is ``OUT.safetensors`` + ``OUT.json`` (see :mod:`predictors.training.model_file`); pass it to a
-tracker as ``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to
-the particle filter as ``make_agent("pf", model="lstm", model_weights="OUT")``.
+The output is ``OUT.safetensors`` + ``OUT.json`` (see
+[`predictors.training.model_file`][predictors.training.model_file]); pass it to a tracker as
+``make_agent("gnn", predictor="nll-lstm", weights="OUT")``, or a displacement model to the particle filter as
+``make_agent("pf", model="lstm", model_weights="OUT")``.
 
-``lstm`` runs the covariance line search on ``gnn`` after training (:mod:`track_apps.lstm_line_search`,
-its post-training step: :data:`POST_TRAINING`), on the model file the recipe wrote.
+``lstm`` runs the covariance line search on ``gnn`` after training
+([`track_apps.lstm_line_search`][track_apps.lstm_line_search], its post-training step:
+[`POST_TRAINING`][track_apps.cli.train.POST_TRAINING]), on the model file the recipe wrote.
 """
 
 from __future__ import annotations
@@ -260,8 +265,8 @@ def training_settings(args: argparse.Namespace) -> TrainingSettings:
 
 def train(settings: TrainingSettings) -> Path:
     """Train with the recipe of ``settings.kind``, then run the kind's step after training
-    (:data:`POST_TRAINING`) on the model file written, recording it in ``training.tuning`` (with
-    the wall time grown by the step's); returns the sidecar's path."""
+    ([`POST_TRAINING`][track_apps.cli.train.POST_TRAINING]) on the model file written, recording it in
+    ``training.tuning`` (with the wall time grown by the step's); returns the sidecar's path."""
     from predictors.training.model_file import load_model, save_model
 
     sidecar = Path(training_recipe(settings.kind).train(settings))

@@ -1,6 +1,6 @@
 """Paper reproductions that run the trackers (applications on top of them, like bench and tuning):
-:mod:`track_apps.reproductions.jung2019` (the particle-filter experiments of Jung et al.), used as a
-module (``from track_apps.reproductions import jung2019``)."""
+[`track_apps.reproductions.jung2019`][track_apps.reproductions.jung2019] (the particle-filter experiments of
+Jung et al.), used as a module (``from track_apps.reproductions import jung2019``)."""
 
 from track_apps.reproductions import jung2019
 

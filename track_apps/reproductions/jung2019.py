@@ -4,18 +4,19 @@ Jung, Schlangen, Charlish, "Sequential Monte Carlo Filtering with Long Short-Ter
 Prediction" (FUSION 2019) compare the bootstrap particle filter with a Brownian displacement model
 against the same filter with a learned (LSTM) one. Every Monte Carlo run of an experiment (all the
 cells of a parameter grid and all their runs) is one target of one
-:class:`agents.particle.agent.BatchParticleFilter` per displacement model, so an experiment is one pass
-over the frames of the scene, and all the filters of a pass see the *same* measurements (common
-random numbers; the filters' own draws come from one shared seed as well).
+[`agents.particle.agent.BatchParticleFilter`][agents.particle.agent.BatchParticleFilter] per displacement
+model, so an experiment is one pass over the frames of the scene, and all the filters of a pass see the *same*
+measurements (common random numbers; the filters' own draws come from one shared seed as well).
 
 A run: the local trajectory ``x_t`` (the sine of Eq. (5), or a piecewise-linear one), the sensor of
-SineTarget-v0 / PiecewiseTarget-v0 (:func:`track_envs.envs.single_target.draw_detections`: detected
-with probability ``p_d``, never inside the occlusion, noise ``σ_m·Δ``), drawn in the local frame and
-mapped to the world by :func:`~track_envs.envs.single_target.to_world` (a rotation of the scene
-rotates measurements and truth alike under the same seed). The error of a run is the mean over its
-frames of ``||x*_t − x_t||`` from the filter's first estimate on (as
-:class:`track_envs.metrics.single_target.SingleTargetError`); a run is lost when that mean exceeds
-``LOST_THRESHOLD`` (5). The gain of a learned model over Brownian motion is
+SineTarget-v0 / PiecewiseTarget-v0
+([`track_envs.envs.single_target.draw_detections`][track_envs.envs.single_target.draw_detections]: detected
+with probability ``p_d``, never inside the occlusion, noise ``σ_m·Δ``), drawn in the local frame and mapped to
+the world by [`to_world`][track_envs.envs.single_target.to_world] (a rotation of the scene rotates
+measurements and truth alike under the same seed). The error of a run is the mean over its frames of
+``||x*_t − x_t||`` from the filter's first estimate on (as
+[`track_envs.metrics.single_target.SingleTargetError`][track_envs.metrics.SingleTargetError]); a run is lost
+when that mean exceeds ``LOST_THRESHOLD`` (5). The gain of a learned model over Brownian motion is
 ``100 · (e_Brownian − e_learned) / e_Brownian`` percent.
 """
 
@@ -73,8 +74,10 @@ class GridRuns:
     """Per-run errors of one filter over a parameter grid, shape (..., runs) each.
 
     Attributes:
-        estimate: Mean estimation error of each run (:attr:`FilterRuns.mean_error`).
-        particles: Mean particle distance to the truth of each run (:attr:`FilterRuns.particle_error`).
+        estimate: Mean estimation error of each run
+            ([`FilterRuns.mean_error`][track_apps.reproductions.jung2019.FilterRuns.mean_error]).
+        particles: Mean particle distance to the truth of each run
+            ([`FilterRuns.particle_error`][track_apps.reproductions.jung2019.FilterRuns.particle_error]).
     """
 
     estimate: NDArray[np.float64]
@@ -83,12 +86,13 @@ class GridRuns:
 
 @dataclass
 class Batch:
-    """A batch of ``T`` runs stepped through every model (:func:`run_batch`).
+    """A batch of ``T`` runs stepped through every model
+    ([`run_batch`][track_apps.reproductions.jung2019.run_batch]).
 
     Attributes:
         truth: (K, F, 2) world truth of the traced runs.
         detections: (K, F, 2) world measurements of the traced runs, NaN where missed.
-        filters: Model name → :class:`FilterRuns`.
+        filters: Model name → [`FilterRuns`][track_apps.reproductions.jung2019.FilterRuns].
     """
 
     truth: NDArray[np.float64]
@@ -121,26 +125,28 @@ def run_batch(
 ) -> Batch:
     """Step ``T`` independent runs through one filter per displacement model, frame by frame.
 
-    Not an episode of an env (:func:`agents.run_episode`): every run of the batch is one target of
-    one batched filter per model, and all the filters see the same measurements.
+    Not an episode of an env ([`agents.run_episode`][agents.run_episode]): every run of the batch is one
+    target of one batched filter per model, and all the filters see the same measurements.
 
     Args:
         truth: Local trajectory (F, 2) shared by every run, or one per run (T, F, 2).
         p_detect: Detection probability, scalar or (T,).
         sigma_p: Process noise in multiples of ``Δ``, scalar or (T,).
         n_particles: ``N``, common to the batch.
-        models: Displacement model names (:func:`predictors.displacement.make_displacement_model`).
+        models: Displacement model names
+            ([`predictors.displacement.make_displacement_model`][predictors.displacement.registry.make_displacement_model]).
         sigma_m: Measurement noise in multiples of ``Δ`` (sensor, likelihood and initial cloud).
         occlusion: ``(start, stop)`` frames, scalars or (T,), of each run's occlusion; none if None.
         rotation_deg: Rotation of the scene about the origin (degrees).
         n_runs: ``T`` when neither ``truth`` nor the parameters have a run axis (default: their size).
         trace: Indices of the runs whose estimates and particle spread are recorded.
-        per_frame: Also keep the estimation error of every run and frame (:attr:`FilterRuns.errors`).
+        per_frame: Also keep the estimation error of every run and frame
+            ([`FilterRuns.errors`][track_apps.reproductions.jung2019.FilterRuns.errors]).
         seed: Seed of the measurements and of the filters' draws.
         desc: tqdm label.
 
     Returns:
-        The :class:`Batch`.
+        The [`Batch`][track_apps.reproductions.jung2019.Batch].
     """
     x_local = np.asarray(truth, dtype=np.float64)
     if x_local.ndim not in (2, 3) or x_local.shape[-1] != 2:
@@ -190,7 +196,8 @@ def run_batch(
 
 @dataclass
 class _Tally:
-    """What one filter of :func:`run_batch` did so far, frame by frame."""
+    """What one filter of [`run_batch`][track_apps.reproductions.jung2019.run_batch] did so far, frame by
+    frame."""
 
     traced: NDArray[np.intp]
     total: NDArray[np.float64]
@@ -243,7 +250,7 @@ class _Tally:
             self.spread_std[started, frame] = np.sqrt(var[started])
 
     def runs(self) -> FilterRuns:
-        """The :class:`FilterRuns` of the frames counted."""
+        """The [`FilterRuns`][track_apps.reproductions.jung2019.FilterRuns] of the frames counted."""
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_error = self.total / self.count
             particle_error = self.particle_total / self.count
@@ -329,7 +336,7 @@ def exp1_rotation(
     """Exp. 1 (Fig. 3): the sine and the sine rotated by 45° (N = 100, p_d = 0.5, σ_p = σ_m = 0.5).
 
     Both rotations use the same seed, so their measurements are rotations of each other; run 0 is
-    traced. Returns rotation (degrees) → :class:`Batch`.
+    traced. Returns rotation (degrees) → [`Batch`][track_apps.reproductions.jung2019.Batch].
     """
     return {
         rot: run_batch(
@@ -447,8 +454,9 @@ def exp5_piecewise(
     seed: int = 5,
 ) -> Batch:
     """Exp. 5 (Fig. 8): piecewise-linear targets (PiecewiseTarget-v0), σ_m = σ_p = 0.5, N = 100,
-    ``p_detect`` (paper: 0.5); one trajectory per run (:func:`piecewise_scenes` of ``seed``), run 0
-    traced, the error of every frame kept."""
+    ``p_detect`` (paper: 0.5); one trajectory per run
+    ([`piecewise_scenes`][track_apps.reproductions.jung2019.piecewise_scenes] of ``seed``), run 0 traced, the
+    error of every frame kept."""
     return run_batch(
         piecewise_scenes(runs, periods, seed),
         p_detect,

@@ -9,8 +9,9 @@ Importing this package registers ``GateTuning-v0`` (idempotent)::
     obs, info = env.reset(seed=0)
     action, _ = policy.predict(obs, deterministic=True)
 
-stable-baselines3 (the ``rl`` extra) is only needed to train (:mod:`track_apps.tuning.train`,
-the ``track tune`` command); the shipped policy runs without it.
+stable-baselines3 (the ``rl`` extra) is only needed to train
+(`track_apps.tuning.train`, the ``track tune`` command); the shipped policy runs
+without it.
 """
 
 from __future__ import annotations

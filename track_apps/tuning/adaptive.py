@@ -1,9 +1,9 @@
 """A simple adaptive rule for GateTuning-v0: scale the assumed noise so that the NIS fits χ².
 
 When the tracker's noise model is right, the normalised innovation squared of an assigned pair
-is ``χ²_D`` distributed with mean ``D`` (:mod:`track_apps.tuning.diagnostics`). If the sensor's true
-noise std is ``c`` times the declared one and the innovation is dominated by the noise, the mean
-NIS under noise scale ``k`` is about ``D c² / k²``, so
+is ``χ²_D`` distributed with mean ``D`` ([`track_apps.tuning.diagnostics`][track_apps.tuning.diagnostics]). If
+the sensor's true noise std is ``c`` times the declared one and the innovation is dominated by the noise, the
+mean NIS under noise scale ``k`` is about ``D c² / k²``, so
 
 .. math::
 
@@ -33,7 +33,8 @@ class NisRule:
 
     Args:
         gain: ``η`` in (0, 1] (default 0.5).
-        fixed: Values of the other knobs (default the gnn's, :data:`agents.tracking.knobs.LIVE_KNOBS`).
+        fixed: Values of the other knobs (default the gnn's,
+            `agents.tracking.knobs.LIVE_KNOBS`).
         ranges: The env's knob ranges.
     """
 

@@ -2,7 +2,8 @@
 
 Per frame, for the ``n`` tracks that existed before the frame (predicted measurement
 ``N(ŷ_i, S_i)``) and its ``m`` detections, the tracker knows which detection ``z_{j(i)}`` each
-track took. Over a window of frames :class:`WindowDiagnostics` collects
+track took. Over a window of frames [`WindowDiagnostics`][track_apps.tuning.diagnostics.WindowDiagnostics]
+collects
 
 * the normalised innovation squared of every assigned pair,
   ``ε_i = (z_{j(i)} − ŷ_i)ᵀ S_i^{-1} (z_{j(i)} − ŷ_i)``, which is ``χ²_D`` distributed when the
@@ -12,8 +13,9 @@ track took. Over a window of frames :class:`WindowDiagnostics` collects
 * the fraction of detections left unassigned (they start tracks), births and deletions per live
   track, the fraction of track-frames that coasted, and the mean number of live tracks.
 
-:meth:`WindowDiagnostics.vector` turns them into :data:`N_FEATURES` numbers of order one (logs of
-ratios, fractions), clipped to ``[-FEATURE_BOUND, FEATURE_BOUND]``.
+[`WindowDiagnostics.vector`][track_apps.tuning.diagnostics.WindowDiagnostics.vector] turns them into
+[`N_FEATURES`][track_apps.tuning.diagnostics.N_FEATURES] numbers of order one (logs of ratios, fractions),
+clipped to ``[-FEATURE_BOUND, FEATURE_BOUND]``.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
-#: Names of the diagnostics, in the order of :meth:`WindowDiagnostics.vector`.
+#: Names of the diagnostics, in the order of
+#: [`WindowDiagnostics.vector`][track_apps.tuning.diagnostics.WindowDiagnostics.vector].
 FEATURES = (
     "log_mean_nis",  # log(mean ε / D); 0 when the noise model fits
     "log_median_nis",  # log(median ε / median of χ²_D)
@@ -113,7 +116,8 @@ class WindowDiagnostics:
             self._nis.append(np.einsum("ij,ij->i", residual, solved))
 
     def vector(self) -> NDArray[np.float32]:
-        """The window's diagnostics as :data:`N_FEATURES` float32 values (see :data:`FEATURES`)."""
+        """The window's diagnostics as [`N_FEATURES`][track_apps.tuning.diagnostics.N_FEATURES] float32 values
+        (see [`FEATURES`][track_apps.tuning.diagnostics.FEATURES])."""
         out = np.zeros(N_FEATURES)
         if self.frames == 0:
             return out.astype(np.float32)

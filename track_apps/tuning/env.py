@@ -35,7 +35,7 @@ HELD_OUT_SEEDS = 1_000_000_000
 
 def association_error_count(metric: AssociationErrors) -> int:
     """``#tracks holding measurements of > 1 particle + #particles whose measurements went to
-    ≠ 1 track`` so far: the numerators of e1 and e2 (:mod:`track_envs.metrics.belt`)."""
+    ≠ 1 track`` so far: the numerators of e1 and e2 ([`track_envs.metrics.belt`][track_envs.metrics.belt])."""
     r = metric.compute()
     return round(r["e1"] * r["n_tracks"]) + round(r["e2"] * r["n_particles"])
 
@@ -45,22 +45,22 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Description
     Each step runs ``frames_per_step`` (K) frames of a point env (``base_env``, default
-    BeltSorter-v0 with the ``"belt"`` drift of :mod:`track_envs.envs.drift`: noise std, detection
-    probability and clutter rate drift over the episode while ``sensor_spec`` stays nominal)
-    tracked by a :class:`~agents.gnn.agent.GnnAgent`; before the K frames the action sets the
+    BeltSorter-v0 with the ``"belt"`` drift of [`track_envs.envs.drift`][track_envs.envs.drift]: noise std,
+    detection probability and clutter rate drift over the episode while ``sensor_spec`` stays nominal)
+    tracked by a [`GnnAgent`][agents.gnn.agent.GnnAgent]; before the K frames the action sets the
     tracker's knobs. A policy sees only what the tracker can compute itself and must keep the
     gates right as the sensor changes under it.
 
     ## Action
     ``Box(-1, 1, (3,), float32)``: ``p_gate``, ``recovery_inflation`` and ``noise_scale`` (the
     factor on the declared noise std the predictor assumes), each mapped to a log-scaled range
-    (:mod:`track_apps.tuning.knobs`; defaults: ``1 − p_gate`` in 1e-6 … 0.5, inflation 1 … 1000,
-    noise scale 0.25 … 64). An action of another shape, or outside [-1, 1], raises ``ValueError``.
+    ([`track_apps.tuning.knobs`][track_apps.tuning.knobs]; defaults: ``1 − p_gate`` in 1e-6 … 0.5, inflation 1
+    … 1000, noise scale 0.25 … 64). An action of another shape, or outside [-1, 1], raises ``ValueError``.
 
     ## Observation
     ``Box(-5, 5, (12,), float32)``: the tracker diagnostics of the last K frames
-    (:mod:`track_apps.tuning.diagnostics`: NIS statistics of the assigned pairs, fraction of
-    detections left unassigned, births, deletions, coasting fraction, track count, detections per
+    ([`track_apps.tuning.diagnostics`][track_apps.tuning.diagnostics]: NIS statistics of the assigned pairs,
+    fraction of detections left unassigned, births, deletions, coasting fraction, track count, detections per
     track), then the knobs in effect during them as normalised actions. No truth: a real tracker
     computes the same. ``reset`` returns zero diagnostics and the initial knobs.
 
@@ -77,7 +77,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     The base env reset with the seed (``reset(seed=s)`` gives the base episode of seed ``s``, as
     ``track bench`` runs it), a new tracker with the initial knobs (``agent_kwargs`` or the
     gnn defaults, clipped to the ranges). Resets without a seed draw the base seed from the
-    env's generator, below :data:`HELD_OUT_SEEDS`.
+    env's generator, below [`HELD_OUT_SEEDS`][track_apps.tuning.env.HELD_OUT_SEEDS].
 
     ## Episode End
     Truncated after ``episode_steps`` steps (default 100, i.e. 1,000 frames); terminated when the
@@ -89,8 +89,9 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     ## Arguments
     - ``base_env``: a point env id (default ``"BeltSorter-v0"``); ``base_kwargs``: its kwargs
-      (``max_tracks`` defaults to :data:`BASE_MAX_TRACKS` = 512, and ``max_targets``, where the env
-      takes it, to :data:`BASE_MAX_TARGETS` = 512).
+      (``max_tracks`` defaults to [`BASE_MAX_TRACKS`][track_apps.tuning.env.BASE_MAX_TRACKS] = 512, and
+      ``max_targets``, where the env takes it, to
+      [`BASE_MAX_TARGETS`][track_apps.tuning.env.BASE_MAX_TARGETS] = 512).
     - ``drift``: the base env's drift (default ``"belt"``, the drift the shipped policy was
       trained for); None: no drift.
     - ``predictor``: the gnn's predictor (default ``"kf-ca"``; ``noise_scale`` needs a Kalman
@@ -225,7 +226,7 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     def true_sensor(self) -> dict[str, float] | None:
         """The base env's true sensor values of the last frame played (``info["sensor"]``: truth
-        side, for references such as :class:`~track_apps.tuning.informed.SensorInformedPolicy`), or
+        side, for references such as [`SensorInformedPolicy`][track_apps.tuning.SensorInformedPolicy]), or
         None when the base env reports none (no drift)."""
         sensor = self._info.get("sensor")
         return None if sensor is None else {k: float(v) for k, v in dict(sensor).items()}

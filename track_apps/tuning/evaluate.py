@@ -3,9 +3,9 @@
 
 Every policy plays the same episodes (GateTuning-v0 reset with the same seeds, so the same
 particles, detections and drift); the measure is an episode's association errors ``E`` (minus
-its return, :func:`track_apps.tuning.env.association_error_count`). A comparison of policy A with B
-reports the mean and std of the paired differences, the relative change of the mean
-``(E_B − E_A) / E_B``, how many seeds A wins (strictly fewer errors), and the two-sided Wilcoxon
+its return, [`track_apps.tuning.env.association_error_count`][track_apps.tuning.env.association_error_count]).
+A comparison of policy A with B reports the mean and std of the paired differences, the relative change of the
+mean ``(E_B − E_A) / E_B``, how many seeds A wins (strictly fewer errors), and the two-sided Wilcoxon
 signed-rank p-value of the differences.
 """
 
@@ -34,7 +34,8 @@ GRID: dict[str, tuple[float, ...]] = {
 
 
 def held_out_seeds(n: int) -> list[int]:
-    """``n`` evaluation seeds, never drawn by training (:data:`HELD_OUT_SEEDS` and up)."""
+    """``n`` evaluation seeds, never drawn by training
+    ([`HELD_OUT_SEEDS`][track_apps.tuning.evaluate.HELD_OUT_SEEDS] and up)."""
     return [HELD_OUT_SEEDS + i for i in range(n)]
 
 
@@ -43,9 +44,9 @@ def episode_errors(env: gym.Env, policy: Any, seed: int) -> dict[str, Any]:
     the knobs set (``knobs``), the errors so far (``errors_so_far``) and the true sensor of the
     window's last frame (``sensor``; empty without drift).
 
-    A policy that declares ``BINDS_ENV`` (:class:`~track_apps.tuning.policy.SettingChooser`) is bound
-    to the env first; one that declares ``KNOB_RANGES`` must act on the env's knobs
-    (:mod:`track_apps.tuning.policy`).
+    A policy that declares ``BINDS_ENV`` (`SettingChooser`) is
+    bound to the env first; one that declares ``KNOB_RANGES`` must act on the env's knobs
+    (`track_apps.tuning.policy`).
     """
     env_knobs = tuple(env.unwrapped.knobs)  # type: ignore[attr-defined]
     ranged = policy_capability(policy, PolicyCapability.KNOB_RANGES)
@@ -121,9 +122,10 @@ def play_episodes(tasks: Sequence[tuple[Any, int, Mapping[str, Any] | None]], wo
         return [f.result() for f in futures]
 
 
-#: Envs of distinct kwargs kept per process by :func:`play_episodes`.
+#: Envs of distinct kwargs kept per process by [`play_episodes`][track_apps.tuning.evaluate.play_episodes].
 _MAX_CACHED_ENVS = 4
-#: The env of each kwargs in a worker process of :func:`evaluate` (built once per process).
+#: The env of each kwargs in a worker process of [`evaluate`][track_apps.tuning.evaluate.evaluate] (built once
+#: per process).
 _WORKER_ENVS: dict[str, gym.Env] = {}
 
 

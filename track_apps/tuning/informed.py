@@ -4,14 +4,15 @@ the moment.
 How much is *following the drift* worth? If the knobs that minimise the association errors
 depend on the sensor (noise std ``σ``, detection probability ``p_D``, clutter rate ``λ``), a
 policy that tracks the sensor gains over the best fixed setting; if they do not, no estimate of
-the sensor from the tracker's diagnostics can gain either. The :class:`SensorInformedPolicy`
-answers from above for that part of adaptation: it reads the *true* sensor values of the last
-frame (truth side, :meth:`~track_apps.tuning.env.GateTuningEnv.true_sensor`) and sets the knobs a
-constant-sensor grid found best there.
+the sensor from the tracker's diagnostics can gain either. The
+[`SensorInformedPolicy`][track_apps.tuning.SensorInformedPolicy] answers from above for that part of
+adaptation: it reads the *true* sensor values of the last frame (truth side,
+[`true_sensor`][track_apps.tuning.env.GateTuningEnv.true_sensor]) and sets the knobs a constant-sensor grid
+found best there.
 
-The grid (:func:`sensor_table`): for every state ``x = (σ, p_D, λ)`` of a regular grid over the
-drift's ranges and every setting ``k`` of a knob grid, episodes of GateTuning-v0 with the sensor
-held at ``x`` and the knobs at ``k`` on training seeds give the mean errors ``E[x, k]``. Between
+The grid ([`sensor_table`][track_apps.tuning.informed.sensor_table]): for every state ``x = (σ, p_D, λ)`` of a
+regular grid over the drift's ranges and every setting ``k`` of a knob grid, episodes of GateTuning-v0 with
+the sensor held at ``x`` and the knobs at ``k`` on training seeds give the mean errors ``E[x, k]``. Between
 the states the table is interpolated multilinearly in ``(log σ, p_D, λ)`` and clamped at the
 edges, ``Ê(x, k)``; the policy plays
 
@@ -19,7 +20,7 @@ edges, ``Ê(x, k)``; the policy plays
 
     k^*(x_t) = \\arg\\min_k \\hat E(x_t, k).
 
-Unlike the :class:`~track_apps.tuning.oracle.LookaheadOracle` it knows nothing of the future or of
+Unlike the [`LookaheadOracle`][track_apps.tuning.oracle.LookaheadOracle] it knows nothing of the future or of
 the particles; it is the best a policy could do by following the sensor with per-state fixed
 settings (up to the grid's resolution and what transients after a change cost).
 """
@@ -83,7 +84,8 @@ class SensorTable:
     """Mean errors of each knob setting at each constant sensor state (module docstring).
 
     Attributes:
-        states: ``{parameter: increasing values}`` for the three :data:`SENSOR_AXES`.
+        states: ``{parameter: increasing values}`` for the three
+            [`SENSOR_AXES`][track_apps.tuning.informed.SENSOR_AXES].
         settings: The knob settings (``{knob: value}``), in the table's last axis.
         errors: Mean errors, shape ``(len(σ), len(p_D), len(λ), len(settings))``.
         seeds: The seeds each cell was played on.
@@ -156,7 +158,8 @@ class SensorTable:
 
     @classmethod
     def load(cls, path: str | Path) -> SensorTable:
-        """Read a table written by :meth:`save` (``ValueError`` naming what is wrong)."""
+        """Read a table written by [`save`][track_apps.tuning.informed.SensorTable.save] (``ValueError``
+        naming what is wrong)."""
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, json.JSONDecodeError) as exc:
@@ -190,8 +193,9 @@ def sensor_table(
     Args:
         seeds: Training seeds of every cell (keep them below the held-out seeds).
         episode_steps: Steps of each episode.
-        states: Sensor grid axes (default :func:`default_states` of the ``"belt"`` drift).
-        grid: Knob values (default :data:`INFORMED_GRID`).
+        states: Sensor grid axes (default [`default_states`][track_apps.tuning.informed.default_states] of the
+            ``"belt"`` drift).
+        grid: Knob values (default [`INFORMED_GRID`][track_apps.tuning.informed.INFORMED_GRID]).
         env_kwargs: Further GateTuning-v0 kwargs (not ``drift``, which the states set).
         workers: Processes playing the episodes.
     """
@@ -218,13 +222,16 @@ def sensor_table(
 
 
 class SensorInformedPolicy(SettingChooser):
-    """Plays :meth:`SensorTable.best` for the bound env's true sensor (module docstring).
+    """Plays `SensorTable.best` for the bound env's true sensor
+    (module docstring).
 
     Args:
-        table: A :class:`SensorTable`, or the path of one.
+        table: A `SensorTable`, or the path of one.
 
-    Call :meth:`bind` with the env being played before the first :meth:`predict`;
-    :func:`track_apps.tuning.evaluate.evaluate` does so. The env must drift (report its sensor).
+    Call `bind` with the env being played before the first
+    `predict`;
+    `track_apps.tuning.evaluate.evaluate` does so. The env must drift
+    (report its sensor).
     """
 
     def __init__(self, table: SensorTable | str | Path):

@@ -1,6 +1,6 @@
 """The tracker's association knobs as a normalised action: ranges, log scales and checks.
 
-An action ``a ∈ [-1, 1]^K`` sets ``K`` knobs of a running :class:`~agents.gnn.agent.GnnAgent`. Knob
+An action ``a ∈ [-1, 1]^K`` sets ``K`` knobs of a running [`GnnAgent`][agents.gnn.agent.GnnAgent]. Knob
 ``k`` with range ``[low, high]`` on the scale ``u`` takes
 
 .. math::
@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from agents.tracking.knobs import LIVE_KNOBS
 
-#: The scale of each knob (its valid values are the tracker's, :data:`agents.tracking.knobs.LIVE_KNOBS`).
+#: The scale of each knob (its valid values are the tracker's,
+#: [`agents.tracking.knobs.LIVE_KNOBS`][agents.tracking.knobs.LIVE_KNOBS]).
 SCALES = {"p_gate": "log-miss", "recovery_inflation": "log", "noise_scale": "log"}
 #: Default ranges: gate misses 0.5 … 1e-6, second-chance scale 1 (off) … 1000, noise ×0.25 … ×64.
 #: (The best fixed setting of the belt with drift, p_gate 0.7 and noise ×32, lies inside.)
@@ -39,7 +40,7 @@ class Knob:
     """One tracker knob with its range (module docstring).
 
     Attributes:
-        name: The :class:`~agents.gnn.agent.GnnAgent` attribute (``p_gate``, ``recovery_inflation``,
+        name: The `GnnAgent` attribute (``p_gate``, ``recovery_inflation``,
             ``noise_scale``).
         low, high: Its range, ``low < high``.
     """
@@ -73,7 +74,8 @@ class Knob:
 
 
 def make_knobs(ranges: Mapping[str, Sequence[float]] | None = None) -> tuple[Knob, ...]:
-    """The knobs of :data:`DEFAULT_RANGES` with ``ranges`` overriding some, in that order.
+    """The knobs of `DEFAULT_RANGES` with ``ranges`` overriding
+    some, in that order.
 
     Raises:
         ValueError: for an unknown knob name (listing the valid ones) or a range that is not

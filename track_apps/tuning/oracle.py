@@ -1,8 +1,8 @@
 """A clairvoyant reference for GateTuning-v0: greedy lookahead on copies of the environment.
 
 How much can *any* adaptation of the knobs gain over the best fixed setting? The
-:class:`LookaheadOracle` answers from above: before every step it copies the running
-environment (base env with its drawn drift, tracker, metric), plays each candidate setting on a
+[`LookaheadOracle`][track_apps.tuning.oracle.LookaheadOracle] answers from above: before every step it copies
+the running environment (base env with its drawn drift, tracker, metric), plays each candidate setting on a
 copy for ``horizon`` steps, and takes the setting whose copy collected the highest reward (the
 fewest new association errors) — a choice that uses the truth and the future, which no real
 tracker has. It is a greedy (receding-horizon) search, not the optimal adaptive policy, so it
@@ -50,15 +50,17 @@ class LookaheadOracle(SettingChooser):
 
     Args:
         candidates: Knob settings to choose from (default: every combination of
-            :data:`ORACLE_GRID`); knobs a setting omits keep their initial values.
+            [`ORACLE_GRID`][track_apps.tuning.oracle.ORACLE_GRID]); knobs a setting omits keep their initial
+            values.
         horizon: Steps each candidate is played ahead (≥ 1).
         resample_future: Play the copies on a fresh random future (module docstring).
         seed: Seed of the fresh futures (with ``resample_future``).
         futures: Fresh futures each candidate is played on per step, its return averaged (with
             ``resample_future``; ≥ 1): more sharpen the choice, at that many times the cost.
 
-    Call :meth:`bind` with the environment being played before the first :meth:`predict`;
-    :func:`track_apps.tuning.evaluate.evaluate` does so.
+    Call [`bind`][track_apps.tuning.oracle.LookaheadOracle.bind] with the environment being played before the
+    first [`predict`][track_apps.tuning.policy.SettingChooser.predict];
+    [`track_apps.tuning.evaluate.evaluate`][track_apps.tuning.evaluate.evaluate] does so.
     """
 
     def __init__(

@@ -3,19 +3,25 @@ numpy (shipped as a model file), and fixed settings.
 
 A PPO ``MlpPolicy`` acts deterministically with the mean of its Gaussian: the actor MLP
 ``h_{l+1} = tanh(W_l h_l + b_l)`` over the observation, then ``μ = W_a h_L + b_a``, clipped to
-the action box. :func:`export_policy` stores those weights (and ``log_std``) in the project's
-model-file format (:mod:`predictors.training.model_file`, kind :data:`KIND`); :class:`TunedPolicy`
-rebuilds the same function in numpy, so acting needs neither torch nor stable-baselines3.
+the action box. [`export_policy`][track_apps.tuning.policy.export_policy] stores those weights (and
+``log_std``) in the project's model-file format
+([`predictors.training.model_file`][predictors.training.model_file], kind
+[`KIND`][track_apps.tuning.policy.KIND]); [`TunedPolicy`][track_apps.tuning.TunedPolicy] rebuilds the same
+function in numpy, so acting needs neither torch nor stable-baselines3.
 
-A policy's core is SB3's ``predict`` (:class:`Policy`: a stable-baselines3 model is one); what it
-offers beyond it is declared as every plug-in's capabilities are (:mod:`track_envs.infra.declared`), in
-its class attribute ``capabilities`` and asked with :func:`policy_capability`:
+A policy's core is SB3's ``predict`` ([`Policy`][track_apps.tuning.policy.Policy]: a stable-baselines3 model
+is one); what it offers beyond it is declared as every plug-in's capabilities are
+([`track_envs.infra.declared`][track_envs.infra.declared]), in its class attribute ``capabilities`` and asked
+with [`policy_capability`][track_apps.tuning.policy.policy_capability]:
 
-* ``KNOB_RANGES`` (:class:`KnobRanges`) — ``knobs``: the knobs (and ranges) its actions are for,
-  which must be the env's (:func:`track_apps.tuning.evaluate.episode_errors` checks). The tuned, fixed
-  and NIS-rule policies.
-* ``BINDS_ENV`` (:class:`BindsEnv`) — ``bind(env)``: it plays looking at the env it is bound to
-  (the reference policies, :class:`SettingChooser`); evaluation binds it first.
+* ``KNOB_RANGES`` ([`KnobRanges`][track_apps.tuning.policy.KnobRanges]) — ``knobs``: the knobs (and ranges)
+its actions are for,
+  which must be the env's ([`track_apps.tuning.evaluate.episode_errors`][track_apps.tuning.episode_errors]
+  checks). The tuned, fixed and NIS-rule policies.
+* ``BINDS_ENV`` ([`BindsEnv`][track_apps.tuning.policy.BindsEnv]) — ``bind(env)``: it plays looking at the env
+it is bound to
+  (the reference policies, [`SettingChooser`][track_apps.tuning.policy.SettingChooser]); evaluation binds it
+  first.
 """
 
 from __future__ import annotations
@@ -76,7 +82,7 @@ class BindsEnv(Policy, Protocol):
         ...
 
 
-#: The capabilities of policies (:mod:`track_envs.infra.declared`).
+#: The capabilities of policies ([`track_envs.infra.declared`][track_envs.infra.declared]).
 POLICY_DECLARATIONS: Declarations[PolicyCapability] = Declarations(
     PolicyCapability,
     {PolicyCapability.KNOB_RANGES: KnobRanges, PolicyCapability.BINDS_ENV: BindsEnv},
@@ -102,7 +108,7 @@ class TunedPolicy:
     """The PPO actor as a numpy MLP with SB3's ``predict`` (module docstring).
 
     Args:
-        model: A model file of kind :data:`KIND`.
+        model: A model file of kind `KIND`.
     """
 
     capabilities = frozenset({PolicyCapability.KNOB_RANGES})
@@ -180,7 +186,7 @@ class FixedPolicy:
     Args:
         values: ``{knob: value}`` for some knobs; the others stay at ``defaults``.
         defaults: Values of the knobs not given (default: the gnn's defaults).
-        ranges: The env's knob ranges (default :data:`~track_apps.tuning.knobs.DEFAULT_RANGES`).
+        ranges: The env's knob ranges (default `DEFAULT_RANGES`).
     """
 
     GNN_DEFAULTS: Mapping[str, float] = {name: knob.default for name, knob in LIVE_KNOBS.items()}
@@ -215,14 +221,15 @@ class FixedPolicy:
 
 class SettingChooser:
     """A reference policy that, bound to the env it plays, picks one of several fixed settings at
-    every step (:meth:`choose`, given the bound env): the lookahead oracle and the
-    sensor-informed reference. ``choices`` records the picks of the episode.
+    every step ([`choose`][track_apps.tuning.policy.SettingChooser.choose], given the bound env): the
+    lookahead oracle and the sensor-informed reference. ``choices`` records the picks of the episode.
 
     Args:
         settings: Knob settings to choose from; knobs a setting omits keep the env's initial values.
 
-    Call :meth:`bind` with the env being played before the first :meth:`predict`;
-    :func:`track_apps.tuning.evaluate.evaluate` does so.
+    Call [`bind`][track_apps.tuning.policy.SettingChooser.bind] with the env being played before the first
+    [`predict`][track_apps.tuning.policy.SettingChooser.predict];
+    [`track_apps.tuning.evaluate.evaluate`][track_apps.tuning.evaluate.evaluate] does so.
     """
 
     capabilities = frozenset({PolicyCapability.BINDS_ENV})
@@ -236,7 +243,7 @@ class SettingChooser:
         self.choices: list[int] = []
 
     def bind(self, env: Any) -> Self:
-        """Play against ``env`` (a :class:`~track_apps.tuning.env.GateTuningEnv`); returns self."""
+        """Play against ``env`` (a [`GateTuningEnv`][track_apps.tuning.env.GateTuningEnv]); returns self."""
         env = env.unwrapped
         initial = {k.name: k.value(float(a)) for k, a in zip(env.knobs, env.initial_action, strict=True)}
         ranges = knob_ranges(env.knobs)
@@ -255,10 +262,10 @@ class SettingChooser:
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> tuple[NDArray[np.float32], None]:
-        """The action of the setting :meth:`choose` picks.
+        """The action of the setting [`choose`][track_apps.tuning.policy.SettingChooser.choose] picks.
 
         Raises:
-            RuntimeError: before :meth:`bind`.
+            RuntimeError: before [`bind`][track_apps.tuning.policy.SettingChooser.bind].
         """
         if self._env is None:
             raise RuntimeError(f"{type(self).__name__}.predict before bind(env): bind it to the env it plays")

@@ -1,9 +1,10 @@
 """PPO on GateTuning-v0 (stable-baselines3): vector envs, progress bar, checkpoints, export.
 
-The trained actor is written in the project's model-file format (:mod:`track_apps.tuning.policy`)
-with the command, its wall time, the PPO settings and the env kwargs in the sidecar; SB3
-checkpoints (zips, not shipped) go to ``OUT/checkpoints``. Rewards are normalised for learning
-by ``VecNormalize`` (rewards only: the observation the exported actor sees is the env's own).
+The trained actor is written in the project's model-file format
+([`track_apps.tuning.policy`][track_apps.tuning.policy]) with the command, its wall time, the PPO settings and
+the env kwargs in the sidecar; SB3 checkpoints (zips, not shipped) go to ``OUT/checkpoints``. Rewards are
+normalised for learning by ``VecNormalize`` (rewards only: the observation the exported actor sees is the
+env's own).
 """
 
 from __future__ import annotations

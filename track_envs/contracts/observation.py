@@ -1,10 +1,10 @@
 """Validation of an observation on the agent side (the mirror of the report contract).
 
-Every agent checks what it is handed with :func:`check_observation` before it reads a row: an
-observation is a mapping ``{"detections": (max_detections, *R) float, "mask": (max_detections,)
-0/1 integer or bool}``, and its masked-in rows (mask 1) hold finite detections. A mask value
-other than 0 and 1 is an error, not "present": an agent would otherwise turn padding rows into
-tracks.
+Every agent checks what it is handed with [`check_observation`][track_envs.contracts.check_observation] before
+it reads a row: an observation is a mapping
+``{"detections": (max_detections, *R) float, "mask": (max_detections,) 0/1 integer or bool}``, and its
+masked-in rows (mask 1) hold finite detections. A mask value other than 0 and 1 is an error, not "present": an
+agent would otherwise turn padding rows into tracks.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def check_observation(
 
     Returns:
         ``(rows, detections)``: the masked-in row indices (m,) and their detections as float64
-        (m, *detection_shape).
+            (m, *detection_shape).
 
     Raises:
         ValueError: if ``obs`` is not a mapping or lacks a key; naming the key and the expected
@@ -111,7 +111,7 @@ def _live_detections(mask: NDArray, flat: NDArray) -> tuple[int, NDArray[np.intp
 
 def pack_observation(detections: NDArray[np.floating], spec: SensorSpec) -> dict[str, NDArray]:
     """Pad one frame's ``m`` detections into an observation of ``spec.max_detections`` rows (the
-    twin of :func:`track_envs.contracts.report.pack_report`).
+    twin of [`track_envs.contracts.report.pack_report`][track_envs.contracts.pack_report]).
 
     The rows keep their order (row ``i`` is ``detections[i]``), as float32, padding rows zero and
     mask 0 — what an environment hands an agent, without the shuffling and clipping.

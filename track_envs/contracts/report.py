@@ -13,16 +13,18 @@ mask       (max_tracks,)         int8    1 for a real track row
 
 A report may also carry the optional sorting channel (``sorting_ids``, ``sorting_mask``,
 ``sorting_mean``, ``sorting_cov``: predicted nozzle-bar crossings, see
-:mod:`track_envs.contracts.sorting_channel`); a report without it is valid as before.
+[`track_envs.contracts.sorting_channel`][track_envs.contracts.sorting_channel]); a report without it is valid
+as before.
 
 An all-zero mask (the empty report) is valid. The ids of the live rows (mask 1) must be
-non-negative, at most :data:`ID_LIMIT` and distinct within the report: a repeated id would let
-one identity claim several targets (and inflate MOTA), so :func:`validate_report` rejects it.
-A ``detection`` index that points at a padding row (or beyond) is read as -1.
+non-negative, at most [`ID_LIMIT`][track_envs.contracts.report.ID_LIMIT] and distinct within the report: a
+repeated id would let one identity claim several targets (and inflate MOTA), so
+[`validate_report`][track_envs.contracts.validate_report] rejects it. A ``detection`` index that points at a
+padding row (or beyond) is read as -1.
 
-Every sample of :func:`report_space` is a valid report, because
+Every sample of [`report_space`][track_envs.contracts.report_space] is a valid report, because
 ``gymnasium.utils.env_checker.check_env`` steps with random samples: the space
-(:class:`ReportSpace`) draws distinct ids.
+([`ReportSpace`][track_envs.contracts.ReportSpace]) draws distinct ids.
 """
 
 from __future__ import annotations
@@ -60,13 +62,14 @@ class ReportSpace(spaces.Dict):
 
     ``spaces.Dict.sample`` samples every key independently, so the ``"ids"`` box would give
     repeated ids; here they are drawn without replacement from ``[0, high]`` (``high`` the
-    box's bound) with the space's own ``np_random`` (seeded by :meth:`seed`). The other keys are
+    box's bound) with the space's own ``np_random`` (seeded by `seed`). The other keys are
     sampled by their boxes; ``mask`` and ``probability`` are passed to them as ``spaces.Dict``
     passes them (boxes accept ``None`` per key only).
 
-    :meth:`contains` also requires the ids of the live rows (mask 1) to be distinct, and accepts
-    a report that carries a valid optional sorting channel (:mod:`track_envs.contracts.sorting_channel`),
-    which the space does not sample.
+    [`contains`][track_envs.contracts.ReportSpace.contains] also requires the ids of the live rows (mask 1) to
+    be distinct, and accepts a report that carries a valid optional sorting channel
+    (`track_envs.contracts.sorting_channel`), which the space does not
+    sample.
     """
 
     def sample(
@@ -135,8 +138,8 @@ def empty_report(max_tracks: int, position_shape: tuple[int, ...]) -> dict[str, 
 class ReportOverflowError(ValueError):
     """More live tracks than a report has rows: ``n_tracks`` tracks, ``max_tracks`` rows.
 
-    A ``ValueError``, so callers that catch those still do; :func:`agents.files.points.run_agent` catches
-    this one and runs again with a larger report.
+    A ``ValueError``, so callers that catch those still do;
+    [`agents.files.points.run_agent`][agents.run_agent] catches this one and runs again with a larger report.
     """
 
     def __init__(self, n_tracks: int, max_tracks: int) -> None:
@@ -148,17 +151,19 @@ class ReportOverflowError(ValueError):
         self.max_tracks = int(max_tracks)
 
 
-#: True inside :func:`growable_reports`, False inside :func:`fixed_reports`, None elsewhere.
+#: True inside [`growable_reports`][track_envs.contracts.report.growable_reports], False inside
+#: [`fixed_reports`][track_envs.contracts.report.fixed_reports], None elsewhere.
 _GROWABLE: ContextVar[bool | None] = ContextVar("growable_reports", default=None)
 
 
 @contextmanager
 def growable_reports() -> Iterator[None]:
-    """Within this context :func:`pack_report` grows a report to its ``n`` live tracks where they
-    exceed ``max_tracks``, instead of raising :class:`ReportOverflowError`.
+    """Within this context [`pack_report`][track_envs.contracts.pack_report] grows a report to its ``n`` live
+    tracks where they exceed ``max_tracks``, instead of raising
+    [`ReportOverflowError`][track_envs.contracts.ReportOverflowError].
 
     For loops that gather the reports themselves, frame by frame, whatever their size
-    (:func:`agents.files.points.run_agent`): a tracker then goes on with every track and a
+    ([`agents.files.points.run_agent`][agents.run_agent]): a tracker then goes on with every track and a
     recorded file never has to be tracked again with a larger report. An environment's action
     space has ``max_tracks`` rows; outside this context a report never has more.
     """
@@ -172,9 +177,9 @@ def growable_reports() -> Iterator[None]:
 @contextmanager
 def fixed_reports() -> Iterator[None]:
     """Within this context a report keeps ``max_tracks`` rows: a tracker that would grow its report
-    (:class:`~agents.tracking.tracker.PointTracker`) lets :func:`pack_report` raise
-    :class:`ReportOverflowError` instead (``run_agent(grow=False)``, a run that collects a fixed-size
-    sorting channel)."""
+    ([`PointTracker`][agents.PointTracker]) lets [`pack_report`][track_envs.contracts.pack_report] raise
+    [`ReportOverflowError`][track_envs.contracts.ReportOverflowError] instead (``run_agent(grow=False)``, a
+    run that collects a fixed-size sorting channel)."""
     token = _GROWABLE.set(False)
     try:
         yield
@@ -184,8 +189,9 @@ def fixed_reports() -> Iterator[None]:
 
 def report_growth() -> str:
     """How a tracker's report grows here: ``"exact"`` (to its live tracks, inside
-    :func:`growable_reports`), ``"fixed"`` (never, inside :func:`fixed_reports`) or ``"double"``
-    (elsewhere: a point tracker doubles its rows until its tracks fit, and warns)."""
+    [`growable_reports`][track_envs.contracts.report.growable_reports]), ``"fixed"`` (never, inside
+    [`fixed_reports`][track_envs.contracts.report.fixed_reports]) or ``"double"`` (elsewhere: a point tracker
+    doubles its rows until its tracks fit, and warns)."""
     state = _GROWABLE.get()
     return "double" if state is None else ("exact" if state else "fixed")
 
@@ -197,11 +203,11 @@ def pack_report(
     max_tracks: int,
 ) -> dict[str, NDArray]:
     """Pad ``n`` live tracks into a report of ``max_tracks`` rows (``n`` rows where ``n >
-    max_tracks`` within :func:`growable_reports`).
+    max_tracks`` within `growable_reports`).
 
     Raises:
         ReportOverflowError: if ``n > max_tracks`` (no track is dropped silently; a ValueError),
-            outside :func:`growable_reports`.
+            outside `growable_reports`.
         ValueError: if the arrays disagree.
     """
     n = len(ids)
@@ -273,7 +279,8 @@ def validate_report(
         ValueError: naming the key, the expected shape or dtype, or the offending rows: a mask
             value other than 0/1; a live row (mask 1) with a non-finite position, an id outside
             ``[0, ID_LIMIT]``, or an id another live row also carries; a bad optional sorting
-            channel (:func:`track_envs.contracts.sorting_channel.validate_sorting`).
+            channel
+            ([`track_envs.contracts.sorting_channel.validate_sorting`][track_envs.contracts.validate_sorting]).
     """
     if type(report) is not dict and not isinstance(report, Mapping):
         raise ValueError(
@@ -370,8 +377,8 @@ def _live_rows(
 
 
 def _raise_bad_rows(mask: NDArray, ids: NDArray, positions: NDArray) -> None:
-    """Name the rows :func:`_live_rows` refused: mask values other than 0/1, non-finite
-    positions, ids out of range or repeated (live rows only, the first 10 of each)."""
+    """Name the rows [`_live_rows`][track_envs.contracts.report._live_rows] refused: mask values other than
+    0/1, non-finite positions, ids out of range or repeated (live rows only, the first 10 of each)."""
     live = mask != 0
     bad = np.flatnonzero(live & (mask != 1))
     if mask.dtype.kind != "b" and len(bad):

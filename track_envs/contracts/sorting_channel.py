@@ -5,9 +5,10 @@ the camera (Pfaff et al., "TrackSort: Predictive Tracking for Sorting Uncooperat
 Materials", 2015). A tracker that knows the bar (``SensorSpec.sorting_line``, the line
 ``x = L``) reports, for a track seen for the last time, when and where across the belt it
 predicts the particle to cross ``x = L``, as a Gaussian over ``(t_c, y_c)``. A report may carry
-these four keys besides the four of :data:`track_envs.contracts.report.REPORT_KEYS`; a report without them
-is as valid as before. Its rows are independent of the track rows (a predicted track has
-usually just been deleted, so it is no longer among them):
+these four keys besides the four of
+[`track_envs.contracts.report.REPORT_KEYS`][track_envs.contracts.report.REPORT_KEYS]; a report without them is
+as valid as before. Its rows are independent of the track rows (a predicted track has usually just been
+deleted, so it is no longer among them):
 
 ============ ====================== ======= ===================================================
 key          shape                  dtype   meaning
@@ -23,8 +24,8 @@ sorting_cov  (max_tracks, 2, 2)     float64 covariance of ``(t_c, y_c)`` (s², s
 
 Live rows (mask 1) need distinct ids in ``[0, ID_LIMIT]``, a finite mean and a finite,
 symmetric covariance with a non-negative diagonal. The channel is not part of the action space
-(:class:`~track_envs.contracts.report.ReportSpace` samples reports without it, so ``check_env`` is
-unchanged), but :meth:`~track_envs.contracts.report.ReportSpace.contains` accepts a valid one.
+([`ReportSpace`][track_envs.contracts.ReportSpace] samples reports without it, so ``check_env`` is
+unchanged), but [`contains`][track_envs.contracts.ReportSpace.contains] accepts a valid one.
 """
 
 from __future__ import annotations

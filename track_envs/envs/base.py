@@ -3,18 +3,24 @@
 A concrete environment only simulates and senses. It implements the abstract hooks (a subclass
 that lacks one cannot be instantiated: ``TypeError`` names it)
 
-* :meth:`TrackingEnv._reset_scene` — build the scene from ``self.np_random``;
-* :meth:`TrackingEnv._advance` — move the scene one frame on, return ``True`` when it has ended;
-* :meth:`TrackingEnv._truth` — the targets of the current frame as a :class:`Truth`;
-* :meth:`TrackingEnv._canvas` — the :class:`~track_envs.envs.rendering.Canvas` a frame is drawn on;
-* :meth:`TrackingEnv._draw` — a snapshot onto that canvas;
+* [`TrackingEnv._reset_scene`][track_envs.envs.base.TrackingEnv._reset_scene] — build the scene from
+``self.np_random``;
+* [`TrackingEnv._advance`][track_envs.envs.base.TrackingEnv._advance] — move the scene one frame on, return
+``True`` when it has ended;
+* [`TrackingEnv._truth`][track_envs.envs.base.TrackingEnv._truth] — the targets of the current frame as a
+[`Truth`][track_envs.envs.Truth];
+* [`TrackingEnv._canvas`][track_envs.envs.base.TrackingEnv._canvas] — the [`Canvas`][track_envs.envs.Canvas] a
+frame is drawn on;
+* [`TrackingEnv._draw`][track_envs.envs.base.TrackingEnv._draw] — a snapshot onto that canvas;
 
 and may override
 
-* :meth:`TrackingEnv._sense` — the detections of the current frame and the truth id behind each
+* [`TrackingEnv._sense`][track_envs.envs.base.TrackingEnv._sense] — the detections of the current frame and
+the truth id behind each
   (default: the point sensor over the visible targets);
-* :meth:`TrackingEnv._snapshot` — what :meth:`TrackingEnv._draw` needs of the current frame
-  (default: the current :class:`Truth`);
+* [`TrackingEnv._snapshot`][track_envs.envs.base.TrackingEnv._snapshot] — what
+[`TrackingEnv._draw`][track_envs.envs.base.TrackingEnv._draw] needs of the current frame
+  (default: the current [`Truth`][track_envs.envs.Truth]);
 
 and this base class does the rest of the contract of docs/architecture.md: the ``Dict`` observation
 (padded detections + mask, rows shuffled with the env's RNG every frame so that row order never
@@ -58,7 +64,7 @@ class Truth:
         extra: Further per-target arrays (m, ...) that go into ``info["truth"]`` by name
             (e.g. ``"velocities"``).
         all_visible: ``True`` promises that every target is visible, so that consumers may skip
-            the mask (see :meth:`all_in_view`).
+            the mask (see [`all_in_view`][track_envs.envs.Truth.all_in_view]).
     """
 
     ids: NDArray[np.int64]
@@ -84,7 +90,8 @@ class Truth:
 class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     """Base class of the tracking environments (see the module docstring).
 
-    Subclasses call :meth:`_setup_spaces` once in ``__init__`` after they know their sensor.
+    Subclasses call `_setup_spaces` once in ``__init__``
+    after they know their sensor.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}  # noqa: RUF012
@@ -102,7 +109,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     #: (``dropped_detections``, ``dropped_targets``; warned once per episode); ``"grow"`` doubles
     #: the rows until they fit, rebuilds ``observation_space`` and ``action_space`` (warned).
     overflow: str = "drop"
-    #: The sensor's drift over an episode (:mod:`track_envs.envs.drift`); None: it stays nominal.
+    #: The sensor's drift over an episode ([`track_envs.envs.drift`][track_envs.envs.drift]); None: it stays
+    #: nominal.
     drift: SensorDrift | None = None
     _drift_process: DriftProcess | None = None
 
@@ -122,9 +130,9 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     ) -> None:
         """Build the spaces and per-episode state.
 
-        ``added_noise_std`` is the noise the default :meth:`_sense` adds; ``None`` adds what the
-        sensor spec declares (``spec.noise_std``). Envs that replay real measurements add less
-        (often none) than they declare.
+        ``added_noise_std`` is the noise the default [`_sense`][track_envs.envs.base.TrackingEnv._sense] adds;
+        ``None`` adds what the sensor spec declares (``spec.noise_std``). Envs that replay real measurements
+        add less (often none) than they declare.
         """
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -195,7 +203,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
 
     def _follow_report_rows(self, action: Any) -> None:
         """With ``overflow="grow"``, a report with more rows than ``max_tracks`` (a tracker that
-        outgrew it, :class:`~agents.tracking.tracker.PointTracker`) makes them ``max_tracks``:
+        outgrew it, [`PointTracker`][agents.PointTracker]) makes them ``max_tracks``:
         the action space is rebuilt and a ``RuntimeWarning`` names the sizes."""
         mask = action.get("mask") if isinstance(action, dict) else None
         rows = int(np.shape(mask)[0]) if mask is not None and np.ndim(mask) == 1 else 0
@@ -211,7 +219,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         self._build_spaces(replace(self.sensor_spec, max_tracks=rows))
 
     def _set_drift(self, drift: SensorDrift | Any) -> None:
-        """Let the sensor drift (:func:`track_envs.envs.drift.resolve_drift` checks ``drift``)."""
+        """Let the sensor drift ([`track_envs.envs.drift.resolve_drift`][track_envs.envs.resolve_drift] checks
+        ``drift``)."""
         self.drift = resolve_drift(drift)
 
     def _nominal_sensor(self) -> SensorValues:
@@ -245,11 +254,13 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Point sensor over the visible targets, clutter uniform over the observed region.
 
-        The noise added is ``added_noise_std`` (see :meth:`_setup_spaces`), by default the sensor
-        spec's ``noise_std``; with a drift, the noise, detection probability and clutter rate of
-        the frame's drift (:meth:`_sensor_now`).
+        The noise added is ``added_noise_std`` (see
+        [`_setup_spaces`][track_envs.envs.base.TrackingEnv._setup_spaces]), by default the sensor spec's
+        ``noise_std``; with a drift, the noise, detection probability and clutter rate of the frame's drift
+        ([`_sensor_now`][track_envs.envs.base.TrackingEnv._sensor_now]).
 
-        Point environments use this as it is; others override it (see :mod:`track_envs.envs.sensors`).
+        Point environments use this as it is; others override it (see
+        [`track_envs.envs.sensors`][track_envs.envs.sensors]).
         """
         ids, positions = truth.visible_part()
         return self._sense_points(positions, ids)
@@ -287,20 +298,22 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
         return point_metrics(self.gospa_c)
 
     def _snapshot(self) -> Any:
-        """Whatever :meth:`_draw` needs of the current frame (copied: the scene moves on)."""
+        """Whatever [`_draw`][track_envs.envs.base.TrackingEnv._draw] needs of the current frame (copied: the
+        scene moves on)."""
         return self._current_truth
 
     @abc.abstractmethod
     def _draw(self, canvas: Any, snapshot: Any) -> None:
-        """Draw ``snapshot`` (of :meth:`_snapshot`) onto ``canvas`` (of :meth:`_canvas`)."""
+        """Draw ``snapshot`` (of [`_snapshot`][track_envs.envs.base.TrackingEnv._snapshot]) onto ``canvas``
+        (of [`_canvas`][track_envs.envs.base.TrackingEnv._canvas])."""
 
     @abc.abstractmethod
     def _canvas(self) -> Any:
-        """A fresh :class:`~track_envs.envs.rendering.Canvas` of the scene's region to draw a frame on."""
+        """A fresh [`Canvas`][track_envs.envs.Canvas] of the scene's region to draw a frame on."""
 
     def _draw_overlay(self, canvas: Any, detections: NDArray, report: Report | None) -> None:
         """Detections as black crosses, the report's tracks as rings in their id colours (see
-        :meth:`_legend`)."""
+        [`_legend`][track_envs.envs.base.TrackingEnv._legend])."""
         from track_envs.envs.rendering import identity_colors
 
         if len(detections):
@@ -309,7 +322,8 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
             canvas.rings(report.positions, 7, identity_colors(report.ids), thickness_px=2)
 
     def _legend(self) -> list[Any]:
-        """The footer's legend: how :meth:`_draw` and :meth:`_draw_overlay` show each thing."""
+        """The footer's legend: how [`_draw`][track_envs.envs.base.TrackingEnv._draw] and
+        [`_draw_overlay`][track_envs.envs.base.TrackingEnv._draw_overlay] show each thing."""
         from track_envs.envs.rendering import LegendEntry
 
         return [
@@ -469,7 +483,7 @@ class TrackingEnv(gym.Env[dict[str, Any], dict[str, Any]], abc.ABC):
 
         Returns:
             ``rgb_array``: the ``uint8`` frame (H, W, 3); ``human``: ``None`` (the frame is shown in
-            a pygame window).
+                a pygame window).
         """
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")

@@ -3,7 +3,8 @@
 Every kernel works on the world's row table ``rows`` (m, 6) — one row per pymunk body in the
 space's iteration order, columns ``x, y, angle, vx, vy, spin`` in the frame that moves with the
 belt — and on the row labels ``truth`` (m,) (truth id >= 0 for a particle on the belt,
-:data:`PARKED` for a parked body, :data:`NOT_PARTICLE` for the wall body) and ``kind`` (m,).
+[`PARKED`][track_envs.envs.belt_kernels.PARKED] for a parked body,
+[`NOT_PARTICLE`][track_envs.envs.belt_kernels.NOT_PARTICLE] for the wall body) and ``kind`` (m,).
 
 In the belt frame a particle's velocity *is* its slip over the belt, so Coulomb friction with
 deceleration ``a_k = μ_k g`` over a step ``h`` is

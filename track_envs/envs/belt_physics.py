@@ -13,8 +13,9 @@ velocity ``u = v − (v_belt, 0)`` a particle of kind ``k`` decelerates relative
     u \\leftarrow u \\, \\max\\big(0, 1 − μ_k g h / |u|\\big),
 
 and its spin decays likewise, ``|ω| \\leftarrow \\max(0, |ω| − μ_k g h / r_k)``. This update is applied
-to all particles at once in compiled code (:mod:`track_envs.envs.belt_kernels`) through pymunk's
-batch API (``pymunk.batch``); collisions between particles and with the walls are resolved by pymunk.
+to all particles at once in compiled code ([`track_envs.envs.belt_kernels`][track_envs.envs.belt_kernels])
+through pymunk's batch API (``pymunk.batch``); collisions between particles and with the walls are resolved by
+pymunk.
 
 The space moves with the belt: pymunk simulates in the belt's rest frame, where the walls (one
 kinematic body) slide upstream at ``−v_belt`` and a particle's velocity is its slip over the belt.
@@ -33,8 +34,9 @@ added to or removed from the space (Python once per body, then one re-labelling 
 
 A world cannot be pickled or deep-copied: a copied pymunk ``Space`` keeps its bodies and cached
 contacts but not its broad-phase tree and solver order, so it would drift from the original.
-:class:`~track_envs.envs.belt_sorter.BeltSorterEnv` rebuilds its world exactly by replay instead;
-:meth:`BeltWorld.digest` lets it check the rebuilt world against the original.
+[`BeltSorterEnv`][track_envs.envs.BeltSorterEnv] rebuilds its world exactly by replay instead;
+[`BeltWorld.digest`][track_envs.envs.belt_physics.BeltWorld.digest] lets it check the rebuilt world against
+the original.
 """
 
 from __future__ import annotations
@@ -250,9 +252,10 @@ class BeltParams:
         The default belt's material and speeds on a belt eleven times as wide, seen over a ten
         times longer window: ``window_width = 2.0`` m, ``window_length = 4.0`` m, ``feed_rate =
         {feed:,}`` /s (twice the default's feed per metre of width: ≈2,100 cylinders per m² at belt
-        speed, about 10 % of the belt covered), so that :func:`expected_in_view` gives ≈12,000
-        cylinders in the window (≥ 10,000 in every frame of a 1,500-frame episode). A feeder
-        2 m wide acts as eleven independent 0.18 m ones, so the feed's bursts average out:
+        speed, about 10 % of the belt covered), so that
+        `expected_in_view` gives ≈12,000 cylinders in the
+        window (≥ 10,000 in every frame of a 1,500-frame episode). A feeder 2 m wide acts as eleven
+        independent 0.18 m ones, so the feed's bursts average out:
         ``feed_burstiness = 0.55 / √11 ≈ 0.17``. ``warmup_time = 3.5`` s fills the belt up to the
         nozzle bar before the first frame. Every other field keeps its default; ``changes``
         overrides any field (``BeltParams.industrial(feed_rate=6000.0)``).
@@ -268,7 +271,7 @@ class BeltParams:
         return cls(**preset)  # type: ignore[arg-type]
 
 
-#: The feed rate (particles/s) of :meth:`BeltParams.industrial`.
+#: The feed rate (particles/s) of [`BeltParams.industrial`][track_envs.envs.BeltParams.industrial].
 INDUSTRIAL_FEED_RATE = 4300.0
 
 #: The belts a name stands for (``gym.make("BeltSorter-v0", physics="industrial")``, a suite's
@@ -277,7 +280,8 @@ BELT_PRESETS = ("default", "industrial")
 
 
 def belt_preset(name: str) -> BeltParams:
-    """The :class:`BeltParams` of a preset name in :data:`BELT_PRESETS`.
+    """The [`BeltParams`][track_envs.envs.BeltParams] of a preset name in
+    [`BELT_PRESETS`][track_envs.envs.belt_physics.BELT_PRESETS].
 
     Raises:
         ValueError: naming the unknown preset and the valid names.
@@ -323,7 +327,8 @@ def window_residence(params: BeltParams, kind: ParticleKind) -> float:
 
 def expected_in_view(params: BeltParams, kinds: Mapping[str, float]) -> float:
     """Mean number of particles in the camera window: ``feed_rate · Σ_k w_k T_k`` with the kind
-    weights ``w_k`` (:func:`resolve_mixture`) and residences ``T_k`` (:func:`window_residence`)."""
+    weights ``w_k`` ([`resolve_mixture`][track_envs.envs.belt_physics.resolve_mixture]) and residences ``T_k``
+    ([`window_residence`][track_envs.envs.belt_physics.window_residence])."""
     return params.feed_rate * sum(w * window_residence(params, PARTICLE_KINDS[k]) for k, w in kinds.items())
 
 
@@ -335,11 +340,13 @@ def scene_rows(params: BeltParams, kinds: Mapping[str, float]) -> int:
     """Rows that hold every particle of the window in a burst: ``max_detections``, ``max_tracks``
     and ``max_targets`` when not given.
 
-    With ``N̄`` particles in view on average (:func:`expected_in_view`) and feed burstiness ``σ``, a
-    burst brings ``N̄ e^{2σ}`` (the feed intensity two standard deviations up), and the Poisson
-    count ``4 √·`` more; the rows are that rounded up to a multiple of 256, at least
-    :data:`MIN_ROWS`. The default belt: ``N̄ = 61``, 247 → 256 rows (its peaks are 140–210);
-    :meth:`BeltParams.industrial`: ``N̄ ≈ 12,000``, ``≈ 17,000`` rows.
+    With ``N̄`` particles in view on average
+    ([`expected_in_view`][track_envs.envs.belt_physics.expected_in_view]) and feed burstiness ``σ``, a burst
+    brings ``N̄ e^{2σ}`` (the feed intensity two standard deviations up), and the Poisson count ``4 √·`` more;
+    the rows are that rounded up to a multiple of 256, at least
+    [`MIN_ROWS`][track_envs.envs.belt_physics.MIN_ROWS]. The default belt: ``N̄ = 61``, 247 → 256 rows (its
+    peaks are 140–210); [`BeltParams.industrial`][track_envs.envs.BeltParams.industrial]: ``N̄ ≈ 12,000``,
+    ``≈ 17,000`` rows.
     """
     burst = expected_in_view(params, kinds) * math.exp(2.0 * params.feed_burstiness)
     need = burst + 4.0 * math.sqrt(burst)
@@ -386,22 +393,25 @@ class BeltWorld:
 
     Rows: ``_rows`` (m, 6) holds every body of the space in pymunk's iteration order (x, y,
     angle, vx, vy, spin) in the belt's rest frame, and ``_row_truth`` labels each row with the
-    truth id of the particle on it, :data:`PARKED` for a parked body or :data:`NOT_PARTICLE` for
-    the kinematic wall body; ``_row_kind`` gives the kind of each particle body. ``travel`` is the
-    belt's travel ``s(t)`` that maps belt-frame to ground-frame positions.
+    truth id of the particle on it, [`PARKED`][track_envs.envs.belt_physics.PARKED] for a parked body or
+    [`NOT_PARTICLE`][track_envs.envs.belt_physics.NOT_PARTICLE] for the kinematic wall body; ``_row_kind``
+    gives the kind of each particle body. ``travel`` is the belt's travel ``s(t)`` that maps belt-frame to
+    ground-frame positions.
 
     Args:
         params: Geometry and operating point.
-        kinds: Kind proportions, from :func:`resolve_mixture`.
+        kinds: Kind proportions, from [`resolve_mixture`][track_envs.envs.belt_physics.resolve_mixture].
         rng: Generator for every random draw (landing times, places, speeds, kinds).
-        dt: Camera frame period (s); each :meth:`step` advances this much.
+        dt: Camera frame period (s); each [`step`][track_envs.envs.belt_physics.BeltWorld.step] advances this
+            much.
         max_parked: Parked bodies kept in the space before the surplus is removed; default
-            :func:`parking_room` of the feed (128 up to 16 landings per frame, eight frames of
-            landings above), so that a busy belt does not add and remove bodies every few frames.
+            [`parking_room`][track_envs.envs.belt_physics.parking_room] of the feed (128 up to 16 landings per
+            frame, eight frames of landings above), so that a busy belt does not add and remove bodies every
+            few frames.
         line_x: Ground-frame ``x`` of a line across the belt (the nozzle bar of a sorter) whose
-            crossings :meth:`step` records in :attr:`crossings`, or ``None``. Particles stay on
-            the belt until they are past it: the belt end (where particles are removed) is
-            ``max(window_length + exit_margin, line_x)``.
+            crossings [`step`][track_envs.envs.belt_physics.BeltWorld.step] records in `crossings`, or
+            ``None``. Particles stay on the belt until they are past it: the belt end (where particles are
+            removed) is ``max(window_length + exit_margin, line_x)``.
     """
 
     def __init__(
@@ -418,7 +428,8 @@ class BeltWorld:
         self.belt_end = params.window_length + params.exit_margin
         if self.line_x is not None:
             self.belt_end = max(self.belt_end, self.line_x)
-        #: The line crossings of the last :meth:`step`: truth ids (k,), the fraction of the frame
+        #: The line crossings of the last [`step`][track_envs.envs.belt_physics.BeltWorld.step]: truth ids
+        #: (k,), the fraction of the frame
         #: period at which each particle crossed (k,) in (0, 1], its lateral position ``y`` (k,).
         self.crossings: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]] = _NO_CROSSINGS
         self.kind_names = list(kinds)

@@ -39,9 +39,9 @@ class BeltReplayEnv(TrackingEnv):
 
     ## Description
     Reads a track file in the layout of published belt-sorting data sets (see
-    :mod:`track_envs.io.wide_tracks`): no header, one row per frame, one ``(x, y)`` column pair per
-    particle, NaN where the particle is not visible; the pair index is the truth id. Each frame the
-    visible particles are the truth, and the sensor model of BeltSorter-v0 turns them into
+    `track_envs.io.wide_tracks`): no header, one row per frame, one ``(x, y)``
+    column pair per particle, NaN where the particle is not visible; the pair index is the truth id. Each
+    frame the visible particles are the truth, and the sensor model of BeltSorter-v0 turns them into
     detections: Gaussian noise ``noise_std``, detection probability ``p_detect`` and uniform clutter
     at ``clutter_rate`` over the observed region. With the defaults (no noise, no misses, no
     clutter) the detections are the recorded positions exactly (as float32).
@@ -50,7 +50,7 @@ class BeltReplayEnv(TrackingEnv):
     ``Dict(detections=Box(max_detections, 2) float32, mask=Box(max_detections,) int8)``, shuffled rows.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.contracts.report`).
+    The tracker's report (see `track_envs.contracts.report`).
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c``, p = 2, α = 2) against the visible recorded positions.
@@ -64,8 +64,8 @@ class BeltReplayEnv(TrackingEnv):
     ## Info
     ``t``, ``frame``, ``truth`` (``ids``, ``positions``, ``visible``, ``velocities`` by finite
     differences, zero for a particle seen once, and the nozzle bar's ``nozzle_ids``,
-    ``nozzle_times``, ``nozzle_lateral``, see :mod:`track_envs.envs.nozzle`; empty without
-    ``nozzle_offset``), ``detection_ids``, ``dropped_detections``, ``dropped_targets``.
+    ``nozzle_times``, ``nozzle_lateral``, see `track_envs.envs.nozzle`; empty
+    without ``nozzle_offset``), ``detection_ids``, ``dropped_detections``, ``dropped_targets``.
 
     Nozzle bar: with ``nozzle_offset`` the line ``x = L = region x_high + nozzle_offset`` gets the
     crossing truth of BeltSorter-v0, from the recorded positions: a particle crosses between two
@@ -81,7 +81,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``measurement_noise_std``: the measurement noise std the sensor spec declares
       (``sensor_spec.noise_std``, what a tracker is told), in the file's units; default
       ``noise_std``. Give the recording's own noise here when replaying real centroids.
-    - ``drift``: the sensor's drift over an episode, as in BeltSorter-v0 (:mod:`track_envs.envs.drift`;
+    - ``drift``: the sensor's drift over an episode, as in BeltSorter-v0
+    (`track_envs.envs.drift`;
       default None).
     - ``frames``: ``(start, stop)`` half-open frame range; default the whole file.
     - ``dt``: frame period in seconds (default 0.01, a 100 Hz camera).

@@ -66,11 +66,12 @@ class BeltSorterEnv(TrackingEnv):
     probability ``p_detect``, plus ``Poisson(clutter_rate)`` clutter points uniform in the window.
     A blob is a particle, or, with ``merge_touching`` (the default), a group of particles whose
     silhouettes touch, seen as one region by the camera: its ``x`` is the area-weighted centroid
-    of the group (see :mod:`track_envs.envs.blobs` for the silhouettes and the touching test).
+    of the group (see `track_envs.envs.blobs` for the silhouettes and the touching
+    test).
 
     ## Action
-    The tracker's report (see :mod:`track_envs.contracts.report`): ``ids``, ``positions`` (max_tracks, 2),
-    ``detection``, ``mask``.
+    The tracker's report (see `track_envs.contracts.report`): ``ids``,
+    ``positions`` (max_tracks, 2), ``detection``, ``mask``.
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c`` metres, p = 2, α = 2) between the reported positions and the
@@ -95,15 +96,15 @@ class BeltSorterEnv(TrackingEnv):
       except on merged detections. A blob of more than 8 particles lists its 8 largest.
     - ``truncated_merge_ids``: member ids left out of ``detection_ids_merged`` so far this episode.
 
-    The nozzle bar (:mod:`track_envs.envs.nozzle`): a line across the belt at
+    The nozzle bar (`track_envs.envs.nozzle`): a line across the belt at
     ``x = L = window_length + nozzle_offset``. Particles stay on the simulated belt until they
     are past it, and each frame's ``truth`` lists the particles that crossed it since the previous
     frame: ``nozzle_ids`` (max_targets,) int64, −1 padded; ``nozzle_times``, the crossing time in
     seconds on the clock of ``t``, interpolated within the physics substep in which the centroid
     reached ``L`` (exact: within a substep a body moves on a straight line); ``nozzle_lateral``,
     its ``y`` there. ``sensor_spec.sorting_line`` is ``L``, so a tracker can predict the crossing
-    (the report's optional sorting channel, :mod:`track_envs.contracts.report`), scored by
-    :class:`~track_envs.metrics.sorting.SortingPrediction` (``sorting_*`` metrics).
+    (the report's optional sorting channel, `track_envs.contracts.report`),
+    scored by [`SortingPrediction`][track_envs.metrics.SortingPrediction] (``sorting_*`` metrics).
 
     ## Arguments
     - ``particle_kind``: ``"sphere"``, ``"cylinder"`` (default, the paper's DEM dataset),
@@ -115,16 +116,16 @@ class BeltSorterEnv(TrackingEnv):
       that is told the wrong noise.
     - ``p_detect``: detection probability (default 1.0).
     - ``clutter_rate``: mean clutter detections per frame (default 0.0).
-    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.envs.drift`): a
-      :class:`~track_envs.envs.drift.SensorDrift`, a mapping or a preset name (``"belt"``); its noise
+    - ``drift``: the sensor's drift over an episode (`track_envs.envs.drift`): a
+      [`SensorDrift`][track_envs.envs.SensorDrift], a mapping or a preset name (``"belt"``); its noise
       std replaces ``noise_std`` as the noise added, and ``sensor_spec`` keeps the nominal values.
       ``info["sensor"]`` holds each frame's true ``noise_std``, ``p_detect``, ``clutter_rate``.
       Default None (no drift).
     - ``max_detections``: detection rows; ``max_tracks``: report rows; ``max_targets``: truth rows
       in ``info``. Each defaults to the rows the scene needs in a burst
-      (:func:`~track_envs.envs.belt_physics.scene_rows`: the mean count in view from the feed rate
+      (`scene_rows`: the mean count in view from the feed rate
       and the particles' residence in the window, with margin, at least 256): 256 on the default
-      belt, ≈17,700 on :meth:`BeltParams.industrial() <track_envs.envs.belt_physics.BeltParams.industrial>`.
+      belt, ≈17,700 on [`BeltParams.industrial()`][track_envs.envs.BeltParams.industrial].
     - ``overflow``: what a frame with more detections than ``max_detections`` or more particles
       in view than ``max_targets`` does. ``"grow"`` (default): the rows double until they fit,
       ``observation_space`` and ``action_space`` are rebuilt with them and a ``RuntimeWarning``
@@ -133,11 +134,11 @@ class BeltSorterEnv(TrackingEnv):
       fixed, the surplus is dropped and counted in ``info["dropped_detections"]`` /
       ``info["dropped_targets"]``, warned once per episode.
     - ``feed_rate``: particles per second (default 195); ``belt_speed``: m/s (default 1.44).
-    - ``physics``: a :class:`~track_envs.envs.belt_physics.BeltParams` for everything else;
+    - ``physics``: a [`BeltParams`][track_envs.envs.BeltParams] for everything else;
       ``BeltParams.industrial()`` is an industrial-width belt (2 m wide, a 4 m window, ≈12,000
       particles in view: ``gym.make("BeltSorter-v0", physics=BeltParams.industrial())``), also
-      asked for by name (``physics="industrial"``: :data:`~track_envs.envs.belt_physics.BELT_PRESETS`,
-      e.g. from a bench suite's ``env_kwargs``).
+      asked for by name (``physics="industrial"``:
+      `BELT_PRESETS`, e.g. from a bench suite's ``env_kwargs``).
     - ``gospa_c``: GOSPA cut-off in metres (default 0.005).
     - ``merge_touching``: touching particles give one detection at their area-weighted centroid
       (default ``True``); ``False`` senses every particle on its own, as v0 did before 2026-12-01.
@@ -160,7 +161,7 @@ class BeltSorterEnv(TrackingEnv):
     2e-2 m/s after one step (1e-14 m/s at 100 iterations); on the belt, positions drift by
     2e-5 m on the next frame and 2 mm within 500. So the pickle holds no pymunk object. It holds
     the generator state at the start of the episode, the frames stepped since and a digest of
-    the world (:meth:`~track_envs.envs.belt_physics.BeltWorld.digest`), and restoring rebuilds
+    the world (`digest`), and restoring rebuilds
     the world by replaying the scene: the warm-up, then each frame's world step and sensor draws.
     The replay is exact because the episode is a function of that generator state alone:
     reports are only scored, they move nothing and draw no random numbers. Restoring costs
@@ -367,7 +368,8 @@ class BeltSorterEnv(TrackingEnv):
 
     def default_metrics(self) -> list[Any]:
         """The point metrics (association errors, CLEAR MOT, GOSPA) and, with a nozzle bar, the
-        sorting prediction (``sorting_*`` keys, :class:`~track_envs.metrics.SortingPrediction`)."""
+        sorting prediction (``sorting_*`` keys,
+        [`SortingPrediction`][track_envs.metrics.SortingPrediction])."""
         from track_envs.metrics.sorting import SortingPrediction
 
         metrics = super().default_metrics()
@@ -482,7 +484,7 @@ class BeltSorterEnv(TrackingEnv):
 
 class _Replay(NamedTuple):
     """How to rebuild a pickled world: the generator state at the episode's start, the frames
-    stepped since, and the world's :meth:`~track_envs.envs.belt_physics.BeltWorld.digest`."""
+    stepped since, and the world's [`digest`][track_envs.envs.belt_physics.BeltWorld.digest]."""
 
     start: dict[str, Any]
     frames: int

@@ -1,8 +1,8 @@
 """Flow statistics of a belt episode, comparable with the authors' DEM figures (Pollithy et al. 2020).
 
-:func:`belt_statistics` runs an environment and summarises the true motion of the particles in
-the camera window. Particles already in the window at the first frame or still in it at the
-last are left out of the per-particle figures (their passage is cut).
+[`belt_statistics`][track_envs.envs.belt_statistics.belt_statistics] runs an environment and summarises the
+true motion of the particles in the camera window. Particles already in the window at the first frame or still
+in it at the last are left out of the per-particle figures (their passage is cut).
 
 ========================= ===================================================== ============
 key                       definition                                            DEM figure

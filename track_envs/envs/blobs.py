@@ -9,7 +9,7 @@ frame, in compiled code (no per-particle Python).
 ``(a, b)`` (along the particle's axis, across it) grown by a disc of radius ``ρ`` (the Minkowski
 sum). Spheres are a point core (``a = b = 0``) with ``ρ`` the radius; cylinders lying flat and
 cuboids are their length × width box with the rounding radius of their pymunk collision shape
-(:data:`~track_envs.envs.belt_physics.BOX_ROUNDING`), so that two particles in contact in the
+([`BOX_ROUNDING`][track_envs.envs.belt_physics.BOX_ROUNDING]), so that two particles in contact in the
 physics are exactly touching silhouettes here. The area of a silhouette is
 
 .. math::
@@ -22,7 +22,7 @@ separating axis theorem, else the least distance of a corner of one core to the 
 0.1 mm, about a camera pixel) absorbs pymunk's contact slop and the gap a segmentation cannot
 resolve. Only pairs whose centres are closer than the sum of the circumradii plus ``tol`` are
 tested: particles are bucketed in a grid over ``(x, y)`` with cells as wide as the largest such
-sum (:func:`~track_envs.infra.spatial.build_grid`), and each is compared with the rest of its cell
+sum ([`build_grid`][track_envs.infra.spatial.build_grid]), and each is compared with the rest of its cell
 and the neighbouring cells ahead of it, so a frame costs ``O(n)`` at a bounded density whatever
 the belt's width and length.
 
@@ -99,7 +99,7 @@ def _core_distance(
     xi: float, yi: float, ci: float, si: float, ai: float, bi: float,
     xj: float, yj: float, cj: float, sj: float, aj: float, bj: float,
 ) -> float:  # fmt: skip
-    """:func:`core_distance` with each angle given by its cosine and sine.
+    """[`core_distance`][track_envs.envs.blobs.core_distance] with each angle given by its cosine and sine.
 
     Two rectangles overlap unless one of their four edge normals separates them (separating axis
     theorem); two disjoint convex polygons have a closest pair with a vertex of one of them, so
@@ -158,7 +158,8 @@ def touching_groups(
         positions: (n, 2) centres.
         angles: (n,) orientations (rad).
         kinds: (n,) row of each particle in ``table``.
-        table: (n_kinds, 4) silhouettes ``(a, b, ρ, A)`` (:func:`silhouette_table`).
+        table: (n_kinds, 4) silhouettes ``(a, b, ρ, A)``
+            ([`silhouette_table`][track_envs.envs.blobs.silhouette_table]).
         tol: Touching tolerance (see the module docstring).
     """
     n = len(positions)
@@ -238,16 +239,17 @@ def merge_blobs(
     """The blobs of one frame.
 
     Args:
-        positions, angles, kinds, table, tol: As in :func:`touching_groups`.
+        positions, angles, kinds, table, tol: As in
+            [`touching_groups`][track_envs.envs.blobs.touching_groups].
         ids: (n,) truth ids.
         max_merged: Member ids kept per blob (``K``).
 
     Returns:
         ``(centres, primary, merged, truncated)``: area-weighted centroid (b, 2) and primary
-        truth id (b,) of every blob (singletons included, in order of their first member);
-        ``merged`` (g, K) the member ids, largest area first, −1 padded, of the ``g`` blobs with
-        two or more members, whose primary ids are ``merged[:, 0]``; ``truncated`` the member ids
-        left out of ``merged`` because a blob had more than ``K``.
+            truth id (b,) of every blob (singletons included, in order of their first member);
+            ``merged`` (g, K) the member ids, largest area first, −1 padded, of the ``g`` blobs with
+            two or more members, whose primary ids are ``merged[:, 0]``; ``truncated`` the member ids
+            left out of ``merged`` because a blob had more than ``K``.
     """
     n = len(positions)
     label = touching_groups(positions, angles, kinds, table, tol)

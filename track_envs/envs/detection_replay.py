@@ -17,13 +17,15 @@ NO_TRUTH = "DetectionReplay-v0 replays detections without ground truth: no truth
 
 
 def sample_detections_path() -> str:
-    """Path of the detection file shipped with the package (see :data:`SAMPLE_READ_OPTIONS`)."""
+    """Path of the detection file shipped with the package (see
+    `SAMPLE_READ_OPTIONS`)."""
     return str(resources.files("track_envs") / "data" / "detections_sample.zip")
 
 
 #: How the shipped sample is read: 200 frames of BeltSorter-v0's detections (defaults, seed 0,
 #: 0.1 mm noise, rounded to 1 µm), in metres; columns ``frame,count,time,x0,y0,...``. Made by
-#: ``python -m track_envs.envs.detection_replay`` (:func:`make_sample`).
+#: ``python -m track_envs.envs.detection_replay``
+#: ([`make_sample`][track_envs.envs.detection_replay.make_sample]).
 SAMPLE_READ_OPTIONS: dict[str, Any] = {"time_column": "time"}
 #: The sample's measurement noise std (BeltSorter-v0's default), metres.
 SAMPLE_NOISE_STD = 1e-4
@@ -37,15 +39,15 @@ class DetectionReplayEnv(TrackingEnv):
     like every env's; ``shuffle=False`` keeps the file's order, which is what ``track run`` uses).
     There is no ground truth: ``info["truth"]`` is empty (one padding row, id −1),
     ``info["has_truth"]`` is False and ``info["truth_note"]`` says so, every
-    ``info["detection_ids"]`` is −1. :class:`~track_envs.wrappers.TrackingMetrics` skips the
+    ``info["detection_ids"]`` is −1. [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics] skips the
     metrics that need truth (all of the point metrics) and says so in
-    ``info["episode_metrics_note"]``. File formats: :mod:`track_envs.io.detections`.
+    ``info["episode_metrics_note"]``. File formats: `track_envs.io.detections`.
 
     ## Observation
     ``Dict(detections=Box(max_detections, 2) float32, mask=Box(max_detections,) int8)``.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.contracts.report`).
+    The tracker's report (see `track_envs.contracts.report`).
 
     ## Reward
     0 every frame (there is no truth to score against).
@@ -58,8 +60,8 @@ class DetectionReplayEnv(TrackingEnv):
 
     ## Arguments
     - ``path``: the detection file; default the sample shipped with the package
-      (:func:`sample_detections_path`).
-    - ``detections``: a :class:`~track_envs.values.detections.Detections` stream instead of a file.
+      ([`sample_detections_path`][track_envs.envs.sample_detections_path]).
+    - ``detections``: a [`Detections`][track_envs.Detections] stream instead of a file.
     - ``format``: ``"auto"`` (``.txt``: MOTChallenge, else wide), ``"mot"`` or ``"wide"``.
     - ``read_options``: keyword arguments of the reader (``read_mot_detections`` /
       ``read_wide_detections``: ``frame_column``, ``count_column``, ``time_column``,

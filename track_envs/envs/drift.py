@@ -2,13 +2,15 @@
 following a schedule over an episode, while ``sensor_spec`` keeps the nominal values.
 
 A tracker is told the sensor of ``sensor_spec`` once; a real sensor drifts (lighting, dirt on the
-lens, a belt that carries dust). A :class:`SensorDrift` gives each of the three parameters a
-schedule (or none: it stays nominal):
+lens, a belt that carries dust). A [`SensorDrift`][track_envs.envs.SensorDrift] gives each of the three
+parameters a schedule (or none: it stays nominal):
 
-* :class:`Steps` — piecewise constant. The value is held for ``H ~ Geometric(1 / mean_hold)``
+* [`Steps`][track_envs.envs.Steps] — piecewise constant. The value is held for
+``H ~ Geometric(1 / mean_hold)``
   frames (mean ``mean_hold``), then jumps to a new value drawn uniformly in ``[low, high]``
   (log-uniformly with ``log=True``), independently of the old one.
-* :class:`RandomWalk` — a bounded random walk. With ``u = x`` (or ``u = log x`` with ``log``),
+* [`RandomWalk`][track_envs.envs.RandomWalk] — a bounded random walk. With ``u = x`` (or ``u = log x`` with
+``log``),
 
   .. math::
 
@@ -22,9 +24,9 @@ The first value of an episode is ``start`` when given, else uniform over the ran
 
 Every draw comes from a generator seeded by one draw of the env's ``np_random`` at ``reset``, so
 the same seed gives the same drift (and an env without drift draws nothing: its streams are
-unchanged). The schedule is generated in blocks of :data:`BLOCK` frames, always in the same
-order, so the value of frame ``t`` does not depend on when it is asked for; a pickled env carries
-its drawn schedule (:class:`DriftProcess`).
+unchanged). The schedule is generated in blocks of [`BLOCK`][track_envs.envs.drift.BLOCK] frames, always in
+the same order, so the value of frame ``t`` does not depend on when it is asked for; a pickled env carries
+its drawn schedule ([`DriftProcess`][track_envs.envs.drift.DriftProcess]).
 
 The envs report the true values of each frame in ``info["sensor"]`` (truth side).
 """
@@ -148,8 +150,9 @@ class SensorDrift:
     ``clutter_rate`` in detections per frame.
 
     Build one directly, from a mapping (``{"noise_std": {"kind": "steps", "low": 5e-5, "high":
-    1e-3, "log": True}}``, kinds :data:`SCHEDULES`) or by a name of :data:`DRIFT_PRESETS`; see
-    :func:`resolve_drift`.
+    1e-3, "log": True}}``, kinds `SCHEDULES`) or by a name of
+    `DRIFT_PRESETS`; see
+    [`resolve_drift`][track_envs.envs.resolve_drift].
     """
 
     noise_std: Schedule | None = None
@@ -209,7 +212,7 @@ def _schedule_from_mapping(name: str, data: Mapping[str, Any]) -> Schedule:
 
 
 def resolve_drift(drift: SensorDrift | Mapping[str, Any] | str | None) -> SensorDrift | None:
-    """A checked :class:`SensorDrift` from a drift, a mapping, a preset name, or None.
+    """A checked [`SensorDrift`][track_envs.envs.SensorDrift] from a drift, a mapping, a preset name, or None.
 
     Raises:
         ValueError: for an unknown preset (listing them), an unknown parameter or schedule kind,
@@ -289,7 +292,7 @@ class DriftProcess:
     """The drawn drift of one episode: the true sensor values of every frame.
 
     Args:
-        drift: A checked :class:`SensorDrift`.
+        drift: A checked [`SensorDrift`][track_envs.envs.SensorDrift].
         nominal: The values of the parameters without a schedule.
         seed: Seed of the episode's drift (one draw of the env's ``np_random``).
     """

@@ -50,11 +50,11 @@ class KeypointWalkersEnv(TrackingEnv):
     ``num_people`` people at once enter from the left and right borders, walk across and leave.
     They stop, turn, change speed, and walk toward or away from the camera (their scale is
     ``focal · height / depth``). Each is a 2-D articulated skeleton with the 17 COCO keypoints
-    (:mod:`track_envs.envs.skeleton`): person-specific height and proportions, a walking gait with
-    person-specific cadence and stride, arms counter to legs. ``camera_pan`` adds a global image
-    shift whose velocity changes abruptly (fast camera motion is the main failure of
+    (`track_envs.envs.skeleton`): person-specific height and proportions, a
+    walking gait with person-specific cadence and stride, arms counter to legs. ``camera_pan`` adds a global
+    image shift whose velocity changes abruptly (fast camera motion is the main failure of
     single-hypothesis trackers in Okada et al. (2020)). Crowd dynamics:
-    :class:`~track_envs.envs.skeleton.Crowd`.
+    `Crowd`.
 
     Visibility of each keypoint: inside the frame; not inside the body silhouette (capsules
     around torso, head and limbs) of a person closer to the camera; not self-occluded (the far
@@ -76,8 +76,8 @@ class KeypointWalkersEnv(TrackingEnv):
     of keypoints, large noise and low scores.
 
     ## Action
-    The report (:mod:`track_envs.contracts.report`): ``ids``, ``positions`` (max_tracks, 17, 2) px,
-    ``detection``, ``mask``.
+    The report (`track_envs.contracts.report`): ``ids``, ``positions``
+    (max_tracks, 17, 2) px, ``detection``, ``mask``.
 
     ## Reward
     ``−GOSPA`` with the OKS distance ``d = 1 − OKS`` (cut-off c = 1, p = 1, α = 2): reported poses
@@ -107,7 +107,8 @@ class KeypointWalkersEnv(TrackingEnv):
     - ``occlusion``: occlusion by other people and self-occlusion (default True).
     - ``num_occluders`` (1), ``vanish_rate`` (0.03 /s), ``camera_pan``: largest pan speed in px/s
       (0 = static camera).
-    - ``params``: a :class:`WalkerParams` for the rest (image size, camera, walking behaviour).
+    - ``params``: a `WalkerParams` for the rest (image size, camera,
+    walking behaviour).
     - ``area_factor``: OKS area as a fraction of ``h²`` (0.2).
     - ``max_detections``, ``max_tracks``, ``max_targets`` (default 2·num_people + 8 each).
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
@@ -304,8 +305,9 @@ class KeypointWalkersEnv(TrackingEnv):
         return -float(cost.sum() + 0.5 * (m + n - 2 * len(r)))
 
     def default_metrics(self) -> list[Any]:
-        """Per-keypoint MOTA (PCKh 0.5) and pose OKS (:mod:`track_envs.metrics.keypoints`), and HOTA
-        with OKS as similarity (:class:`~track_envs.metrics.hota_stream.PoseHota`)."""
+        """Per-keypoint MOTA (PCKh 0.5) and pose OKS
+        (`track_envs.metrics.keypoints`), and HOTA with OKS as similarity
+        ([`PoseHota`][track_envs.metrics.PoseHota])."""
         from track_envs.metrics.hota_stream import PoseHota
         from track_envs.metrics.keypoints import keypoint_metrics
 

@@ -19,7 +19,7 @@ nozzle_lateral (max_targets,) float64 its lateral position ``y_c`` at the crossi
 ============== ============= ======= ==========================================================
 
 A particle pushed back over the line and crossing it again is listed again; a scorer takes the
-first crossing (:class:`~track_envs.metrics.sorting.SortingPrediction` does).
+first crossing ([`SortingPrediction`][track_envs.metrics.SortingPrediction] does).
 """
 
 from __future__ import annotations
@@ -94,9 +94,9 @@ def recorded_crossings(
 
     Returns:
         frame (k,) — the frame whose ``info`` reports the crossing (the later of the two), truth
-        ids (k,), times ``t_c = (f₀ + φ) dt`` (k,) with ``φ = (L − x₀) / (x₁ − x₀)`` between
-        frames ``f₀`` and ``f₀ + 1``, and lateral positions ``y₀ + φ (y₁ − y₀)`` (k,), ordered by
-        frame then id. Only consecutive recorded frames (both finite) are used.
+            ids (k,), times ``t_c = (f₀ + φ) dt`` (k,) with ``φ = (L − x₀) / (x₁ − x₀)`` between
+            frames ``f₀`` and ``f₀ + 1``, and lateral positions ``y₀ + φ (y₁ − y₀)`` (k,), ordered by
+            frame then id. Only consecutive recorded frames (both finite) are used.
     """
     x0, x1 = tracks[:-1, :, 0], tracks[1:, :, 0]
     with np.errstate(invalid="ignore"):

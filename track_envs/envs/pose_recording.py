@@ -1,7 +1,8 @@
 """Pose files from a KeypointWalkers-v0 episode: the detector's poses and the PoseTrack ground truth.
 
-:func:`record_keypoint_walkers` runs the environment (with a report of no tracks) and keeps, per
-frame, the detected poses and the visible people, as two :class:`~track_envs.values.poses.PoseStream`:
+[`record_keypoint_walkers`][track_envs.envs.record_keypoint_walkers] runs the environment (with a report of no
+tracks) and keeps, per frame, the detected poses and the visible people, as two
+[`PoseStream`][track_envs.PoseStream]:
 
 * detections: every detected pose (clutter included); a keypoint with a detector score > 0 is
   written with ``v = 2`` (visible) and the score as its confidence, the pose score the mean of
@@ -11,7 +12,8 @@ frame, the detected poses and the visible people, as two :class:`~track_envs.val
   whose PoseTrack head size ``0.6 · diagonal`` is the environment's ``head_size``.
 
 Image ids are ``1, 2, …``, file names ``images/<video>/<frame:06d>.jpg``. Write them with
-:func:`track_envs.io.poses.coco_results_json` / :func:`~track_envs.io.poses.write_posetrack`.
+[`track_envs.io.poses.coco_results_json`][track_envs.io.poses.coco_results_json] /
+[`write_posetrack`][track_envs.io.write_posetrack].
 """
 
 from __future__ import annotations

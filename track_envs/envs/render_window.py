@@ -14,12 +14,13 @@ __all__ = ["HumanWindow"]
 class HumanWindow:
     """Shows RGB frames in a pygame window (for ``render_mode="human"``).
 
-    The window is created lazily on the first :meth:`show`, sized to the frame. pygame is imported
-    only then; with ``SDL_VIDEODRIVER=dummy`` it works headless.
+    The window is created lazily on the first [`show`][track_envs.envs.render_window.HumanWindow.show], sized
+    to the frame. pygame is imported only then; with ``SDL_VIDEODRIVER=dummy`` it works headless.
 
     Args:
         title: Window caption.
-        fps: Frame rate to hold :meth:`show` to (``<= 0``: no limit).
+        fps: Frame rate to hold [`show`][track_envs.envs.render_window.HumanWindow.show] to (``<= 0``: no
+            limit).
     """
 
     def __init__(self, title: str, fps: int) -> None:
@@ -33,7 +34,7 @@ class HumanWindow:
 
     @staticmethod
     def _import_pygame() -> Any:
-        """Imports pygame or raises :class:`gymnasium.error.DependencyNotInstalled`."""
+        """Imports pygame or raises `gymnasium.error.DependencyNotInstalled`."""
         os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
         try:
             import pygame
@@ -87,7 +88,8 @@ class HumanWindow:
         self._clock.tick(max(self.fps, 0))
 
     def close(self) -> None:
-        """Closes the window (safe to call repeatedly, or before any :meth:`show`)."""
+        """Closes the window (safe to call repeatedly, or before any
+        [`show`][track_envs.envs.render_window.HumanWindow.show])."""
         if self._pygame is not None and self._screen is not None:
             self._pygame.display.quit()
             self._pygame.quit()

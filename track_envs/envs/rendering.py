@@ -1,11 +1,12 @@
 """Frames for the environments' ``render()``: Pillow's ``ImageDraw`` behind a world-to-pixel map.
 
-A :class:`Canvas` shows the world box ``[world_low, world_high]`` (x to the right, y **up**) in a
-scene of ``width × height`` pixels, above a footer strip that carries the caption (frame number and
-time) and the legend (:class:`LegendEntry`). :class:`WorldToPixel` is the map between the two
-coordinate systems; :meth:`Canvas.to_array` gives the ``uint8`` frame of shape
-``(height + footer_height, width, 3)``. No display is needed (``render_mode="human"`` shows the
-frames with :class:`track_envs.envs.render_window.HumanWindow`).
+A [`Canvas`][track_envs.envs.Canvas] shows the world box ``[world_low, world_high]`` (x to the right, y
+**up**) in a scene of ``width × height`` pixels, above a footer strip that carries the caption (frame number
+and time) and the legend ([`LegendEntry`][track_envs.envs.LegendEntry]).
+[`WorldToPixel`][track_envs.envs.WorldToPixel] is the map between the two coordinate systems;
+[`Canvas.to_array`][track_envs.envs.Canvas.to_array] gives the ``uint8`` frame of shape
+``(height + footer_height, width, 3)``. No display is needed (``render_mode="human"`` shows the frames with
+[`track_envs.envs.render_window.HumanWindow`][track_envs.envs.render_window.HumanWindow]).
 
 Drawing methods take ``n`` world points (or segments, polygons) and one colour or ``n`` colours.
 Items with a non-finite coordinate, or farther than a million pixels off the scene, are skipped;
@@ -49,7 +50,7 @@ class WorldToPixel:
 
     so ``world_low`` is the bottom-left corner of the scene and ``world_high`` its top-right corner.
     Pixel ``[i, j]`` of the frame covers ``row ∈ [i, i + 1)``, ``col ∈ [j, j + 1)``: a point is
-    drawn centred on the pixel ``(⌊row⌋, ⌊col⌋)`` (:meth:`pixel`).
+    drawn centred on the pixel ``(⌊row⌋, ⌊col⌋)`` ([`pixel`][track_envs.envs.WorldToPixel.pixel]).
 
     Args:
         width: Scene width in pixels (>= 1).
@@ -107,7 +108,8 @@ class LegendEntry:
         marker: ``"disc"``, ``"box"``, ``"ring"``, ``"cross"``, ``"line"`` or ``"outlined-line"``
             (a coloured line on a black one).
         color: The marker's RGB colour, or ``None`` when the scene colours each item by its
-            identity (:func:`identity_colors`); the legend then shows three identities' colours.
+            identity (`identity_colors`); the legend then shows
+            three identities' colours.
     """
 
     label: str
@@ -199,13 +201,14 @@ class Canvas:
 
     Args:
         width: Scene width in pixels.
-        height: Scene height in pixels (the frame is :func:`footer_height` taller).
+        height: Scene height in pixels (the frame is
+            `footer_height` taller).
         world_low: World ``(x, y)`` of the scene's bottom-left corner.
         world_high: World ``(x, y)`` of the scene's top-right corner.
         background: RGB colour of the scene.
 
     Attributes:
-        to_px: The :class:`WorldToPixel` map of the scene.
+        to_px: The [`WorldToPixel`][track_envs.envs.WorldToPixel] map of the scene.
         image: The Pillow image being drawn on.
 
     Example:

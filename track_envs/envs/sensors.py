@@ -51,7 +51,8 @@ def sense_points(
 
     Returns:
         ``(z, source)``: detections (k, D) and the truth id behind each row (k,), with
-        :data:`CLUTTER_ID` (-1) for clutter. Target detections come first, clutter last.
+            [`CLUTTER_ID`][track_envs.envs.sensors.CLUTTER_ID] (-1) for clutter. Target detections come first,
+            clutter last.
     """
     x = np.asarray(positions, dtype=np.float64)
     n, dim = x.shape

@@ -6,9 +6,10 @@ frame; a point sensor sees it with probability ``p_d`` and Gaussian noise ``σ_m
 multiples of ``Δ``, as in the paper), and an occlusion interval suppresses every detection.
 
 The scene is simulated in a *local* frame (the paper's unrotated curve starting at the origin) and
-mapped to the world by a rotation about the origin and a shift (:func:`to_world`). Detections are
-drawn in the local frame (:func:`draw_detections`, the one measurement model every user of these
-scenes shares, including ``examples/pf_paper_figures.py``) and mapped with the same transform, so a
+mapped to the world by a rotation about the origin and a shift
+([`to_world`][track_envs.envs.single_target.to_world]). Detections are drawn in the local frame
+([`draw_detections`][track_envs.envs.single_target.draw_detections], the one measurement model every user of
+these scenes shares, including ``examples/pf_paper_figures.py``) and mapped with the same transform, so a
 rotated scene is exactly the rotation of the unrotated one under the same seed.
 """
 
@@ -121,9 +122,10 @@ def draw_detections(
 
 
 class SingleTargetEnv(TrackingEnv):
-    """The shared single-target scene; subclasses give the local trajectory (:meth:`_trajectory`).
+    """The shared single-target scene; subclasses give the local trajectory
+    (`_trajectory`).
 
-    See :class:`SineTargetEnv` for the contract (observation, reward, arguments).
+    See [`SineTargetEnv`][track_envs.envs.SineTargetEnv] for the contract (observation, reward, arguments).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 30}  # noqa: RUF012
@@ -232,7 +234,8 @@ class SingleTargetEnv(TrackingEnv):
         )
 
     def _sense(self, truth: Truth) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """The target's detection (:func:`draw_detections`) and clutter, drawn locally, then mapped.
+        """The target's detection ([`draw_detections`][track_envs.envs.single_target.draw_detections]) and
+        clutter, drawn locally, then mapped.
 
         Clutter: ``K ~ Poisson(clutter_rate)`` points uniform over the square of half-width
         ``clutter_half_width`` centred on the target's true position. During the occlusion the
@@ -258,8 +261,8 @@ class SingleTargetEnv(TrackingEnv):
         return to_world(z, self.rotation_deg, self.offset), source
 
     def default_metrics(self) -> list[Any]:
-        """:class:`~track_envs.metrics.single_target.SingleTargetError` with this env's occlusion, and
-        HOTA (:class:`~track_envs.metrics.hota_stream.Hota`) with τ the distance at which a track
+        """[`SingleTargetError`][track_envs.metrics.SingleTargetError] with this env's occlusion, and
+        HOTA ([`Hota`][track_envs.metrics.Hota]) with τ the distance at which a track
         counts as lost (5 trajectory units, Jung et al. 2019)."""
         from track_envs.metrics.hota_stream import Hota
         from track_envs.metrics.single_target import LOST_THRESHOLD, SingleTargetError
@@ -318,7 +321,8 @@ class SineTargetEnv(SingleTargetEnv):
     shuffled, padding zero. ``info["detection_ids"]`` is 0 for the target's detection, -1 for clutter.
 
     ## Action
-    The tracker's report (see :mod:`track_envs.contracts.report`); a single-target tracker reports one row.
+    The tracker's report (see `track_envs.contracts.report`); a single-target
+    tracker reports one row.
 
     ## Reward
     ``−GOSPA`` (cut-off ``gospa_c``, p = 2, α = 2) of the report against the target, which counts as
@@ -341,7 +345,8 @@ class SineTargetEnv(SingleTargetEnv):
     - ``p_detect``: detection probability outside the occlusion (default 0.9).
     - ``occlusion_start``, ``occlusion_length``: the occlusion interval in frames (default 100, 0).
     - ``clutter_rate``: mean clutter points per frame (default 0); ``clutter_half_width`` (default 2).
-    - ``drift``: the sensor's drift over an episode (:mod:`track_envs.envs.drift`): noise std, detection
+    - ``drift``: the sensor's drift over an episode (`track_envs.envs.drift`): noise
+    std, detection
       probability and clutter rate on a schedule, ``sensor_spec`` nominal, the true values in
       ``info["sensor"]``; default None.
     - ``max_detections`` (default ``max(8, 1 + clutter room)``, room for the drift's highest
@@ -366,9 +371,9 @@ class PiecewiseTargetEnv(SingleTargetEnv):
     """One target on a random piecewise-linear trajectory (Jung et al. 2019, Fig. 8), same sensor.
 
     ## Description
-    As :class:`SineTargetEnv`, but the local trajectory starts at the origin and is made of straight
-    segments, each with a heading uniform in ``[-max_heading_deg, max_heading_deg]`` from the x-axis
-    and a length uniform in ``segment_steps`` steps, every step of length ``Δ``; the segments are
+    As [`SineTargetEnv`][track_envs.envs.SineTargetEnv], but the local trajectory starts at the origin and is
+    made of straight segments, each with a heading uniform in ``[-max_heading_deg, max_heading_deg]`` from the
+    x-axis and a length uniform in ``segment_steps`` steps, every step of length ``Δ``; the segments are
     drawn from the env's RNG at ``reset``. Same number of frames as the sine scene of ``periods``.
 
     ## Observation

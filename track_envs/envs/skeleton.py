@@ -1,8 +1,8 @@
 """COCO skeleton, walking-gait kinematics and body silhouettes of 2-D articulated people.
 
 Everything is batched over people (leading axis ``n``) and keypoints (17, COCO order, see
-:data:`track_envs.values.keypoints.KEYPOINT_NAMES`). Image coordinates are pixels, x to the
-right and y **down** (COCO convention).
+[`track_envs.values.keypoints.KEYPOINT_NAMES`][track_envs.values.keypoints.KEYPOINT_NAMES]). Image coordinates
+are pixels, x to the right and y **down** (COCO convention).
 
 The body model (fractions of the person's standing height ``h`` px):
 
@@ -55,7 +55,8 @@ _IS_RIGHT = np.array([0, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1], dtype=
 
 
 def draw_proportions(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
-    """Per-person body proportions (n, 8) in the order of :data:`PROPORTIONS`."""
+    """Per-person body proportions (n, 8) in the order of
+    [`PROPORTIONS`][track_envs.envs.skeleton.PROPORTIONS]."""
     mean = np.array(list(PROPORTIONS.values()))
     return mean * (1.0 + PROPORTION_SPREAD * np.clip(rng.standard_normal((n, len(mean))), -2.5, 2.5))
 
@@ -76,7 +77,7 @@ def pose_keypoints(
         heading: (n,) walking direction ``ψ`` in the ground plane (rad).
         phase: (n,) gait phase ``φ`` (rad).
         amplitude: (n,) gait amplitude in [0, 1] (0 = standing still).
-        props: (n, 8) proportions from :func:`draw_proportions`.
+        props: (n, 8) proportions from [`draw_proportions`][track_envs.envs.skeleton.draw_proportions].
 
     Returns:
         (n, 17, 2) keypoints in px, COCO order.
@@ -391,7 +392,8 @@ class Crowd:
         return [(float(a - half), float(a + half)) for a in c]
 
     def frame(self) -> CrowdFrame:
-        """Keypoints and visibility of the current frame (cached until the next :meth:`step`)."""
+        """Keypoints and visibility of the current frame (cached until the next
+        [`step`][track_envs.envs.skeleton.Crowd.step])."""
         if self._cache is None:
             self._cache = self._compute_frame()
         return self._cache

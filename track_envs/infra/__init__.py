@@ -1,5 +1,5 @@
 """Shared infrastructure of every layer: the compiled-kernel decorator, registries, argument checks
-and the assignment solvers. Imports nothing else of :mod:`track_envs`."""
+and the assignment solvers. Imports nothing else of [`track_envs`][track_envs]."""
 
 from __future__ import annotations
 

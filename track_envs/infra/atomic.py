@@ -1,16 +1,19 @@
 """Atomic file writes: a file is either written whole or not at all.
 
 Every file the project writes (tracks, detections, crossings, calibration sidecars, pose results,
-bench records and tables, figures, model weights, recordings) goes through :func:`atomic_write`:
+bench records and tables, figures, model weights, recordings) goes through
+[`atomic_write`][track_envs.io.atomic_write]:
 the content is written to a temporary file in the target's directory (same file system), flushed
 and ``fsync``-ed, then ``os.replace``-d onto the target name — an atomic rename on POSIX and
 Windows. A write that fails part way (disk full, a file-size limit, an exception in the code that
 makes the content, Ctrl-C) removes the temporary file and leaves the old target untouched (or no
-target at all); the error is a :class:`FileWriteError` naming the target and the cause.
+target at all); the error is a [`FileWriteError`][track_envs.io.FileWriteError] naming the target and the
+cause.
 
 The target's directory must exist (as for ``open``); a missing directory, a read-only place or a
-path under ``/proc`` is reported before anything is computed by :func:`check_writable`, which the
-command-line tools call on their ``--out`` arguments first.
+path under ``/proc`` is reported before anything is computed by
+[`check_writable`][track_envs.io.check_writable], which the command-line tools call on their ``--out``
+arguments first.
 """
 
 from __future__ import annotations
@@ -61,8 +64,8 @@ def check_writable(path: str | os.PathLike[str]) -> Path:
     """Fail early, before any work, if ``path`` cannot be written.
 
     Checks that the directory exists, is a directory and lets us create a file (by creating and
-    removing a temporary file there, the same way :func:`atomic_write` will), and that ``path`` is
-    not an existing directory. Returns ``path`` as a :class:`~pathlib.Path`.
+    removing a temporary file there, the same way [`atomic_write`][track_envs.io.atomic_write] will), and that
+    ``path`` is not an existing directory. Returns ``path`` as a `Path`.
 
     Raises:
         FileWriteError: naming ``path`` and the cause.
@@ -99,8 +102,8 @@ def atomic_write(
 
     ``mode`` is ``"w"`` (text, ``encoding`` and ``newline`` as for ``open``) or ``"wb"``. If the
     block raises, the target is left as it was and the temporary file is removed; an ``OSError``
-    (raised in the block or while writing, flushing or renaming) becomes a :class:`FileWriteError`
-    naming ``path``. Other exceptions propagate unchanged.
+    (raised in the block or while writing, flushing or renaming) becomes a
+    [`FileWriteError`][track_envs.io.FileWriteError] naming ``path``. Other exceptions propagate unchanged.
 
     Example::
 

@@ -5,23 +5,24 @@ splits every GEMM with ``M·N·K`` above ≈ 2.6·10⁵ multiply-adds (GEMVs abo
 over all its threads, and its workers spin-wait on each other: on an idle two-core machine the
 split gains nothing at these sizes, and with another process busy on the other core a
 descheduled worker stalls every product (the belt step took 50x its one-thread time). So the
-per-frame steps run inside :func:`frame_blas`, which limits the BLAS libraries to
-:func:`frame_threads` threads (1 by default) for the duration of the block and restores the
-previous count when it leaves; the same products on one thread give the same bits (OpenBLAS splits
-a GEMM over rows and columns, never along the summed axis; tested).
+per-frame steps run inside [`frame_blas`][track_envs.infra.blas_threads.frame_blas], which limits the BLAS
+libraries to [`frame_threads`][track_envs.infra.blas_threads.frame_threads] threads (1 by default) for the
+duration of the block and restores the previous count when it leaves; the same products on one thread give the
+same bits (OpenBLAS splits a GEMM over rows and columns, never along the summed axis; tested).
 
 The limit covers every BLAS library loaded when it is first entered, numpy's and scipy's (the one
-behind numba's ``np.dot`` in compiled kernels; :mod:`scipy.linalg` is imported for that). The
-libraries are found by :mod:`threadpoolctl` once per process and set by their own functions
-(:func:`_get_set`): entering and leaving costs three library calls per BLAS, a few µs
-(``threadpoolctl.threadpool_limits`` finds the libraries again on every call, ≈300 µs). Blocks
+behind numba's ``np.dot`` in compiled kernels; `scipy.linalg` is imported for that). The
+libraries are found by `threadpoolctl` once per process and set by their own functions
+([`_get_set`][track_envs.infra.blas_threads._get_set]): entering and leaving costs three library calls per
+BLAS, a few µs (``threadpoolctl.threadpool_limits`` finds the libraries again on every call, ≈300 µs). Blocks
 nest, and may be open on several Python threads at once: the smallest open limit holds, and the
 counts saved by the first block come back when the last leaves. The count is process wide: while
 a block is open, BLAS products of other Python threads of the process run on the limited threads
 too.
 
-:func:`set_frame_threads` changes the limit (``None``: leave BLAS at its own count, the behaviour
-before the limit existed; what :mod:`benchmarks.bench_lstm_threads` compares against).
+[`set_frame_threads`][track_envs.infra.blas_threads.set_frame_threads] changes the limit (``None``: leave BLAS
+at its own count, the behaviour before the limit existed; what `benchmarks.bench_lstm_threads` compares
+against).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import Any
 
-#: The default number of BLAS threads inside :func:`frame_blas`.
+#: The default number of BLAS threads inside [`frame_blas`][track_envs.infra.blas_threads.frame_blas].
 DEFAULT_FRAME_THREADS = 1
 
 _frame_threads: int | None = DEFAULT_FRAME_THREADS
@@ -62,8 +63,8 @@ def _get_set(controller: Any) -> tuple[Callable[[], int], Callable[[int], Any]]:
     threadpoolctl's ``set_num_threads`` of a pthreads OpenBLAS acts only from the first Python
     thread that called it and does nothing from any other while that one lives; a tracker
     stepping on a worker thread must still get its limit, so the library's
-    ``openblas_set_num_threads`` is called instead (it is process wide; :data:`_lock` orders the
-    calls of this module).
+    ``openblas_set_num_threads`` is called instead (it is process wide;
+    [`_lock`][track_envs.infra.blas_threads._lock] orders the calls of this module).
     """
     if controller.internal_api == "openblas" and getattr(controller, "threading_layer", "") != "openmp":
         for prefix, suffix in itertools.product(("", "scipy_"), ("", "64_", "_64")):
@@ -81,13 +82,14 @@ def blas_info() -> list[dict[str, Any]]:
 
 
 def frame_threads() -> int | None:
-    """The BLAS threads of :func:`frame_blas` blocks (``None``: BLAS's own count)."""
+    """The BLAS threads of [`frame_blas`][track_envs.infra.blas_threads.frame_blas] blocks (``None``: BLAS's
+    own count)."""
     return _frame_threads
 
 
 def set_frame_threads(threads: int | None) -> None:
-    """Set the BLAS threads of :func:`frame_blas` blocks: an integer ≥ 1, or ``None`` to leave BLAS
-    at its own count.
+    """Set the BLAS threads of [`frame_blas`][track_envs.infra.blas_threads.frame_blas] blocks: an integer ≥
+    1, or ``None`` to leave BLAS at its own count.
 
     Raises:
         ValueError: ``threads`` neither ``None`` nor an integer ≥ 1.
@@ -154,12 +156,14 @@ def _apply() -> None:
 
 
 def blas_limit(threads: int | None = 1) -> BlasLimit:
-    """The BLAS libraries on at most ``threads`` threads inside a ``with`` block (:class:`BlasLimit`)."""
+    """The BLAS libraries on at most ``threads`` threads inside a ``with`` block
+    ([`BlasLimit`][track_envs.infra.blas_threads.BlasLimit])."""
     return BlasLimit(threads)
 
 
 def frame_blas() -> BlasLimit:
-    """The limit of a tracker frame's small products: :func:`blas_limit` of :func:`frame_threads`."""
+    """The limit of a tracker frame's small products: [`blas_limit`][track_envs.infra.blas_threads.blas_limit]
+    of [`frame_threads`][track_envs.infra.blas_threads.frame_threads]."""
     return BlasLimit(_frame_threads)
 
 

@@ -1,7 +1,7 @@
-"""Compiled kernels: :func:`numba.njit` with an on-disk cache that cannot go stale across modules.
+"""Compiled kernels: `numba.njit` with an on-disk cache that cannot go stale across modules.
 
-Every compiled function of the three packages is declared with :func:`njit` from this module
-(a drop-in for ``numba.njit``). With ``cache=True`` numba keeps the machine code of a function on
+Every compiled function of the three packages is declared with [`njit`][track_envs.infra.compiled.njit] from
+this module (a drop-in for ``numba.njit``). With ``cache=True`` numba keeps the machine code of a function on
 disk and reuses it while the *function's own source file* is unchanged. A kernel that calls a
 compiled function of another module (the Mahalanobis costs inside the GNN's frame kernel, the one
 LSTM cell inside every learned family's roll-out) is inlined or linked into the caller's machine

@@ -2,23 +2,27 @@
 
 A plug-in (a predictor, an agent, a particle displacement model, a pose motion, a tuning policy)
 has a *core* — the calls every plug-in of its kind has — and may offer optional
-*capabilities*. Each kind lists its capabilities in an :class:`~enum.Enum` and gives each member
-a :class:`typing.Protocol` naming what the capability adds to the core. A plug-in class declares
+*capabilities*. Each kind lists its capabilities in an `Enum` and gives each member
+a `typing.Protocol` naming what the capability adds to the core. A plug-in class declares
 what it offers in its class attribute ``capabilities: frozenset[Enum member]`` (none when
-absent), and a consumer asks in exactly one way, :meth:`Declarations.get` (or
-:meth:`Declarations.has`), which returns the plug-in typed as the capability's protocol, or
-``None``. Consumers never probe a method or attribute name (``getattr`` / ``hasattr``), a
-signature, or a runtime-checkable protocol (``isinstance``): a method that is present but not
+absent), and a consumer asks in exactly one way,
+[`Declarations.get`][track_envs.infra.declared.Declarations.get] (or
+[`Declarations.has`][track_envs.infra.declared.Declarations.has]), which returns the plug-in typed as the
+capability's protocol, or ``None``. Consumers never probe a method or attribute name (``getattr`` /
+``hasattr``), a signature, or a runtime-checkable protocol (``isinstance``): a method that is present but not
 declared is never called.
 
 The declaration is read from the class (a wrapper object declares its own), so it can also be
-asked of a class or a registered factory before anything is built (:meth:`Declarations.declares`,
-:func:`declared_value`). The first :meth:`Declarations.get` of a declared capability on a class
-checks that the object has every member of the protocol (methods callable), and raises a
-``TypeError`` naming what is missing; the check is made once per (class, capability).
+asked of a class or a registered factory before anything is built
+([`Declarations.declares`][track_envs.infra.declared.Declarations.declares],
+[`declared_value`][track_envs.infra.declared.declared_value]). The first
+[`Declarations.get`][track_envs.infra.declared.Declarations.get] of a declared capability on a class checks
+that the object has every member of the protocol (methods callable), and raises a ``TypeError`` naming what is
+missing; the check is made once per (class, capability).
 
 Fixed facts about a plug-in class (not capabilities, e.g. an agent's traits) are declared the same
-way, as one class attribute holding one value, read with :func:`declared_value`.
+way, as one class attribute holding one value, read with
+[`declared_value`][track_envs.infra.declared.declared_value].
 """
 
 from __future__ import annotations
@@ -128,7 +132,8 @@ class Declarations(Generic[E]):
         return plugin
 
     def has(self, plugin: object, which: E) -> bool:
-        """Whether ``plugin``'s class declares ``which`` (its members checked as :meth:`get` does)."""
+        """Whether ``plugin``'s class declares ``which`` (its members checked as
+        [`get`][track_envs.infra.declared.Declarations.get] does)."""
         return self.get(plugin, which) is not None
 
     def missing_members(self, plugin: object, protocol: type) -> list[str]:

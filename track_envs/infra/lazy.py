@@ -15,10 +15,10 @@ that type checkers and the API reference see them while importing the package do
 
     __getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
 
-:func:`lazy_exports` reads those imports once (:func:`declared_exports`): ``__all__`` is every name
-imported (in the order written), and the first access of a name imported under ``TYPE_CHECKING``
-imports its module, takes the name from the module's namespace and keeps it in the package's
-(PEP 562 ``__getattr__`` and ``__dir__``).
+[`lazy_exports`][track_envs.infra.lazy.lazy_exports] reads those imports once
+([`declared_exports`][track_envs.infra.lazy.declared_exports]): ``__all__`` is every name imported (in the
+order written), and the first access of a name imported under ``TYPE_CHECKING`` imports its module, takes the
+name from the module's namespace and keeps it in the package's (PEP 562 ``__getattr__`` and ``__dir__``).
 
 The machinery is not public: names imported from ``__future__``, ``typing`` and this module, and
 names that start with an underscore.
@@ -107,7 +107,7 @@ def lazy_exports(
     package: str, init_file: str | None
 ) -> tuple[Callable[[str], Any], Callable[[], list[str]], list[str]]:
     """The module ``__getattr__``, ``__dir__`` and ``__all__`` of ``package``, from the imports of
-    its ``__init__`` (:func:`declared_exports`).
+    its ``__init__`` ([`declared_exports`][track_envs.infra.lazy.declared_exports]).
 
     Args:
         package: The package's ``__name__``.

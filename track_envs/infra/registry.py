@@ -1,15 +1,18 @@
 """A small string registry (predictors, agents): factories by name, errors that list the names.
 
-:meth:`Registry.make` checks the keyword arguments against the factory's signature before calling
-it, so that a misspelt or foreign argument is named with the arguments the factory does take
-(instead of a ``TypeError`` from deep inside the object it builds). A factory that takes
-``**kwargs`` checks what it forwards itself (see :func:`check_keywords`).
+[`Registry.make`][track_envs.infra.registry.Registry.make] checks the keyword arguments against the factory's
+signature before calling it, so that a misspelt or foreign argument is named with the arguments the factory
+does take (instead of a ``TypeError`` from deep inside the object it builds). A factory that takes
+``**kwargs`` checks what it forwards itself (see
+[`check_keywords`][track_envs.infra.registry.check_keywords]).
 
 Keyword sets declared once: a constructor that forwards the keywords of settings declared
 elsewhere (a frozen dataclass's fields, or another constructor's keywords) takes them as
-``**options`` under :func:`takes_keywords_of`, which gives it the signature it accepts (so
-:func:`inspect.signature`, ``help()``, :func:`named_arguments` and the bench see every keyword)
-and refuses any other keyword by name; :func:`split_keywords` hands each source its share.
+``**options`` under [`takes_keywords_of`][track_envs.infra.registry.takes_keywords_of], which gives it the
+signature it accepts (so `inspect.signature`, ``help()``,
+[`named_arguments`][track_envs.infra.registry.named_arguments] and the bench see every keyword) and refuses
+any other keyword by name; [`split_keywords`][track_envs.infra.registry.split_keywords] hands each source its
+share.
 """
 
 from __future__ import annotations
@@ -53,7 +56,8 @@ def keyword_arguments(factory: Callable[..., Any]) -> list[str] | None:
 
 
 def check_keywords(what: str, given: Iterable[str], accepted: list[str], note: str = "") -> None:
-    """Raise :class:`UnknownArgumentError` naming the names of ``given`` not in ``accepted``.
+    """Raise [`UnknownArgumentError`][track_envs.infra.registry.UnknownArgumentError] naming the names of
+    ``given`` not in ``accepted``.
 
     Args:
         what: The object the arguments are for, e.g. ``"agent 'gnn'"``.
@@ -105,8 +109,9 @@ class Registry:
         return keyword_arguments(self.factory(name))
 
     def check_arguments(self, name: str, kwargs: Mapping[str, Any], note: str = "") -> None:
-        """Raise :class:`UnknownArgumentError` if ``name``'s factory does not take every key of
-        ``kwargs`` (nothing is checked for a factory that takes ``**kwargs``)."""
+        """Raise [`UnknownArgumentError`][track_envs.infra.registry.UnknownArgumentError] if ``name``'s
+        factory does not take every key of ``kwargs`` (nothing is checked for a factory that takes
+        ``**kwargs``)."""
         accepted = self.arguments(name)
         if accepted is not None:
             check_keywords(f"{self.kind} {name!r}", kwargs, accepted, note)
@@ -151,7 +156,7 @@ def split_keywords(
     source: Callable[..., Any], options: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """``(taken, rest)``: the items of ``options`` that ``source`` takes (see
-    :func:`keyword_parameters`) and the others."""
+    [`keyword_parameters`][track_envs.infra.registry.keyword_parameters]) and the others."""
     names = {p.name for p in keyword_parameters(source)}
     taken = {k: v for k, v in options.items() if k in names}
     return taken, {k: v for k, v in options.items() if k not in names}
@@ -161,9 +166,10 @@ def takes_keywords_of(*sources: Callable[..., Any], exclude: Iterable[str] = ())
     """Declare that a function (a constructor) taking ``**options`` takes the keywords of ``sources``.
 
     The decorated function's signature becomes its own parameters (less ``**options``) followed by
-    the keywords of every source (:func:`keyword_parameters`) except those named in ``exclude``;
-    a call with any other keyword raises :class:`~track_envs.infra.registry.UnknownArgumentError`
-    naming it and listing the accepted keywords.
+    the keywords of every source ([`keyword_parameters`][track_envs.infra.registry.keyword_parameters]) except
+    those named in ``exclude``; a call with any other keyword raises
+    [`UnknownArgumentError`][track_envs.infra.registry.UnknownArgumentError] naming it and listing the
+    accepted keywords.
 
     Args:
         sources: Dataclasses or callables whose keywords the function forwards.

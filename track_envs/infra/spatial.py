@@ -10,8 +10,8 @@ here is bounded by an axis-aligned box: the χ² ellipse ``(z − ŷ)ᵀ S⁻¹ 
     |z_k - ŷ_k| \\le h_k = \\sqrt{γ \\, S_{kk}} \\qquad (k = 1 \\dots D),
 
 a Euclidean ball of radius ``r`` inside ``|z_k − c_k| ≤ r``. So the index answers one question,
-*which points lie in each query's box* (:func:`box_candidates`), and the caller runs its exact test
-on those candidates only.
+*which points lie in each query's box* ([`box_candidates`][track_envs.infra.spatial.box_candidates]), and the
+caller runs its exact test on those candidates only.
 
 The points are bucketed in a uniform grid over their first ``K = min(D, 2)`` coordinates (a
 counting sort by cell, so each cell lists its points in ascending index). The cell's edge is the
@@ -25,7 +25,7 @@ row by row in ascending point index (compressed sparse rows, ``ptr`` / ``cols``)
 of ``|p_k − c_k| ≤ h_k`` would list them. Points with a non-finite coordinate are left out of the
 index (they are in no box); a query with a non-finite centre has no candidates; a query whose box
 half-width is not finite (or negative) is refused: the kernels return its row as ``bad`` and
-:func:`candidate_pairs` raises an error naming it and the value.
+[`candidate_pairs`][track_envs.infra.spatial.candidate_pairs] raises an error naming it and the value.
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ MAX_CELLS_PER_POINT = 4
 
 
 class GridIndex(NamedTuple):
-    """Points bucketed in a uniform grid over their first ``K`` coordinates (:func:`build_grid`).
+    """Points bucketed in a uniform grid over their first ``K`` coordinates
+    ([`build_grid`][track_envs.infra.spatial.build_grid]).
 
     Attributes:
         origin: (K,) the lower corner of the grid.
@@ -160,7 +161,7 @@ def query_grid(grid: GridIndex, points: FloatArray, centres: FloatArray, half: F
     """The indexed points inside each query's box ``|p_k − c_k| ≤ h_k`` (first ``K`` axes).
 
     Args:
-        grid: :func:`build_grid` of ``points``.
+        grid: [`build_grid`][track_envs.infra.spatial.build_grid] of ``points``.
         points: (m, D) the indexed points.
         centres: (n, ≥ K) the boxes' centres.
         half: (n, K) the boxes' half-widths.

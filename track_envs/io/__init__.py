@@ -1,5 +1,5 @@
 """Readers and writers of files: detections, tracks (MOT, wide, long), recorded positions,
-predicted crossings and pose files, on one CSV parser (:mod:`~track_envs.io.csv_parser`)."""
+predicted crossings and pose files, on one CSV parser (`csv_parser`)."""
 
 from __future__ import annotations
 

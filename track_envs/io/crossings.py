@@ -3,10 +3,11 @@
 A tracker that knows the sorting line ``x = L`` (``SensorSpec.sorting_line``: the nozzle bar of
 an optical belt sorter) reports, in the frame it lets a track go, the crossing it predicts for
 it: time ``t_c`` and lateral position ``y_c`` with their covariance (the report's sorting
-channel, :mod:`track_envs.contracts.sorting_channel`). :class:`PredictedCrossings` gathers those rows over
-a stream, with the frame each was reported in; :meth:`PredictedCrossings.last` keeps the one that
-counts for each track: the last prediction made for it (the gnn agent makes exactly one, when it
-deletes the track, from the state of the track's last update).
+channel, [`track_envs.contracts.sorting_channel`][track_envs.contracts.sorting_channel]).
+[`PredictedCrossings`][track_envs.io.PredictedCrossings] gathers those rows over a stream, with the frame each
+was reported in; [`PredictedCrossings.last`][track_envs.io.PredictedCrossings.last] keeps the one that counts
+for each track: the last prediction made for it (the gnn agent makes exactly one, when it deletes the track,
+from the state of the track's last update).
 
 **File** (``write_crossings`` / ``read_crossings``): a CSV with the header
 
@@ -16,7 +17,8 @@ one row per prediction, in the order made: the track id, the frame (from 0) whos
 it, the predicted crossing ``t_cross`` in seconds on the stream's clock (frame ``k`` at ``k·dt``,
 frame 0 the first frame of the stream) and ``y_cross`` in the detections' units, and the
 covariance of ``(t_cross, y_cross)`` (s², s·unit, unit²). Further columns (a scorer's true
-crossings, ``t_true,y_true``) are kept by the reader as :attr:`PredictedCrossings.extra`.
+crossings, ``t_true,y_true``) are kept by the reader as
+[`PredictedCrossings.extra`][track_envs.io.crossings.PredictedCrossings.extra].
 """
 
 from __future__ import annotations
@@ -131,7 +133,7 @@ class PredictedCrossings:
 def write_crossings(path: str | os.PathLike[str], crossings: PredictedCrossings) -> None:
     """Write ``crossings`` as CSV (module docstring): integers as integers, floats with ``repr``
     (read back exactly), NaN as ``nan``; atomically (a failed write leaves the old file and raises
-    :class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause)."""
+    [`FileWriteError`][track_envs.io.FileWriteError] naming the file and the cause)."""
     c = crossings
     columns: dict[str, NDArray] = {
         "id": c.ids,
@@ -153,11 +155,13 @@ def write_crossings(path: str | os.PathLike[str], crossings: PredictedCrossings)
 
 
 def read_crossings(path: str | os.PathLike[str]) -> PredictedCrossings:
-    """Read a crossing file written by :func:`write_crossings` (columns by header name).
+    """Read a crossing file written by [`write_crossings`][track_envs.io.write_crossings] (columns by header
+    name).
 
     Raises:
         DetectionFileError: a missing file, a header without the columns of
-            :data:`CROSSING_COLUMNS` (named), or a non-integer id / frame (row and column named).
+            `CROSSING_COLUMNS` (named), or a non-integer id /
+            frame (row and column named).
     """
     from track_envs.io.csv_parser import read_table
 

@@ -1,40 +1,50 @@
 """The one CSV parser of the file readers: bytes, line ends, field counts, floats, located errors.
 
-Every reader of :mod:`track_envs.io` parses numbers through this module:
+Every reader of [`track_envs.io`][track_envs.io] parses numbers through this module:
 
-* :func:`read_bytes` reads a file (a ``.zip`` holding one ``.csv`` member is read as that member;
-  other members and macOS ``__MACOSX/`` entries are ignored) and :func:`normalise` checks that it
-  is text (:func:`check_text`: no NUL byte, valid UTF-8; UTF-16 with its byte-order mark is
-  transcoded), drops a UTF-8 byte-order mark and trailing blank lines and turns CRLF / CR line
-  ends into LF;
-* :func:`field_counts` counts the fields of every line on the raw bytes (vectorised: the
+* [`read_bytes`][track_envs.io.csv_parser.read_bytes] reads a file (a ``.zip`` holding one ``.csv`` member is
+read as that member;
+  other members and macOS ``__MACOSX/`` entries are ignored) and
+  [`normalise`][track_envs.io.csv_parser.normalise] checks that it is text
+  ([`check_text`][track_envs.io.csv_parser.check_text]: no NUL byte, valid UTF-8; UTF-16 with its byte-order
+  mark is transcoded), drops a UTF-8 byte-order mark and trailing blank lines and turns CRLF / CR line ends
+  into LF;
+* [`field_counts`][track_envs.io.csv_parser.field_counts] counts the fields of every line on the raw bytes
+(vectorised: the
   delimiters before each line end are counted with ``searchsorted`` on the delimiter offsets,
   about 0.04 s for a 75 MB file) and rejects a blank line;
-* :func:`parse_floats` reads every cell as a float64 with pandas' C parser (:func:`read_float_frame`:
-  no quoting, missing values only the :data:`NA_TOKENS`, correctly rounded); only when that fails
-  is the text scanned again, with :mod:`csv`, to name the first cell that is not a number
-  (:func:`locate_text`);
-* :func:`format_rows` writes the inverse: ``repr`` of every float (the shortest string that reads
+* [`parse_floats`][track_envs.io.csv_parser.parse_floats] reads every cell as a float64 with pandas' C parser
+([`read_float_frame`][track_envs.io.csv_parser.read_float_frame]:
+  no quoting, missing values only the [`NA_TOKENS`][track_envs.io.csv_parser.NA_TOKENS], correctly rounded);
+  only when that fails is the text scanned again, with [`csv`][track_envs.io.csv_parser.csv], to name the
+  first cell that is not a number ([`locate_text`][track_envs.io.csv_parser.locate_text]);
+* [`format_rows`][track_envs.io.csv_parser.format_rows] writes the inverse: ``repr`` of every float (the
+shortest string that reads
   back as the same double), so a written file reads back bit for bit; the writers format
-  :data:`CHUNK_ROWS` rows at a time (:func:`chunks`) and write each chunk as it is formatted
-  (:func:`write_chunks`), so that writing a file of any length holds one chunk's text, not the
-  file's; the file is written atomically (:func:`track_envs.infra.atomic.atomic_write`: a
-  temporary file beside it, renamed when complete), so a failed write leaves the old file and
-  raises :class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause;
-* :func:`read_table` builds on these a :class:`Table` of a delimited file with an optional header
-  and ragged rows (missing trailing cells read as NaN), parsed :data:`PARSE_CELLS` cells at a
-  time into one float64 array (the parser's buffers hold one chunk, not the file; a table
-  wider than :data:`WIDE_COLUMNS` as one column of cells, without pandas' per-column cost), for the
-  detection, track and crossing
-  readers; the recorded-position format (:mod:`track_envs.io.wide_tracks`) checks its stricter
-  layout on the same field counts.
+  [`CHUNK_ROWS`][track_envs.io.csv_parser.CHUNK_ROWS] rows at a time
+  ([`chunks`][track_envs.io.csv_parser.chunks]) and write each chunk as it is formatted
+  ([`write_chunks`][track_envs.io.csv_parser.write_chunks]), so that writing a file of any length holds one
+  chunk's text, not the file's; the file is written atomically
+  ([`track_envs.infra.atomic.atomic_write`][track_envs.io.atomic_write]: a temporary file beside it, renamed
+  when complete), so a failed write leaves the old file and raises
+  [`FileWriteError`][track_envs.io.FileWriteError] naming the file and the cause;
+* [`read_table`][track_envs.io.csv_parser.read_table] builds on these a
+[`Table`][track_envs.io.csv_parser.Table] of a delimited file with an optional header
+  and ragged rows (missing trailing cells read as NaN), parsed
+  [`PARSE_CELLS`][track_envs.io.csv_parser.PARSE_CELLS] cells at a time into one float64 array (the parser's
+  buffers hold one chunk, not the file; a table wider than
+  [`WIDE_COLUMNS`][track_envs.io.csv_parser.WIDE_COLUMNS] as one column of cells, without pandas' per-column
+  cost), for the detection, track and crossing readers; the recorded-position format
+  ([`track_envs.io.wide_tracks`][track_envs.io.wide_tracks]) checks its stricter layout on the same field
+  counts.
 
 Rows in messages are the file's line numbers, from 1, as an editor shows them (a header is line
 1); columns are named by their index from 0 (``column index 3``), as the readers' column options
-count them. Every problem raises :class:`TrackFileError` (a ``ValueError``) or, from the table
-readers, its subclass :class:`DetectionFileError`; the message starts with the file's path.
-What a reader accepts but repairs (repeated detections dropped, rows sorted into frame order) is
-said by a :class:`DetectionFileWarning` with the count and the first rows.
+count them. Every problem raises [`TrackFileError`][track_envs.io.TrackFileError] (a ``ValueError``) or, from
+the table readers, its subclass [`DetectionFileError`][track_envs.io.DetectionFileError]; the message starts
+with the file's path. What a reader accepts but repairs (repeated detections dropped, rows sorted into frame
+order) is said by a [`DetectionFileWarning`][track_envs.io.DetectionFileWarning] with the count and the first
+rows.
 """
 
 from __future__ import annotations
@@ -83,10 +93,11 @@ __all__ = [
 #: Rows a writer formats at a time (the text of one chunk is all a writer holds).
 CHUNK_ROWS = 1 << 14
 
-#: Cells :func:`read_table` parses at a time.
+#: Cells [`read_table`][track_envs.io.csv_parser.read_table] parses at a time.
 PARSE_CELLS = 1 << 20
 
-#: Tables wider than this are parsed as one column of cells (:func:`_parse_cells`).
+#: Tables wider than this are parsed as one column of cells
+#: ([`_parse_cells`][track_envs.io.csv_parser._parse_cells]).
 WIDE_COLUMNS = 64
 
 #: Cell contents read as "not visible" (besides inf, nothing else that is not a number is accepted).
@@ -205,8 +216,8 @@ def _row_of(data: bytes, offset: int) -> int:
 
 
 def normalise(data: bytes, label: str) -> bytes:
-    """Check that ``data`` is text (:func:`check_text`), drop a BOM and trailing blank lines, turn
-    CRLF and CR into LF; raise if nothing is left."""
+    """Check that ``data`` is text ([`check_text`][track_envs.io.csv_parser.check_text]), drop a BOM and
+    trailing blank lines, turn CRLF and CR into LF; raise if nothing is left."""
     data = check_text(data, label)
     while data.startswith(codecs.BOM_UTF8):  # a file saved twice with a BOM has two
         data = data[len(codecs.BOM_UTF8) :]
@@ -239,7 +250,7 @@ def field_counts(
 
     Returns:
         ``(starts, ends, counts)``: line ``i`` is ``body[starts[i]:ends[i]]`` and has ``counts[i]``
-        fields.
+            fields.
 
     Raises:
         error: naming the first blank line.
@@ -263,8 +274,8 @@ def field_counts(
 def read_float_frame(data: bytes, **options: Any) -> pd.DataFrame:
     """``data`` (CSV text without header, already validated field by field) as a float64 frame:
     pandas' C parser, no quoting, blank lines kept (so row numbers stay the file's), missing
-    values only the :data:`NA_TOKENS`, round-trip float precision; ``options`` go to
-    ``pandas.read_csv`` (e.g. ``names``, ``sep``, ``low_memory``). Raises what pandas raises
+    values only the [`NA_TOKENS`][track_envs.io.csv_parser.NA_TOKENS], round-trip float precision; ``options``
+    go to ``pandas.read_csv`` (e.g. ``names``, ``sep``, ``low_memory``). Raises what pandas raises
     (``ValueError`` or ``UnicodeDecodeError``) for the caller to locate."""
     return pd.read_csv(  # type: ignore[call-overload]
         io.BytesIO(data),
@@ -292,11 +303,13 @@ def parse_floats(
     expected: str = "a number or NaN",
     **options: Any,
 ) -> NDArray[np.float64]:
-    """The cells of ``body`` (lines already checked by :func:`field_counts`) as a C-contiguous
-    float64 array; ``options`` go to :func:`read_float_frame` (e.g. ``names``, ``low_memory``).
+    """The cells of ``body`` (lines already checked by
+    [`field_counts`][track_envs.io.csv_parser.field_counts]) as a C-contiguous float64 array; ``options`` go
+    to [`read_float_frame`][track_envs.io.csv_parser.read_float_frame] (e.g. ``names``, ``low_memory``).
 
     Raises:
-        error: naming the first cell that is not a number or missing (:func:`locate_text`).
+        error: naming the first cell that is not a number or missing
+            ([`locate_text`][track_envs.io.csv_parser.locate_text]).
     """
     try:
         frame = read_float_frame(body, sep=delimiter, **options)
@@ -398,7 +411,7 @@ class Table:
         names: Column names from the header, or None without one.
         first_row: File line number of ``values[0]`` (2 after a header, else 1).
         label: The file's name for messages (with the zip member, if any).
-        body: The data rows' bytes (LF line ends), for :meth:`integers`.
+        body: The data rows' bytes (LF line ends), for [`integers`][track_envs.io.csv_parser.Table.integers].
         delimiter: The field separator.
         counts: (n_rows,) the number of fields of every row (None: not counted).
         line_end: Whether the file ends with a line end (a file cut off mid-row does not).
@@ -445,7 +458,7 @@ class Table:
     def integers(self, column: int) -> NDArray[np.int64]:
         """Column ``column`` (0-based) as int64, exact beyond 2**53 (where floats round): the
         cells are re-read as integers only when some value is that large. The column must hold
-        integers in every row (checked by the caller on :attr:`values`)."""
+        integers in every row (checked by the caller on [`values`][track_envs.io.csv_parser.Table.values])."""
         values = self.values[:, column]
         if not len(values) or np.abs(values).max() < 2.0**53:
             return values.astype(np.int64)
@@ -537,7 +550,7 @@ class Table:
 
 
 def read_table(path: str | os.PathLike[str], *, header: bool | str = False, delimiter: str = ",") -> Table:
-    """Read a delimited numeric file into a :class:`Table`.
+    """Read a delimited numeric file into a [`Table`][track_envs.io.csv_parser.Table].
 
     Args:
         path: The file (``.csv``/``.txt``, or ``.zip`` holding one ``.csv``).
@@ -607,8 +620,8 @@ def _parse_cells(chunk: bytes, counts: NDArray[np.intp], delimiter: str, out: ND
     past a line's end NaN) as one column: each cell a line of its own, so that pandas' parser
     keeps no per-column state (a frame of 10^5 x, y pairs is 2·10^5 columns: the per-column
     parse takes kilobytes a column). The same parser reads each cell, so the values are those
-    of :func:`parse_floats`. False (``out`` unspecified) when the cells are not all numbers or
-    missing: the caller parses the chunk again by columns, which locates the bad cell."""
+    of [`parse_floats`][track_envs.io.csv_parser.parse_floats]. False (``out`` unspecified) when the cells are
+    not all numbers or missing: the caller parses the chunk again by columns, which locates the bad cell."""
     text = chunk.replace(delimiter.encode("ascii", errors="replace"), b"\n")
     if text.endswith(b"\n"):  # the last cell is empty: a line of its own, not the file's end
         text += b"\n"

@@ -9,17 +9,17 @@ Multi-Object Tracking", 2016): no header, one detection per line,
 ``frame, id, bb_left, bb_top, bb_width, bb_height, conf, x, y, z`` (later fields optional, at
 least the first six). Frames count from 1; ``id`` is −1 in detection files. A point tracker needs
 centres, so every box gives its centre ``(bb_left + bb_width / 2, bb_top + bb_height / 2)`` as
-:attr:`Detections.points`, and the box itself is kept as :attr:`Detections.boxes`
-``(bb_left, bb_top, bb_width, bb_height)`` — unless every box has width and height 0 (a file of
-points: ``boxes`` None). ``swap_xy`` swaps the box's axes with the point's (``(bb_top, bb_left,
-bb_height, bb_width)``) and ``scale`` multiplies all four numbers, so the box's centre stays the
-point. A confidence of −1 means "not given" (MOTChallenge tracker output and MOT15 detections
-write it): ``min_confidence`` drops only rows with a confidence below it that is not −1, and a
+[`Detections.points`][track_envs.values.detections.Detections.points], and the box itself is kept as
+[`Detections.boxes`][track_envs.values.detections.Detections.boxes] ``(bb_left, bb_top, bb_width, bb_height)``
+— unless every box has width and height 0 (a file of points: ``boxes`` None). ``swap_xy`` swaps the box's axes
+with the point's (``(bb_top, bb_left, bb_height, bb_width)``) and ``scale`` multiplies all four numbers, so
+the box's centre stays the point. A confidence of −1 means "not given" (MOTChallenge tracker output and MOT15
+detections write it): ``min_confidence`` drops only rows with a confidence below it that is not −1, and a
 filter that drops every row is an error naming the confidences the file holds. Rows may come in
 any frame order; a frame without a row is an empty frame. An ``id >= 0`` (a simulated
-recording's truth id) is kept as :attr:`Detections.ids`. :func:`write_mot_detections` writes each
-detection's box (or, for points, a box of ``box_size``, default 0, about the point), the
-confidence, and ``-1, -1, -1`` for the world x, y, z.
+recording's truth id) is kept as [`Detections.ids`][track_envs.values.detections.Detections.ids].
+[`write_mot_detections`][track_envs.io.write_mot_detections] writes each detection's box (or, for points, a
+box of ``box_size``, default 0, about the point), the confidence, and ``-1, -1, -1`` for the world x, y, z.
 
 **Wide per-frame CSV** (the layout sorter software commonly writes): one row per frame, an
 optional header, a frame-number column, a count column, optionally a time column (seconds), and
@@ -34,7 +34,7 @@ Frame numbers must increase; a gap is a run of empty frames. The count must equa
 pairs that hold numbers. ``swap_xy`` swaps the two coordinates (many sorters write the belt
 direction as y), ``scale`` multiplies them (pixels to metres: the pixel size).
 
-Both readers raise :class:`~track_envs.io.csv_parser.DetectionFileError` (a ``ValueError``) naming the
+Both readers raise [`DetectionFileError`][track_envs.io.DetectionFileError] (a ``ValueError``) naming the
 file, row and column of the first bad cell: text, an infinity, a half-empty pair, a frame that is
 not an integer or goes backwards, a count that disagrees with the pairs. Writers use ``repr`` of
 each float, so a file written and read back gives the same detections bit for bit.
@@ -158,18 +158,19 @@ def read_mot_rows(
         path: The file.
         min_confidence: Drop rows whose confidence (column index 6) is below this, except rows
             with −1 ("not given"). For ground truth, 1 keeps the rows flagged "considered"
-            (MOT16 and later write 1 or 0 there, MOT15 writes 1): :data:`CONSIDERED`.
+            (MOT16 and later write 1 or 0 there, MOT15 writes 1):
+            `CONSIDERED`.
         delimiter: Field separator.
 
     Raises:
         DetectionFileError: naming the row (and column, and value) of: a row with another number
             of columns than the file's other rows (a missing or extra column, or a file cut off
             mid-row); a missing, non-numeric or non-finite field among the first six; a frame
-            number that is not an integer from 1 to :data:`MAX_FRAME` or spans more frames than
-            :func:`check_frame_span` allows for the file's rows; an id that is not an
-            integer within ±2**63; a negative width or height; a coordinate no sensor produces
-            (:mod:`track_envs.io.magnitudes`); and a ``min_confidence`` that drops every row
-            (naming the confidences the file holds).
+            number that is not an integer from 1 to `MAX_FRAME` or spans
+            more frames than `check_frame_span` allows for the
+            file's rows; an id that is not an integer within ±2**63; a negative width or height; a coordinate
+            no sensor produces (`track_envs.io.magnitudes`); and a
+            ``min_confidence`` that drops every row (naming the confidences the file holds).
     """
     table = read_table(path, header=False, delimiter=delimiter)
     values = table.values
@@ -224,7 +225,8 @@ def read_mot_rows(
 
 def _check_boxes(table: Table, columns: NDArray[np.float64], first_column: int) -> None:
     """Raise naming the first cell of the (4, n) ``left, top, width, height`` columns (from
-    ``first_column``) whose value no sensor produces (:mod:`track_envs.io.magnitudes`)."""
+    ``first_column``) whose value no sensor produces
+    ([`track_envs.io.magnitudes`][track_envs.io.magnitudes])."""
     ref = magnitudes.reference(columns[:2])
     far = magnitudes.extreme(columns[:2], ref)
     large = magnitudes.extreme(columns[2:], ref, size=True)
@@ -279,15 +281,15 @@ def read_mot_detections(
         duplicates: What to do with a row that repeats an earlier row of its frame exactly (the
             same frame, box, centre and id: the tracker would see one object twice and start a
             second track for it): ``"drop"`` (default) keeps the first and warns
-            (:class:`DetectionFileWarning`, with the count and the first rows), ``"error"``
-            raises naming them.
+            ([`DetectionFileWarning`][track_envs.io.DetectionFileWarning], with the count and the first rows),
+            ``"error"`` raises naming them.
 
     Rows out of frame order are sorted (stably) and warned about with their count and the first
-    one (:class:`DetectionFileWarning`).
+    one ([`DetectionFileWarning`][track_envs.io.DetectionFileWarning]).
 
     Raises:
-        DetectionFileError: as :func:`read_mot_rows`; repeated rows with ``duplicates="error"``;
-            a coordinate that ``scale`` makes infinite.
+        DetectionFileError: as [`read_mot_rows`][track_envs.io.read_mot_rows]; repeated rows with
+            ``duplicates="error"``; a coordinate that ``scale`` makes infinite.
     """
     scale = _check_scale(scale)
     _check_duplicates_option(duplicates)
@@ -519,7 +521,7 @@ def read_wide_detections(
         count_column: Column of the number of detections in the row, checked against the pairs;
             ``None``: no count column.
         time_column: Column of the frame's time stamp in seconds (the frame period is inferred
-            from it: :meth:`Detections.inferred_dt`); ``None``: none.
+            from it: [`Detections.inferred_dt`][track_envs.Detections.inferred_dt]); ``None``: none.
         xy_columns: Where the ``x, y`` pairs are: the first x column (index or name; the pairs run
             to the end of the row), or every column of the pairs in order (x0, y0, x1, y1, ...).
             ``None``: from the column after the last of the frame, count and time columns.
@@ -527,15 +529,16 @@ def read_wide_detections(
         scale: Multiply positions by this.
         delimiter: Field separator.
         duplicates: A pair that repeats an earlier pair of its row exactly: ``"drop"`` (default:
-            kept once, with a :class:`DetectionFileWarning` giving the count and the first ones)
-            or ``"error"`` (:func:`read_mot_detections`).
+            kept once, with a [`DetectionFileWarning`][track_envs.io.DetectionFileWarning] giving the count
+            and the first ones) or ``"error"`` ([`read_mot_detections`][track_envs.io.read_mot_detections]).
 
     Raises:
         DetectionFileError: naming the file and the row and column of the first bad cell: text,
             an infinity, a half-empty pair, a frame number that is not an integer or does not
-            increase (or spans more frames than :func:`check_frame_span` allows), a count that
-            disagrees with the pairs, an infinite time, a coordinate no sensor produces
-            (:mod:`track_envs.io.magnitudes`) or one that ``scale`` makes infinite.
+            increase (or spans more frames than
+            `check_frame_span` allows), a count that disagrees
+            with the pairs, an infinite time, a coordinate no sensor produces
+            (`track_envs.io.magnitudes`) or one that ``scale`` makes infinite.
     """
     scale = _check_scale(scale)
     _check_duplicates_option(duplicates)
@@ -655,8 +658,8 @@ def write_wide_detections(
 
     Every frame of the stream is a row (empty frames too), numbered from ``detections.first_frame``;
     rows are padded with ``na_rep`` to the widest frame. The time column is written when the
-    stream has time stamps. :func:`read_wide_detections` with ``time_column="time"`` (or index 2)
-    reads it back bit for bit; truth ids are not written.
+    stream has time stamps. [`read_wide_detections`][track_envs.io.read_wide_detections] with
+    ``time_column="time"`` (or index 2) reads it back bit for bit; truth ids are not written.
     """
     if detections.dim != 2:
         raise ValueError(f"wide detection files hold 2-d points; these detections are {detections.dim}-d")
@@ -690,8 +693,8 @@ def write_wide_detections(
 
 def read_detections(path: str | os.PathLike[str], format: str = "auto", **options: object) -> Detections:
     """Read detections in ``format`` (``"mot"``, ``"wide"`` or ``"auto"``: ``mot`` for a ``.txt``
-    file, else ``wide``), passing ``options`` to :func:`read_mot_detections` or
-    :func:`read_wide_detections`."""
+    file, else ``wide``), passing ``options`` to [`read_mot_detections`][track_envs.io.read_mot_detections] or
+    [`read_wide_detections`][track_envs.io.read_wide_detections]."""
     fmt = detection_format(path, format)
     reader = read_mot_detections if fmt == "mot" else read_wide_detections
     return reader(path, **options)  # type: ignore[arg-type]

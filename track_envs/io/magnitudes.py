@@ -19,8 +19,8 @@ The spread ``S`` is the median absolute deviation from ``m`` (robust: a few extr
 move it); where more than half the values are equal (it is 0), the mean absolute deviation
 ``mean |v - m|`` instead; where every value equals ``m`` (both are 0) there is no relative bound
 (only ``MAX_MAGNITUDE``: a file of one position repeated, with boxes of any size, is data). ``m``
-and ``S`` are computed on at most :data:`SAMPLE` values taken at a fixed stride (so a 10^6-row file
-costs two medians of 65,536 values); the comparison is made on every cell, vectorised.
+and ``S`` are computed on at most [`SAMPLE`][track_envs.io.magnitudes.SAMPLE] values taken at a fixed stride
+(so a 10^6-row file costs two medians of 65,536 values); the comparison is made on every cell, vectorised.
 Infinities and NaN are not this module's business (the readers name them as non-finite first);
 they are ignored here.
 """
@@ -53,7 +53,8 @@ class Reference:
 
 
 def reference(positions: NDArray[np.float64]) -> Reference:
-    """The :class:`Reference` of ``positions`` (any shape; NaN and infinities ignored)."""
+    """The [`Reference`][track_envs.io.magnitudes.Reference] of ``positions`` (any shape; NaN and infinities
+    ignored)."""
     flat = np.asarray(positions, dtype=np.float64).reshape(-1)
     if len(flat) > 4 * SAMPLE:
         flat = flat[:: (len(flat) // SAMPLE) | 1]  # odd: x and y alike where they are interleaved

@@ -20,15 +20,15 @@ error naming the file, the annotation's index, the keypoint and the value. A key
 is its ``scores`` entry (in [0, 1]) where the record has ``scores``, else 1 for a labelled keypoint;
 0 for an unlabelled one.
 
-**Frame order.** The frames of a PoseTrack file (and of a frame list, :func:`image_list`) follow
-the images' ``frame_id`` where they have one, else the natural order of their ``file_name``
-(``…/000009.jpg`` before ``…/000010.jpg``, as PoseTrack numbers its frames), else their ``id`` —
-never the order the ``images`` list happens to have: a shuffled list reads as the ordered one.
-Some images with a ``frame_id`` and some without, a ``frame_id`` or an image ``id`` listed twice
+**Frame order.** The frames of a PoseTrack file (and of a frame list,
+[`image_list`][track_envs.io.poses.image_list]) follow the images' ``frame_id`` where they have one, else the
+natural order of their ``file_name`` (``…/000009.jpg`` before ``…/000010.jpg``, as PoseTrack numbers its
+frames), else their ``id`` — never the order the ``images`` list happens to have: a shuffled list reads as the
+ordered one. Some images with a ``frame_id`` and some without, a ``frame_id`` or an image ``id`` listed twice
 are errors.
 
-**Errors.** Every problem of a file is a :class:`PoseFileError` (a
-:class:`~track_envs.io.csv_parser.TrackFileError`, so a ``ValueError``) whose message starts with
+**Errors.** Every problem of a file is a [`PoseFileError`][track_envs.io.PoseFileError] (a
+[`TrackFileError`][track_envs.io.TrackFileError], so a ``ValueError``) whose message starts with
 the file's path and names the annotation (its index in the file, from 0), the image id, the
 keypoint and the value: a file that is not UTF-8 JSON text (binary, another encoding, cut short),
 a value of the wrong type (a keypoint written as a string, ``null``, a nested list), a labelled
@@ -36,17 +36,18 @@ coordinate that is not finite or beyond ``MAX_COORDINATE`` px (no image is that 
 id beyond 64 bits. Ground truth read with ``ground_truth=True`` is checked completely: every
 annotation needs a ``track_id`` and a ``bbox_head``, and no track id may appear twice in one
 image. Detections that repeat another of the same image exactly are read, with a
-:class:`PoseFileWarning` giving their count.
+[`PoseFileWarning`][track_envs.io.PoseFileWarning] giving their count.
 
-**Writing** (:func:`write_posetrack`, :func:`write_coco_results`; atomically, through
-:func:`track_envs.infra.atomic.atomic_write`: a failed write leaves the old file): the PoseTrack
-results layout the ``poseval`` tool reads:
+**Writing** ([`write_posetrack`][track_envs.io.write_posetrack],
+[`write_coco_results`][track_envs.io.write_coco_results]; atomically, through
+[`track_envs.infra.atomic.atomic_write`][track_envs.io.atomic_write]: a failed write leaves the old file): the
+PoseTrack results layout the ``poseval`` tool reads:
 per video ``images``, ``annotations`` (``track_id``, ``keypoints`` (x, y, v) with the stream's
 visibility, ``0, 0, 0`` for a keypoint not labelled, ``scores``, ``score``) and ``categories``.
-poseval requires track ids in 0–999: :func:`posetrack_track_ids` renumbers the tracks 0, 1, … by
-first frame; beyond 1,000 tracks a new track takes the smallest id of a track that has ended
-(its last frame before the new one's first), and a video in which more than 1,000 tracks overlap
-in time is an error. poseval finds the joints by the names in ``categories`` (PoseTrack's own
+poseval requires track ids in 0–999: [`posetrack_track_ids`][track_envs.io.poses.posetrack_track_ids]
+renumbers the tracks 0, 1, … by first frame; beyond 1,000 tracks a new track takes the smallest id of a track
+that has ended (its last frame before the new one's first), and a video in which more than 1,000 tracks
+overlap in time is an error. poseval finds the joints by the names in ``categories`` (PoseTrack's own
 17, with ``head_bottom`` and ``head_top`` in COCO's eye slots): results of a COCO file carry
 COCO's names unless they are renamed to the ground truth's (``track run --gt`` does).
 """
@@ -96,8 +97,8 @@ class PoseFileWarning(UserWarning):
 
 
 def load_json(path: str | os.PathLike[str]) -> Any:
-    """The JSON value of ``path``; a :class:`PoseFileError` naming the file for a file that cannot
-    be read, is not UTF-8 text (naming the byte and its position) or not JSON (naming the position
+    """The JSON value of ``path``; a [`PoseFileError`][track_envs.io.PoseFileError] naming the file for a file
+    that cannot be read, is not UTF-8 text (naming the byte and its position) or not JSON (naming the position
     of the syntax error). A UTF-8 byte-order mark is allowed."""
     try:
         raw = Path(path).read_bytes()
@@ -641,7 +642,8 @@ def posetrack_track_ids(
 
 def posetrack_json(stream: PoseStream, *, limit: int = MAX_TRACK_IDS) -> dict[str, Any]:
     """The PoseTrack results object of ``stream`` (module docstring); rows without a track id
-    (−1) are an error, track ids are renumbered by :func:`posetrack_track_ids`."""
+    (−1) are an error, track ids are renumbered by
+    [`posetrack_track_ids`][track_envs.io.poses.posetrack_track_ids]."""
     if np.any(stream.track_ids < 0):
         raise ValueError("every pose of a PoseTrack results file needs a track id; some have none (-1)")
     track = posetrack_track_ids(stream.frame_index(), stream.track_ids, limit)
@@ -712,7 +714,8 @@ def coco_results_json(stream: PoseStream) -> list[dict[str, Any]]:
 
 
 def write_coco_results(path: str | os.PathLike[str], stream: PoseStream) -> None:
-    """Write ``stream`` as a COCO keypoint results file (:func:`coco_results_json`), atomically.
+    """Write ``stream`` as a COCO keypoint results file
+    (`coco_results_json`), atomically.
 
     Raises:
         FileWriteError: the file could not be written (named, with the cause); the old file is kept.
@@ -723,7 +726,8 @@ def write_coco_results(path: str | os.PathLike[str], stream: PoseStream) -> None
 
 
 def write_posetrack(path: str | os.PathLike[str], stream: PoseStream, *, limit: int = MAX_TRACK_IDS) -> None:
-    """Write ``stream`` (tracked poses) as a PoseTrack results file (:func:`posetrack_json`), atomically.
+    """Write ``stream`` (tracked poses) as a PoseTrack results file
+    (`posetrack_json`), atomically.
 
     Raises:
         FileWriteError: the file could not be written (named, with the cause); the old file is kept.

@@ -6,14 +6,15 @@
   (``truth=True``) is ``frame, id, bb_left, bb_top, bb_width, bb_height, 1, 1, 1`` (considered,
   class 1, visibility 1), so that py-motmetrics (``motmetrics.io.loadtxt(path, fmt="mot15-2D")``,
   ground truth with ``min_confidence=1``) and TrackEval read both unchanged. Tracks with boxes
-  (:attr:`Tracks.boxes`, from box detections) write each row's box, so IoU scoring works
-  (``compare_to_groundtruth(gt, ts, "iou", distth=0.5)``); a row without a box, and tracks of
+  ([`Tracks.boxes`][track_envs.values.tracks.Tracks.boxes], from box detections) write each row's box, so IoU
+  scoring works (``compare_to_groundtruth(gt, ts, "iou", distth=0.5)``); a row without a box, and tracks of
   points, are written as a box of ``box_size`` (default 0) about the point: motmetrics' Euclidean
   distance on the ``X, Y`` fields (``compare_to_groundtruth(gt, ts, "euc", distfields=["X", "Y"],
   distth=c)``) then scores the points themselves — only against truth written the same way: the
   ``X, Y`` of a real MOTChallenge gt are box corners, not centres. Read back, a file whose boxes
   all have width and height 0 is points (``boxes`` None); every other file keeps its boxes.
-* ``wide``: the recorded-track layout of BeltReplay-v0 (:mod:`track_envs.io.wide_tracks`): no header,
+* ``wide``: the recorded-track layout of BeltReplay-v0
+([`track_envs.io.wide_tracks`][track_envs.io.wide_tracks]): no header,
   one row per frame, one ``(x, y)`` column pair per id, NaN where the id has no track; column pair
   ``k`` holds the ``k``-th smallest id (for ids numbered 0, 1, 2, ... the id itself).
 * ``long``: a header ``frame,id,x,y`` then one row per track and frame, plus ``var_x,cov_xy,var_y``
@@ -24,17 +25,18 @@
 Every float is written as its ``repr``, so each format reads back bit for bit (the wide format
 keeps no ids other than the column order, and no covariance).
 
-**The suffix says the format** (:data:`SUFFIX_FORMATS`), so that a file written by
-:func:`write_tracks` is read back by :func:`read_tracks` with ``format="auto"`` in the layout it was
-written in: ``.txt`` is MOT, ``.zip`` wide, ``.csv`` long (its header ``frame,id,...`` says so) or
-wide (no header); any other name is long when its first line starts ``frame,id``, else MOT.
-:func:`output_format` gives the format a name implies (``.csv``: long) and refuses a format its
-suffix contradicts (MOT rows in a ``.csv`` would be read back as the wide layout). A ``.csv``
-without a header whose first two columns hold integers in every row (a MOT file's frame and id,
-e.g. written under a ``.csv`` name by an older version) is refused by ``auto``, not read as wide.
+**The suffix says the format** ([`SUFFIX_FORMATS`][track_envs.io.tracks.SUFFIX_FORMATS]), so that a file
+written by [`write_tracks`][track_envs.io.write_tracks] is read back by
+[`read_tracks`][track_envs.io.read_tracks] with ``format="auto"`` in the layout it was written in: ``.txt`` is
+MOT, ``.zip`` wide, ``.csv`` long (its header ``frame,id,...`` says so) or wide (no header); any other name is
+long when its first line starts ``frame,id``, else MOT. [`output_format`][track_envs.io.output_format] gives
+the format a name implies (``.csv``: long) and refuses a format its suffix contradicts (MOT rows in a ``.csv``
+would be read back as the wide layout). A ``.csv`` without a header whose first two columns hold integers in
+every row (a MOT file's frame and id, e.g. written under a ``.csv`` name by an older version) is refused by
+``auto``, not read as wide.
 
-Every writer is atomic (:mod:`track_envs.infra.atomic`): a failed write leaves the old file (or
-none) and raises :class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause.
+Every writer is atomic ([`track_envs.infra.atomic`][track_envs.infra.atomic]): a failed write leaves the old
+file (or none) and raises [`FileWriteError`][track_envs.io.FileWriteError] naming the file and the cause.
 """
 
 from __future__ import annotations
@@ -84,14 +86,16 @@ def write_tracks(
     Args:
         path: Output file.
         tracks: 2-d tracks.
-        format: The layout; None: the one ``path``'s suffix implies (:func:`output_format`).
+        format: The layout; None: the one ``path``'s suffix implies
+            ([`output_format`][track_envs.io.output_format]).
         truth: MOT only: write ground-truth rows (``1, 1, 1`` flags) instead of tracker rows.
         box_size: MOT only: width and height of the box written about each point (rows
             without a box; tracks with boxes write their own).
 
     Raises:
-        ValueError: an unknown format, one the suffix contradicts (:func:`output_format`), tracks
-            that are not 2-d, or (wide) no track at all.
+        ValueError: an unknown format, one the suffix contradicts
+            ([`output_format`][track_envs.io.output_format]), tracks that are not 2-d, or (wide) no track at
+            all.
         FileWriteError: the file could not be written (named, with the cause); the old file is
             left as it was.
     """
@@ -121,11 +125,12 @@ def read_tracks(
 
     Args:
         path: The file.
-        format: ``"mot"``, ``"wide"``, ``"long"`` or ``"auto"`` (:func:`track_format`).
+        format: ``"mot"``, ``"wide"``, ``"long"`` or ``"auto"``
+            ([`track_format`][track_envs.io.track_format]).
         n_frames: Frames of the stream, when longer than the file's last frame.
         min_confidence: MOT only: drop rows whose confidence (the "considered" flag of ground
             truth) is below this, except −1 ("not given");
-            :data:`~track_envs.io.detections.CONSIDERED` keeps ground truth's considered rows.
+            `CONSIDERED` keeps ground truth's considered rows.
 
     Raises:
         DetectionFileError: naming the file and the row and column of the first bad cell, or
@@ -151,7 +156,8 @@ def read_tracks(
 
 
 def _check_wide_magnitudes(path: str | os.PathLike[str], positions: NDArray[np.float64]) -> None:
-    """Raise naming the first position of the wide layout no sensor produces (:mod:`.magnitudes`)."""
+    """Raise naming the first position of the wide layout no sensor produces
+    ([`.magnitudes`][track_envs.io.magnitudes])."""
     flat = positions.reshape(len(positions), -1)
     ref = magnitudes.reference(flat)
     far = magnitudes.extreme(flat, ref)
@@ -205,11 +211,12 @@ def track_format(path: str | os.PathLike[str], format: str = "auto") -> str:
 
 def output_format(path: str | os.PathLike[str], format: str | None = None) -> str:
     """The format to write ``path`` in: ``format``, or where None the one its suffix implies
-    (:data:`SUFFIX_FORMATS`: ``.txt`` mot, ``.csv`` long, ``.zip`` wide; any other name mot).
+    (`SUFFIX_FORMATS`: ``.txt`` mot, ``.csv`` long, ``.zip`` wide; any
+    other name mot).
 
     Raises:
-        ValueError: ``format`` is not one the suffix allows (a file :func:`read_tracks` would
-            read back in another layout), naming both and what to do.
+        ValueError: ``format`` is not one the suffix allows (a file [`read_tracks`][track_envs.io.read_tracks]
+            would read back in another layout), naming both and what to do.
     """
     if format is not None and format not in TRACK_FORMATS:
         raise ValueError(f"format must be one of {list(TRACK_FORMATS)}, got {format!r}")
@@ -257,8 +264,8 @@ def _write_long(path: str | os.PathLike[str], tracks: Tracks) -> None:
 
 
 def _write_wide(path: str | os.PathLike[str], tracks: Tracks) -> None:
-    """The wide layout (``tracks.to_wide()`` written by :func:`write_track_csv`), built and
-    written a chunk of frames at a time: one frame's row is as wide as the ids are many, so a
+    """The wide layout (``tracks.to_wide()`` written by [`write_track_csv`][track_envs.io.write_track_csv]),
+    built and written a chunk of frames at a time: one frame's row is as wide as the ids are many, so a
     chunk holds at most ``CHUNK_ROWS`` cells or one frame."""
     unique, column = np.unique(tracks.ids, return_inverse=True)
     column = column.reshape(-1)
@@ -331,7 +338,8 @@ def _read_long(path: str | os.PathLike[str]) -> tuple[Tracks, NDArray[np.int64]]
 def _check_long_magnitudes(
     table: Table, positions: NDArray[np.float64], boxes: NDArray[np.float64] | None, col: dict[str, int]
 ) -> None:
-    """Raise naming the first position or box cell no sensor produces (:mod:`.magnitudes`)."""
+    """Raise naming the first position or box cell no sensor produces
+    ([`.magnitudes`][track_envs.io.magnitudes])."""
     ref = magnitudes.reference(positions)
     columns = [col["x"], col["y"]]
     bad = magnitudes.extreme(positions, ref)

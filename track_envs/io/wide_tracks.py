@@ -10,25 +10,27 @@ The format is the one published with recorded belt-sorting data sets:
 * a position is written as a decimal number (``1.5``, ``-0.25``, ``3e-05``); a particle that is not
   visible in a frame has both of its cells empty or ``NaN`` (``nan`` is accepted as well);
 * ``x`` and ``y`` are either both numbers or both missing, and infinities are not allowed (this
-  loader reads any finite double bit for bit; :func:`track_envs.io.tracks.read_tracks`, which
-  reads ground truth, also refuses positions no sensor produces: :mod:`track_envs.io.magnitudes`).
+  loader reads any finite double bit for bit; [`track_envs.io.tracks.read_tracks`][track_envs.io.read_tracks],
+  which reads ground truth, also refuses positions no sensor produces:
+  [`track_envs.io.magnitudes`][track_envs.io.magnitudes]).
 
 Line endings may be LF, CRLF or CR; a UTF-8 byte-order mark and trailing blank lines are ignored, a
 blank line inside the file is an error. Rows in error messages are line numbers, from 1, as an
 editor shows them; columns are named by their index, from 0 (``column index 3``), as column options
 count them.
 
-Every problem with a file raises :class:`TrackFileError`, whose message starts with the file's path
-and says what is wrong and where, e.g. ``tracks.csv: row 17 has 9 fields, expected 8 (ragged rows)``.
+Every problem with a file raises [`TrackFileError`][track_envs.io.TrackFileError], whose message starts with
+the file's path and says what is wrong and where, e.g.
+``tracks.csv: row 17 has 9 fields, expected 8 (ragged rows)``.
 
-Loading uses the readers' one parser (:mod:`track_envs.io.csv_parser`: pandas' C parser, after a
-vectorised check of the field count of every line on the raw bytes), so a 2,000-frame file with
-4,400 particles (about 75 MB) loads in a few seconds. The file is re-scanned with the :mod:`csv`
+Loading uses the readers' one parser ([`track_envs.io.csv_parser`][track_envs.io.csv_parser]: pandas' C
+parser, after a vectorised check of the field count of every line on the raw bytes), so a 2,000-frame file
+with 4,400 particles (about 75 MB) loads in a few seconds. The file is re-scanned with the `csv`
 module only when parsing fails, to locate the offending cell.
-:func:`write_track_csv` writes the shortest decimal string that reads back as the same float
-(``repr``), so ``load_track_csv(write_track_csv(x))`` reproduces ``x`` bit for bit (NaNs as NaN),
-atomically (:mod:`track_envs.infra.atomic`: a failed write leaves the old file and raises
-:class:`~track_envs.infra.atomic.FileWriteError` naming the file and the cause).
+[`write_track_csv`][track_envs.io.write_track_csv] writes the shortest decimal string that reads back as the
+same float (``repr``), so ``load_track_csv(write_track_csv(x))`` reproduces ``x`` bit for bit (NaNs as NaN),
+atomically ([`track_envs.infra.atomic`][track_envs.infra.atomic]: a failed write leaves the old file and
+raises [`FileWriteError`][track_envs.io.FileWriteError] naming the file and the cause).
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ def load_track_csv(
 
     Returns:
         Positions of shape ``(n_frames, n_particles, 2)``, float64, with NaN where a particle is not
-        visible. Particle ``i`` is the file's ``i``-th column pair.
+            visible. Particle ``i`` is the file's ``i``-th column pair.
 
     Raises:
         TrackFileError: The file is missing, unreadable, empty, ragged, has an odd column count, holds
@@ -108,7 +110,8 @@ def load_track_csv(
 
 
 def write_track_csv(path: str | os.PathLike[str], positions: ArrayLike, *, na_rep: str = "NaN") -> None:
-    """Write positions as a track file that :func:`load_track_csv` reads back bit for bit.
+    """Write positions as a track file that [`load_track_csv`][track_envs.io.load_track_csv] reads back bit
+    for bit.
 
     Args:
         path: Destination. A name ending in ``.zip`` (any case) writes a zip archive holding one
@@ -134,8 +137,8 @@ def write_track_csv(path: str | os.PathLike[str], positions: ArrayLike, *, na_re
 def write_track_chunks(
     path: str | os.PathLike[str], positions: Iterable[NDArray[np.float64]], *, na_rep: str = "NaN"
 ) -> None:
-    """:func:`write_track_csv` of the frames of ``positions``, given as consecutive chunks of
-    frames (each ``(k, n_particles, 2)``, the same ``n_particles``), each chunk checked,
+    """[`write_track_csv`][track_envs.io.write_track_csv] of the frames of ``positions``, given as consecutive
+    chunks of frames (each ``(k, n_particles, 2)``, the same ``n_particles``), each chunk checked,
     formatted and written before the next is asked for: a file of any length is written with
     one chunk in memory. Errors name frames from the first chunk's first frame."""
     if na_rep not in NA_TOKENS:

@@ -14,7 +14,7 @@ predictions is computed exactly from streamed moments,
 
 and per age ``a = 1 … max_age`` (older tracks fall into the last bin) the count, the mean and
 the mean square of ``A`` are kept, so the per-age scatter — and ``r`` of several episodes pooled —
-can be rebuilt from the flat keys alone (:func:`pooled_r`).
+can be rebuilt from the flat keys alone ([`pooled_r`][track_envs.metrics.aleatoric.pooled_r]).
 """
 
 from __future__ import annotations

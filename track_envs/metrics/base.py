@@ -11,21 +11,22 @@ arguments are exactly what a tracking environment hands out (fixed shapes, padde
   ``traits = MetricTraits(accepts_merged_ids=True)`` may instead get
   ``info["detection_ids_merged"]`` (max_detections, K): every truth id behind each row (touching
   particles seen as one blob), −1 padded, column 0 the primary (see
-  :mod:`track_envs.metrics.merged`).
+  [`track_envs.metrics.merged`][track_envs.metrics.merged]).
 * ``report`` — the action: ``"ids"`` (max_tracks,) int64, ``"positions"`` (max_tracks, D),
   ``"detection"`` (max_tracks,) int64 (detection row used this frame or −1), ``"mask"``
-  (max_tracks,) int8. By the report contract (:func:`track_envs.contracts.report.validate_report`, which
-  every environment applies in ``step``) the ids of the rows with mask 1 are unique within the
-  frame and non-negative; a metric fed reports directly may assume it.
+  (max_tracks,) int8. By the report contract
+  ([`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report], which every
+  environment applies in ``step``) the ids of the rows with mask 1 are unique within the frame and
+  non-negative; a metric fed reports directly may assume it.
 
 Every metric also has ``reset()`` to start a new episode.
 
 What a metric is, it declares in one class attribute ``traits = MetricTraits(...)`` (read with
-:func:`metric_traits`, the way agents declare theirs, :mod:`track_envs.infra.declared`): a metric
-that scores against the truth declares ``needs_truth=True`` (every metric here does); one that
-reads only the reports (a track count, say) declares nothing, since the default is ``False``.
-:class:`~track_envs.wrappers.TrackingMetrics` skips the metrics that need truth on an environment
-without it (``has_truth = False``, DetectionReplay-v0).
+[`metric_traits`][track_envs.metrics.metric_traits], the way agents declare theirs,
+[`track_envs.infra.declared`][track_envs.infra.declared]): a metric that scores against the truth declares
+``needs_truth=True`` (every metric here does); one that reads only the reports (a track count, say) declares
+nothing, since the default is ``False``. [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics] skips the
+metrics that need truth on an environment without it (``has_truth = False``, DetectionReplay-v0).
 """
 
 from __future__ import annotations
@@ -63,8 +64,9 @@ def metric_traits(metric: object) -> MetricTraits:
 @runtime_checkable
 class Metric(Protocol):
     """A streaming scorer of reports against ground truth (motmetrics-style). What it is beyond
-    this, it declares in ``traits`` (:class:`MetricTraits`, read by
-    :class:`~track_envs.wrappers.TrackingMetrics` with :func:`metric_traits`)."""
+    this, it declares in ``traits`` ([`MetricTraits`][track_envs.metrics.MetricTraits], read by
+    [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics] with
+    [`metric_traits`][track_envs.metrics.metric_traits])."""
 
     def update(
         self, truth: Mapping[str, NDArray], detection_ids: NDArray[np.int64], report: Mapping[str, NDArray]
@@ -99,7 +101,7 @@ def report_arrays(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64], NDArray[np.int8]]:
     """The padded report arrays as compiled kernels take them: ids (max_tracks,) int64, positions
     (max_tracks, *P) C-contiguous float64, detection (max_tracks,) int64, mask (max_tracks,) int8
-    (see :func:`report_mask`)."""
+    (see [`report_mask`][track_envs.metrics.base.report_mask])."""
     return (
         np.ascontiguousarray(report["ids"], dtype=np.int64),
         np.ascontiguousarray(report["positions"], dtype=np.float64),

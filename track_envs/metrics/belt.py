@@ -28,7 +28,7 @@ whose measurements were never associated counts as an error of the second kind.
 whichever of its particles the track follows — it adds no pair when the track holds a
 single-particle measurement of one of them, and otherwise counts as a measurement of the
 detection's primary particle; every particle behind a detection counts as detected (see
-:mod:`track_envs.metrics.merged`).
+[`track_envs.metrics.merged`][track_envs.metrics.merged]).
 """
 
 from __future__ import annotations
@@ -79,8 +79,9 @@ def _add_merged_frame(
     record_index: NDArray[np.int64],
     record_entries: NDArray[np.int64],
 ) -> None:
-    """As :func:`_add_frame` with merged ids (max_detections, K); merged updates become records
-    ``(track id, set key, members...)`` (the tables must have room for ``len(mask)`` more)."""
+    """As [`_add_frame`][track_envs.metrics.belt._add_frame] with merged ids (max_detections, K); merged
+    updates become records ``(track id, set key, members...)`` (the tables must have room for ``len(mask)``
+    more)."""
     n_sources, k_cols = sources.shape
     for r in range(n_sources):
         for k in range(k_cols):
@@ -103,20 +104,20 @@ class AssociationErrors:
     Each frame contributes the (track id, particle id) pairs of the report rows (mask 1) whose
     ``detection`` row holds a real measurement (``detection_ids[row] >= 0``); coasting rows
     (−1), rows pointing outside the detections and clutter rows are ignored. Pairs and particles
-    are kept as hash sets (:class:`~track_envs.metrics.key_table.KeyTable`) updated by a compiled
+    are kept as hash sets (`KeyTable`) updated by a compiled
     kernel per frame, so memory grows with the number of distinct pairs, not frames.
 
     Track ids in a frame are unique and non-negative by the report contract
-    (:func:`track_envs.contracts.report.validate_report`); a track is its id, so a track id reused in a
-    later frame for another particle counts as one track holding two particles. (Fed a report
-    that breaks the contract directly, rows sharing an id are merged into one track.)
+    ([`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]); a track is its
+    id, so a track id reused in a later frame for another particle counts as one track holding two particles.
+    (Fed a report that breaks the contract directly, rows sharing an id are merged into one track.)
 
     With no qualifying tracks ``e1`` is 0 (no track is in error), with no particles ``e2`` is 0.
 
     Merged detections (``detection_ids`` (max_detections, K), as ``info["detection_ids_merged"]``)
     count an association to either particle's track as correct (module docstring); updates with
     them are kept as records keyed by (track id, set of particles) and resolved in
-    :meth:`compute`.
+    [`compute`][track_envs.metrics.AssociationErrors.compute].
     """
 
     traits = MetricTraits(needs_truth=True, accepts_merged_ids=True)
@@ -137,7 +138,7 @@ class AssociationErrors:
 
         Args:
             truth: ``info["truth"]`` of the frame (unused: the particles are known from
-                ``detection_ids``; kept for the :class:`~track_envs.metrics.base.Metric` interface).
+                ``detection_ids``; kept for the [`Metric`][track_envs.metrics.Metric] interface).
             detection_ids: (max_detections,) truth id behind each detection row, −1 for clutter
                 and padding; or (max_detections, K) every truth id behind each row, −1 padded,
                 column 0 the primary (``info["detection_ids_merged"]``).

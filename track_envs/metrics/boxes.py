@@ -13,8 +13,9 @@ and 0 where the boxes do not overlap (two empty boxes included). MOTChallenge (M
 "MOT16: A Benchmark for Multi-Object Tracking", 2016) matches a track to a truth when
 ``IoU >= 0.5`` and scores the match at distance ``1 − IoU``; py-motmetrics does the same with
 ``iou_matrix(gt, hyp, max_iou=0.5)`` (distance ``1 − IoU``, NaN where it exceeds ``max_iou``).
-:class:`BoxClearMot` feeds that distance matrix to :meth:`ClearMot.update_distances`, so its MOTA,
-IDF1, MOTP (mean ``1 − IoU`` of the matches) and counts are motmetrics' on the same boxes.
+[`BoxClearMot`][track_envs.metrics.BoxClearMot] feeds that distance matrix to
+[`ClearMot.update_distances`][track_envs.metrics.ClearMot.update_distances], so its MOTA, IDF1, MOTP (mean
+``1 − IoU`` of the matches) and counts are motmetrics' on the same boxes.
 """
 
 from __future__ import annotations
@@ -39,10 +40,10 @@ def iou_distances(a: ArrayLike, b: ArrayLike, min_iou: float = 0.5) -> NDArray[n
 def iou_distance_entries(
     a: ArrayLike, b: ArrayLike, min_iou: float = 0.5
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """The finite entries of :func:`iou_distances` as compressed sparse rows ``(ptr, cols, dist)``,
-    at a cost linear in the boxes: a match needs ``IoU >= min_iou > 0``, so only overlapping boxes
-    (:func:`~track_envs.metrics.hota_similarity.box_iou_entries`, a spatial index) are candidates,
-    and the same ``1 − IoU > 1 − min_iou`` test drops the rest."""
+    """The finite entries of [`iou_distances`][track_envs.metrics.iou_distances] as compressed sparse rows
+    ``(ptr, cols, dist)``, at a cost linear in the boxes: a match needs ``IoU >= min_iou > 0``, so only
+    overlapping boxes ([`box_iou_entries`][track_envs.metrics.hota_similarity.box_iou_entries], a spatial
+    index) are candidates, and the same ``1 − IoU > 1 − min_iou`` test drops the rest."""
     ta = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     tb = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     rows, cols, iou = box_iou_entries(ta, tb)
@@ -55,12 +56,13 @@ def iou_distance_entries(
 
 
 class BoxClearMot(ClearMot):
-    """:class:`ClearMot` and IDF1 on boxes: a track matches a truth when their boxes overlap with
-    ``IoU >= min_iou`` (default 0.5, the MOTChallenge rule), at distance ``1 − IoU``.
+    """[`ClearMot`][track_envs.metrics.ClearMot] and IDF1 on boxes: a track matches a truth when their boxes
+    overlap with ``IoU >= min_iou`` (default 0.5, the MOTChallenge rule), at distance ``1 − IoU``.
 
     Frames carry their boxes as ``truth["boxes"]`` and ``report["boxes"]`` (rows, 4), padded like
-    the positions (:meth:`track_envs.values.tracks.Tracks.padded_frame`); a row whose box is not finite
-    matches nothing. ``detection_ids`` are not needed (merged detections are a point-env notion).
+    the positions ([`track_envs.values.tracks.Tracks.padded_frame`][track_envs.Tracks.padded_frame]); a row
+    whose box is not finite matches nothing. ``detection_ids`` are not needed (merged detections are a
+    point-env notion).
 
     Args:
         min_iou: Smallest overlap of a match, in (0, 1].

@@ -9,10 +9,11 @@ MOT Metrics", EURASIP JIVP 2008; with the event rules of py-motmetrics' ``MOTAcc
 2. the remaining truths and tracks are matched by a min-cost assignment (scipy
    ``linear_sum_assignment``, impossible pairs priced as motmetrics' ``add_expensive_edges``
    prices them, then dropped); a match whose track differs from the truth's last match is an
-   ID switch (lone pairs, :func:`track_envs.infra.assignment.lone_pairs.split_lone_pairs`, are taken
-   directly and
-   the other components of the possible pairs solved one by one where their optimum is unique;
-   :mod:`track_envs.metrics.clear_mot_events` runs these rules per frame as one compiled kernel);
+   ID switch (lone pairs,
+   [`track_envs.infra.assignment.lone_pairs.split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs],
+   are taken directly and the other components of the possible pairs solved one by one where their optimum is
+   unique; [`track_envs.metrics.clear_mot_events`][track_envs.metrics.clear_mot_events] runs these rules per
+   frame as one compiled kernel);
 3. unmatched truths are misses, unmatched tracks false positives.
 
 .. math::
@@ -42,8 +43,9 @@ three agree with the textbook IDTP = max unless an id repeats within a frame).
 Merged detections (touching particles seen as one blob; ``detection_ids`` given as
 (max_detections, K) merged ids): a track updated with a merged detection counts as correctly
 placed for any particle behind it — it may match each of them within the threshold plus the
-blob's spread, as :mod:`track_envs.metrics.merged` defines — so following either particle through
-a merge is neither a miss nor a false positive, and IDF1 counts those frames as co-occurrences.
+blob's spread, as [`track_envs.metrics.merged`][track_envs.metrics.merged] defines — so following either
+particle through a merge is neither a miss nor a false positive, and IDF1 counts those frames as
+co-occurrences.
 """
 
 from __future__ import annotations
@@ -142,7 +144,8 @@ def _points_frame_merged(
     counts: NDArray[np.int64],
     dist_sum: NDArray[np.float64],
 ) -> tuple[int, int]:
-    """As :func:`_points_frame`, with the pairs of tracks updated with merged detections."""
+    """As [`_points_frame`][track_envs.metrics.clear_mot._points_frame], with the pairs of tracks updated with
+    merged detections."""
     oids, x = live_truth_rows(truth_ids, truth_positions, visible)
     hids, y = live_report_rows(report_ids, report_positions, report_mask)
     keep = report_mask == 1
@@ -166,14 +169,14 @@ class ClearMot:
     Per frame, a truth and a track can match when their Euclidean distance is at most
     ``threshold`` (as motmetrics' ``norm2squared_matrix`` with ``max_d2``: a pair exactly at the
     threshold is possible); only those pairs are ever formed
-    (:func:`~track_envs.metrics.close_pairs.close_pairs`). :meth:`update_distances` takes a distance
-    matrix directly (NaN for impossible pairs) and produces the same events as
-    ``motmetrics.MOTAccumulator.update``.
+    (`close_pairs`).
+    [`update_distances`][track_envs.metrics.ClearMot.update_distances] takes a distance matrix directly (NaN
+    for impossible pairs) and produces the same events as ``motmetrics.MOTAccumulator.update``.
 
     Track ids in a frame are unique and non-negative by the report contract
-    (:func:`track_envs.contracts.report.validate_report`: a repeated id would let one identity claim
-    several truths and inflate MOTA, so environments reject it). Fed a report that breaks the
-    contract directly, rows sharing an id are scored as motmetrics scores them: separate
+    ([`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]: a repeated id
+    would let one identity claim several truths and inflate MOTA, so environments reject it). Fed a report
+    that breaks the contract directly, rows sharing an id are scored as motmetrics scores them: separate
     hypotheses sharing the id's history.
 
     With merged detection ids (``info["detection_ids_merged"]``), a track updated with a merged
@@ -290,8 +293,9 @@ class ClearMot:
     ) -> None:
         """Add one frame from ids and its possible pairs only, row-major: truth ``i``'s possible
         tracks are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) at distances ``dist[ptr[i]:ptr[i + 1]]``
-        (finite); every other pair is impossible. The same frame as :meth:`update_distances` of the
-        matrix holding those distances and NaN elsewhere, at a cost linear in the pairs.
+        (finite); every other pair is impossible. The same frame as
+        [`update_distances`][track_envs.metrics.ClearMot.update_distances] of the matrix holding those
+        distances and NaN elsewhere, at a cost linear in the pairs.
         """
         oids = np.ascontiguousarray(truth_ids, dtype=np.int64).reshape(-1)
         hids = np.ascontiguousarray(track_ids, dtype=np.int64).reshape(-1)
@@ -335,11 +339,11 @@ class ClearMot:
 
         Returns:
             ``mota``, ``motp`` (mean match distance), ``id_switches``, ``idf1``, ``num_misses``,
-            ``num_false_positives``, ``num_matches`` (matches that are not switches, as in
-            motmetrics), ``num_objects`` (truth rows), plus ``num_predictions`` (track rows),
-            ``num_detections`` (matches + switches), ``num_fragmentations``, ``num_frames``,
-            ``idtp``, ``idfp``, ``idfn``, ``idp``, ``idr``. Ratios over zero are NaN (0 / 0) or
-            ±inf, as numpy divides.
+                ``num_false_positives``, ``num_matches`` (matches that are not switches, as in
+                motmetrics), ``num_objects`` (truth rows), plus ``num_predictions`` (track rows),
+                ``num_detections`` (matches + switches), ``num_fragmentations``, ``num_frames``,
+                ``idtp``, ``idfp``, ``idfn``, ``idp``, ``idr``. Ratios over zero are NaN (0 / 0) or
+                ±inf, as numpy divides.
         """
         n = dict(zip(COUNTERS, self._counts.tolist(), strict=True))
         idfn, idfp = self._identity()

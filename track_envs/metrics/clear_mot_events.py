@@ -11,26 +11,28 @@ other pair is impossible, NaN in motmetrics' matrix). The kernel replays motmetr
    ``2 r c + 1``, ``r = min(m, n)``, ``c = 1 + max |possible distance|``, and solves the whole
    m × n matrix with ``scipy.optimize.linear_sum_assignment``). A pair alone in its row and its
    column belongs to every such optimum and is taken directly
-   (:func:`track_envs.infra.assignment.lone_pairs.split_lone_pairs` of the free pairs). The other connected
-   components of the free pairs are independent: each is solved on its own by enumerating its
-   matchings, and where every component's optimum is unique (no other matching with as many
-   pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
+   ([`track_envs.infra.assignment.lone_pairs.split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs]
+   of the free pairs). The other connected components of the free pairs are independent: each is solved on its
+   own by enumerating its matchings, and where every component's optimum is unique (no other matching with as
+   many pairs within a margin far above the solver's rounding) their union is motmetrics' optimum.
    Otherwise (a tie, or a component with more than 4,096 matchings) the matrix motmetrics
-   builds is solved by the same algorithm (:mod:`~track_envs.infra.assignment.shortest_augmenting_path`),
-   so ties are broken as motmetrics breaks them — in a frame whose matrix has at most
-   :data:`DENSE_LIMIT` entries (2,048 × 2,048). A larger frame (motmetrics' dense solve of it
-   takes seconds at 10⁴ targets and does not fit in memory at 10⁵) stays linear: a (near) tie is
-   broken within its component (the first best matching of the enumeration; a component of more
-   than 4,096 matchings is solved on its own block, priced as motmetrics prices the matrix), so
-   only there may the matching differ from motmetrics', by another of its optima. In row
-   order, a match whose truth was last matched to another id is an ID switch.
+   builds is solved by the same algorithm
+   ([`shortest_augmenting_path`][track_envs.infra.assignment.shortest_augmenting_path]), so ties are broken as
+   motmetrics breaks them — in a frame whose matrix has at most
+   [`DENSE_LIMIT`][track_envs.metrics.clear_mot_events.DENSE_LIMIT] entries (2,048 × 2,048). A larger frame
+   (motmetrics' dense solve of it takes seconds at 10⁴ targets and does not fit in memory at 10⁵) stays
+   linear: a (near) tie is broken within its component (the first best matching of the enumeration; a
+   component of more than 4,096 matchings is solved on its own block, priced as motmetrics prices the matrix),
+   so only there may the matching differ from motmetrics', by another of its optima. In row order, a match
+   whose truth was last matched to another id is an ID switch.
 3. Unmatched truths are misses, unmatched tracks false positives; a match of a truth that was
    missed since its previous match is a fragmentation.
 
-State lives in two :class:`~track_envs.metrics.key_table.KeyTable` tables: per truth id the last
+State lives in two [`KeyTable`][track_envs.metrics.key_table.KeyTable] tables: per truth id the last
 matched track id, matched-ever, missed-since-match and the last frame it appeared in; per (truth
 id, track id) the number of frames the pair was possible (for IDF1). Counters are one int64 array
-(:data:`COUNTERS`) and the summed match distance a compensated sum (:func:`neumaier_add`).
+([`COUNTERS`][track_envs.metrics.clear_mot_events.COUNTERS]) and the summed match distance a compensated sum
+([`neumaier_add`][track_envs.metrics.clear_mot_events.neumaier_add]).
 """
 
 from __future__ import annotations
@@ -163,7 +165,8 @@ def _free_pair_counts(
     col_taken: NDArray[np.bool_],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
     """Possible pairs of each free row and free column among the free ones, and the column of a
-    row's last free pair, for :func:`~track_envs.infra.assignment.lone_pairs.split_lone_pairs`."""
+    row's last free pair, for
+    [`split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs]."""
     m, n = len(row_taken), len(col_taken)
     counts = np.zeros(2 * m + n, dtype=np.int64)  # one allocation, three views
     row_count, only_col, col_count = counts[:m], counts[m : 2 * m], counts[2 * m :]
@@ -237,8 +240,9 @@ def _unique_component_optimum(
     one of its free columns or none), keeping the best by (number of pairs, then summed
     distance). When every other matching with that many pairs is longer by more than ``tol``,
     the best one's columns go into ``partner`` and the result is True; on a (near) tie, or when
-    the component has more than :data:`_MAX_MATCHINGS` matchings, nothing is written and the
-    result is False. Not ``exact``: a tie is not refused (the first best matching found is kept).
+    the component has more than [`_MAX_MATCHINGS`][track_envs.metrics.clear_mot_events._MAX_MATCHINGS]
+    matchings, nothing is written and the result is False. Not ``exact``: a tie is not refused (the first best
+    matching found is kept).
     """
     k = len(comp_rows)
     choice = np.full(k, -2, dtype=np.int64)  # per depth: the list position tried, −1 = no pair
@@ -364,9 +368,11 @@ def _match_components(
     unique by more than the rounding scipy's solver can make on the dense matrix (a margin of
     ``2⁻³⁰`` of its largest entry, about 10⁷ of its rounding units), that union is what
     motmetrics gets. Returns False (``partner`` then partly written) when some component's
-    optimum is not so certainly unique — only in a frame of at most :data:`DENSE_LIMIT` matrix
-    entries: a larger frame keeps the component's first best matching (or solves a component of
-    more than :data:`_MAX_MATCHINGS` matchings on its own block) and returns True.
+    optimum is not so certainly unique — only in a frame of at most
+    [`DENSE_LIMIT`][track_envs.metrics.clear_mot_events.DENSE_LIMIT] matrix entries: a larger frame keeps the
+    component's first best matching (or solves a component of more than
+    [`_MAX_MATCHINGS`][track_envs.metrics.clear_mot_events._MAX_MATCHINGS] matchings on its own block) and
+    returns True.
     """
     m, n = len(row_taken), len(col_taken)
     exact = m * n <= DENSE_LIMIT
@@ -436,8 +442,10 @@ def _match_the_rest(
     """Step 2: the list position of each row's pair, −1 where the row is not matched here.
 
     Lone pairs are taken directly; the other components of the free pairs are solved on their
-    own where their optimum is unique (:func:`_match_components`), else the whole matrix is
-    solved as motmetrics solves it (:func:`_assign_like_motmetrics`).
+    own where their optimum is unique
+    ([`_match_components`][track_envs.metrics.clear_mot_events._match_components]), else the whole matrix is
+    solved as motmetrics solves it
+    ([`_assign_like_motmetrics`][track_envs.metrics.clear_mot_events._assign_like_motmetrics]).
     """
     row_count, only_col, col_count = _free_pair_counts(ptr, cols, row_taken, col_taken)
     partner, rest_rows, _ = split_lone_pairs(row_count, only_col, col_count)
@@ -468,7 +476,7 @@ def frame_events(
 
     Returns:
         −1 when done; otherwise nothing was changed and the value is the number of possible pairs
-        (the pair table needs that many free entries, the truth table ``len(oids)``).
+            (the pair table needs that many free entries, the truth table ``len(oids)``).
     """
     m, n = len(oids), len(hids)
     nnz = ptr[m]

@@ -4,10 +4,10 @@ Tracking metrics only ever look at truth–track pairs closer than a threshold (
 threshold, GOSPA's cut-off), and only a handful of pairs per truth qualify. Instead of the full
 (m, n) distance matrix, the candidates are the points of the second set inside the box
 ``|y_k − x_k| ≤ r`` around each point of the first (the uniform grid of
-:func:`track_envs.infra.spatial.box_candidates` over the first two coordinates, the box widened
-by a relative ``10⁻⁹`` so that rounding never drops a pair the exact test keeps), and distances
-are computed for those only: ``O(m + n + candidates)`` per frame whatever the extent of the scene.
-(A radius that is not finite falls back to buckets along the first coordinate.)
+[`track_envs.infra.spatial.box_candidates`][track_envs.infra.spatial.box_candidates] over the first two
+coordinates, the box widened by a relative ``10⁻⁹`` so that rounding never drops a pair the exact test keeps),
+and distances are computed for those only: ``O(m + n + candidates)`` per frame whatever the extent of the
+scene. (A radius that is not finite falls back to buckets along the first coordinate.)
 
 Distances are computed exactly as ``scipy.spatial.distance.cdist(x, y)`` computes them,
 ``d = sqrt(Σ_k (x_k − y_k)²)`` summed in coordinate order, so a pair exactly at the radius is
@@ -95,7 +95,7 @@ def close_pairs(
 
     Returns:
         ``(ptr, cols, dist)``: row ``i``'s pairs are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with
-        distances ``dist[ptr[i]:ptr[i + 1]]``.
+            distances ``dist[ptr[i]:ptr[i + 1]]``.
     """
     m, n = x.shape[0], y.shape[0]
     ptr = np.zeros(m + 1, dtype=np.int64)
@@ -129,7 +129,8 @@ def close_pairs(
 def _close_pairs_strips(
     x: NDArray[np.float64], y: NDArray[np.float64], radius: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """:func:`close_pairs` by buckets along the first coordinate (any radius, also not finite).
+    """[`close_pairs`][track_envs.metrics.close_pairs.close_pairs] by buckets along the first coordinate (any
+    radius, also not finite).
 
     Args:
         x: Points (m, D), float64.
@@ -138,7 +139,7 @@ def _close_pairs_strips(
 
     Returns:
         ``(ptr, cols, dist)``: row ``i``'s pairs are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with
-        distances ``dist[ptr[i]:ptr[i + 1]]``.
+            distances ``dist[ptr[i]:ptr[i + 1]]``.
     """
     m, n = x.shape[0], y.shape[0]
     ptr = np.zeros(m + 1, dtype=np.int64)
@@ -188,7 +189,8 @@ def _close_pairs_strips(
 def finite_entries(
     matrix: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """The finite entries of a dense (m, n) matrix in the same row-major form as :func:`close_pairs`."""
+    """The finite entries of a dense (m, n) matrix in the same row-major form as
+    [`close_pairs`][track_envs.metrics.close_pairs.close_pairs]."""
     m, n = matrix.shape
     ptr = np.zeros(m + 1, dtype=np.int64)
     nnz = 0

@@ -5,8 +5,10 @@ says when a particle reached the bar. A predictor can still be validated on it: 
 line ``x = L`` inside the window, let the tracker see only the detections upstream of a cut-off
 ``x_cut < L`` (its camera window ends there), and compare its predicted crossings of ``L`` with
 where the tracks of the whole recording really crossed ``L``. This module holds the two pure
-halves (no tracker): the observed crossings of tracks (:func:`observed_crossings`) and the score
-(:func:`score_crossings`); :func:`agents.sorting.check.check_sorting` runs the tracker.
+halves (no tracker): the observed crossings of tracks
+([`observed_crossings`][track_envs.metrics.crossing_check.observed_crossings]) and the score
+([`score_crossings`][track_envs.metrics.score_crossings]);
+[`agents.sorting.check.check_sorting`][agents.sorting.check_sorting] runs the tracker.
 
 **Observed crossing** of a track: between two consecutive detections the track was updated with,
 at frames ``f_a < f_b`` (coasted frames between them allowed), with positions ``p_a``, ``p_b`` and
@@ -20,7 +22,7 @@ at frames ``f_a < f_b`` (coasted frames between them allowed), with positions ``
 the first such pair of the track. The positions are the detections themselves (not the track's
 filtered estimates), so ``(t_c, y_c)`` carries the measurement noise but no filter lag.
 
-**Score**, as :class:`~track_envs.metrics.sorting.SortingPrediction` scores against simulated
+**Score**, as [`SortingPrediction`][track_envs.metrics.SortingPrediction] scores against simulated
 truth: each track is scored on the last prediction made for it; with ``Δt = t̂ − t_c`` and
 ``Δy = ŷ − y_c``, a hit is ``|Δt| <= w_t`` and ``|Δy| <= w_y``. The tracks scored (*crossings*)
 are those that crossed ``L`` and were updated with at least ``min_seen`` detections at

@@ -1,5 +1,5 @@
-"""The metric set of the point environments, which :class:`~track_envs.wrappers.TrackingMetrics` and
-:func:`~track_envs.metrics.track_scoring.score_tracks` score with."""
+"""The metric set of the point environments, which [`TrackingMetrics`][track_envs.wrappers.TrackingMetrics]
+and [`score_tracks`][track_envs.metrics.score_tracks] score with."""
 
 from __future__ import annotations
 

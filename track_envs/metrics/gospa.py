@@ -18,23 +18,24 @@ with ``γ`` ranging over matchings of the admissible pairs (``d^p <= c^p``; a pa
     d_p^{(c,2)}(X, Y)^p = \\frac{c^p}{2} (m + n) - \\max_{\\gamma} \\sum_{(i,j) \\in \\gamma}
         \\big(c^p - d(x_i, y_j)^p\\big).
 
-Computed sparsely (:mod:`track_envs.metrics.close_pairs`): only pairs within ``c`` exist, and
-they are assigned by :mod:`track_envs.infra.assignment.lone_pairs` with miss cost ``γ = c^p``: a
-pair alone in its
-row and its column (a *lone pair*) gains ``c^p − d^p >= 0`` and blocks nothing, so it is taken as
-it is; only the rows and columns left with several admissible partners go to a dense min-cost
+Computed sparsely ([`track_envs.metrics.close_pairs`][track_envs.metrics.close_pairs]): only pairs within
+``c`` exist, and they are assigned by
+[`track_envs.infra.assignment.lone_pairs`][track_envs.infra.assignment.lone_pairs] with miss cost ``γ = c^p``:
+a pair alone in its row and its column (a *lone pair*) gains ``c^p − d^p >= 0`` and blocks nothing, so it is
+taken as it is; only the rows and columns left with several admissible partners go to a dense min-cost
 assignment with one miss column per row (``[C | diag(c^p)]``,
-:func:`track_envs.infra.assignment.lone_pairs.rest_problem`), solved by the compiled
-:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment` — one
-connected component of the admissible pairs at a time, which is the same assignment wherever
-each component's optimum is unique (by a margin ``2⁻²⁰ c^p`` far above the solver's
-rounding; checked by solving the component once more without each of its assigned pairs). On a
-(near) tie the rest rows are solved as one problem, as before, so that ties break as they always
-did — up to :data:`DENSE_LIMIT` entries (rest rows × estimates); above it a tie is broken inside its
-component (another optimum: the same GOSPA value, its split into localisation and cardinality may
-differ). A frame costs ``O(m + n)`` for components of bounded size. Track
-identities play no part (in a report they are unique and non-negative within a frame by the
-report contract, :func:`track_envs.contracts.report.validate_report`).
+[`track_envs.infra.assignment.lone_pairs.rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem]),
+solved by the compiled
+[`linear_sum_assignment`][track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment] — one
+connected component of the admissible pairs at a time, which is the same assignment wherever each component's
+optimum is unique (by a margin ``2⁻²⁰ c^p`` far above the solver's rounding; checked by solving the component
+once more without each of its assigned pairs). On a (near) tie the rest rows are solved as one problem, as
+before, so that ties break as they always did — up to [`DENSE_LIMIT`][track_envs.metrics.gospa.DENSE_LIMIT]
+entries (rest rows × estimates); above it a tie is broken inside its component (another optimum: the same
+GOSPA value, its split into localisation and cardinality may differ). A frame costs ``O(m + n)`` for
+components of bounded size. Track identities play no part (in a report they are unique and non-negative within
+a frame by the report contract,
+[`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]).
 """
 
 from __future__ import annotations
@@ -286,7 +287,8 @@ def check_gospa_parameters(c: float, p: float) -> None:
 
 
 def gospa_result(loc: float, pairs: int, m: int, n: int, c: float, p: float) -> GospaResult:
-    """Assemble :class:`GospaResult` from the localisation sum and the number of close pairs."""
+    """Assemble [`GospaResult`][track_envs.metrics.GospaResult] from the localisation sum and the number of
+    close pairs."""
     total = loc + c**p / 2 * (m + n - 2 * pairs)
     return GospaResult(total ** (1 / p), loc, m - pairs, n - pairs)
 

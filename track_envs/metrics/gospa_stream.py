@@ -1,8 +1,8 @@
 """Episode GOSPA: the mean over frames of the per-frame GOSPA of the report against visible truth.
 
 Rahmathullah, García-Fernández, Svensson, "Generalized optimal sub-pattern assignment metric",
-FUSION 2017 (α = 2, cut-off ``c``, order ``p``; see :mod:`track_envs.metrics.gospa`). With
-``d_t`` the GOSPA of frame ``t``,
+FUSION 2017 (α = 2, cut-off ``c``, order ``p``; see [`track_envs.metrics.gospa`][track_envs.metrics.gospa]).
+With ``d_t`` the GOSPA of frame ``t``,
 
 .. math::
 
@@ -28,7 +28,9 @@ class GospaMetric:
     """Streaming mean per-frame GOSPA of reports (mask 1 rows) against the visible truth.
 
     Track identities play no part (in a report they are unique and non-negative within a frame
-    by the report contract, :func:`track_envs.contracts.report.validate_report`). Nor do associations:
+    by the report contract,
+    [`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]). Nor do
+    associations:
     GOSPA compares positions only, so it has no notion of a merged detection (touching particles
     seen as one blob). A track following a blob sits at its area-weighted centroid, within half
     the centres' distance of either particle for equal areas, and is scored by that distance like

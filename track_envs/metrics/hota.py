@@ -18,9 +18,10 @@ tracker ids and a similarity ``S`` (n, m) in [0, 1] between them (IoU for boxes,
 where ``N_g``, ``N_k`` count the frames in which truth id ``g`` and tracker id ``k`` appear and
 ``P`` is the whole sequence's soft count of frames in which they are matched (a frame's term is
 0 where its denominator is at most machine epsilon). ``A`` is a global alignment of identities,
-so matching needs the whole sequence first: :meth:`HotaAccumulator.add_frame` stores each frame's
-non-zero similarities and ``P``, and :meth:`HotaAccumulator.compute` runs the per-frame
-Hungarian assignments (as the authors' TrackEval does).
+so matching needs the whole sequence first:
+[`HotaAccumulator.add_frame`][track_envs.metrics.HotaAccumulator.add_frame] stores each frame's non-zero
+similarities and ``P``, and [`HotaAccumulator.compute`][track_envs.metrics.HotaAccumulator.compute] runs the
+per-frame Hungarian assignments (as the authors' TrackEval does).
 
 **Scores at a threshold α.** A matched pair is a true positive (TP) at α when ``S ≥ α − ε``
 (machine epsilon); the other truth and tracker rows are misses (FN) and false positives (FP).
@@ -61,19 +62,20 @@ from track_envs.metrics.hota_matching import (
 #: The 19 localisation thresholds α = 0.05, 0.10, …, 0.95 (the same floats as TrackEval's).
 ALPHAS: NDArray[np.float64] = np.arange(0.05, 0.99, 0.05)
 
-#: The α-averaged figures :meth:`HotaAccumulator.compute` returns, in this order.
+#: The α-averaged figures [`HotaAccumulator.compute`][track_envs.metrics.HotaAccumulator.compute] returns, in
+#: this order.
 HOTA_FIELDS: tuple[str, ...] = ("HOTA", "DetA", "AssA", "LocA", "DetRe", "DetPr", "AssRe", "AssPr")
 
 _EPS = float(np.finfo(float).eps)
 
 #: A frame's optimum is taken component by component when unique by this margin (times
 #: ``max(1, (n + m)/1024)``), far above the rounding of scipy's solver on the dense matrix
-#: (about ``(n + m) ε``); see :mod:`~track_envs.metrics.hota_matching`.
+#: (about ``(n + m) ε``); see [`hota_matching`][track_envs.metrics.hota_matching].
 _TIE_MARGIN = 2.0**-30
 
 #: A frame with a (near) tie is solved on its dense matrix, as TrackEval solves it, when the matrix
 #: has at most this many entries (a 2,048 × 2,048 frame, 32 MiB); a larger frame's ties are broken
-#: component by component (:mod:`~track_envs.metrics.hota_matching`).
+#: component by component ([`hota_matching`][track_envs.metrics.hota_matching]).
 DENSE_LIMIT = 2048 * 2048
 
 #: Matched pairs: dense truth ids, dense tracker ids, frame counts per dense truth and tracker id,
@@ -84,16 +86,19 @@ _Matches = tuple[
 
 
 class HotaAccumulator:
-    """Streaming HOTA of one sequence: feed frames with :meth:`add_frame`, summarise with :meth:`compute`.
+    """Streaming HOTA of one sequence: feed frames with
+    [`add_frame`][track_envs.metrics.HotaAccumulator.add_frame], summarise with
+    [`compute`][track_envs.metrics.HotaAccumulator.compute].
 
     Ids are any integers (unique within a frame); similarities are in [0, 1]. Memory grows with
     the number of non-zero similarities (and of rows) seen, not with the number of ids squared.
-    :meth:`compute` matches each frame component by component of its non-zero similarities
-    where the optimum is unique, and solves the frame's dense matrix with scipy's
+    [`compute`][track_envs.metrics.HotaAccumulator.compute] matches each frame component by component of its
+    non-zero similarities where the optimum is unique, and solves the frame's dense matrix with scipy's
     ``linear_sum_assignment`` only on a (near) tie, so the pairs are TrackEval's
-    (:mod:`~track_envs.metrics.hota_matching`); it counts the 19 thresholds at once from each
-    matched pair's similarity. :meth:`add_sparse_frame` takes a frame as its non-zero entries
-    (the streaming metrics build them through a spatial index), at a cost linear in them.
+    (`hota_matching`); it counts the 19 thresholds at once from each
+    matched pair's similarity. [`add_sparse_frame`][track_envs.metrics.HotaAccumulator.add_sparse_frame] takes
+    a frame as its non-zero entries (the streaming metrics build them through a spatial index), at a cost
+    linear in them.
 
     Example::
 
@@ -152,9 +157,10 @@ class HotaAccumulator:
     def add_sparse_frame(
         self, gt_ids: ArrayLike, tracker_ids: ArrayLike, rows: ArrayLike, cols: ArrayLike, values: ArrayLike
     ) -> None:
-        """Add one frame given by its non-zero similarities: the same as :meth:`add_frame` of the
-        (n, m) matrix that holds ``values`` at ``(rows, cols)`` and 0 elsewhere, bit for bit, at a
-        cost linear in the entries and ids (:mod:`~track_envs.metrics.hota_matching`).
+        """Add one frame given by its non-zero similarities: the same as
+        [`add_frame`][track_envs.metrics.HotaAccumulator.add_frame] of the (n, m) matrix that holds ``values``
+        at ``(rows, cols)`` and 0 elsewhere, bit for bit, at a cost linear in the entries and ids
+        (`hota_matching`).
 
         Args:
             gt_ids: (n,) integer truth ids present in the frame, unique.
@@ -216,8 +222,8 @@ class HotaAccumulator:
         self._frames += 1
 
     def compute_arrays(self) -> dict[str, NDArray[np.float64]]:
-        """The per-α figures: each of :data:`HOTA_FIELDS` and ``HOTA_TP``, ``HOTA_FN``, ``HOTA_FP``
-        as (19,) arrays over :data:`ALPHAS`."""
+        """The per-α figures: each of `HOTA_FIELDS` and ``HOTA_TP``,
+        ``HOTA_FN``, ``HOTA_FP`` as (19,) arrays over `ALPHAS`."""
         n_alpha = ALPHAS.size
         n_gt = sum(f.size for f in self._gt_ids)
         n_tr = sum(f.size for f in self._tr_ids)
@@ -262,8 +268,9 @@ class HotaAccumulator:
         }
 
     def compute(self) -> dict[str, float]:
-        """The :data:`HOTA_FIELDS` averaged over the 19 α (does not reset). With no frame, or no
-        truth or no tracker row at all, HOTA, DetA, AssA and the rest are 0 and LocA is 1."""
+        """The `HOTA_FIELDS` averaged over the 19 α (does not reset).
+        With no frame, or no truth or no tracker row at all, HOTA, DetA, AssA and the rest are 0 and LocA is
+        1."""
         arrays = self.compute_arrays()
         return {name: float(np.mean(arrays[name])) for name in HOTA_FIELDS}
 

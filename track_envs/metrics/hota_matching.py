@@ -1,18 +1,19 @@
 """HOTA's per-frame pieces on the non-zero similarities only: the soft-match sums and the matching.
 
-:class:`~track_envs.metrics.hota.HotaAccumulator` keeps a frame as its non-zero similarities
+[`HotaAccumulator`][track_envs.metrics.HotaAccumulator] keeps a frame as its non-zero similarities
 ``S_t(i, j)`` (row-major: rows ascending, columns ascending within a row). Two steps of
 TrackEval's HOTA read the whole ``n × m`` matrix of a frame; here they cost the number of
 non-zero entries (plus ``n + m``), with the same floating-point results.
 
 * **Soft-match denominators** ``Σ_{j'} S(i, j') + Σ_{i'} S(i', j) − S(i, j)``. TrackEval takes
   ``S.sum(1)`` and ``S.sum(0)`` of the dense matrix. numpy adds a column sum row by row, in row
-  order: :func:`column_sums` adds the entries in that order (a zero term is exact). A row sum runs
-  along the contiguous axis, where numpy uses its pairwise summation (eight interleaved partial
-  sums in blocks of at most 128 numbers, halves of longer runs split at a multiple of 8):
-  :func:`row_sums` follows that tree over the row's ``m`` positions, descending only where a
-  non-zero lies, so each sum is the very float numpy returns.
-* **Matching** (:func:`frame_matches`). A frame's pairs are matched maximising
+  order: [`column_sums`][track_envs.metrics.hota_matching.column_sums] adds the entries in that order (a zero
+  term is exact). A row sum runs along the contiguous axis, where numpy uses its pairwise summation (eight
+  interleaved partial sums in blocks of at most 128 numbers, halves of longer runs split at a multiple of 8):
+  [`row_sums`][track_envs.metrics.hota_matching.row_sums] follows that tree over the row's ``m`` positions,
+  descending only where a non-zero lies, so each sum is the very float numpy returns.
+* **Matching** ([`frame_matches`][track_envs.metrics.hota_matching.frame_matches]). A frame's pairs are
+matched maximising
   ``Σ A(g_i, k_j) S_t(i, j)``; TrackEval solves the dense matrix with scipy's
   ``linear_sum_assignment`` (zeros everywhere else) and keeps the matched pairs with ``S > 0``.
   The connected components of the non-zero entries are independent, so that optimum is the union
@@ -22,14 +23,14 @@ non-zero entries (plus ``n + m``), with the same floating-point results.
   column (and of positive score) takes them all, as TrackEval's solver does. Otherwise a
   component that is one entry is taken; one row (or one column) takes its largest score; any
   other is solved on its own dense block with the compiled twin of scipy's solver
-  (:mod:`~track_envs.infra.assignment.shortest_augmenting_path`), and its optimum ``M`` (value
-  ``V``) is unique by ``tol`` when, for every pair ``e ∈ M``, the block without ``e`` has a
+  ([`shortest_augmenting_path`][track_envs.infra.assignment.shortest_augmenting_path]), and its optimum ``M``
+  (value ``V``) is unique by ``tol`` when, for every pair ``e ∈ M``, the block without ``e`` has a
   smaller optimum than ``V − tol`` (another matching at least as good misses some ``e ∈ M``; one
   that contains ``M`` and more is better than the optimum). A frame with a
   (near) tie, or with a score ``≤ tol`` (an entry whose similarity is so small that its soft
   match vanished), is returned as *dense*: the caller solves that frame's whole matrix as
   TrackEval does, so the result equals TrackEval's also there — up to a size: a frame of more
-  than ``dense_limit`` matrix entries (:data:`~track_envs.metrics.hota.DENSE_LIMIT`, a
+  than ``dense_limit`` matrix entries ([`DENSE_LIMIT`][track_envs.metrics.hota.DENSE_LIMIT], a
   2,048 × 2,048 matrix; TrackEval's dense solve of it takes seconds and gigabytes at 10⁴ targets)
   is always solved component by component, its (near) ties broken as the compiled solver breaks
   them on the component's own block and every positive-score pair of a one-pair component taken.
@@ -270,7 +271,7 @@ def frame_matches(
 
     Returns:
         ``(take, dense)``: per entry, whether its pair is matched; per frame, whether it must be
-        solved on its dense matrix instead (``take`` is then not meaningful for it).
+            solved on its dense matrix instead (``take`` is then not meaningful for it).
     """
     n_frames = len(n_rows)
     take = np.zeros(len(rows), np.bool_)

@@ -1,11 +1,14 @@
-"""Similarities in [0, 1] between truth and tracker rows, as :mod:`track_envs.metrics.hota` takes them.
+"""Similarities in [0, 1] between truth and tracker rows, as
+[`track_envs.metrics.hota`][track_envs.metrics.hota] takes them.
 
-* Boxes: intersection over union, :func:`box_iou`.
-* Points: :func:`point_similarity`, ``max(0, 1 − d/τ)`` for a Euclidean distance ``d`` and a
+* Boxes: intersection over union, [`box_iou`][track_envs.metrics.box_iou].
+* Points: [`point_similarity`][track_envs.metrics.point_similarity], ``max(0, 1 − d/τ)`` for a Euclidean
+distance ``d`` and a
   distance threshold ``τ`` (the metric's matching threshold). It is 1 at ``d = 0``, falls
   linearly and is 0 from ``d = τ`` on, so a pair is a HOTA true positive at threshold α exactly
   when ``d ≤ (1 − α) τ``: α = 0.05 accepts nearly the whole ``τ``, α = 0.95 only ``τ/20``.
-* Poses: object keypoint similarity, :func:`track_envs.metrics.keypoints.pairwise_oks`.
+* Poses: object keypoint similarity,
+[`track_envs.metrics.keypoints.pairwise_oks`][track_envs.metrics.pairwise_oks].
 """
 
 from __future__ import annotations
@@ -84,17 +87,18 @@ def _corners(boxes: ArrayLike, box_format: str, name: str) -> NDArray[np.float64
 def point_similarity_entries(
     points_a: ArrayLike, points_b: ArrayLike, threshold: float
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """The non-zero entries of :func:`point_similarity`, row-major, at a cost linear in the points.
+    """The non-zero entries of [`point_similarity`][track_envs.metrics.point_similarity], row-major, at a cost
+    linear in the points.
 
     ``S > 0`` needs ``d < τ``, so every such pair lies in the box ``|a_k − b_k| ≤ τ`` around ``a``
-    (a spatial index, :func:`track_envs.infra.spatial.candidate_pairs`, with a margin); the
-    similarity is computed on those candidates only, by the same operations, so the values are the
-    very floats of the dense matrix. Non-finite coordinates fall back to the dense matrix (whose
+    (a spatial index, [`track_envs.infra.spatial.candidate_pairs`][track_envs.infra.spatial.candidate_pairs],
+    with a margin); the similarity is computed on those candidates only, by the same operations, so the values
+    are the very floats of the dense matrix. Non-finite coordinates fall back to the dense matrix (whose
     NaN entries the callers reject).
 
     Returns:
         ``(rows, cols, values)``: ``values = point_similarity(a, b, τ)[rows, cols]``, every non-zero
-        entry once, rows ascending and columns ascending within a row.
+            entry once, rows ascending and columns ascending within a row.
     """
     tau = float(threshold)
     if not (np.isfinite(tau) and tau > 0):
@@ -122,10 +126,11 @@ def box_iou_entries(
 
     A positive IoU needs the boxes to overlap: their centres are then closer than the sum of
     their half-extents on each axis, at most ``w_a/2 + max w_b/2`` (and the same for heights). The
-    finite boxes of ``b`` are indexed by centre (:func:`track_envs.infra.spatial.candidate_pairs`)
-    and each box of ``a`` queries that box (with a margin for the rounding of the centres); the
-    IoU is computed on the candidates by the same operations as :func:`box_iou`. A box with a
-    non-finite coordinate has IoU 0 (or NaN, which ``nan_to_num`` makes 0) with every box.
+    finite boxes of ``b`` are indexed by centre
+    ([`track_envs.infra.spatial.candidate_pairs`][track_envs.infra.spatial.candidate_pairs]) and each box of
+    ``a`` queries that box (with a margin for the rounding of the centres); the IoU is computed on the
+    candidates by the same operations as [`box_iou`][track_envs.metrics.box_iou]. A box with a non-finite
+    coordinate has IoU 0 (or NaN, which ``nan_to_num`` makes 0) with every box.
     """
     a = _corners(boxes_a, box_format, "boxes_a")
     b = _corners(boxes_b, box_format, "boxes_b")

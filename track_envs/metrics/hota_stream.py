@@ -1,30 +1,34 @@
-"""HOTA as a streaming :class:`~track_envs.metrics.base.Metric` of the environments' reports.
+"""HOTA as a streaming [`Metric`][track_envs.metrics.Metric] of the environments' reports.
 
 Luiten et al., "HOTA: A Higher Order Metric for Evaluating Multi-Object Tracking", IJCV 2021;
-the figures and their definitions are those of :mod:`track_envs.metrics.hota`. What the
+the figures and their definitions are those of [`track_envs.metrics.hota`][track_envs.metrics.hota]. What the
 environments add is the similarity between the visible truth and the reported tracks (mask 1):
 
-* :class:`Hota`, points: ``S = max(0, 1 − d/τ)`` with ``d`` the Euclidean distance and ``τ`` the
+* [`Hota`][track_envs.metrics.Hota], points: ``S = max(0, 1 − d/τ)`` with ``d`` the Euclidean distance and
+``τ`` the
   metric's distance threshold (the CLEAR MOT match distance and GOSPA cut-off ``c`` of
-  :func:`~track_envs.wrappers.tracking_metrics.point_metrics`). A pair is then a true positive
+  [`point_metrics`][track_envs.metrics.point_metrics]). A pair is then a true positive
   at α when ``d ≤ (1 − α) τ``: the α-average sweeps the match distance from ``0.95 τ`` down to
   ``0.05 τ``, and LocA is ``1 − (mean matched distance)/τ``.
-* :class:`BoxHota`, boxes (MOTChallenge files): ``S`` the intersection over union of the boxes
+* [`BoxHota`][track_envs.metrics.BoxHota], boxes (MOTChallenge files): ``S`` the intersection over union of
+the boxes
   (``truth["boxes"]``, ``report["boxes"]``; a box that is not finite overlaps nothing).
-* :class:`PoseHota`, poses: ``S`` the object keypoint similarity (OKS, COCO's, with the truth
-  area ``area_factor · scale²`` as :class:`~track_envs.metrics.keypoints.PoseOks` uses).
+* [`PoseHota`][track_envs.metrics.PoseHota], poses: ``S`` the object keypoint similarity (OKS, COCO's, with
+the truth
+  area ``area_factor · scale²`` as [`PoseOks`][track_envs.metrics.PoseOks] uses).
 
-Only the non-zero similarities are computed and kept: :class:`Hota` takes the pairs closer than
-``τ`` and :class:`BoxHota` the overlapping boxes from a spatial index
-(:func:`~track_envs.metrics.hota_similarity.point_similarity_entries`,
-:func:`~track_envs.metrics.hota_similarity.box_iou_entries`), and the accumulator matches each
-frame per connected component (:mod:`~track_envs.metrics.hota_matching`), so a frame costs time
-linear in the targets; the figures are those of the dense matrices, bit for bit. (:class:`PoseHota`
-still builds the dense OKS matrix: OKS is positive for every pair.)
+Only the non-zero similarities are computed and kept: [`Hota`][track_envs.metrics.Hota] takes the pairs closer
+than ``τ`` and [`BoxHota`][track_envs.metrics.BoxHota] the overlapping boxes from a spatial index
+([`point_similarity_entries`][track_envs.metrics.hota_similarity.point_similarity_entries],
+[`box_iou_entries`][track_envs.metrics.hota_similarity.box_iou_entries]), and the accumulator matches each
+frame per connected component ([`hota_matching`][track_envs.metrics.hota_matching]), so a frame costs time
+linear in the targets; the figures are those of the dense matrices, bit for bit.
+([`PoseHota`][track_envs.metrics.PoseHota] still builds the dense OKS matrix: OKS is positive for every pair.)
 
-The keys of :meth:`Hota.compute` are :data:`HOTA_KEYS`' values: ``hota``, ``det_a``, ``ass_a``,
-``loc_a``, ``det_re``, ``det_pr``, ``ass_re``, ``ass_pr`` (the α-averaged figures; 0, and
-``loc_a`` 1, before any truth or report row).
+The keys of [`Hota.compute`][track_envs.metrics.hota_stream._StreamingHota.compute] are
+[`HOTA_KEYS`][track_envs.metrics.hota_stream.HOTA_KEYS]' values: ``hota``, ``det_a``, ``ass_a``, ``loc_a``,
+``det_re``, ``det_pr``, ``ass_re``, ``ass_pr`` (the α-averaged figures; 0, and ``loc_a`` 1, before any truth
+or report row).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from track_envs.metrics.hota import HOTA_FIELDS, HotaAccumulator
 from track_envs.metrics.hota_similarity import box_iou_entries, point_similarity_entries
 from track_envs.metrics.keypoints import oks, report_poses, truth_poses
 
-#: HOTA's figure names (:data:`~track_envs.metrics.hota.HOTA_FIELDS`) and the metric keys they
+#: HOTA's figure names ([`HOTA_FIELDS`][track_envs.metrics.hota.HOTA_FIELDS]) and the metric keys they
 #: have in ``episode_metrics``, records and tables.
 HOTA_KEYS: dict[str, str] = {
     "HOTA": "hota",
@@ -54,7 +58,8 @@ HOTA_KEYS: dict[str, str] = {
 
 
 def hota_keys(figures: Mapping[str, float]) -> dict[str, float]:
-    """:meth:`HotaAccumulator.compute`'s figures under their metric keys (:data:`HOTA_KEYS`)."""
+    """[`HotaAccumulator.compute`][track_envs.metrics.HotaAccumulator.compute]'s figures under their metric
+    keys ([`HOTA_KEYS`][track_envs.metrics.hota_stream.HOTA_KEYS])."""
     return {HOTA_KEYS[name]: float(figures[name]) for name in HOTA_FIELDS}
 
 
@@ -112,7 +117,7 @@ class BoxHota(_StreamingHota):
     """Streaming HOTA of boxed reports against the visible boxed truth, with IoU as similarity.
 
     Frames carry ``truth["boxes"]`` and ``report["boxes"]`` (rows, 4) ``(left, top, width, height)``
-    as :class:`~track_envs.metrics.boxes.BoxClearMot` reads them; TrackEval's MOTChallenge HOTA is
+    as [`BoxClearMot`][track_envs.metrics.BoxClearMot] reads them; TrackEval's MOTChallenge HOTA is
     this on the same boxes.
     """
 
@@ -137,7 +142,8 @@ class PoseHota(_StreamingHota):
     """Streaming HOTA of reported poses against the visible truth poses, with OKS as similarity.
 
     Args:
-        area_factor: The truth area is ``area_factor · scale²`` (as :class:`PoseOks`), > 0.
+        area_factor: The truth area is ``area_factor · scale²`` (as
+            [`PoseOks`][track_envs.metrics.PoseOks]), > 0.
     """
 
     def __init__(self, area_factor: float = 0.2) -> None:

@@ -11,8 +11,9 @@ arrays that compiled kernels read and update directly:
   power of two ≥ 2 · capacity (load ≤ ½), each slot an entry number or −1; the extra last
   element holds the number of entries.
 
-Kernels never grow the table: they check :func:`free_entries` first, and the Python side calls
-:meth:`KeyTable.reserve` (amortised doubling) before handing the arrays over.
+Kernels never grow the table: they check [`free_entries`][track_envs.metrics.key_table.free_entries] first,
+and the Python side calls [`KeyTable.reserve`][track_envs.metrics.key_table.KeyTable.reserve] (amortised
+doubling) before handing the arrays over.
 """
 
 from __future__ import annotations

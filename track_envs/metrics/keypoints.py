@@ -9,9 +9,10 @@ area ``A`` and a detected pose ``x``,
     \\mathrm{OKS} = \\frac{1}{|\\{k: v_k > 0\\}|} \\sum_{k: v_k > 0}
     \\exp\\Big(-\\frac{\\lVert x_k - g_k \\rVert^2}{2 A \\kappa_k^2}\\Big), \\qquad \\kappa_k = 2\\sigma_k,
 
-with the 17 COCO sigmas :data:`COCO_SIGMAS`. :func:`oks` reproduces
-``pycocotools.cocoeval.COCOeval.computeOks`` bit for bit on the same arrays, including its rule for
-a truth without labelled keypoints (distance to a box twice the truth's bounding box).
+with the 17 COCO sigmas [`COCO_SIGMAS`][track_envs.metrics.keypoints.COCO_SIGMAS].
+[`oks`][track_envs.metrics.oks] reproduces ``pycocotools.cocoeval.COCOeval.computeOks`` bit for bit on the
+same arrays, including its rule for a truth without labelled keypoints (distance to a box twice the truth's
+bounding box).
 
 **Per-keypoint MOTA** (PoseTrack; Andriluka et al., "PoseTrack: A Benchmark for Human Pose
 Estimation and Tracking", CVPR 2018, evaluated with the ``poseval`` tool): every keypoint type
@@ -19,7 +20,7 @@ Estimation and Tracking", CVPR 2018, evaluated with the ``poseval`` tool): every
 people whose keypoint ``k`` is visible, the hypotheses are the reported tracks (every reported
 keypoint counts as predicted), and a pair may match when the PCKh criterion holds,
 ``‖x_k − g_k‖ ≤ 0.5 · head_size``. CLEAR MOT events (matches, misses, false positives, ID switches)
-are counted per type with py-motmetrics' rules (:class:`~track_envs.metrics.clear_mot.ClearMot`), and
+are counted per type with py-motmetrics' rules ([`ClearMot`][track_envs.metrics.ClearMot]), and
 
 .. math::
 
@@ -138,8 +139,8 @@ def pairwise_oks(
 
     Returns:
         (n, m) OKS, the mean over the keypoints valid in both poses of a pair, 0 for a pair with
-        none: :func:`paired_oks` of every detection against every pose of ``a`` (broadcast views,
-        one batched expression, no Python loop over pairs or keypoints).
+            none: `paired_oks` of every detection against every
+            pose of ``a`` (broadcast views, one batched expression, no Python loop over pairs or keypoints).
     """
     x = np.asarray(a, dtype=np.float64)
     m = len(np.asarray(b))
@@ -158,7 +159,8 @@ def paired_oks(
     sigmas: ArrayLike = COCO_SIGMAS,
 ) -> NDArray[np.float64]:
     """OKS of the poses ``a`` (c, P, K, 2) of row ``r`` against the one pose ``b[r]`` (c, K, 2): the
-    pairs one chooses (:func:`pairwise_oks` is this over every pair), one batched expression.
+    pairs one chooses ([`pairwise_oks`][track_envs.metrics.pairwise_oks] is this over every pair), one batched
+    expression.
 
     Args:
         a: (c, P, K, 2) poses, ``P`` per row (e.g. the particles of one filter).
@@ -242,8 +244,9 @@ class KeypointMota:
     poseval assigns people); a reported keypoint whose assigned person has that keypoint hidden
     is left out of that keypoint's hypotheses ("don't care"). Reported poses assigned to no one
     count with all 17 keypoints. Track ids in a frame are unique and non-negative by the report
-    contract (:func:`track_envs.contracts.report.validate_report`); rows that share an id anyway are
-    scored as :class:`ClearMot` scores them (distinct hypotheses sharing the id's history).
+    contract ([`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]); rows
+    that share an id anyway are scored as [`ClearMot`][track_envs.metrics.ClearMot] scores them (distinct
+    hypotheses sharing the id's history).
 
     Args:
         pckh: Match threshold as a fraction of the head size (PoseTrack: 0.5).
@@ -302,9 +305,10 @@ class KeypointMota:
 
         Returns:
             ``mota`` (total over keypoints), ``id_switches`` (total), ``num_misses``,
-            ``num_false_positives``, ``num_objects`` (totals), ``id_switches_nose`` (Okada et al. 2020,
-            Table II), ``mota_<keypoint>`` and ``id_switches_<keypoint>`` for each of the 17, and
-            ``mota_<group>`` for the groups of :data:`KEYPOINT_GROUPS`. Ratios over zero are NaN.
+                ``num_false_positives``, ``num_objects`` (totals), ``id_switches_nose`` (Okada et al. 2020,
+                Table II), ``mota_<keypoint>`` and ``id_switches_<keypoint>`` for each of the 17, and
+                ``mota_<group>`` for the groups of
+                `KEYPOINT_GROUPS`. Ratios over zero are NaN.
         """
         parts = [acc.compute() for acc in self._per_kp]
         errors = np.array([p["num_misses"] + p["num_false_positives"] + p["id_switches"] for p in parts])
@@ -331,10 +335,10 @@ class PoseOks:
     Per frame, truths and tracks are matched one-to-one by maximum total OKS (Hungarian); pairs
     below ``threshold`` do not count as matches. The truth area is ``area_factor · scale²``.
     Track ids play no part (they are unique and non-negative in a frame by the report
-    contract, :func:`track_envs.contracts.report.validate_report`).
+    contract, [`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]).
 
-    Returns from :meth:`compute`: ``oks_mean`` (mean OKS over matched pairs), ``oks_recall``
-    (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.
+    Returns from [`compute`][track_envs.metrics.PoseOks.compute]: ``oks_mean`` (mean OKS over matched pairs),
+    ``oks_recall`` (matched / truths) and ``oks_precision`` (matched / reported), at ``threshold``.
     """
 
     traits = MetricTraits(needs_truth=True)

@@ -1,25 +1,25 @@
 """Merged detections in the metrics: one detection that stands for several particles.
 
 A camera reports touching particles as one blob at their area-weighted centroid
-(:mod:`track_envs.envs.blobs`); the env then lists every truth id behind each detection row in
-``info["detection_ids_merged"]`` (max_detections, K), −1 padded, column 0 being
+([`track_envs.envs.blobs`][track_envs.envs.blobs]); the env then lists every truth id behind each detection
+row in ``info["detection_ids_merged"]`` (max_detections, K), −1 padded, column 0 being
 ``info["detection_ids"]``. A tracker that updates a track with such a detection has done nothing
 wrong whichever of the particles the track follows, so the metrics count the association of a
 merged detection to *either* particle's track as correct:
 
-* **e1 / e2** (:class:`~track_envs.metrics.belt.AssociationErrors`): an update of track ``T``
+* **e1 / e2** ([`AssociationErrors`][track_envs.metrics.AssociationErrors]): an update of track ``T``
   with a merged detection of particles ``S`` adds no pair when ``T`` holds a measurement of some
   ``s ∈ S`` from a detection of one particle (at any time of the episode); otherwise (a track only
   ever fed by merged detections) it counts as a measurement of the detection's primary particle
   (its largest, ``S[0]``). Every member of ``S`` counts as a particle that produced a detection.
-* **CLEAR MOT / IDF1** (:class:`~track_envs.metrics.clear_mot.ClearMot`): a track updated with a
+* **CLEAR MOT / IDF1** ([`ClearMot`][track_envs.metrics.ClearMot]): a track updated with a
   merged detection may match any member ``o ∈ S`` within ``threshold + max_{o' ∈ S} |x_o − x_o'|``
   instead of ``threshold``: the blob's centroid lies in the convex hull of the members' centres,
   so a track within ``threshold`` of the centroid is within that distance of each member (the
   triangle inequality). The match distance entering MOTP is the true one.
 
 Metrics that read merged ids say so with ``traits = MetricTraits(accepts_merged_ids=True)``;
-:class:`~track_envs.wrappers.TrackingMetrics` hands them ``info["detection_ids_merged"]`` when the
+[`TrackingMetrics`][track_envs.wrappers.TrackingMetrics] hands them ``info["detection_ids_merged"]`` when the
 env provides it, and ``info["detection_ids"]`` (one id per row) to every other metric.
 """
 
@@ -70,7 +70,7 @@ def resolve_merged(
     """The (track id, particle id) pairs the merged records add (see the module docstring).
 
     Args:
-        pair_index, pair_entries: The :class:`~track_envs.metrics.key_table.KeyTable` of the pairs
+        pair_index, pair_entries: The [`KeyTable`][track_envs.metrics.key_table.KeyTable] of the pairs
             from single-particle detections.
         records: (r, 2 + K) keys ``(track id, set key)`` and the members of each merged update.
     """
@@ -114,7 +114,7 @@ def with_merged_pairs(
 
     Returns:
         The same form, with every pair of a track ``j`` updated with a merged detection and a
-        member ``o`` of it at distance ``<= threshold + spread(o)`` (module docstring).
+            member ``o`` of it at distance ``<= threshold + spread(o)`` (module docstring).
     """
     m, n = x.shape[0], y.shape[0]
     n_dims = x.shape[1]

@@ -14,7 +14,7 @@ the PCKh criterion holds,
     s = 0.6 \\, \\lVert (w, h)_{\\text{bbox\\_head}} \\rVert,
 
 the head size of the truth's head box (``getHeadSize`` of poseval). The CLEAR MOT events per joint
-follow py-motmetrics' rules (:class:`~track_envs.metrics.clear_mot.ClearMot`, as poseval's
+follow py-motmetrics' rules ([`ClearMot`][track_envs.metrics.ClearMot], as poseval's
 ``MOTAccumulator``), and
 
 .. math::
@@ -31,7 +31,7 @@ ids 0, 0 with no distance) instead of the frame's truths; here the frame's truth
 
 **HOTA** (Luiten et al., "HOTA: A Higher Order Metric for Evaluating Multi-Object Tracking",
 IJCV 2021) over the same frames, with the OKS of a tracked pose against a truth pose as the
-similarity (:func:`~track_envs.metrics.keypoints.oks`, the COCO sigmas, over the truth's labelled
+similarity ([`oks`][track_envs.metrics.oks], the COCO sigmas, over the truth's labelled
 keypoints) and the truth's object area ``A = area_factor · max(w, h)²`` of its labelled keypoints'
 bounding box (PoseTrack has no segmentation areas; 0.25 × the squared longer side is the area the
 pose agents use for detections). Truths and tracks without a labelled keypoint are left out.
@@ -80,7 +80,7 @@ def per_joint_mota(tracks: PoseStream, truth: PoseStream, *, pckh: float = 0.5) 
 
     Returns:
         ``mota`` (total), ``mota_<keypoint>`` per keypoint name, and the totals ``num_objects``,
-        ``num_misses``, ``num_false_positives``, ``id_switches``.
+            ``num_misses``, ``num_false_positives``, ``id_switches``.
 
     Raises:
         ValueError: keypoint counts that differ, truths without a track id or without a head box
@@ -135,7 +135,8 @@ def truth_areas(truth: PoseStream, area_factor: float = 0.25) -> NDArray[np.floa
 
 
 def pose_hota(tracks: PoseStream, truth: PoseStream, *, area_factor: float = 0.25) -> dict[str, float]:
-    """HOTA with OKS similarity (module docstring), from :class:`track_envs.metrics.hota.HotaAccumulator`."""
+    """HOTA with OKS similarity (module docstring), from
+    [`track_envs.metrics.hota.HotaAccumulator`][track_envs.metrics.HotaAccumulator]."""
     from track_envs.metrics.hota import HotaAccumulator
     from track_envs.metrics.hota_stream import hota_keys
 

@@ -57,9 +57,9 @@ class PredictionError:
 
     ``update(mean, target, track_ids)`` adds predictions (n, D), the measurements the tracks were
     then updated with (n, D) and the track ids (n,), unique and non-negative within one update
-    as in a report (:func:`track_envs.contracts.report.validate_report`). Rows with a non-finite target
-    (coasting tracks) are skipped. Per-track sums (error, squared error, count) are merged by track id with
-    :func:`numpy.unique` when read, so memory grows with the number of tracks.
+    as in a report ([`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]).
+    Rows with a non-finite target (coasting tracks) are skipped. Per-track sums (error, squared error, count)
+    are merged by track id with `numpy.unique` when read, so memory grows with the number of tracks.
     """
 
     def __init__(self) -> None:

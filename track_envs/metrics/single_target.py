@@ -37,7 +37,7 @@ class SingleTargetError:
     """Streaming mean / RMS estimation error, track loss and occlusion error of one target.
 
     Track ids play no part (in a report they are unique and non-negative within a frame by the
-    report contract, :func:`track_envs.contracts.report.validate_report`).
+    report contract, [`track_envs.contracts.report.validate_report`][track_envs.contracts.validate_report]).
 
     Args:
         occlusion: ``(start, stop)`` half-open frame range of the occlusion interval (frames are

@@ -9,11 +9,11 @@ Predictive Tracking for Sorting Uncooperative Bulk Materials", 2015; Pollithy et
 scores the prediction itself.
 
 Inputs per frame: the truth's nozzle crossings (``nozzle_ids``, ``nozzle_times``,
-``nozzle_lateral``, :mod:`track_envs.envs.nozzle`) and the report's optional sorting channel
-(``sorting_*``, :mod:`track_envs.contracts.sorting_channel`). A prediction belongs to the particle of the
-detection its track was last updated with (``detection_ids`` of that frame; with merged blobs,
-the blob's primary particle), and each particle is scored on the **last** prediction made for
-it. With the true crossing ``(t_c, y_c)`` and the predicted Gaussian ``N((t̂, ŷ), Σ)``:
+``nozzle_lateral``, [`track_envs.envs.nozzle`][track_envs.envs.nozzle]) and the report's optional sorting
+channel (``sorting_*``, [`track_envs.contracts.sorting_channel`][track_envs.contracts.sorting_channel]). A
+prediction belongs to the particle of the detection its track was last updated with (``detection_ids`` of that
+frame; with merged blobs, the blob's primary particle), and each particle is scored on the **last** prediction
+made for it. With the true crossing ``(t_c, y_c)`` and the predicted Gaussian ``N((t̂, ŷ), Σ)``:
 
 .. math::
 
@@ -191,7 +191,8 @@ PERCENTILES = (50, 90, 95, 99)
 
 
 def _error_stats(prefix: str, unit: str, error: NDArray[np.float64]) -> dict[str, float]:
-    """RMSE, mean (bias) and the :data:`PERCENTILES` of the absolute error; NaN when empty."""
+    """RMSE, mean (bias) and the [`PERCENTILES`][track_envs.metrics.sorting.PERCENTILES] of the absolute
+    error; NaN when empty."""
     keys = [f"{prefix}_rmse_{unit}", f"{prefix}_bias_{unit}"] + [f"{prefix}_p{q}_{unit}" for q in PERCENTILES]
     if not len(error):
         return dict.fromkeys(keys, float("nan"))

@@ -7,8 +7,8 @@ updated with,
 
     MAE_k = (1 / n_k) Σ_t ||ŷ_{k,t} − y_{k,t}||₂ .
 
-:class:`TrackErrorDistribution` streams the per-track sums of
-:class:`~track_envs.metrics.prediction.PredictionError` and summarises the ``MAE_k`` by the
+[`TrackErrorDistribution`][track_envs.metrics.TrackErrorDistribution] streams the per-track sums of
+[`PredictionError`][track_envs.metrics.PredictionError] and summarises the ``MAE_k`` by the
 quantiles of a box plot (5, 25, 50, 75 and 95 %, linear interpolation between order statistics,
 ``numpy.quantile``'s default) plus their mean and count, so a record of flat floats carries the
 whole box.
@@ -32,7 +32,7 @@ def quantile_key(q: float) -> str:
 class TrackErrorDistribution(PredictionError):
     """Streaming distribution over tracks of each track's mean absolute prediction error.
 
-    Fed like :class:`~track_envs.metrics.prediction.PredictionError` (``update(mean, target,
+    Fed like [`PredictionError`][track_envs.metrics.PredictionError] (``update(mean, target,
     track_ids)``; rows with a non-finite target are skipped; memory grows with the number of
     tracks). Every track with at least one scored prediction counts once.
 
@@ -53,8 +53,9 @@ class TrackErrorDistribution(PredictionError):
         return np.asarray(sums[keep, 0] / sums[keep, 2], dtype=np.float64)
 
     def compute(self) -> dict[str, float]:
-        """The :class:`PredictionError` keys plus ``track_error_p05`` … ``track_error_p95``,
-        ``track_error_mean`` and ``track_error_tracks`` (the errors NaN when no track counts)."""
+        """The [`PredictionError`][track_envs.metrics.PredictionError] keys plus ``track_error_p05`` …
+        ``track_error_p95``, ``track_error_mean`` and ``track_error_tracks`` (the errors NaN when no track
+        counts)."""
         out = super().compute()
         values = self.per_track()
         if len(values) == 0:

@@ -1,18 +1,19 @@
 """Score tracks from a file against ground truth from a file, with the point envs' metrics.
 
-:func:`score_tracks` replays both, frame by frame, into the streaming metrics the point
-environments use (:func:`track_envs.metrics.defaults.point_metrics`: CLEAR MOT and IDF1
-with match distance ``c``, GOSPA with cut-off ``c``, and the association errors e1 / e2 / e_mean).
-The association errors need the truth id behind every detection, which a file has only when it
+[`score_tracks`][track_envs.metrics.score_tracks] replays both, frame by frame, into the streaming metrics the
+point environments use ([`track_envs.metrics.defaults.point_metrics`][track_envs.metrics.point_metrics]: CLEAR
+MOT and IDF1 with match distance ``c``, GOSPA with cut-off ``c``, and the association errors e1 / e2 /
+e_mean). The association errors need the truth id behind every detection, which a file has only when it
 was written from a simulation (a MOT detection file's id column); without them they are skipped,
 with a note saying so. Fed the same truth, reports and detection ids, the figures equal those of
 ``TrackingMetrics`` in the gym loop, bit for bit.
 
-Boxes: where the tracks and the truth both have boxes (:attr:`Tracks.boxes`: box detections, a
-MOTChallenge gt), CLEAR MOT and IDF1 match boxes by overlap instead (``match="iou"``, the default
-then: a track matches a truth when ``IoU >= min_iou``, 0.5 as MOTChallenge does, at distance
-``1 − IoU``; :class:`~track_envs.metrics.BoxClearMot`), and MOTP is the mean ``1 − IoU``. GOSPA
-and e1 / e2 stay on the centres (GOSPA with cut-off ``threshold``).
+Boxes: where the tracks and the truth both have boxes
+([`Tracks.boxes`][track_envs.values.tracks.Tracks.boxes]: box detections, a MOTChallenge gt), CLEAR MOT and
+IDF1 match boxes by overlap instead (``match="iou"``, the default then: a track matches a truth when
+``IoU >= min_iou``, 0.5 as MOTChallenge does, at distance ``1 − IoU``;
+[`BoxClearMot`][track_envs.metrics.BoxClearMot]), and MOTP is the mean ``1 − IoU``. GOSPA and e1 / e2 stay on
+the centres (GOSPA with cut-off ``threshold``).
 """
 
 from __future__ import annotations
@@ -83,7 +84,8 @@ def score_tracks(
             cut-off, in the files' units.
         detections: The detections that were tracked; with truth ids (``detections.has_ids``)
             the association errors e1 / e2 / e_mean are scored too.
-        match: ``"iou"`` (boxes), ``"distance"`` (centres) or ``"auto"`` (:func:`match_kind`).
+        match: ``"iou"`` (boxes), ``"distance"`` (centres) or ``"auto"``
+            (`match_kind`).
         min_iou: The smallest IoU of a CLEAR MOT match with ``match="iou"``.
 
     Returns:

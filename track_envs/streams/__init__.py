@@ -1,5 +1,5 @@
 """Synthetic detection streams with known truth, for checks that no env scene isolates: each module
-builds a :class:`~track_envs.values.types.SensorSpec`, the observations a tracker consumes and the truth
+builds a [`SensorSpec`][track_envs.SensorSpec], the observations a tracker consumes and the truth
 to score it by."""
 
 from __future__ import annotations

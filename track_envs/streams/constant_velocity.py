@@ -18,17 +18,17 @@ the frame; a target that leaves the window never returns. The field therefore st
 density ``ρ``: ``v̄ = (1, 0)`` with a small ``s`` is a belt's flow (entries upstream, exits
 downstream), ``v̄ = 0`` with ``s > 0`` targets in every direction.
 
-Every frame, the point sensor of the environments (:func:`track_envs.envs.sensors.sense_points`)
-sees the targets inside the window: each is detected with probability ``p_D``, with Gaussian
-noise ``σ`` per axis, and ``Poisson(λ)`` clutter detections fall uniformly over the window; the
-rows are shuffled and padded. The defaults are the belt's scale — ``dt = 0.01`` s, ``v̄ = (1, 0)``
-m/s, ``s = (0.05, 0.05)`` m/s, ``σ = 0.1`` mm, a 0.5 m × 0.3 m window — with ``N = 150``,
-``p_D = 0.9`` and ``λ = 5``: targets about 3 cm apart that move 1 cm per frame and stay in view
-for ≈50 frames.
+Every frame, the point sensor of the environments
+([`track_envs.envs.sensors.sense_points`][track_envs.envs.sensors.sense_points]) sees the targets inside the
+window: each is detected with probability ``p_D``, with Gaussian noise ``σ`` per axis, and ``Poisson(λ)``
+clutter detections fall uniformly over the window; the rows are shuffled and padded. The defaults are the
+belt's scale — ``dt = 0.01`` s, ``v̄ = (1, 0)`` m/s, ``s = (0.05, 0.05)`` m/s, ``σ = 0.1`` mm, a 0.5 m × 0.3 m
+window — with ``N = 150``, ``p_D = 0.9`` and ``λ = 5``: targets about 3 cm apart that move 1 cm per frame and
+stay in view for ≈50 frames.
 
-:func:`score_tracker` runs a tracker over a stream and scores its reports with the
-environments' point metrics: CLEAR MOT and IDF1 (:class:`~track_envs.metrics.clear_mot.ClearMot`)
-and HOTA (:class:`~track_envs.metrics.hota_stream.Hota`), match distance ``c`` (default 5 mm,
+[`score_tracker`][track_envs.streams.score_tracker] runs a tracker over a stream and scores its reports with
+the environments' point metrics: CLEAR MOT and IDF1 ([`ClearMot`][track_envs.metrics.ClearMot])
+and HOTA ([`Hota`][track_envs.metrics.Hota]), match distance ``c`` (default 5 mm,
 the belt's GOSPA cut-off).
 """
 
@@ -87,10 +87,10 @@ DEFAULT_TARGETS, DEFAULT_SIZE, DEFAULT_CLUTTER = 150.0, (0.5, 0.3), 5.0
 
 
 def constant_density(n_targets: float) -> dict[str, Any]:
-    """Keyword arguments of :func:`constant_velocity_stream` for ``n_targets`` in view at the
-    default scene's densities: the window grows with ``s = √(N / 150)`` to ``(0.5 s, 0.3 s)`` m
-    and the clutter to ``5 N / 150`` per frame, so targets stay ≈3 cm apart and clutter per area
-    is the default's::
+    """Keyword arguments of [`constant_velocity_stream`][track_envs.streams.constant_velocity_stream] for
+    ``n_targets`` in view at the default scene's densities: the window grows with ``s = √(N / 150)`` to
+    ``(0.5 s, 0.3 s)`` m and the clutter to ``5 N / 150`` per frame, so targets stay ≈3 cm apart and clutter
+    per area is the default's::
 
         constant_velocity_stream(rng, **constant_density(100_000), frames=50)
 
@@ -138,8 +138,8 @@ def constant_velocity_stream(
             ``v̄ = 0`` (no target would enter).
 
     Returns:
-        :class:`ConstantVelocityStream` ``(spec, observations, truth_ids, truth_positions,
-        detection_ids)``.
+        [`ConstantVelocityStream`][track_envs.streams.ConstantVelocityStream]
+            ``(spec, observations, truth_ids, truth_positions, detection_ids)``.
 
     Raises:
         ValueError: naming the argument, its value and the valid range.
@@ -298,15 +298,15 @@ def score_tracker(
 
     Args:
         agent: A tracker.
-        stream: The stream (:func:`constant_velocity_stream`).
+        stream: The stream ([`constant_velocity_stream`][track_envs.streams.constant_velocity_stream]).
         threshold: ``c``, the match distance of CLEAR MOT / IDF1 and HOTA's zero-similarity
             distance (m), > 0.
         seed: Passed to ``agent.reset``.
 
     Returns:
-        :meth:`ClearMot.compute <track_envs.metrics.clear_mot.ClearMot.compute>`'s figures
-        (``mota``, ``idf1``, ``id_switches``, ...) and :class:`~track_envs.metrics.hota_stream.Hota`'s
-        (``hota``, ``det_a``, ``ass_a``, ...).
+        [`ClearMot.compute`][track_envs.metrics.ClearMot.compute]'s figures
+            (``mota``, ``idf1``, ``id_switches``, ...) and [`Hota`][track_envs.metrics.Hota]'s
+            (``hota``, ``det_a``, ``ass_a``, ...).
     """
     threshold = check_positive("threshold", threshold)
     metrics: list[Metric] = [ClearMot(threshold=threshold), Hota(threshold=threshold)]

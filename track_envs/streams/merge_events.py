@@ -4,8 +4,8 @@ On a sorter belt (≈1 m/s, 200 Hz, declared noise σ = 0.03 mm) three events ma
 knows no merged blobs move its tracks: two particles in neighbouring lanes reported for one frame
 as one blob (a *join*), a blob that enters as one detection and then falls apart into two
 (a *separation*), and a side-by-side pair that gives no detection for one frame (a *missed pair*).
-A blob's detection is the area-weighted centroid of its particles (:mod:`track_envs.envs.blobs`),
-for equal particles their midpoint
+A blob's detection is the area-weighted centroid of its particles
+([`track_envs.envs.blobs`][track_envs.envs.blobs]), for equal particles their midpoint
 
 .. math::
 
@@ -27,9 +27,9 @@ window (x = 0) at frame ``i · period`` in lateral slot ``i mod 8`` (slots 20 mm
 * a *follower* 10–20 mm behind the pair in one of its lanes.
 
 The event happens ``lead_frames`` frames after the instance entered (a settled track), the
-scoring window (:mod:`track_envs.streams.merge_scoring`) is the ``window`` frames after it, and the
-window's end stays inside the 400 mm camera window. Every detected particle or blob gives one
-detection row (p_detect 1, no clutter), rows shuffled per frame, noise added as declared.
+scoring window ([`track_envs.streams.merge_scoring`][track_envs.streams.merge_scoring]) is the ``window``
+frames after it, and the window's end stays inside the 400 mm camera window. Every detected particle or blob
+gives one detection row (p_detect 1, no clutter), rows shuffled per frame, noise added as declared.
 """
 
 from __future__ import annotations
@@ -127,7 +127,8 @@ def join_stream(
         rng: The stream's random generator.
         n_events: Instances of the event (>= 1).
         lane_gap: Lateral distance of the two lanes (m, in (0, 4 mm]).
-        **layout: ``lead_frames``, ``window``, ``period`` (:func:`_layout`).
+        **layout: ``lead_frames``, ``window``, ``period``
+            ([`_layout`][track_envs.streams.merge_events._layout]).
     """
     return _build("join", rng, n_events, _gap(lane_gap, "lane_gap"), layout)
 
@@ -143,7 +144,8 @@ def separation_stream(
         rng: The stream's random generator.
         n_events: Instances of the event (>= 1).
         piece_offset: Lateral distance of each piece from the blob's path (m, in (0, 2 mm]).
-        **layout: ``lead_frames`` (>= 10 here), ``window``, ``period`` (:func:`_layout`).
+        **layout: ``lead_frames`` (>= 10 here), ``window``, ``period``
+            ([`_layout`][track_envs.streams.merge_events._layout]).
     """
     gap = 2.0 * _gap(piece_offset, "piece_offset", high=2e-3)
     if layout.get("lead_frames", 20) < 10:
@@ -167,7 +169,8 @@ def missed_pair_stream(
         rng: The stream's random generator.
         n_events: Instances of the event (>= 1).
         lane_gap: Range of the lateral distance of the two lanes (m, ``0 < low <= high <= 4 mm``).
-        **layout: ``lead_frames``, ``window``, ``period`` (:func:`_layout`).
+        **layout: ``lead_frames``, ``window``, ``period``
+            ([`_layout`][track_envs.streams.merge_events._layout]).
     """
     try:
         low, high = (float(g) for g in lane_gap)

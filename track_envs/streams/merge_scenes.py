@@ -1,6 +1,6 @@
 r"""Pair scenes on a sorter belt with known truth, one per candidate cause of merged-blob mistakes.
 
-A tracker with a merged-blob model (:mod:`agents.jpda`) may explain one detection as the blob of two
+A tracker with a merged-blob model ([`agents.jpda`][agents.jpda]) may explain one detection as the blob of two
 tracks. Each scene here repeats one kind of encounter of two particles ``a`` and ``b`` (with a
 third, a *neighbour* lane beside them) ``n_events`` times over one stream, in metres as the real
 recordings (200 Hz, declared noise σ = 30 µm, no clutter, every particle detected), so that a
@@ -27,16 +27,16 @@ tracker's identities can be scored against truth per candidate:
   4–6 mm apart, ⌀ 4 mm.
 
 A particle's detection is its centroid (plus the rotation's offset); two particles whose outlines
-come closer than :data:`CONTACT` (the segmentation joins them) give one detection at the
-area-weighted centroid
+come closer than [`CONTACT`][track_envs.streams.merge_scenes.CONTACT] (the segmentation joins them) give one
+detection at the area-weighted centroid
 
 .. math::
 
     z = w\, x_a + (1 - w)\, x_b + ε, \qquad w = \frac{r_a^2}{r_a^2 + r_b^2}, \quad ε \sim N(0, σ^2 I),
 
-(as :mod:`track_envs.envs.blobs`; a pair only, the neighbour is never within reach). Instance ``i``
-enters the window (x = 0) at frame ``i · period`` in lateral slot ``i mod 8`` (slots 20 mm apart),
-``a`` and ``b`` side by side ``meet_frame`` frames later.
+(as [`track_envs.envs.blobs`][track_envs.envs.blobs]; a pair only, the neighbour is never within reach).
+Instance ``i`` enters the window (x = 0) at frame ``i · period`` in lateral slot ``i mod 8`` (slots 20 mm
+apart), ``a`` and ``b`` side by side ``meet_frame`` frames later.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ class MergeScene:
     (neighbour) and ``4i + 3`` (follower, in the window only in ``sparse``).
 
     Attributes:
-        name: One of :data:`SCENES`.
+        name: One of `SCENES`.
         spec: The sensor (dt 0.005 s, D = 2, noise 3e-5 m, p_detect 1, no clutter).
         detections: (T, 64, 2) float32 rows, zero padded, shuffled per frame.
         mask: (T, 64) int8, 1 on real rows.
@@ -139,7 +139,7 @@ def merge_scene(name: str, rng: np.random.Generator, *, n_events: int = 24) -> M
     """The stream of scene ``name`` (module docstring) with ``n_events`` encounters.
 
     Args:
-        name: One of :data:`SCENES`.
+        name: One of `SCENES`.
         rng: The stream's random generator.
         n_events: Encounters (>= 1).
 

@@ -1,11 +1,13 @@
-"""Per-event scores of a tracker on the merge-event streams (:mod:`track_envs.streams.merge_events`).
+"""Per-event scores of a tracker on the merge-event streams
+([`track_envs.streams.merge_events`][track_envs.streams.merge_events]).
 
-The agent runs over the whole stream once (:func:`agents.merge_scoring.run_on_stream`, which
-fills a :class:`TrackHistory`); each event is then scored on the report in its window, the ``W``
-frames ``e + 1 … e + W`` after the event frame ``e`` (:func:`score_events`). Matching is by
-distance: a track *holds* particle ``p`` in frame ``t`` when it is the live track nearest to ``p``
-and within ``match_radius`` of it (default 0.6 mm, a third of the 1.8 mm lane gap, 20 σ of the
-sensor noise).
+The agent runs over the whole stream once
+([`agents.merge_scoring.run_on_stream`][agents.merge_scoring.run_on_stream], which fills a
+[`TrackHistory`][track_envs.streams.merge_scoring.TrackHistory]); each event is then scored on the report in
+its window, the ``W`` frames ``e + 1 … e + W`` after the event frame ``e``
+([`score_events`][track_envs.streams.score_events]). Matching is by distance: a track *holds* particle ``p``
+in frame ``t`` when it is the live track nearest to ``p`` and within ``match_radius`` of it (default 0.6 mm, a
+third of the 1.8 mm lane gap, 20 σ of the sensor noise).
 
 Joins and missed pairs: ``T_p``, the track holding ``p`` in frame ``e − 1``.
 
@@ -22,17 +24,18 @@ Joins and missed pairs: ``T_p``, the track holding ``p`` in frame ``e − 1``.
   its reported estimate of the frame before (in metres per frame). A filter that put the blob's
   jump into its velocity and acceleration predicts its track sideways past its particle's lane
   (on the belt recordings by 1–2 mm, where the lanes are 1.8 mm apart). Agents without the
-  tracker-side prediction (the ``LAST_PREDICTION`` capability of :mod:`agents.base`) give the
+  tracker-side prediction (the ``LAST_PREDICTION`` capability of [`agents.base`][agents.base]) give the
   reported steps ``ŷ_y(t) − ŷ_y(t − 1)`` instead, from
   ``t = e + 2`` on (a track that followed the blob at ``e`` rightly steps back into ``e + 1``),
   which see only what is left after each update.
 
-The bounds a tracker that handles merged blobs should meet (:func:`bound_violations`), per
-scenario: at least ``RESOLVED_FRACTION`` (95 %) of the events resolved, and the 95th percentile
-of the kick at most ``KICK_BOUND`` (0.5 mm per frame). The particles move sideways by at most
-0.05 mm per frame; 0.5 mm is six times the kf-ca prediction spread of ≈0.08 mm (a squared
-Mahalanobis distance ≈37, past the 0.999 gate's 13.8), and under the 0.9 mm (half the 1.8 mm
-lane gap) beyond which the partner's detection lies nearer than the particle's own.
+The bounds a tracker that handles merged blobs should meet
+([`bound_violations`][track_envs.streams.merge_scoring.bound_violations]), per scenario: at least
+``RESOLVED_FRACTION`` (95 %) of the events resolved, and the 95th percentile of the kick at most
+``KICK_BOUND`` (0.5 mm per frame). The particles move sideways by at most 0.05 mm per frame; 0.5 mm is six
+times the kf-ca prediction spread of ≈0.08 mm (a squared Mahalanobis distance ≈37, past the 0.999 gate's
+13.8), and under the 0.9 mm (half the 1.8 mm lane gap) beyond which the partner's detection lies nearer than
+the particle's own.
 
 An event is **resolved** when both particles are held by their own ``T_p`` in every window frame,
 no new track starts, and the max error is within ``error_bound``.
@@ -65,9 +68,9 @@ KICK_BOUND = 5e-4  # m per frame, the kick's 95th percentile over the events of 
 @dataclass(frozen=True)
 class TrackHistory:
     """The reports of one run: ids (T, R) int64 (−1 on empty rows) and positions (T, R, D); and,
-    when the agent declares them (``LAST_PREDICTION``, :mod:`agents.base`: the tracker-side
-    channel of :class:`agents.gnn.agent.GnnAgent`), the predicted measurement of each track in
-    each frame, ``predicted_ids`` (T, R) and ``predicted`` (T, R, D), else None."""
+    when the agent declares them (``LAST_PREDICTION``, [`agents.base`][agents.base]: the tracker-side
+    channel of [`agents.gnn.agent.GnnAgent`][agents.gnn.agent.GnnAgent]), the predicted measurement of each
+    track in each frame, ``predicted_ids`` (T, R) and ``predicted`` (T, R, D), else None."""
 
     ids: NDArray[np.int64]
     positions: NDArray[np.float64]
@@ -78,10 +81,10 @@ class TrackHistory:
 @dataclass(frozen=True)
 class EventScores:
     """Per-event scores (E,) of one run (module docstring); ``stream`` is the whole-stream
-    CLEAR MOT / IDF1 (:class:`~track_envs.metrics.ClearMot` with merged ids, threshold
-    :data:`MATCH_RADIUS`), for reference only: on a separation stream it counts up to one switch
-    per event even for a tracker that does everything right, as the blob's track matches the
-    blob's first particle while merged and may then follow the other piece."""
+    CLEAR MOT / IDF1 ([`ClearMot`][track_envs.metrics.ClearMot] with merged ids, threshold
+    `MATCH_RADIUS`), for reference only: on a separation
+    stream it counts up to one switch per event even for a tracker that does everything right, as the blob's
+    track matches the blob's first particle while merged and may then follow the other piece."""
 
     kind: str
     switches: NDArray[np.int64]
@@ -128,8 +131,8 @@ def bound_violations(scores: EventScores) -> list[str]:
 
 
 def concat_scores(scores: list[EventScores]) -> EventScores:
-    """The events of several runs of one scenario as one :class:`EventScores` (``stream``: the
-    runs' CLEAR MOT counts summed, IDF1 left out)."""
+    """The events of several runs of one scenario as one [`EventScores`][track_envs.streams.EventScores]
+    (``stream``: the runs' CLEAR MOT counts summed, IDF1 left out)."""
     if not scores or len({s.kind for s in scores}) != 1:
         raise ValueError(
             f"scores must be a non-empty list of one scenario, got kinds {[s.kind for s in scores]}"

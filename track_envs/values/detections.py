@@ -1,9 +1,9 @@
 """A recorded stream of point detections without identities, frame by frame.
 
-:class:`Detections` holds every frame's detections in one flat array (CSR layout: frame ``t``
-owns rows ``offsets[t]:offsets[t + 1]`` of ``points``), so that a stream of 50,000 frames is a
-few arrays, not 50,000 small ones. The file readers of :mod:`track_envs.io.detections` return
-it; :class:`~track_envs.envs.detection_replay.DetectionReplayEnv` replays it and
+[`Detections`][track_envs.Detections] holds every frame's detections in one flat array (CSR layout: frame
+``t`` owns rows ``offsets[t]:offsets[t + 1]`` of ``points``), so that a stream of 50,000 frames is a
+few arrays, not 50,000 small ones. The file readers of [`track_envs.io.detections`][track_envs.io.detections]
+return it; [`DetectionReplayEnv`][track_envs.envs.DetectionReplayEnv] replays it and
 ``agents.files.points.run_agent`` tracks it.
 """
 
@@ -203,7 +203,7 @@ def detection_sensor_spec(
     Args:
         detections: The stream.
         dt: Frame period in seconds; ``None``: inferred from the stream's time stamps
-            (:meth:`Detections.inferred_dt`), an error without them.
+            ([`Detections.inferred_dt`][track_envs.Detections.inferred_dt]), an error without them.
         region: ``((x_low, y_low), (x_high, y_high))``; ``None``: the bounding box of every
             detection grown by 2% of its size on each side.
         measurement_noise_std: The declared measurement noise std per axis (the tracker's ``R``),

@@ -1,8 +1,9 @@
 """The COCO keypoint layout: the 17 keypoint names and the skeleton's limb edges.
 
-Shared by the pose values (:mod:`track_envs.values.poses`), the pose files
-(:mod:`track_envs.io.poses`), the pose metrics (:mod:`track_envs.metrics.keypoints`) and the
-walkers' body model (:mod:`track_envs.envs.skeleton`), which all import them from here.
+Shared by the pose values ([`track_envs.values.poses`][track_envs.values.poses]), the pose files
+([`track_envs.io.poses`][track_envs.io.poses]), the pose metrics
+([`track_envs.metrics.keypoints`][track_envs.metrics.keypoints]) and the walkers' body model
+([`track_envs.envs.skeleton`][track_envs.envs.skeleton]), which all import them from here.
 """
 
 from __future__ import annotations

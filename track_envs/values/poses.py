@@ -1,17 +1,17 @@
 """A recorded stream of keypoint poses, frame by frame (detections, tracks or ground truth).
 
-:class:`PoseStream` is the pose twin of :class:`~track_envs.values.detections.Detections`: every frame's
+[`PoseStream`][track_envs.PoseStream] is the pose twin of [`Detections`][track_envs.Detections]: every frame's
 poses in flat arrays (CSR layout: frame ``t`` owns rows ``offsets[t]:offsets[t + 1]``), with what
 the pose file formats carry per pose (a track id, a pose score, a head box) and per frame (the
-image id and file name). The readers and the writer of :mod:`track_envs.io.poses` map to it,
-``agents.files.poses.run_pose_agent`` tracks it, and :mod:`track_envs.metrics.pose_scoring` scores
-one stream against another.
+image id and file name). The readers and the writer of [`track_envs.io.poses`][track_envs.io.poses] map to it,
+``agents.files.poses.run_pose_agent`` tracks it, and
+[`track_envs.metrics.pose_scoring`][track_envs.metrics.pose_scoring] scores one stream against another.
 
 Keypoints follow COCO: ``(x, y, v)`` with ``v = 0`` not labelled (``x = y = 0``), ``v = 1``
 labelled but not visible, ``v = 2`` labelled and visible. A keypoint counts (is present) where
 ``v > 0``. Each keypoint also has a confidence in [0, 1] (``keypoint_scores``; 0 where ``v = 0``).
 
-:func:`pose_observation` packs one frame as KeypointWalkers-v0 observes it:
+[`pose_observation`][track_envs.values.pose_observation] packs one frame as KeypointWalkers-v0 observes it:
 ``{"detections": (max_detections, K, 3) float32, "mask": (max_detections,) int8}`` with ``x, y``
 and the keypoint's confidence, a confidence of 0 (and ``x = y = 0``) for a keypoint not detected.
 """
@@ -217,9 +217,9 @@ def pose_sensor_spec(
 
 def pose_observation(stream: PoseStream, t: int, spec: SensorSpec) -> dict[str, NDArray]:
     """Frame ``t`` of ``stream`` as a pose agent's observation (the twin of
-    :func:`track_envs.contracts.observation.pack_observation`): row ``i`` is the frame's ``i``-th pose,
-    ``x, y`` and confidence per keypoint as float32 (all 0 for a keypoint with confidence 0),
-    padding rows zero, mask 0.
+    [`track_envs.contracts.observation.pack_observation`][track_envs.contracts.pack_observation]): row ``i``
+    is the frame's ``i``-th pose, ``x, y`` and confidence per keypoint as float32 (all 0 for a keypoint with
+    confidence 0), padding rows zero, mask 0.
 
     Raises:
         ValueError: if the frame holds more poses than ``spec.max_detections``.

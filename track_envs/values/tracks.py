@@ -1,10 +1,11 @@
 """Tracks over a whole stream: what a tracker reported (or the truth), one row per (frame, track).
 
-:class:`Tracks` is the long layout every track file maps to: ``frame`` (from 0), ``ids``,
+[`Tracks`][track_envs.Tracks] is the long layout every track file maps to: ``frame`` (from 0), ``ids``,
 ``positions`` and, where a predictor gives one, the covariance of each position, and where the
 detections were boxes, the box of each row. It converts from
-the per-frame reports of the tracking contract (:meth:`Tracks.from_reports`) and to the per-frame
-padded arrays the streaming metrics take (:meth:`Tracks.padded_frame`).
+the per-frame reports of the tracking contract ([`Tracks.from_reports`][track_envs.Tracks.from_reports]) and
+to the per-frame padded arrays the streaming metrics take
+([`Tracks.padded_frame`][track_envs.Tracks.padded_frame]).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ class Tracks:
         boxes: (N, 4) float64 box of each row, ``(left, top, width, height)`` (MOTChallenge's
             ``bb_left, bb_top, bb_width, bb_height``; NaN: a row without a box), or None. A
             tracker's row carries the box of the detection it was updated with, and while it
-            coasts the last box it had (:func:`carried_boxes`).
+            coasts the last box it had ([`carried_boxes`][track_envs.values.carried_boxes]).
     """
 
     frame: NDArray[np.int64]
@@ -114,9 +115,10 @@ class Tracks:
         covariances: Sequence[NDArray | None] | None = None,
         first_frame: int = 0,
     ) -> Tracks:
-        """:meth:`from_reports` with the reports' arrays given key by key (one list per key, one
-        array per frame), which is how :func:`agents.files.points.run_agent` keeps them: arrays, not dicts,
-        so that the reports of a block hold no objects Python's garbage collector scans."""
+        """[`from_reports`][track_envs.Tracks.from_reports] with the reports' arrays given key by key (one
+        list per key, one array per frame), which is how [`agents.files.points.run_agent`][agents.run_agent]
+        keeps them: arrays, not dicts, so that the reports of a block hold no objects Python's garbage
+        collector scans."""
         if not len(mask):
             return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), first_frame)
         n, rows = len(mask), len(mask[0])

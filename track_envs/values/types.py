@@ -38,7 +38,7 @@ class SensorSpec:
             ``region_high[0]``) of the nozzle bar of an optical belt sorter, or ``None`` where
             there is none. A tracker that knows it can predict when and where across the belt
             each target crosses it (the report's optional sorting channel,
-            :mod:`track_envs.contracts.report`).
+            `track_envs.contracts.report`).
     """
 
     dt: float

@@ -45,10 +45,11 @@ class RecordTracking(gym.Wrapper):
     wide     ``gt.csv``      ``tracks.csv``      ``det.csv`` (``frame,count,time,x0,y0,...``)
     ======== =============== =================== ===============================================
 
-    (layouts: :mod:`track_envs.io.tracks`, :mod:`track_envs.io.detections`; MOT frames
-    count from 1, wide rows from frame 0). A wide file needs at least one track, so an episode
-    without any report row (or truth) writes no wide ``tracks.csv`` (``gt.csv``) and warns. The
-    recorded arrays stay available as :attr:`last_episode` (``truth``, ``tracks``, ``detections``).
+    (layouts: `track_envs.io.tracks`,
+    `track_envs.io.detections`; MOT frames count from 1, wide rows from frame 0).
+    A wide file needs at least one track, so an episode without any report row (or truth) writes no wide
+    ``tracks.csv`` (``gt.csv``) and warns. The recorded arrays stay available as `last_episode` (``truth``,
+    ``tracks``, ``detections``).
 
     ``track run det.csv --time-column time --max-detections N --max-tracks M ...`` (with the
     env's sensor spec) then reproduces the gym loop's reports, and ``--gt gt.csv --metrics``

@@ -18,7 +18,8 @@ __all__ = ["TrackingMetrics", "default_metrics", "point_metrics"]
 
 def default_metrics(env: gym.Env) -> list[Metric]:
     """The metrics that fit an environment's family: its ``default_metrics()`` method if it has one
-    (each environment family names its own), else :func:`point_metrics` with ``c = gospa_c``."""
+    (each environment family names its own), else [`point_metrics`][track_envs.metrics.point_metrics] with
+    ``c = gospa_c``."""
     try:
         factory = env.get_wrapper_attr("default_metrics")
     except AttributeError:
@@ -40,19 +41,20 @@ class TrackingMetrics(gym.Wrapper):
     behind each detection row, BeltSorter-v0's touching particles), metrics whose class declares
     ``traits = MetricTraits(accepts_merged_ids=True)`` receive that (max_detections, K) array as
     ``detection_ids`` and count an association of a merged detection to either particle's track
-    as correct (see :mod:`track_envs.metrics.merged`); every other metric receives
+    as correct (see `track_envs.metrics.merged`); every other metric receives
     ``info["detection_ids"]``.
 
     An environment without ground truth (``has_truth = False``, DetectionReplay-v0) gets no
     metric that needs truth: a metric declares that it does with
-    ``traits = MetricTraits(needs_truth=True)`` (every metric of :mod:`track_envs.metrics` does;
-    the default, as for agents, is ``False``; :func:`track_envs.metrics.base.metric_traits`). The
-    last step's ``info["episode_metrics_note"]`` says what was skipped.
+    ``traits = MetricTraits(needs_truth=True)`` (every metric of [`track_envs.metrics`][track_envs.metrics]
+    does; the default, as for agents, is ``False``;
+    [`track_envs.metrics.base.metric_traits`][track_envs.metrics.metric_traits]). The last step's
+    ``info["episode_metrics_note"]`` says what was skipped.
 
     Args:
         env: A tracking environment (wrapped or not).
-        metrics: Streaming metrics (see :class:`track_envs.metrics.Metric`); default
-            :func:`default_metrics` for the environment.
+        metrics: Streaming metrics (see [`track_envs.metrics.Metric`][track_envs.metrics.Metric]); default
+            [`default_metrics`][track_envs.wrappers.default_metrics] for the environment.
     """
 
     def __init__(self, env: gym.Env, metrics: Sequence[Metric] | None = None):

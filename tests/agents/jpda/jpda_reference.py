@@ -1,9 +1,9 @@
 """The first-axis sweeps the JPDA frame used before its spatial index, kept as a test oracle.
 
-The gates of :func:`agents.jpda._kernels.jpda_frame` were windows of the detections sorted by their
-first coordinate (binary search), the merged-blob pairs a sweep of the tracks sorted the same way,
-the blob splits a loop over unseen tracks and pairs of free detections. The compiled steps of
-today must list exactly the same hypotheses, with the same log weights, in the same order.
+The gates of [`agents.jpda._kernels.jpda_frame`][agents.jpda._kernels.jpda_frame] were windows of the
+detections sorted by their first coordinate (binary search), the merged-blob pairs a sweep of the tracks
+sorted the same way, the blob splits a loop over unseen tracks and pairs of free detections. The compiled
+steps of today must list exactly the same hypotheses, with the same log weights, in the same order.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def _gated_pairs(
 
     Returns:
         ``(e_t, e_d, e_w, ne)``: track, detection and ``log w_ij`` in the first ``ne`` rows
-        (tracks ascending, each track's detections in ``z_order``).
+            (tracks ascending, each track's detections in ``z_order``).
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -120,7 +120,7 @@ def _merged_hypotheses(
 
     Returns:
         ``(g_a, g_b, g_d, g_w, ng)``: the smaller and larger track, the detection and
-        ``log w_ej`` in the first ``ng`` rows.
+            ``log w_ej`` in the first ``ng`` rows.
     """
     n, D = mean.shape
     m = z.shape[0]
@@ -189,7 +189,7 @@ def _split_candidates(
     area_var: float,
     extent: float,
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray]:
-    """The admissible split hypotheses of :func:`split_blobs`: ``(track, j, k, d²)`` for every
+    """The admissible split hypotheses of `split_blobs`: ``(track, j, k, d²)`` for every
     unseen track and pair of free detections ``j < k`` (in ``free`` order) that pass the gate."""
     n, D = mean.shape
     cand_t = np.empty(0, np.int64)
@@ -255,8 +255,8 @@ def reference_frame(
     max_exact: int,
     mergeable: NDArray[np.bool_],
 ) -> JpdaFrame:
-    """:func:`agents.jpda._kernels.jpda_frame` with the first-axis sweeps for steps 1 and 2
-    (positive definite covariances only)."""
+    """[`agents.jpda._kernels.jpda_frame`][agents.jpda._kernels.jpda_frame] with the first-axis sweeps for
+    steps 1 and 2 (positive definite covariances only)."""
     n, D = mean.shape
     m = z.shape[0]
     chol = np.zeros((n, D, D))

@@ -1,4 +1,5 @@
-"""The named steps of the compiled JPDA frame (:mod:`agents.jpda._kernels`) against direct numpy."""
+"""The named steps of the compiled JPDA frame ([`agents.jpda._kernels`][agents.jpda._kernels]) against direct
+numpy."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ plain numpy / Python:
 
 * CLEAR MOT / IDF1: py-motmetrics fed the dense distance matrix of each frame, NaN beyond the
   threshold except the pairs a merged update adds (within ``threshold + spread``, see
-  :mod:`track_envs.metrics.merged`);
+  [`track_envs.metrics.merged`][track_envs.metrics.merged]);
 * e1 / e2: Python sets of (track, particle) pairs with the merged rules;
 * GOSPA: scipy's dense assignment of the ``[C | M]`` problem.
 """

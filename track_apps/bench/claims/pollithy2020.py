@@ -1,10 +1,11 @@
 """Claims of Pollithy et al. (2020), Sec. V, against the records of the ``pollithy2020`` suite.
 
 Pollithy, Reith-Braun, Pfaff, Hanebeck, "Estimating Uncertainties of Recurrent Neural Networks in
-Application to Multitarget Tracking" (MFI 2020). :func:`write_claims` draws our analogues of
-their Figs. 3–4, 6, 7, 8 and Table I from the records of ``track bench run --suite pollithy2020``
-and writes ``pollithy2020.md``: one row per claim with the paper's figure and number, ours, and a
-verdict computed by the rule stated in the row (``holds`` / ``partly`` / ``does not hold``).
+Application to Multitarget Tracking" (MFI 2020).
+[`write_claims`][track_apps.bench.claims.pollithy2020.write_claims] draws our analogues of their Figs. 3–4, 6,
+7, 8 and Table I from the records of ``track bench run --suite pollithy2020`` and writes ``pollithy2020.md``:
+one row per claim with the paper's figure and number, ours, and a verdict computed by the rule stated in the
+row (``holds`` / ``partly`` / ``does not hold``).
 
     track bench claims pollithy2020 results/pollithy2020 --out docs
 """
@@ -336,7 +337,8 @@ TIE_NOTE = (
 
 
 def _compare(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
-    """Levels where ``a < b`` and the levels counted (finite, not both below :data:`NO_ERRORS`)."""
+    """Levels where ``a < b`` and the levels counted (finite, not both below
+    [`NO_ERRORS`][track_apps.bench.claims.pollithy2020.NO_ERRORS])."""
     ok = np.isfinite(a) & np.isfinite(b) & ~((a < NO_ERRORS) & (b < NO_ERRORS))
     return int(np.sum(a[ok] < b[ok])), int(ok.sum())
 

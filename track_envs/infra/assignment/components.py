@@ -1,7 +1,7 @@
 """Assignment with misses on a sparse list of admissible pairs: lone pairs, then one small exact
 problem per connected component.
 
-The problem is that of :mod:`track_envs.infra.assignment.lone_pairs`,
+The problem is that of [`track_envs.infra.assignment.lone_pairs`][track_envs.infra.assignment.lone_pairs],
 
 .. math::
 
@@ -11,7 +11,7 @@ over matchings ``π`` of admissible pairs, given here as compressed sparse rows:
 admissible columns are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with costs
 ``cost[ptr[i]:ptr[i + 1]]`` (each ``<= γ``). Nothing of size ``n × m`` is ever built.
 
-1. **Lone pairs** (:func:`~track_envs.infra.assignment.lone_pairs.split_sparse`): a pair alone in
+1. **Lone pairs** ([`split_sparse`][track_envs.infra.assignment.lone_pairs.split_sparse]): a pair alone in
    its row and its column belongs to an optimum and is taken directly.
 2. **Components.** The other admissible pairs form a bipartite graph (rows and columns as nodes,
    pairs as edges). The objective is a sum over rows and every pair joins a row and a column of
@@ -20,16 +20,16 @@ admissible columns are ``cols[ptr[i]:ptr[i + 1]]`` (ascending) with costs
    union by index) labels the components in ``O(E α(E))``; the rows and columns of each are
    listed ascending (a counting sort by component).
 3. **Each component** of ``k`` rows and ``l`` columns is solved exactly as its own ``[C | M]``
-   problem (:func:`~track_envs.infra.assignment.lone_pairs.rest_problem`'s matrix: ``γ`` on the
+   problem ([`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem]'s matrix: ``γ`` on the
    diagonal of the miss block ``M``, the stand-in ``B = 2 (|γ| + 1)(k + 1) + max |C|`` for every
    inadmissible entry) by the compiled shortest augmenting path solver
-   (:func:`~track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`), all
-   components in one compiled loop: ``O(k² (k + l))`` each, linear in the number of rows when
+   ([`linear_sum_assignment`][track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment]),
+   all components in one compiled loop: ``O(k² (k + l))`` each, linear in the number of rows when
    the components stay small, as they do for gates of bounded size in a scene of bounded
-   density. A component whose matrix would exceed :data:`DENSE_LIMIT` entries (the giant
-   component of a first frame, when new tracks' gates are wide) is solved on its pairs by
-   sparse shortest augmenting paths instead
-   (:func:`~track_envs.infra.assignment.sparse_path.solve_with_misses`), in memory linear in its
+   density. A component whose matrix would exceed
+   [`DENSE_LIMIT`][track_envs.infra.assignment.components.DENSE_LIMIT] entries (the giant component of a first
+   frame, when new tracks' gates are wide) is solved on its pairs by sparse shortest augmenting paths instead
+   ([`solve_with_misses`][track_envs.infra.assignment.sparse_path.solve_with_misses]), in memory linear in its
    pairs.
 
 The summed cost equals the optimum of the one dense ``[C | M]`` problem; where several matchings
@@ -78,8 +78,8 @@ def component_labels(
 
     Returns:
         ``(row_label (n,), col_label (n_cols,), n_components)``: the component of every row and
-        column with a counted pair (−1 for the others), numbered ``0, 1, ...`` in the order of
-        their smallest row.
+            column with a counted pair (−1 for the others), numbered ``0, 1, ...`` in the order of
+            their smallest row.
     """
     n = ptr.shape[0] - 1
     parent = np.arange(n + n_cols, dtype=np.int64)  # rows 0..n-1, then columns
@@ -167,7 +167,8 @@ def _solve_large(
     partner: IntArray,
 ) -> None:
     """One component too large for a dense ``[C | M]`` matrix, by sparse shortest augmenting paths
-    (:func:`~track_envs.infra.assignment.sparse_path.solve_with_misses`); ``partner`` in place."""
+    ([`solve_with_misses`][track_envs.infra.assignment.sparse_path.solve_with_misses]); ``partner`` in
+    place."""
     k = rows.shape[0]
     sub_ptr = np.zeros(k + 1, dtype=np.int64)
     for a in range(k):

@@ -7,8 +7,8 @@ and keeps a pair when its row and its column are still free. A stable sort of th
 by cost gives that order, so a frame costs ``O(E log E)`` for ``E`` pairs.
 
 This is the matching of the dense rounds of mutual best matches
-(:func:`agents.tracking.assign.assign_greedy`): a pair that is the first minimum of its row
-(ties: lowest column) and the first minimum of its column (ties: lowest row) among the free
+([`agents.tracking.assign.assign_greedy`][agents.tracking.assign.assign_greedy]): a pair that is the first
+minimum of its row (ties: lowest column) and the first minimum of its column (ties: lowest row) among the free
 entries is the least pair under ``(C, i, j)`` of every pair that shares its row or its column,
 so greedy in that order takes it whatever it took before; removing those pairs' rows and
 columns leaves the same problem to both.

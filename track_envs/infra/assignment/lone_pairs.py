@@ -11,28 +11,34 @@ columns (detections, estimates), a cost ``C_ij`` per pair, a pair admissible whe
 over matchings ``π`` of admissible pairs (every unassigned row pays the miss cost ``γ``);
 equivalently ``\\max_\\pi \\sum_{(i,j) \\in \\pi} (γ - C_{ij})``.
 
-1. **Lone pairs** (:func:`split_lone_pairs`). Tracking problems are sparse: after gating, most
+1. **Lone pairs** ([`split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs]). Tracking
+problems are sparse: after gating, most
    rows have one admissible column and most of those columns only that row. A pair alone in both
    its row and its column gains ``γ − C_ij >= 0`` and blocks nothing, so it belongs to an
    optimal assignment and is taken directly; only the *rest*, the rows and columns with admissible
-   pairs outside lone pairs, compete. :func:`split_dense` (a cost matrix) and
-   :func:`split_sparse` (a row-major list of the admissible pairs) count the pairs and split them.
-2. **The rest** (:func:`rest_problem`): the ``k`` competing rows and ``l`` columns become the
+   pairs outside lone pairs, compete. [`split_dense`][track_envs.infra.assignment.lone_pairs.split_dense] (a
+   cost matrix) and [`split_sparse`][track_envs.infra.assignment.lone_pairs.split_sparse] (a row-major list of
+   the admissible pairs) count the pairs and split them.
+2. **The rest** ([`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem]): the ``k`` competing
+rows and ``l`` columns become the
    rectangular problem ``[C | M]`` with per-row miss columns, ``M`` (k × k) holding ``γ`` on its
    diagonal and every inadmissible entry (a pair above the gate, the off-diagonal of ``M``) one
    finite stand-in ``B = 2 (|γ| + 1)(k + 1) + max |C_admissible|``, larger than any feasible
    total of non-negative costs. Every row can take its miss column, so the problem stays feasible
    when a row or the whole matrix is gated out, and the solver never sees ``inf`` (the failure of
    Stone Soup issue 824).
-3. **Merge** (:func:`merge_solution`): the solver's pairs on real columns that are admissible,
+3. **Merge** ([`merge_solution`][track_envs.infra.assignment.lone_pairs.merge_solution]): the solver's pairs
+on real columns that are admissible,
    joined to the lone pairs, rows ascending.
 
 The result is an optimum of the full problem; where several assignments are equally good, the
 one returned may differ from solving the dense matrix. The split, the problem and the merge are
-compiled (numba), so compiled kernels call them directly; :func:`min_cost_with_misses` and
-:func:`solve_split` run them around ``scipy.optimize.linear_sum_assignment``; compiled callers
-(the GOSPA kernel) solve the rest with its compiled twin,
-:func:`track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`.
+compiled (numba), so compiled kernels call them directly;
+[`min_cost_with_misses`][track_envs.infra.assignment.lone_pairs.min_cost_with_misses] and
+[`solve_split`][track_envs.infra.assignment.lone_pairs.solve_split] run them around
+``scipy.optimize.linear_sum_assignment``; compiled callers (the GOSPA kernel) solve the rest with its compiled
+twin,
+[`track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment`][track_envs.infra.assignment.shortest_augmenting_path.linear_sum_assignment].
 """
 
 from __future__ import annotations
@@ -61,8 +67,8 @@ def split_lone_pairs(
 
     Returns:
         ``(partner, rest_rows, rest_cols)``: the column of each row's lone pair (-1 where the row
-        is in none), and, ascending, the rows and columns that have admissible pairs but are
-        not in a lone pair.
+            is in none), and, ascending, the rows and columns that have admissible pairs but are
+            not in a lone pair.
     """
     n, m = len(row_count), len(col_count)
     partner = np.full(n, -1, dtype=np.int64)
@@ -87,7 +93,8 @@ def split_lone_pairs(
 
 @njit(cache=True)
 def split_dense(cost: NDArray[np.float64], gate: float) -> tuple[IntArray, IntArray, IntArray]:
-    """:func:`split_lone_pairs` of the admissible pairs ``cost <= gate`` of a matrix (n, m)."""
+    """[`split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs] of the admissible pairs
+    ``cost <= gate`` of a matrix (n, m)."""
     n, m = cost.shape
     row_count = np.zeros(n, dtype=np.int64)
     only_col = np.zeros(n, dtype=np.int64)  # the last admissible column: the only one where one
@@ -108,7 +115,8 @@ def split_dense(cost: NDArray[np.float64], gate: float) -> tuple[IntArray, IntAr
 
 @njit(cache=True)
 def split_sparse(ptr: IntArray, cols: IntArray, n_cols: int) -> tuple[IntArray, IntArray, IntArray]:
-    """:func:`split_lone_pairs` of admissible pairs listed row-major.
+    """[`split_lone_pairs`][track_envs.infra.assignment.lone_pairs.split_lone_pairs] of admissible pairs
+    listed row-major.
 
     Args:
         ptr, cols: Row ``i``'s admissible columns are ``cols[ptr[i]:ptr[i + 1]]`` (no repeats).
@@ -177,10 +185,12 @@ def merge_solution(
     rows: IntArray,
     cols: IntArray,
 ) -> Pairs:
-    """The lone pairs and the solver's admissible pairs of :func:`rest_problem`, rows ascending.
+    """The lone pairs and the solver's admissible pairs of
+    [`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem], rows ascending.
 
     Args:
-        cost, gate, rest_rows, rest_cols: As given to :func:`rest_problem`.
+        cost, gate, rest_rows, rest_cols: As given to
+            [`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem].
         lone_rows, lone_cols: The lone pairs, rows ascending.
         rows, cols: The solver's assignment of ``[C | M]`` (rows ascending); a column past ``C``
             is a miss, and a pair above the gate is dropped.
@@ -223,7 +233,7 @@ def solve_split(
     rest_cols: IntArray,
 ) -> Pairs:
     """Steps 2 and 3 after a split: the rest by ``scipy.optimize.linear_sum_assignment`` on
-    :func:`rest_problem`, merged with the lone pairs.
+    [`rest_problem`][track_envs.infra.assignment.lone_pairs.rest_problem], merged with the lone pairs.
 
     Returns:
         ``(rows, cols)`` of the assigned admissible pairs, rows ascending.
@@ -239,7 +249,9 @@ def solve_split(
 def min_cost_with_misses(cost: NDArray[np.floating], gate: float) -> Pairs:
     """Minimise Σ cost over assigned pairs + ``gate`` per unassigned row, over pairs with cost <= gate.
 
-    Lone pairs directly, the rest as ``[C | M]`` (:func:`split_dense`, :func:`solve_split`).
+    Lone pairs directly, the rest as ``[C | M]``
+    ([`split_dense`][track_envs.infra.assignment.lone_pairs.split_dense],
+    [`solve_split`][track_envs.infra.assignment.lone_pairs.solve_split]).
 
     Returns:
         ``(rows, cols)`` of the assigned pairs, rows ascending.

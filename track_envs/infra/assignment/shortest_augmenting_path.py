@@ -9,8 +9,9 @@ remaining columns from the last to the first and, among equally short paths, pre
 unassigned column; a tall matrix is solved transposed. Being the same sequence of floating-point
 operations, it returns the same assignment as scipy also where several are optimal, which is
 what reproducing py-motmetrics' tie-breaking needs. It is the dense solver under the compiled
-metric kernels; :mod:`track_envs.infra.assignment.lone_pairs` reduces a gated problem with misses
-to such a dense one (see :mod:`track_envs.infra.assignment` for why both exist).
+metric kernels; [`track_envs.infra.assignment.lone_pairs`][track_envs.infra.assignment.lone_pairs] reduces a
+gated problem with misses to such a dense one (see
+[`track_envs.infra.assignment`][track_envs.infra.assignment] for why both exist).
 """
 
 from __future__ import annotations

@@ -1,25 +1,25 @@
 """Shortest augmenting paths on a sparse problem with misses: exact, without a dense matrix.
 
-The problem is one connected component of :mod:`track_envs.infra.assignment.components`: ``k``
-rows, ``l`` columns, the admissible pairs as compressed sparse rows with costs ``C_ij``, and a
-private miss column ``l + i`` of cost ``γ`` for every row ``i``, so that every row is matched (to a
-real column or to its miss) in
+The problem is one connected component of
+[`track_envs.infra.assignment.components`][track_envs.infra.assignment.components]: ``k`` rows, ``l`` columns,
+the admissible pairs as compressed sparse rows with costs ``C_ij``, and a private miss column ``l + i`` of
+cost ``γ`` for every row ``i``, so that every row is matched (to a real column or to its miss) in
 
 .. math::
 
     \\min_{\\pi} \\sum_{(i, j) \\in \\pi} C_{ij} + γ \\, (k - |\\pi|).
 
-It is the method of :mod:`track_envs.infra.assignment.shortest_augmenting_path` (Crouse; scipy's
-``rectangular_lsap``) with the dense scan replaced by a graph search: rows are added one at a time;
-from the new row a Dijkstra search over the reduced costs ``C_ij − u_i − v_j >= 0`` (``u``, ``v``
-the dual potentials) follows the row's edges and, through each column already matched, the edges
-of its row, until it settles a free column (every miss column but the row's own is reachable only
-from its row, so a search ends at the latest at the first miss column it settles). The path is
-flipped and the potentials of the settled rows and columns are updated as in the dense method,
-which keeps every reduced cost non-negative, so each search is a valid Dijkstra and the final
-matching optimal. A binary heap with lazy deletion holds the tentative distances; a search resets
-only what it touched, so it costs ``O(E_s log E_s)`` for the ``E_s`` edges it scanned — in a
-sparse scene the neighbourhood of the new row, not the whole component.
+It is the method of
+[`track_envs.infra.assignment.shortest_augmenting_path`][track_envs.infra.assignment.shortest_augmenting_path]
+(Crouse; scipy's ``rectangular_lsap``) with the dense scan replaced by a graph search: rows are added one at a
+time; from the new row a Dijkstra search over the reduced costs ``C_ij − u_i − v_j >= 0`` (``u``, ``v`` the
+dual potentials) follows the row's edges and, through each column already matched, the edges of its row, until
+it settles a free column (every miss column but the row's own is reachable only from its row, so a search ends
+at the latest at the first miss column it settles). The path is flipped and the potentials of the settled rows
+and columns are updated as in the dense method, which keeps every reduced cost non-negative, so each search is
+a valid Dijkstra and the final matching optimal. A binary heap with lazy deletion holds the tentative
+distances; a search resets only what it touched, so it costs ``O(E_s log E_s)`` for the ``E_s`` edges it
+scanned — in a sparse scene the neighbourhood of the new row, not the whole component.
 
 Where several matchings are optimal the one returned may differ from the dense solver's; it is
 used for the components too large for a dense ``[C | M]`` matrix.
