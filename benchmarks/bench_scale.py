@@ -21,6 +21,10 @@ memory is its own; its frames are timed one by one after ``warm_up()`` and a set
    ``NearestVelocityPredict``, search range = the gnn's gate radius) and laptrack 0.17 on the same
    detections: the whole stream's time over its frames and MOTA / IDF1 / HOTA from the project's
    scorers; trackpy and laptrack are skipped when they are not installed (``pip install -e .[compare]``).
+   Every peer bridges the same gap, two missed detections in a row: the gnn coasts
+   ``max_misses=2`` frames, trackpy keeps a particle ``memory=2`` frames, laptrack closes gaps of up
+   to ``gap_closing_max_frame_count=3`` frames between a segment's end and the next one's start
+   (:data:`MISSES`). Each record holds its peer's settings (``settings``), printed beside its figures.
 
 Records go to ``--out`` (``scale.json``), the log–log figure to ``--figure``; the table is printed.
 Timings are medians of one run; the targets of the scale issue are read off as ratios against the
@@ -59,6 +63,10 @@ TRACKERS: tuple[tuple[str, str, dict[str, Any]], ...] = (
 THRESHOLD = 0.005
 #: The stream's mean velocity (m/s), its default: trackpy's first frame starts from it.
 FLOW = np.array([1.0, 0.0])
+#: Missed detections in a row that every peer of the side-by-side table bridges: the gnn's default
+#: ``max_misses``, trackpy's ``memory``; laptrack's ``gap_closing_max_frame_count`` counts the frame
+#: difference between a segment's end and the next segment's start, ``MISSES + 1``.
+MISSES = 2
 
 
 def single_thread() -> None:
@@ -190,7 +198,7 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
     out = [{**_linked_by_gnn(stream), "n": n}]
     step = FLOW * stream.spec.dt  # the flow's motion per frame (m)
     first = detections[detections["frame"] == 0][["x", "y"]].to_numpy()
-    for name, link in _linkers(search, step, first).items():
+    for name, (link, settings) in _linkers(search, step, first).items():
         if link is None:
             continue
         t0 = time.perf_counter()
@@ -215,6 +223,7 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
                 "n": n,
                 "ms_per_frame": 1e3 * per_frame,
                 "search_range": search,
+                "settings": settings,
                 "mota": float(scores["mota"]),
                 "idf1": float(scores["idf1"]),
                 "hota": float(scores["hota"]),
@@ -234,6 +243,7 @@ def _linked_by_gnn(stream: Any) -> dict[str, Any]:
     agent.reset(stream.spec, seed=0)
     agent.warm_up()
     agent.reset(stream.spec, seed=0)
+    assert agent.max_misses == MISSES, agent.max_misses
     clear, hota = ClearMot(threshold=THRESHOLD), Hota(threshold=THRESHOLD)
     spent = 0.0
     for t, obs in enumerate(stream.observations):
@@ -246,6 +256,7 @@ def _linked_by_gnn(stream: Any) -> dict[str, Any]:
     return {
         "kind": "linker",
         "label": "gnn kf-cv",
+        "settings": f"defaults: max_misses={agent.max_misses}, p_gate={agent.p_gate}",
         "ms_per_frame": 1e3 * spent / len(stream.observations),
         "mota": float(scores["mota"]),
         "idf1": float(scores["idf1"]),
@@ -267,15 +278,23 @@ def gate_radius(stream: Any, frames: int) -> float:
     return float(np.sqrt(chi2_gate(agent.p_gate, 2) * np.median(cov[:, 0, 0])))
 
 
-def _linkers(search: float, step: np.ndarray, first: np.ndarray) -> dict[str, Callable[[Any], Any] | None]:
-    """trackpy's and laptrack's linking of a detection table (None: not installed).
+def _linkers(
+    search: float, step: np.ndarray, first: np.ndarray
+) -> dict[str, tuple[Callable[[Any], Any] | None, str]]:
+    """trackpy's and laptrack's linking of a detection table and their settings (None: not installed).
 
     trackpy links with ``NearestVelocityPredict`` within ``search`` (the gnn's gate), its first frame's
     particles starting at the flow's velocity (``step`` per frame), as the gnn's velocity fallback;
-    later particles take their neighbours' velocity. laptrack has no motion model: it links within
-    ``search + |step|`` (the gate around the position one frame of flow ahead), else nothing links.
+    later particles take their neighbours' velocity; ``memory=MISSES``. laptrack has no motion model:
+    it links consecutive frames within ``search + |step|`` (the gate around the position one frame of
+    flow ahead), else nothing links, and closes gaps of up to ``MISSES`` missed frames (frame
+    difference ``MISSES + 1``) within ``search + (MISSES + 1)·|step|``, the same rule over the gap.
+    Its costs are squared distances, so both cutoffs are squared.
     """
-    linkers: dict[str, Callable[[Any], Any] | None] = {"trackpy 0.7": None, "laptrack 0.17": None}
+    linkers: dict[str, tuple[Callable[[Any], Any] | None, str]] = {
+        "trackpy 0.7": (None, "not installed"),
+        "laptrack 0.17": (None, "not installed"),
+    }
     try:
         import trackpy
         from trackpy.predict import NearestVelocityPredict
@@ -288,24 +307,38 @@ def _linkers(search: float, step: np.ndarray, first: np.ndarray) -> dict[str, Ca
                 initial_guess_vels=np.tile(step, (len(first), 1)),
                 pos_columns=["x", "y"],
             )
-            return predictor.link_df(df, search, pos_columns=["x", "y"], memory=2)
+            return predictor.link_df(df, search, pos_columns=["x", "y"], memory=MISSES)
 
-        linkers["trackpy 0.7"] = trackpy_link
+        linkers["trackpy 0.7"] = (
+            trackpy_link,
+            f"NearestVelocityPredict, search_range={1e3 * search:.2f} mm, memory={MISSES}",
+        )
     except ImportError:
         pass
     try:
         from laptrack import LapTrack
 
-        reach = search + float(np.hypot(*step))
+        speed = float(np.hypot(*step))
+        reach = search + speed
+        gap_frames = MISSES + 1
+        gap_reach = search + gap_frames * speed
 
         def laptrack_link(df: Any) -> Any:
             lt = LapTrack(
-                cutoff=reach**2, gap_closing_max_frame_count=0, splitting_cutoff=False, merging_cutoff=False
+                cutoff=reach**2,
+                gap_closing_cutoff=gap_reach**2,
+                gap_closing_max_frame_count=gap_frames,
+                splitting_cutoff=False,
+                merging_cutoff=False,
             )
             spots, _, _ = lt.predict_dataframe(df, ["x", "y"], only_coordinate_cols=False)
             return spots.rename(columns={"track_id": "particle"})
 
-        linkers["laptrack 0.17"] = laptrack_link
+        linkers["laptrack 0.17"] = (
+            laptrack_link,
+            f"cutoff=({1e3 * reach:.2f} mm)², gap_closing_cutoff=({1e3 * gap_reach:.2f} mm)², "
+            f"gap_closing_max_frame_count={gap_frames}",
+        )
     except ImportError:
         pass
     return linkers
@@ -358,6 +391,8 @@ def _line(r: dict[str, Any]) -> str:
         text += f" peak {r['peak_rss_mb']:8.0f} MB"
     if "idf1" in r:
         text += f" MOTA {r['mota']:.3f} IDF1 {r['idf1']:.3f} HOTA {r['hota']:.3f}"
+    if "settings" in r:
+        text += f"  [{r['settings']}]"
     return text
 
 
