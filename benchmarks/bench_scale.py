@@ -3,6 +3,7 @@
     python benchmarks/bench_scale.py                      # N = 100 … 100,000, the figure and the table
     python benchmarks/bench_scale.py --sizes 150 1500     # some sizes only
     python benchmarks/bench_scale.py --compare-only       # trackpy / laptrack side by side (1,500, 15,000)
+    python benchmarks/bench_scale.py --compare-only --compare-sizes 1500 --laptrack-without-gaps
 
 The scene is the synthetic constant-velocity stream (:mod:`track_envs.streams.constant_velocity`) at
 its default density: the window grows with ``N`` (``(0.5, 0.3) · √(N/150)`` m) and so does the clutter
@@ -178,8 +179,9 @@ def _in_child(fn: Callable[..., Any], *args: Any) -> Any:
         return pool.apply(fn, args)
 
 
-def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
-    """Child process: trackpy and laptrack on the stream's detections, scored like the trackers."""
+def _compare_linkers(n: int, frames: int, settle: int, without_gaps: bool = False) -> list[dict[str, Any]]:
+    """Child process: trackpy and laptrack on the stream's detections, scored like the trackers
+    (``without_gaps``: laptrack without gap closing too, the setting of earlier tables)."""
     single_thread()
     import pandas as pd
 
@@ -198,12 +200,13 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
     out = [{**_linked_by_gnn(stream), "n": n}]
     step = FLOW * stream.spec.dt  # the flow's motion per frame (m)
     first = detections[detections["frame"] == 0][["x", "y"]].to_numpy()
-    for name, (link, settings) in _linkers(search, step, first).items():
+    for name, (link, settings) in _linkers(search, step, first, without_gaps).items():
         if link is None:
             continue
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         linked = link(detections.copy())
         per_frame = (time.perf_counter() - t0) / len(stream.observations)
+        cpu_per_frame = (time.process_time() - c0) / len(stream.observations)
         clear, hota = ClearMot(threshold=THRESHOLD), Hota(threshold=THRESHOLD)
         for t, group in linked.groupby("frame", sort=True):
             report = pack_report(
@@ -222,6 +225,7 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
                 "label": name,
                 "n": n,
                 "ms_per_frame": 1e3 * per_frame,
+                "cpu_ms_per_frame": 1e3 * cpu_per_frame,
                 "search_range": search,
                 "settings": settings,
                 "mota": float(scores["mota"]),
@@ -279,7 +283,7 @@ def gate_radius(stream: Any, frames: int) -> float:
 
 
 def _linkers(
-    search: float, step: np.ndarray, first: np.ndarray
+    search: float, step: np.ndarray, first: np.ndarray, without_gaps: bool = False
 ) -> dict[str, tuple[Callable[[Any], Any] | None, str]]:
     """trackpy's and laptrack's linking of a detection table and their settings (None: not installed).
 
@@ -289,7 +293,8 @@ def _linkers(
     it links consecutive frames within ``search + |step|`` (the gate around the position one frame of
     flow ahead), else nothing links, and closes gaps of up to ``MISSES`` missed frames (frame
     difference ``MISSES + 1``) within ``search + (MISSES + 1)·|step|``, the same rule over the gap.
-    Its costs are squared distances, so both cutoffs are squared.
+    Its costs are squared distances, so both cutoffs are squared. ``without_gaps`` adds laptrack
+    with gap closing off (``gap_closing_max_frame_count=0``), every miss ending its track.
     """
     linkers: dict[str, tuple[Callable[[Any], Any] | None, str]] = {
         "trackpy 0.7": (None, "not installed"),
@@ -323,11 +328,11 @@ def _linkers(
         gap_frames = MISSES + 1
         gap_reach = search + gap_frames * speed
 
-        def laptrack_link(df: Any) -> Any:
+        def laptrack_link(df: Any, gaps: int = gap_frames) -> Any:
             lt = LapTrack(
                 cutoff=reach**2,
                 gap_closing_cutoff=gap_reach**2,
-                gap_closing_max_frame_count=gap_frames,
+                gap_closing_max_frame_count=gaps,
                 splitting_cutoff=False,
                 merging_cutoff=False,
             )
@@ -339,6 +344,11 @@ def _linkers(
             f"cutoff=({1e3 * reach:.2f} mm)², gap_closing_cutoff=({1e3 * gap_reach:.2f} mm)², "
             f"gap_closing_max_frame_count={gap_frames}",
         )
+        if without_gaps:
+            linkers["laptrack 0.17 no gaps"] = (
+                lambda df: laptrack_link(df, gaps=0),
+                f"cutoff=({1e3 * reach:.2f} mm)², gap_closing_max_frame_count=0",
+            )
     except ImportError:
         pass
     return linkers
@@ -352,6 +362,11 @@ def main() -> None:
     parser.add_argument("--trackers", nargs="+", default=[t[0] for t in TRACKERS])
     parser.add_argument("--compare-sizes", type=int, nargs="*", default=[1_500, 15_000])
     parser.add_argument("--compare-only", action="store_true")
+    parser.add_argument(
+        "--laptrack-without-gaps",
+        action="store_true",
+        help="side by side: laptrack with gap closing off too (gap_closing_max_frame_count=0)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/scale"))
     parser.add_argument("--figure", type=Path, default=None, help="the log-log figure (PNG)")
     parser.add_argument("--redraw", type=Path, default=None, help="draw --figure from a scale.json and stop")
@@ -371,7 +386,7 @@ def main() -> None:
                     print(_line(r), flush=True)
                 records += recs
     for n in args.compare_sizes:
-        recs = _in_child(_compare_linkers, n, args.frames, args.settle)
+        recs = _in_child(_compare_linkers, n, args.frames, args.settle, args.laptrack_without_gaps)
         for r in recs:
             print(_line(r), flush=True)
         records += recs
@@ -387,6 +402,8 @@ def _line(r: dict[str, Any]) -> str:
     text = f"{r['kind']:8s} {r['label']:16s} N={r['n']:>7,d} {r['ms_per_frame']:10.3f} ms/frame"
     if "us_per_target" in r:
         text += f" {r['us_per_target']:8.2f} µs/target"
+    if "cpu_ms_per_frame" in r:
+        text += f" ({r['cpu_ms_per_frame']:.3f} ms CPU)"
     if "peak_rss_mb" in r:
         text += f" peak {r['peak_rss_mb']:8.0f} MB"
     if "idf1" in r:
