@@ -3,6 +3,7 @@
     python benchmarks/bench_scale.py                      # N = 100 … 100,000, the figure and the table
     python benchmarks/bench_scale.py --sizes 150 1500     # some sizes only
     python benchmarks/bench_scale.py --compare-only       # trackpy / laptrack side by side (1,500, 15,000)
+    python benchmarks/bench_scale.py --compare-only --compare-sizes 1500 --laptrack-without-gaps
 
 The scene is the synthetic constant-velocity stream
 ([`track_envs.streams.constant_velocity`][track_envs.streams.constant_velocity]) at its default density: the
@@ -22,6 +23,10 @@ the median is reported.
    ``NearestVelocityPredict``, search range = the gnn's gate radius) and laptrack 0.17 on the same
    detections: the whole stream's time over its frames and MOTA / IDF1 / HOTA from the project's
    scorers; trackpy and laptrack are skipped when they are not installed (``pip install -e .[compare]``).
+   Every peer bridges the same gap, two missed detections in a row: the gnn coasts
+   ``max_misses=2`` frames, trackpy keeps a particle ``memory=2`` frames, laptrack closes gaps of up
+   to ``gap_closing_max_frame_count=3`` frames between a segment's end and the next one's start
+   (:data:`MISSES`). Each record holds its peer's settings (``settings``), printed beside its figures.
 
 Records go to ``--out`` (``scale.json``), the log–log figure to ``--figure``; the table is printed.
 Timings are medians of one run; the targets of the scale issue are read off as ratios against the
@@ -60,6 +65,10 @@ TRACKERS: tuple[tuple[str, str, dict[str, Any]], ...] = (
 THRESHOLD = 0.005
 #: The stream's mean velocity (m/s), its default: trackpy's first frame starts from it.
 FLOW = np.array([1.0, 0.0])
+#: Missed detections in a row that every peer of the side-by-side table bridges: the gnn's default
+#: ``max_misses``, trackpy's ``memory``; laptrack's ``gap_closing_max_frame_count`` counts the frame
+#: difference between a segment's end and the next segment's start, ``MISSES + 1``.
+MISSES = 2
 
 
 def single_thread() -> None:
@@ -171,8 +180,9 @@ def _in_child(fn: Callable[..., Any], *args: Any) -> Any:
         return pool.apply(fn, args)
 
 
-def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
-    """Child process: trackpy and laptrack on the stream's detections, scored like the trackers."""
+def _compare_linkers(n: int, frames: int, settle: int, without_gaps: bool = False) -> list[dict[str, Any]]:
+    """Child process: trackpy and laptrack on the stream's detections, scored like the trackers
+    (``without_gaps``: laptrack without gap closing too, the setting of earlier tables)."""
     single_thread()
     import pandas as pd
 
@@ -191,12 +201,13 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
     out = [{**_linked_by_gnn(stream), "n": n}]
     step = FLOW * stream.spec.dt  # the flow's motion per frame (m)
     first = detections[detections["frame"] == 0][["x", "y"]].to_numpy()
-    for name, link in _linkers(search, step, first).items():
+    for name, (link, settings) in _linkers(search, step, first, without_gaps).items():
         if link is None:
             continue
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         linked = link(detections.copy())
         per_frame = (time.perf_counter() - t0) / len(stream.observations)
+        cpu_per_frame = (time.process_time() - c0) / len(stream.observations)
         clear, hota = ClearMot(threshold=THRESHOLD), Hota(threshold=THRESHOLD)
         for t, group in linked.groupby("frame", sort=True):
             report = pack_report(
@@ -215,7 +226,9 @@ def _compare_linkers(n: int, frames: int, settle: int) -> list[dict[str, Any]]:
                 "label": name,
                 "n": n,
                 "ms_per_frame": 1e3 * per_frame,
+                "cpu_ms_per_frame": 1e3 * cpu_per_frame,
                 "search_range": search,
+                "settings": settings,
                 "mota": float(scores["mota"]),
                 "idf1": float(scores["idf1"]),
                 "hota": float(scores["hota"]),
@@ -235,6 +248,7 @@ def _linked_by_gnn(stream: Any) -> dict[str, Any]:
     agent.reset(stream.spec, seed=0)
     agent.warm_up()
     agent.reset(stream.spec, seed=0)
+    assert agent.max_misses == MISSES, agent.max_misses
     clear, hota = ClearMot(threshold=THRESHOLD), Hota(threshold=THRESHOLD)
     spent = 0.0
     for t, obs in enumerate(stream.observations):
@@ -247,6 +261,7 @@ def _linked_by_gnn(stream: Any) -> dict[str, Any]:
     return {
         "kind": "linker",
         "label": "gnn kf-cv",
+        "settings": f"defaults: max_misses={agent.max_misses}, p_gate={agent.p_gate}",
         "ms_per_frame": 1e3 * spent / len(stream.observations),
         "mota": float(scores["mota"]),
         "idf1": float(scores["idf1"]),
@@ -268,15 +283,24 @@ def gate_radius(stream: Any, frames: int) -> float:
     return float(np.sqrt(chi2_gate(agent.p_gate, 2) * np.median(cov[:, 0, 0])))
 
 
-def _linkers(search: float, step: np.ndarray, first: np.ndarray) -> dict[str, Callable[[Any], Any] | None]:
-    """trackpy's and laptrack's linking of a detection table (None: not installed).
+def _linkers(
+    search: float, step: np.ndarray, first: np.ndarray, without_gaps: bool = False
+) -> dict[str, tuple[Callable[[Any], Any] | None, str]]:
+    """trackpy's and laptrack's linking of a detection table and their settings (None: not installed).
 
     trackpy links with ``NearestVelocityPredict`` within ``search`` (the gnn's gate), its first frame's
     particles starting at the flow's velocity (``step`` per frame), as the gnn's velocity fallback;
-    later particles take their neighbours' velocity. laptrack has no motion model: it links within
-    ``search + |step|`` (the gate around the position one frame of flow ahead), else nothing links.
+    later particles take their neighbours' velocity; ``memory=MISSES``. laptrack has no motion model:
+    it links consecutive frames within ``search + |step|`` (the gate around the position one frame of
+    flow ahead), else nothing links, and closes gaps of up to ``MISSES`` missed frames (frame
+    difference ``MISSES + 1``) within ``search + (MISSES + 1)·|step|``, the same rule over the gap.
+    Its costs are squared distances, so both cutoffs are squared. ``without_gaps`` adds laptrack
+    with gap closing off (``gap_closing_max_frame_count=0``), every miss ending its track.
     """
-    linkers: dict[str, Callable[[Any], Any] | None] = {"trackpy 0.7": None, "laptrack 0.17": None}
+    linkers: dict[str, tuple[Callable[[Any], Any] | None, str]] = {
+        "trackpy 0.7": (None, "not installed"),
+        "laptrack 0.17": (None, "not installed"),
+    }
     try:
         import trackpy
         from trackpy.predict import NearestVelocityPredict
@@ -289,24 +313,43 @@ def _linkers(search: float, step: np.ndarray, first: np.ndarray) -> dict[str, Ca
                 initial_guess_vels=np.tile(step, (len(first), 1)),
                 pos_columns=["x", "y"],
             )
-            return predictor.link_df(df, search, pos_columns=["x", "y"], memory=2)
+            return predictor.link_df(df, search, pos_columns=["x", "y"], memory=MISSES)
 
-        linkers["trackpy 0.7"] = trackpy_link
+        linkers["trackpy 0.7"] = (
+            trackpy_link,
+            f"NearestVelocityPredict, search_range={1e3 * search:.2f} mm, memory={MISSES}",
+        )
     except ImportError:
         pass
     try:
         from laptrack import LapTrack
 
-        reach = search + float(np.hypot(*step))
+        speed = float(np.hypot(*step))
+        reach = search + speed
+        gap_frames = MISSES + 1
+        gap_reach = search + gap_frames * speed
 
-        def laptrack_link(df: Any) -> Any:
+        def laptrack_link(df: Any, gaps: int = gap_frames) -> Any:
             lt = LapTrack(
-                cutoff=reach**2, gap_closing_max_frame_count=0, splitting_cutoff=False, merging_cutoff=False
+                cutoff=reach**2,
+                gap_closing_cutoff=gap_reach**2,
+                gap_closing_max_frame_count=gaps,
+                splitting_cutoff=False,
+                merging_cutoff=False,
             )
             spots, _, _ = lt.predict_dataframe(df, ["x", "y"], only_coordinate_cols=False)
             return spots.rename(columns={"track_id": "particle"})
 
-        linkers["laptrack 0.17"] = laptrack_link
+        linkers["laptrack 0.17"] = (
+            laptrack_link,
+            f"cutoff=({1e3 * reach:.2f} mm)², gap_closing_cutoff=({1e3 * gap_reach:.2f} mm)², "
+            f"gap_closing_max_frame_count={gap_frames}",
+        )
+        if without_gaps:
+            linkers["laptrack 0.17 no gaps"] = (
+                lambda df: laptrack_link(df, gaps=0),
+                f"cutoff=({1e3 * reach:.2f} mm)², gap_closing_max_frame_count=0",
+            )
     except ImportError:
         pass
     return linkers
@@ -320,6 +363,11 @@ def main() -> None:
     parser.add_argument("--trackers", nargs="+", default=[t[0] for t in TRACKERS])
     parser.add_argument("--compare-sizes", type=int, nargs="*", default=[1_500, 15_000])
     parser.add_argument("--compare-only", action="store_true")
+    parser.add_argument(
+        "--laptrack-without-gaps",
+        action="store_true",
+        help="side by side: laptrack with gap closing off too (gap_closing_max_frame_count=0)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/scale"))
     parser.add_argument("--figure", type=Path, default=None, help="the log-log figure (PNG)")
     parser.add_argument("--redraw", type=Path, default=None, help="draw --figure from a scale.json and stop")
@@ -339,7 +387,7 @@ def main() -> None:
                     print(_line(r), flush=True)
                 records += recs
     for n in args.compare_sizes:
-        recs = _in_child(_compare_linkers, n, args.frames, args.settle)
+        recs = _in_child(_compare_linkers, n, args.frames, args.settle, args.laptrack_without_gaps)
         for r in recs:
             print(_line(r), flush=True)
         records += recs
@@ -355,10 +403,14 @@ def _line(r: dict[str, Any]) -> str:
     text = f"{r['kind']:8s} {r['label']:16s} N={r['n']:>7,d} {r['ms_per_frame']:10.3f} ms/frame"
     if "us_per_target" in r:
         text += f" {r['us_per_target']:8.2f} µs/target"
+    if "cpu_ms_per_frame" in r:
+        text += f" ({r['cpu_ms_per_frame']:.3f} ms CPU)"
     if "peak_rss_mb" in r:
         text += f" peak {r['peak_rss_mb']:8.0f} MB"
     if "idf1" in r:
         text += f" MOTA {r['mota']:.3f} IDF1 {r['idf1']:.3f} HOTA {r['hota']:.3f}"
+    if "settings" in r:
+        text += f"  [{r['settings']}]"
     return text
 
 

@@ -20,8 +20,23 @@ from predictors.displacement import Brownian, ConstantVelocityDisplacement
 from track_envs.wrappers import TrackingMetrics
 
 
+def reference_systematic_resample(weights: np.ndarray, u: float) -> np.ndarray:
+    """Systematic resampling written out independently: position ``p_k = (u + k) / N`` picks the
+    first ``j`` with ``p_k < cumsum(w)[j]``. Every position lies below 1 = the total weight in exact
+    arithmetic, so the last cumulative sum is made unbounded: a position that rounding put at or
+    beyond the computed last sum (1 − 1 ulp, or a position rounded up to 1) picks the last particle,
+    where filterpy overruns."""
+    n = len(weights)
+    cumsum = np.cumsum(weights)
+    cumsum[-1] = np.inf
+    positions = (u + np.arange(n)) / n
+    return np.searchsorted(cumsum, positions, side="right")
+
+
 @pytest.mark.parametrize("seed", range(40))
 def test_systematic_resample_equals_filterpy_for_the_same_uniform_draw(seed, monkeypatch):
+    """Every draw against the independent reference; where filterpy does not overrun (its index
+    passes the last cumulative sum when rounding leaves it below 1), against filterpy too."""
     rng = np.random.default_rng(seed)
     n = int(rng.integers(1, 300))
     w = rng.random(n) ** int(rng.integers(1, 10))
@@ -29,12 +44,38 @@ def test_systematic_resample_equals_filterpy_for_the_same_uniform_draw(seed, mon
     w[0] += 1e-3
     w /= w.sum()
     u = float(rng.random()) if seed % 4 else 0.0
+    got = systematic_resample(w, u)
+    np.testing.assert_array_equal(got, reference_systematic_resample(w, u))
     monkeypatch.setattr(filterpy_resampling, "random", lambda: u)
     try:
         expected = filterpy_resampling.systematic_resample(w)
-    except IndexError:  # filterpy overruns when rounding puts a position past the last cumsum
-        pytest.skip("filterpy overruns on this draw")
-    np.testing.assert_array_equal(systematic_resample(w, u), expected)
+    except IndexError:  # filterpy's overrun: the reference above covers this draw
+        assert np.cumsum(w)[-1] < (u + n - 1) / n
+        return
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_the_reference_resampler_covers_the_draws_where_filterpy_overruns(monkeypatch):
+    """Weights whose cumulative sum rounds below the last position: filterpy raises IndexError,
+    ours and the reference pick the last particle for it."""
+    rng = np.random.default_rng(0)
+    overruns = 0
+    for _ in range(2000):
+        n = int(rng.integers(2, 300))
+        w = rng.random(n)
+        w /= w.sum()
+        if np.cumsum(w)[-1] >= 1.0:
+            continue
+        u = np.nextafter(1.0, 0.0)
+        monkeypatch.setattr(filterpy_resampling, "random", lambda u=u: u)
+        try:
+            filterpy_resampling.systematic_resample(w)
+        except IndexError:
+            overruns += 1
+            got = systematic_resample(w, u)
+            np.testing.assert_array_equal(got, reference_systematic_resample(w, u))
+            assert got[-1] == n - 1
+    assert overruns > 0
 
 
 def test_uniform_weights_resample_to_the_identity():

@@ -163,7 +163,18 @@ def _check_read(name: str, path: Path) -> None:
     values = result.points if isinstance(result, Detections) else result.positions  # type: ignore[attr-defined]
     assert np.isfinite(values).all() and (np.abs(values) <= MAX_MAGNITUDE * 1.0).all()
     if isinstance(result, Tracks):
-        assert result.n_frames >= 0
+        _check_frames(name, result, path.read_bytes())
+
+
+def _check_frames(name: str, tracks: Tracks, data: bytes) -> None:
+    """The frames read are the file's: a MOT or long file's up to its last frame with rows, a wide
+    file's one per line (a line without a position is a frame without rows)."""
+    assert tracks.n_frames >= 1
+    if name == "wide.csv":
+        assert len(tracks.frame) == 0 or tracks.n_frames > tracks.frame[-1]
+        assert tracks.n_frames <= data.count(b"\n") + 1 + data.count(b"\r")
+    else:
+        assert len(tracks.frame) > 0 and tracks.n_frames == tracks.frame[-1] + 1
 
 
 def _fuzz_readers(valid: dict[str, bytes], folder: Path, name: str, data: bytes) -> None:

@@ -250,7 +250,7 @@ def _track_run(raw: bytes, gt: bytes | None) -> None:
         if code == 0:
             assert not errors
             back = read_pose_file(out)
-            assert back.n_frames >= 0
+            assert back.n_frames == read_pose_file(det).n_frames >= 1
         else:
             assert code == 2 and len(errors) == 1, err.getvalue()
             assert not out.exists()
