@@ -26,7 +26,7 @@ the median is reported.
    Every peer bridges the same gap, two missed detections in a row: the gnn coasts
    ``max_misses=2`` frames, trackpy keeps a particle ``memory=2`` frames, laptrack closes gaps of up
    to ``gap_closing_max_frame_count=3`` frames between a segment's end and the next one's start
-   (:data:`MISSES`). Each record holds its peer's settings (``settings``), printed beside its figures.
+   (`MISSES`). Each record holds its peer's settings (``settings``), printed beside its figures.
 
 Records go to ``--out`` (``scale.json``), the log–log figure to ``--figure``; the table is printed.
 Timings are medians of one run; the targets of the scale issue are read off as ratios against the

@@ -3,7 +3,7 @@
     python benchmarks/bench_tracker.py [--frames 300] [--tracker-only]
 
 1. **Tracker**: the batched GNN tracker (``gnn`` + ``kf-cv`` and ``kf-ca``) against
-   :class:`FilterpyGnn`, a per-object loop over ``filterpy.kalman.KalmanFilter`` written here (not
+   `FilterpyGnn`, a per-object loop over ``filterpy.kalman.KalmanFilter`` written here (not
    a filterpy tracker: filterpy ships filters only) — one ``KalmanFilter`` object per track, a
    vectorised Mahalanobis cost, χ² gate and ``scipy.optimize.linear_sum_assignment`` — on the same
    observations: 150 targets on a belt-like flow (1.2 m/s along x, small lateral jitter) seen every

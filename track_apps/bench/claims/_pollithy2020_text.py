@@ -1,6 +1,8 @@
-"""The prose of the pollithy2020 claims page: the fixed set-up (:data:`INTRO`) and the discussion
-(:func:`discussion`), whose every number, and every word that compares numbers ("worse", "lower",
-"rising"), is read from the records, so that the text cannot contradict the tables it follows."""
+"""The prose of the pollithy2020 claims page: the fixed set-up
+([`INTRO`][track_apps.bench.claims._pollithy2020_text.INTRO]) and the discussion
+([`discussion`][track_apps.bench.claims._pollithy2020_text.discussion]), whose every number, and every word
+that compares numbers ("worse", "lower", "rising"), is read from the records, so that the text cannot
+contradict the tables it follows."""
 
 from __future__ import annotations
 
@@ -176,8 +178,8 @@ def _prediction(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
 
 def _dropout(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Fig. 6 and Fig. 4: the dropout LSTM over T, its raw covariance and r (claims 2, 15)."""
-    from track_apps.bench.claims.pollithy2020 import FIG6, _median, fig6_row
     from predictors import make_predictor
+    from track_apps.bench.claims.pollithy2020 import FIG6, _median, fig6_row
 
     mc = [(label, _median(fig6_row(rows, p, kw, "cylinder"))) for label, p, kw in FIG6 if p == "mc-lstm"]
     mc = [(k, v) for k, v in mc if math.isfinite(v)]
