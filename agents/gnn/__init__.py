@@ -2,5 +2,6 @@
 deletions and the nozzle-bar roll-out."""
 
 from agents.gnn.agent import GnnAgent
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["GnnAgent"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

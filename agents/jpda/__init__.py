@@ -11,16 +11,6 @@ from agents.jpda.marginals import (
     jpda_marginals,
 )
 from agents.jpda.weights import EventWeights, gaussian_log_likelihood, jpda_log_weights
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "MAX_EXACT",
-    "EventWeights",
-    "GateClusters",
-    "Marginals",
-    "association_marginals",
-    "cluster_marginals",
-    "gate_clusters",
-    "gaussian_log_likelihood",
-    "jpda_log_weights",
-    "jpda_marginals",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -2,5 +2,6 @@
 displacement models."""
 
 from agents.particle.agent import ParticleFilterAgent
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["ParticleFilterAgent"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -4,5 +4,6 @@ pose tracker ([`.smc`][agents.pose.smc], ``pose-smc``)."""
 
 from agents.pose.smc import PoseSmcAgent
 from agents.pose.tracker import PoseBaselineAgent, PoseTracker, PoseTrackingOptions
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["PoseBaselineAgent", "PoseSmcAgent", "PoseTracker", "PoseTrackingOptions"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -17,5 +17,6 @@ file is the *sensor model* (this package).
 
 from agents.sensor_model.diagnostics import run_warnings
 from agents.sensor_model.estimate import SensorModelEstimate, estimate_sensor_model
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["SensorModelEstimate", "estimate_sensor_model", "run_warnings"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -21,12 +21,6 @@ contracts, files and scores: `track_envs.contracts.sorting_channel`,
 from agents.sorting.check import SortingCheck, check_sorting
 from agents.sorting.collect import SortingCollector, sorting_spec
 from agents.sorting.rollout import MAX_STEPS, predict_crossings
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "MAX_STEPS",
-    "SortingCheck",
-    "SortingCollector",
-    "check_sorting",
-    "predict_crossings",
-    "sorting_spec",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -22,22 +22,6 @@ from agents.tracking.merges import SharedBlobs
 from agents.tracking.second_chance import SecondChance
 from agents.tracking.tracker import PointTracker
 from agents.tracking.velocity_prior import VelocityPriorState
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "Association",
-    "Associator",
-    "AssociatorCapability",
-    "FrameContext",
-    "GatedAssignment",
-    "PointTracker",
-    "SecondChance",
-    "SharedBlobs",
-    "VelocityPriorState",
-    "associator_capability",
-    "available_associators",
-    "chi2_gate",
-    "hard_update",
-    "mahalanobis_cost",
-    "make_associator",
-    "register_associator",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -14,20 +14,6 @@ from __future__ import annotations
 from track_apps.bench.cells import NO_PREDICTOR, Cell, Group, expand, load_suite, plan, suite_names
 from track_apps.bench.runner import load_records, run_cell, run_cells, write_record
 from track_apps.bench.tables import aggregate, terminal_table, write_report
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "NO_PREDICTOR",
-    "Cell",
-    "Group",
-    "aggregate",
-    "expand",
-    "load_records",
-    "load_suite",
-    "plan",
-    "run_cell",
-    "run_cells",
-    "suite_names",
-    "terminal_table",
-    "write_record",
-    "write_report",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

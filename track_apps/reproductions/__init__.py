@@ -3,5 +3,6 @@
 Jung et al.), used as a module (``from track_apps.reproductions import jung2019``)."""
 
 from track_apps.reproductions import jung2019
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["jung2019"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
