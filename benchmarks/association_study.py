@@ -1,7 +1,7 @@
 """The association study (docs/association.md) from the records of ``track bench run --suite association``.
 
 Reads the run's ``records.csv`` (one row per cell, written by ``track bench run`` and ``track bench
-report``) and writes into ``--out`` (default ``docs/figures/association``):
+tables``) and writes into ``--out`` (default ``docs/figures/association``):
 
 - ``means.csv`` / ``means.md``: every contestant's mean of each metric per setting with its 95 %
   confidence interval over the seeds;
@@ -688,7 +688,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if path.is_dir():
         path = path / "records.csv"
     if not path.is_file():
-        print(f"error: no {path} (track bench report DIR writes it)", file=sys.stderr)
+        print(f"error: no {path} (track bench tables DIR writes it)", file=sys.stderr)
         return 2
     table = load_table(path)
     paths = write_study(table, args.out)

@@ -1,5 +1,5 @@
-"""Self-calibrated ``track run`` against the best hand-tuned run, on the shipped belt sample and on
-TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/sensor_model.md.
+"""``track run`` with its sensor model estimated against the best hand-tuned run, on the shipped belt
+sample and on TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/sensor_model.md.
 
 * belt sample: the true tracks of ``track_envs/data/belt_sample.zip`` (300 frames, dt 0.01 s, metres)
   plus Gaussian noise of std ``--belt-noise`` (default 5e-4 m, seed 0) are the detections, with the
@@ -9,7 +9,7 @@ TUD-Campus (the MOT15 files py-motmetrics ships); the figures of docs/sensor_mod
   carrying the box of the detection it was updated with).
 
 Hand-tuned grid: predictor kf-ca / kf-cv × declared noise std (5 values) × max_misses 2 / 5 × p_gate
-0.99 / 0.999 (40 runs a data set). Calibrated: ``estimate_sensor_model`` with the predictor, then one gnn run.
+0.99 / 0.999 (40 runs a data set). Estimated: ``estimate_sensor_model`` with the predictor, then one gnn run.
 
     python benchmarks/bench_sensor_model.py
 """
@@ -96,7 +96,7 @@ def compare(
             make_agent("gnn", predictor=predictor, **cal.agent_kwargs()), det, cal.sensor_spec(spec)
         )
         print(
-            f"calibrated {predictor}: sigma {cal.noise_std:.4g} q {cal.q:.4g} max_misses {cal.max_misses} "
+            f"estimated {predictor}: sigma {cal.noise_std:.4g} q {cal.q:.4g} max_misses {cal.max_misses} "
             "-> MOTA %.3f IDF1 %.3f ids %d" % mota(tracks, truth, threshold, match, rows)
         )
     rows = []

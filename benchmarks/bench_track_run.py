@@ -183,7 +183,7 @@ SCALE_STAGES = (
     "write-tracks-mot",
     "write-tracks-long",
     "write-tracks-wide",
-    "calibration-steps",
+    "sensor-model-steps",
     "command",
 )
 
@@ -258,13 +258,13 @@ def scale_stage(stage: str, folder: Path, n: int) -> dict[str, float]:
         work = lambda: read_mot_detections(det_mot)  # noqa: E731
     elif stage == "read-wide":
         work = lambda: read_wide_detections(det_wide, time_column="time")  # noqa: E731
-    elif stage in ("loop", "calibration-steps") or stage.startswith("write-tracks"):
+    elif stage in ("loop", "sensor-model-steps") or stage.startswith("write-tracks"):
         stream = read_mot_detections(det_mot)
         spec = detection_sensor_spec(stream, dt=0.01, measurement_noise_std=1e-4)
         if stage == "loop":
             work = lambda: run_agent("detections", stream, spec, progress=False)  # noqa: E731
-        elif stage == "calibration-steps":
-            work = lambda: _calibration_steps(stream, spec)  # noqa: E731
+        elif stage == "sensor-model-steps":
+            work = lambda: _sensor_model_steps(stream, spec)  # noqa: E731
         else:
             tracks = run_agent("detections", stream, spec, progress=False).updated_rows()
             fmt = stage.rsplit("-", 1)[1]
@@ -289,14 +289,14 @@ def _quiet(fn: Callable[..., Any], *args: Any) -> Any:
 
 
 def _warm_up(stage: str, folder: Path) -> None:
-    """Load the kernels and modules of a tracking or calibration stage on a small stream, so that
+    """Load the kernels and modules of a tracking or sensor-model stage on a small stream, so that
     the stage's time is its own (not the first call's)."""
-    if stage not in ("loop", "calibration-steps", "command"):
+    if stage not in ("loop", "sensor-model-steps", "command"):
         return
     small = scale_stream(300, frames=8, seed=1)
     spec = detection_sensor_spec(small, dt=0.01, measurement_noise_std=1e-4)
-    if stage == "calibration-steps":
-        _calibration_steps(small, spec)
+    if stage == "sensor-model-steps":
+        _sensor_model_steps(small, spec)
         return
     run_agent("detections", small, spec, progress=False)
     if stage == "command":
@@ -308,8 +308,8 @@ def _warm_up(stage: str, folder: Path) -> None:
             run_main([*argv, f"--out={folder / 'warm-out.txt'}", "--no-progress"])
 
 
-def _calibration_steps(stream: Detections, spec: Any) -> None:
-    """The self-calibration's own steps on the truth labels (no tracking run): the data scales,
+def _sensor_model_steps(stream: Detections, spec: Any) -> None:
+    """The sensor model estimate's own steps on the truth labels (no tracking run): the data scales,
     the noise and start-motion estimate, the re-appearances and the live-track bound."""
     from agents.sensor_model.coasting import coasting_radii
     from agents.sensor_model.estimate import (

@@ -80,8 +80,8 @@ random stream
   axis (1: random walk, 2: constant velocity, 3: constant acceleration) driven by white noise of
   intensity ``q``, and its factory takes the keyword ``q`` (with ``order >= 2`` also
   ``initial_velocity`` and ``initial_velocity_std``, with ``order == 3``
-  ``initial_acceleration_std``). Used by the self-calibration ([`agents.sensor_model`][agents.sensor_model]),
-  which estimates those settings. Kalman filters.
+  ``initial_acceleration_std``). Used by the sensor model estimate
+  ([`agents.sensor_model`][agents.sensor_model]), which estimates those settings. Kalman filters.
 
 A capability is a promise of the same numbers as the core calls would give where both apply
 (``coast`` equals ``predict`` + ``update``, ``survivors_and_births`` equals take/start/concat,

@@ -91,7 +91,7 @@ def track_detections(
     sorting_line: float | None = None,
 ) -> Tracks | tuple[Tracks, PredictedCrossings]:
     """Track ``stream`` with ``agent`` (an Agent object): [`agents.files.points.run_agent`][agents.run_agent]
-    without its conveniences (an agent by name, ``calibrate``); the arguments, the result and the
+    without its conveniences (an agent by name, ``estimate_sensor_model``); the arguments, the result and the
     errors are run_agent's (its docstring). Its warnings name the line that called run_agent.
     """
     check_file_agent(agent, "point", flag="")

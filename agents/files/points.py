@@ -2,9 +2,10 @@
 
 [`run_agent`][agents.run_agent] tracks a stream of detections with an agent object or a registered agent's
 name, optionally with the sensor model estimated from the stream first (``estimate_sensor_model=True``:
-[`calibrated_agent`][agents.files.points.calibrated_agent], [`agents.sensor_model`][agents.sensor_model]); the
-loop itself, which the estimate runs too, is [`agents.files.loop`][agents.files.loop] (its docstring: blocks
-of packed observations, boxes, covariances).
+[`agent_with_estimated_sensor_model`][agents.files.points.agent_with_estimated_sensor_model],
+[`agents.sensor_model`][agents.sensor_model]); the loop itself, which the estimate runs too, is
+[`agents.files.loop`][agents.files.loop] (its docstring: blocks of packed observations, boxes,
+covariances).
 
 The command-line front end is ``track run`` ([`track_apps.cli.run`][track_apps.cli.run]).
 """
@@ -130,7 +131,7 @@ def run_agent(
     """
     stream = detections if isinstance(detections, Detections) else Detections.from_frames(detections)
     if estimate_sensor_model:
-        agent, spec = calibrated_agent(agent, stream, spec)
+        agent, spec = agent_with_estimated_sensor_model(agent, stream, spec)
     if isinstance(agent, str):
         agent = make_agent(agent)
     return track_detections(
@@ -146,14 +147,16 @@ def run_agent(
     )
 
 
-def takes_calibration(name: str) -> bool:
-    """Whether agent ``name`` takes the keywords of a self-calibration (``agent_kwargs()`` of
+def takes_sensor_model(name: str) -> bool:
+    """Whether agent ``name`` takes the keywords of a sensor model estimate (``agent_kwargs()`` of
     [`agents.sensor_model.estimate`][agents.sensor_model.estimate]): its registered factory declares
     ``SENSOR_MODEL`` (gnn and the trackers built on it, jpda)."""
     return agent_declares(AGENTS.factory(name), AgentCapability.SENSOR_MODEL)
 
 
-def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[Any, SensorSpec]:
+def agent_with_estimated_sensor_model(
+    name: Any, stream: Detections, spec: SensorSpec
+) -> tuple[Any, SensorSpec]:
     """The agent ``name`` built with the settings
     [`agents.sensor_model.estimate`][agents.sensor_model.estimate] estimates from ``stream``, and ``spec``
     with the estimated noise and a report that holds every track the estimated coasting allows
@@ -165,7 +168,7 @@ def calibrated_agent(name: Any, stream: Detections, spec: SensorSpec) -> tuple[A
             "agents.sensor_model.estimate_sensor_model(...) and build the agent with its agent_kwargs()"
         )
     estimate = estimate_sensor_model(stream, spec)
-    kwargs = estimate.agent_kwargs(name) if takes_calibration(name) else {}
+    kwargs = estimate.agent_kwargs(name) if takes_sensor_model(name) else {}
     spec = estimate.sensor_spec(spec)
     rows = live_track_bound(stream, estimate.max_misses)
     return make_agent(name, **kwargs), dataclasses.replace(spec, max_tracks=max(spec.max_tracks, rows))

@@ -1,4 +1,5 @@
-"""Self-calibration: the sensor and motion noise of a Kalman tracker estimated from its own tracks.
+"""The sensor model estimate: the sensor and motion noise of a Kalman tracker estimated from its own
+tracks.
 
 [`estimate_sensor_model`][agents.estimate_sensor_model] needs nothing but the detections and the frame period.
 It iterates
@@ -62,7 +63,7 @@ from track_envs.values.detections import Detections
 from track_envs.values.tracks import Tracks
 from track_envs.values.types import SensorSpec
 
-#: The predictor whose kinematic model calibrates a predictor that declares none
+#: The predictor whose kinematic model serves the estimate for a predictor that declares none
 #: (``Capability.KINEMATIC_MODEL``): only its measurement noise (the sensor spec's) is then used.
 FALLBACK_PREDICTOR = "kf-cv"
 #: The name of each kinematic order
@@ -202,7 +203,7 @@ class SensorModelEstimate:
         return kwargs
 
     def sensor_spec(self, spec: SensorSpec) -> SensorSpec:
-        """``spec`` with the calibrated measurement noise std, ``p_detect`` and the clutter rate of
+        """``spec`` with the estimated measurement noise std, ``p_detect`` and the clutter rate of
         density ``λ`` over ``spec``'s region (``λ`` × its volume: trackers read ``λ`` as
         ``clutter_rate`` / the region's volume)."""
         return with_detection_model(
@@ -447,8 +448,8 @@ def estimate_sensor_model(
     scales = data_scales(detections)
     if scales is None:
         raise ValueError(
-            "cannot calibrate: no two consecutive frames hold detections; give the measurement noise "
-            "(--declared-noise-std) and the process noise (--process-noise) instead"
+            "cannot estimate the sensor model: no two consecutive frames hold detections; give the "
+            "measurement noise (--declared-noise-std) and the process noise (--process-noise) instead"
         )
     dt = spec.dt
     kinematic = tracking_model(predictor)[1]

@@ -1,4 +1,4 @@
-"""What a self-calibrated run prints and writes: the estimates in the input's units, the run's
+"""What a run that estimates its sensor model prints and writes: the estimates in the input's units, the run's
 figures and warnings, as text lines and as a JSON sidecar next to the track file (written
 atomically: a failed write leaves the old sidecar or none,
 [`track_envs.infra.atomic`][track_envs.infra.atomic])."""
@@ -22,7 +22,7 @@ def _vector(values: tuple[float, ...]) -> str:
     return "(" + ", ".join(f"{v:.4g}" for v in values) + ")"
 
 
-def calibration_lines(cal: SensorModelEstimate) -> list[str]:
+def summary_lines(cal: SensorModelEstimate) -> list[str]:
     """The estimates, one per line, each with its unit ("input units": positions as given) and
     whether it was estimated or given."""
     src = cal.sources
@@ -35,7 +35,7 @@ def calibration_lines(cal: SensorModelEstimate) -> list[str]:
     state = "settled" if cal.settled else "not settled"
     runs = f"{cal.iterations} tracking run{'s' if cal.iterations != 1 else ''}"
     lines = [
-        f"self-calibration ({runs}, {state}; model {cal.model}, dt {cal.dt:g} s; "
+        f"sensor model estimate ({runs}, {state}; model {cal.model}, dt {cal.dt:g} s; "
         f"from {cal.n_tracks} confident tracks):",
         f"  measurement noise std {cal.noise_std:.4g} (input units, {tag('noise_std')})",
         f"  process noise q {cal.q:.4g} ({_Q_UNITS[cal.model].replace('units', 'input units')}, {tag('q')})",

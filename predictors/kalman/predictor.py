@@ -18,7 +18,7 @@ gives ``concat([state.take(keep), start(z)])`` in one pass, which a tracker may 
 optional capabilities the filters declare ([`Capability`][predictors.Capability]): a scalable measurement
 noise, a velocity prior at start, a mean-only estimate, the fused survivors and births, and the roll-out to a
 line in closed form ([`predictors.kalman.rollout`][predictors.kalman.rollout]), and their kinematic model (for
-the self-calibration).
+the sensor model estimate).
 """
 
 from __future__ import annotations

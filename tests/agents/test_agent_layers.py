@@ -12,7 +12,7 @@ prefix of its name in `MODULE_LAYERS`):
   channel's collector ``sorting.collect``);
 * ``sensor_model`` — the sensor model estimated from a stream (it tracks the stream with trial
   settings: the ``loops``);
-* ``files`` — the engine of ``track run``: ``run_agent`` with the estimate (``calibrate``), the
+* ``files`` — the engine of ``track run``: ``run_agent`` with the estimate (``estimate_sensor_model``), the
   pose stream, the sorting check and the pose run's diagnostics;
 * ``top`` — the package itself (``agents/__init__``: the registry's built-ins and the re-exports).
 

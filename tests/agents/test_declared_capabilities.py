@@ -19,7 +19,7 @@ from agents.base import (
     agent_traits,
     warm_up,
 )
-from agents.files.points import run_agent, takes_calibration
+from agents.files.points import run_agent, takes_sensor_model
 from agents.particle.agent import BatchParticleFilter
 from agents.pose.tracker import PoseTracker
 from agents.sensor_model.estimate import FALLBACK_PREDICTOR, kinematics, tracking_model
@@ -123,7 +123,7 @@ def test_every_registered_agent_declares_what_its_consumers_ask():
     for name in available_agents():  # a truth observer is exactly an agent that needs truth
         truth = AgentCapability.TRUTH_OBSERVER in declared[name]
         assert truth == agent_traits(AGENTS.factory(name)).needs_truth
-    assert [a for a in available_agents() if takes_calibration(a)] == ["gnn", "jpda"]
+    assert [a for a in available_agents() if takes_sensor_model(a)] == ["gnn", "jpda"]
     assert agent_declares(AGENTS.factory("gnn"), AgentCapability.WARM_UP)
     gnn = make_agent("gnn")
     assert agent_capability(gnn, AgentCapability.TRACK_COVARIANCES) is gnn

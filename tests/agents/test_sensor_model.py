@@ -1,4 +1,4 @@
-"""Self-calibration: the noise estimator on streams of known R and q, unit invariance, warnings,
+"""The sensor model estimate: the noise estimator on streams of known R and q, unit invariance, warnings,
 the report that grows, the sidecar and the flags that override each estimate."""
 
 from __future__ import annotations
@@ -116,22 +116,22 @@ def test_the_estimator_drops_wrong_associations():
     assert dirty.r == pytest.approx(clean.r, rel=0.1)
 
 
-# -- calibrate ---------------------------------------------------------------------------------
+# -- the estimate ------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def belt():
     return belt_stream(np.random.default_rng(3))
 
 
 @pytest.fixture(scope="module")
-def calibrated(belt):
+def estimated(belt):
     spec = detection_sensor_spec(belt, dt=0.005)
     cal = estimate_sensor_model(belt, spec, predictor="kf-cv")
     agent = make_agent("gnn", predictor="kf-cv", **cal.agent_kwargs())
     return cal, run_agent(agent, belt, cal.sensor_spec(spec))
 
 
-def test_calibrate_estimates_the_belts_noise_and_speed(belt, calibrated):
-    cal, tracks = calibrated
+def test_the_estimate_finds_the_belts_noise_and_speed(belt, estimated):
+    cal, tracks = estimated
     assert cal.noise_std == pytest.approx(5e-5, rel=0.1)  # measured: 3 %
     assert cal.q == pytest.approx(0.5, rel=0.5)
     assert cal.velocity_mean[0] == pytest.approx(1.0, rel=0.05)
@@ -142,8 +142,8 @@ def test_calibrate_estimates_the_belts_noise_and_speed(belt, calibrated):
 
 
 @pytest.mark.parametrize("k", [PIXELS, 1000.0])
-def test_pixels_and_metres_give_the_same_tracks(belt, calibrated, k):
-    cal, tracks = calibrated
+def test_pixels_and_metres_give_the_same_tracks(belt, estimated, k):
+    cal, tracks = estimated
     other = scaled(belt, k)
     spec = detection_sensor_spec(other, dt=0.005)
     cal_k = estimate_sensor_model(other, spec, predictor="kf-cv")
@@ -167,7 +167,7 @@ def test_given_settings_are_kept(belt):
     assert cal.sources["velocity_mean"] == "estimated"
 
 
-def test_calibrate_needs_motion():
+def test_the_estimate_needs_motion():
     lone = Detections.from_frames([np.zeros((1, 2)), np.zeros((0, 2)), np.ones((1, 2))])
     with pytest.raises(ValueError, match="no two consecutive frames"):
         estimate_sensor_model(lone, detection_sensor_spec(lone, dt=1.0))
@@ -222,7 +222,9 @@ def readme_points_command() -> str:
     return section.split("```bash\n", 1)[1].split("\n```", 1)[0].strip()
 
 
-def test_readme_command_calibrates_a_pixel_recording(pixel_file, belt, tmp_path, capsys, monkeypatch):
+def test_readme_command_estimates_a_pixel_recordings_sensor_model(
+    pixel_file, belt, tmp_path, capsys, monkeypatch
+):
     command = readme_points_command()
     assert command == "track run recording.csv --dt 0.005 --out tracks.csv"
     monkeypatch.chdir(tmp_path)
@@ -243,8 +245,8 @@ def test_readme_command_calibrates_a_pixel_recording(pixel_file, belt, tmp_path,
 def test_flags_override_their_estimates(pixel_file, tmp_path, capsys):
     out = tmp_path / "t.txt"
     code, _, err = run_cli(
-        f"track run {pixel_file} --dt 0.005 --out {out} --no-progress --calibrate on --declared-noise-std 2 "
-        "--process-noise 1e9 --initial-velocity 17000,0 --initial-velocity-std 900 "
+        f"track run {pixel_file} --dt 0.005 --out {out} --no-progress --sensor-model on "
+        "--declared-noise-std 2 --process-noise 1e9 --initial-velocity 17000,0 --initial-velocity-std 900 "
         "--agent-kwargs max_misses=3",
         capsys,
     )
@@ -284,7 +286,7 @@ def test_metric_threshold_defaults_from_the_data(tmp_path, capsys):
         )
     )
     code, out, err = run_cli(
-        f"track run {det} --dt 0.04 --out {tmp_path / 't.txt'} --gt {truth} --metrics --calibrate off "
+        f"track run {det} --dt 0.04 --out {tmp_path / 't.txt'} --gt {truth} --metrics --sensor-model off "
         "--no-progress --declared-noise-std 1",
         capsys,
     )
@@ -295,7 +297,7 @@ def test_metric_threshold_defaults_from_the_data(tmp_path, capsys):
 
 # -- the figures of docs/sensor_model.md -----------------------------------------------------
 @pytest.mark.slow
-def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
+def test_estimated_mota_is_within_003_of_the_best_hand_tuned_run():
     import sys
 
     sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
@@ -314,7 +316,7 @@ def test_calibrated_mota_is_within_003_of_the_best_hand_tuned_run():
         assert mota >= best - 0.03
 
 
-def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, capsys):
+def test_run_agent_estimates_as_track_run_does(pixel_file, belt, tmp_path, capsys):
     """``run_agent("gnn", ..., estimate_sensor_model=True)`` gives the tracks of ``track run`` with
     only --dt."""
     from track_envs.io.detections import read_wide_detections
@@ -342,8 +344,8 @@ def test_run_agent_calibrates_as_track_run_does(pixel_file, belt, tmp_path, caps
         )
 
 
-def test_jpda_takes_the_calibrated_settings_as_gnn_does(pixel_file):
-    """A tracker built on gnn (jpda) is given the calibration's keywords too: in pixels, the
+def test_jpda_takes_the_estimated_settings_as_gnn_does(pixel_file):
+    """A tracker built on gnn (jpda) is given the estimate's keywords too: in pixels, the
     default metre-scale process noise would start a track at nearly every detection."""
     from track_envs.io.detections import read_wide_detections
 

@@ -20,7 +20,7 @@ from agents.sensor_model.detection import (
     truncated_geometric_p,
 )
 from agents.sensor_model.merging import box_size, closest_approaches, merge_extent
-from agents.sensor_model.summary import calibration_lines, write_sidecar
+from agents.sensor_model.summary import summary_lines, write_sidecar
 from track_apps.cli import main as track_main
 from track_envs.infra.atomic import FileWriteError
 from track_envs.io.detections import write_wide_detections
@@ -48,7 +48,7 @@ def scaled(detections: Detections, k: float) -> Detections:
     return Detections(detections.points * k, detections.offsets, detections.ids)
 
 
-def calibrate(detections: Detections, **kwargs):
+def estimate(detections: Detections, **kwargs):
     return estimate_sensor_model(
         detections, detection_sensor_spec(detections, dt=0.01), predictor="kf-cv", **kwargs
     )
@@ -129,7 +129,7 @@ def accuracy():
     for p, rate in ACCURACY_CASES:
         for seed in range(3):
             det = cv_detections(seed, p, rate)
-            out[p, rate, seed] = (calibrate(det), calibrate(scaled(det, K)))
+            out[p, rate, seed] = (estimate(det), estimate(scaled(det, K)))
     return out
 
 
@@ -183,7 +183,7 @@ def test_given_detection_model_is_kept_and_told_to_the_tracker():
 
 def test_summary_lines_and_atomic_sidecar(accuracy, tmp_path):
     cal, _ = accuracy[0.9, 5.0, 0]
-    text = "\n".join(calibration_lines(cal))
+    text = "\n".join(summary_lines(cal))
     assert f"detection probability p_D {cal.p_detect:.4g} (estimated; from {cal.n_gaps} gaps" in text
     assert "clutter density " in text and "per input unit² and frame (estimated" in text
     assert "merge extent (jpda) " in text and "estimated: closest approaches" in text
@@ -241,7 +241,7 @@ def test_metres_and_millimetres_give_the_same_tracks(unit_files, agent, capsys):
 
 def test_a_fixed_merge_extent_is_not_unit_free(unit_files, capsys):
     """jpda's default merge extent (0.006, metres) in both files: the runs part (what the
-    calibrated extent fixes)."""
+    estimated extent fixes)."""
     tracks = []
     for name in ("metres", "millimetres"):
         out = unit_files / f"fixed-{name}.csv"

@@ -250,7 +250,7 @@ def run_test(examples: int) -> Callable[..., None]:
         if name == "det.csv":
             argv.append("--time-column=time")
         if data.draw(st.booleans()):
-            argv.append("--declared-noise-std=0.5")  # else the run calibrates itself
+            argv.append("--declared-noise-std=0.5")  # else the run estimates its sensor model
         if data.draw(st.booleans()):
             gt = tmp_path / "gt.txt"
             gt.write_bytes(data.draw(st.sampled_from([valid["gt.txt"], data.draw(mutated(valid["gt.txt"]))])))

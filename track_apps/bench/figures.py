@@ -1,4 +1,4 @@
-"""Plot kinds of ``track bench report`` for predictor scores: box plots, reliability diagrams and
+"""Plot kinds of ``track bench tables`` for predictor scores: box plots, reliability diagrams and
 the area-over-age scatter with Pearson's r.
 
 They read the aggregated [`Row`][track_apps.bench.rows.Row] s (means over seeds) of the keys that

@@ -1,4 +1,4 @@
-"""``track bench``: list, run, report, claims (also ``python -m track_apps.bench``)."""
+"""``track bench``: list, run, tables, claims (also ``python -m track_apps.bench``)."""
 
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ examples:
   track bench run --suite full --quick --out results/full-quick      # any suite's quick variant
   track bench run --suite my_suite.toml --engine ray --out results/ray          # local Ray instance
   track bench run --suite full --engine ray --address auto --out results/full   # an existing Ray cluster
-  track bench report results/noise                              # rebuild tables and plots
+  track bench tables results/noise                              # rebuild tables and plots
   track bench run --suite pollithy2020 --workers 2 --out results/p20   # a paper's evaluation
   track bench claims pollithy2020 results/p20 --out docs        # its figures and claims table
 
@@ -214,11 +214,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_report(args: argparse.Namespace) -> int:
+def cmd_tables(args: argparse.Namespace) -> int:
     from track_apps.bench.runner import scan_records
     from track_apps.bench.tables import aggregate, terminal_table, write_report
 
-    prog = f"{args.prog} report"
+    prog = f"{args.prog} tables"
     if not os.path.isdir(args.dir):
         print(f"{prog}: error: no directory {args.dir!r}", file=sys.stderr)
         return 2
@@ -277,7 +277,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         formatter_class=fmt,
     )
     parser.set_defaults(prog=prog)
-    sub = parser.add_subparsers(dest="command", required=True, metavar="{list,run,report,claims}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="{list,run,tables,claims}")
     add_list_parser(sub, prog)
     p = sub.add_parser(
         "run",
@@ -333,11 +333,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     arguments.add_no_progress(p)
     p.set_defaults(func=cmd_run)
-    p = sub.add_parser("report", help="rebuild tables and plots from the records in DIR")
+    p = sub.add_parser("tables", help="rebuild tables and plots from the records in DIR")
     p.add_argument(
         "dir", metavar="DIR", help="a --out directory of a run (tables and plots are written there)"
     )
-    p.set_defaults(func=cmd_report)
+    p.set_defaults(func=cmd_tables)
     p = sub.add_parser(
         "claims",
         help="a paper's figures and claims table from the records of its suite in DIR",

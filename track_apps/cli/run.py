@@ -63,10 +63,10 @@ The sensor spec the tracker is told: --dt (or inferred from --time-column), --de
 added to the detections), --region (or the detections' bounding box), --max-detections /
 --max-tracks (or from the fullest frame; a report too small for the live tracks is grown, never an
 error).
-Self-calibration (--calibrate auto, the default, when --declared-noise-std is not given): the
-measurement noise, the Kalman process noise q, the velocity prior, how long a track coasts, the
-detection probability, the clutter density and jpda's merge extent are estimated from the
-detections, in their own units (pixels or metres alike), printed and written to
+The sensor model estimate (--sensor-model auto, the default, when --declared-noise-std is not
+given): the measurement noise, the Kalman process noise q, the velocity prior, how long a track
+coasts, the detection probability, the clutter density and jpda's merge extent are estimated from
+the detections, in their own units (pixels or metres alike), printed and written to
 OUT.calibration.json; --declared-noise-std, --process-noise, --initial-velocity,
 --initial-velocity-std, --p-detect, --clutter-rate / --clutter-density, --merge-extent and
 max_misses in --agent-kwargs override their estimates. A run that looks
@@ -165,7 +165,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     )
     g.add_argument("--dt", type=float, help="frame period in seconds (default: inferred from --time-column)")
     arguments.add_declared_noise(g)
-    g.set_defaults(declared_noise_std=None)  # not given: the run calibrates itself (--calibrate auto)
+    g.set_defaults(
+        declared_noise_std=None
+    )  # not given: the run estimates its sensor model (--sensor-model auto)
     sensor_model.add_arguments(g)
     g.add_argument(
         "--region", type=_region, help="XLOW,YLOW,XHIGH,YHIGH (default: the detections' bounding box)"
@@ -260,10 +262,10 @@ def run(args: argparse.Namespace) -> int:
     check = sorting.check_arguments(args, spec)
     if args.predictor is not None and not agent_takes_predictor(args.agent):
         raise ValueError(f"agent {args.agent!r} takes no predictor; drop --predictor")
-    spec, agent_kwargs, calibration, calibration_s = _agent_settings(args, detections, spec)
+    spec, agent_kwargs, estimate, estimate_s = _agent_settings(args, detections, spec)
     agent = build_agent(args.agent, args.predictor, agent_kwargs)
     warm_up(agent)  # compile / load the kernels before the first frame
-    read_s = time.perf_counter() - start - calibration_s
+    read_s = time.perf_counter() - start - estimate_s
     tracks, crossings = _track(args, agent, detections, spec)
     write_start = time.perf_counter()
     write_tracks(args.out, tracks, args.format, box_size=args.box_size)
@@ -282,12 +284,12 @@ def run(args: argparse.Namespace) -> int:
     problems = run_warnings(tracks, len(detections))
     for problem in problems:
         print(f"{args.prog}: warning: {problem}", file=sys.stderr)
-    threshold = _metric_threshold(args, calibration, detections)
-    if calibration is not None:
-        content = {"calibration": calibration.as_dict(), "run": run_figures(tracks, len(detections))}
+    threshold = _metric_threshold(args, estimate, detections)
+    if estimate is not None:
+        content = {"calibration": estimate.as_dict(), "run": run_figures(tracks, len(detections))}
         content |= {"warnings": problems, "metric_threshold": threshold, "max_tracks": spec.max_tracks}
         path = write_sidecar(args.out, content)
-        print(f"{args.prog}: calibration ({calibration_s:.2f} s) -> {path}", file=sys.stderr)
+        print(f"{args.prog}: sensor model estimate ({estimate_s:.2f} s) -> {path}", file=sys.stderr)
     if truth is not None and args.metrics:
         assert threshold is not None
         _print_metrics(args, tracks, truth, detections, kind, threshold)
@@ -348,19 +350,19 @@ def _read_inputs(args: argparse.Namespace) -> tuple[Detections, Tracks | None, s
 def _agent_settings(
     args: argparse.Namespace, detections: Detections, spec: SensorSpec
 ) -> tuple[SensorSpec, dict[str, Any], Any, float]:
-    """The spec and agent keywords of the run: self-calibrated (printed; with the calibration
-    and the seconds it took) or as the flags give them."""
+    """The spec and agent keywords of the run: with its sensor model estimated (printed; with the
+    estimate and the seconds it took) or as the flags give them."""
     from agents.sensor_model.estimate import live_track_bound
-    from agents.sensor_model.summary import calibration_lines
+    from agents.sensor_model.summary import summary_lines
 
     spec, agent_kwargs = sensor_model.declared(args, spec, dict(args.agent_kwargs))
-    calibration = None
-    calibration_s = 0.0
+    estimate = None
+    estimate_s = 0.0
     if sensor_model.wanted(args):
-        calibration_start = time.perf_counter()
-        spec, agent_kwargs, calibration = sensor_model.calibrated(args, detections, spec, agent_kwargs)
-        calibration_s = time.perf_counter() - calibration_start
-        for line in calibration_lines(calibration):
+        estimate_start = time.perf_counter()
+        spec, agent_kwargs, estimate = sensor_model.estimated(args, detections, spec, agent_kwargs)
+        estimate_s = time.perf_counter() - estimate_start
+        for line in summary_lines(estimate):
             print(f"{args.prog}: {line}", file=sys.stderr)
         if args.max_tracks is None:  # a report that holds every track the run can have
             rows = live_track_bound(detections, int(agent_kwargs.get("max_misses", 2)))
@@ -371,7 +373,7 @@ def _agent_settings(
                 "--process-noise, --initial-velocity and --initial-velocity-std need --agent gnn"
             )
         agent_kwargs = sensor_model.given_kwargs(args) | agent_kwargs
-    return spec, agent_kwargs, calibration, calibration_s
+    return spec, agent_kwargs, estimate, estimate_s
 
 
 def _track(
@@ -398,14 +400,14 @@ def _track(
     return tracks, crossings
 
 
-def _metric_threshold(args: argparse.Namespace, calibration: Any, detections: Detections) -> float | None:
-    """``--threshold``, or with ``--metrics`` its default (the calibration's, else half the median
+def _metric_threshold(args: argparse.Namespace, estimate: Any, detections: Detections) -> float | None:
+    """``--threshold``, or with ``--metrics`` its default (the sensor model estimate's, else half the median
     nearest-neighbour distance within a frame; printed)."""
     from agents.sensor_model.scales import default_threshold
 
     threshold: float | None = args.threshold
     if threshold is None and args.metrics:
-        threshold = calibration.threshold if calibration is not None else default_threshold(detections)
+        threshold = estimate.threshold if estimate is not None else default_threshold(detections)
         print(
             f"{args.prog}: metric threshold {threshold:.4g} (input units: half the median nearest-neighbour "
             "distance within a frame; --threshold sets it)",

@@ -1,14 +1,16 @@
-"""The self-calibration of ``track run``: its options, and how they turn into the agent and sensor spec.
+"""The sensor model estimate of ``track run``: its options, and how they turn into the agent and sensor
+spec.
 
-With ``--calibrate auto`` (the default) a run without ``--declared-noise-std`` calibrates itself
-([`agents.sensor_model.estimate`][agents.sensor_model.estimate]); ``--calibrate on`` calibrates whatever is
-not given (``--declared-noise-std``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
-``--p-detect``, ``--clutter-rate`` or ``--clutter-density``, ``--merge-extent`` and ``max_misses``
-in ``--agent-kwargs`` each override their estimate), ``off`` never.
+With ``--sensor-model auto`` (the default) a run without ``--declared-noise-std`` estimates its sensor
+model from the detections ([`agents.sensor_model.estimate`][agents.sensor_model.estimate]);
+``--sensor-model on`` estimates whatever is not given (``--declared-noise-std``, ``--process-noise``,
+``--initial-velocity``, ``--initial-velocity-std``, ``--p-detect``, ``--clutter-rate`` or
+``--clutter-density``, ``--merge-extent`` and ``max_misses`` in ``--agent-kwargs`` each override their
+estimate), ``off`` never.
 
-Declared against estimated: a flag that is typed is kept as typed, in a calibrated run too (its
-source reads ``given``); one that is not typed is estimated by a calibrated run, and takes its
-default in a run that does not calibrate (``p_D`` 1, no clutter, jpda's ``merge_extent``).
+Declared against estimated: a flag that is typed is kept as typed, in an estimating run too (its
+source reads ``given``); one that is not typed is estimated by an estimating run, and takes its
+default in a run that does not estimate (``p_D`` 1, no clutter, jpda's ``merge_extent``).
 """
 
 from __future__ import annotations
@@ -40,10 +42,10 @@ def typed(value: object) -> bool:
 
 
 def add_arguments(group: Any) -> None:
-    """``--calibrate``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
+    """``--sensor-model``, ``--process-noise``, ``--initial-velocity``, ``--initial-velocity-std``,
     ``--p-detect``, ``--clutter-rate``, ``--clutter-density``, ``--merge-extent``."""
     group.add_argument(
-        "--calibrate",
+        "--sensor-model",
         choices=["auto", "on", "off"],
         default="auto",
         help="estimate the noise, process noise, velocity prior, coasting, detection probability, "
@@ -75,8 +77,8 @@ def add_arguments(group: Any) -> None:
         default=Untyped(1.0),
         metavar="P",
         help="detection probability p_D the tracker is told (gnn's clutter test, jpda's weights), in "
-        "(0, 1]: kept as given; not given, a calibrated run estimates it from the gaps of its "
-        "confident tracks, any other run takes 1",
+        "(0, 1]: kept as given; not given, a run that estimates its sensor model estimates it from "
+        "the gaps of its confident tracks, any other run takes 1",
     )
     group.add_argument(
         "--clutter-rate",
@@ -84,8 +86,8 @@ def add_arguments(group: Any) -> None:
         default=Untyped(0.0),
         metavar="R",
         help="clutter detections per frame over --region the tracker is told, >= 0: kept as given; "
-        "not given (nor --clutter-density), a calibrated run estimates the clutter density from the "
-        "detections no track of 3 claims, any other run takes 0",
+        "not given (nor --clutter-density), a run that estimates its sensor model estimates the "
+        "clutter density from the detections no track of 3 claims, any other run takes 0",
     )
     group.add_argument(
         "--clutter-density",
@@ -99,22 +101,22 @@ def add_arguments(group: Any) -> None:
         type=float,
         metavar="E",
         help="jpda: largest distance of two tracks' predictions that may be one merged blob, in the "
-        "detections' units, > 0: kept as given; not given, a calibrated run estimates it (the "
-        "boxes' median size, or a low quantile of the closest approaches of confident track "
-        "pairs), any other run takes jpda's default (0.006, metres)",
+        "detections' units, > 0: kept as given; not given, a run that estimates its sensor model "
+        "estimates it (the boxes' median size, or a low quantile of the closest approaches of "
+        "confident track pairs), any other run takes jpda's default (0.006, metres)",
     )
 
 
 def wanted(args: argparse.Namespace) -> bool:
-    """Whether this point-file run calibrates itself (pose files are tracked by pose agents, which
-    ``track run`` sends elsewhere before this is asked, and point agents only reach here)."""
-    return args.calibrate == "on" or (args.calibrate == "auto" and args.declared_noise_std is None)
+    """Whether this point-file run estimates its sensor model (pose files are tracked by pose agents,
+    which ``track run`` sends elsewhere before this is asked, and point agents only reach here)."""
+    return args.sensor_model == "on" or (args.sensor_model == "auto" and args.declared_noise_std is None)
 
 
 def declared(
     args: argparse.Namespace, spec: SensorSpec, agent_kwargs: dict[str, Any]
 ) -> tuple[SensorSpec, dict[str, Any]]:
-    """The spec and agent keywords with the declared sensor flags every run takes, calibrated or
+    """The spec and agent keywords with the declared sensor flags every run takes, estimating or
     not: ``--clutter-density`` as the spec's clutter rate over its region, ``--merge-extent`` as
     jpda's keyword.
 
@@ -144,7 +146,7 @@ def declared(
 
 
 def given_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """The predictor keywords the flags give (for a run that does not calibrate)."""
+    """The predictor keywords the flags give (for a run that does not estimate the sensor model)."""
     out: dict[str, Any] = {}
     if args.process_noise is not None:
         out["q"] = args.process_noise
@@ -155,11 +157,11 @@ def given_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def calibrated(
+def estimated(
     args: argparse.Namespace, detections: Detections, spec: SensorSpec, agent_kwargs: dict[str, Any]
 ) -> tuple[SensorSpec, dict[str, Any], Any]:
-    """The spec and agent keywords of a self-calibrated run, and the calibration."""
-    from agents.files.points import takes_calibration
+    """The spec and agent keywords of a run that estimates its sensor model, and the estimate."""
+    from agents.files.points import takes_sensor_model
     from agents.sensor_model import estimate_sensor_model
 
     if typed(args.p_detect) and not 0.0 < args.p_detect <= 1.0:
@@ -168,7 +170,7 @@ def calibrated(
     gnn_kwargs = {k: v for k, v in agent_kwargs.items() if args.agent == "gnn"}
     clutter_given = typed(args.clutter_rate) or args.clutter_density is not None
     merge = agent_kwargs.get("merge_extent") if args.agent == "jpda" else None
-    cal = estimate_sensor_model(
+    estimate = estimate_sensor_model(
         detections,
         spec,
         predictor=predictor,
@@ -184,6 +186,6 @@ def calibrated(
         agent_kwargs=gnn_kwargs,
     )
     kwargs = dict(agent_kwargs)
-    if takes_calibration(args.agent):  # empty for a predictor without a kinematic model
-        kwargs = cal.agent_kwargs(args.agent) | kwargs
-    return cal.sensor_spec(spec), kwargs, cal
+    if takes_sensor_model(args.agent):  # empty for a predictor without a kinematic model
+        kwargs = estimate.agent_kwargs(args.agent) | kwargs
+    return estimate.sensor_spec(spec), kwargs, estimate

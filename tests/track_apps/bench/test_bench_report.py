@@ -1,4 +1,4 @@
-"""Report rows (what is pooled), skipped records, and plot axes."""
+"""Table rows (what is pooled), skipped records, and plot axes."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def test_runs_with_other_steps_or_episodes_are_separate_rows(tmp_path, capsys):
         ((("steps", 20),), 2),
         ((("steps", 20), ("episodes", 2)), 2),
     ]
-    assert main(["report", out]) == 0
+    assert main(["tables", out]) == 0
     table = capsys.readouterr().out
     for label in ("steps=10", "steps=20", "steps=20, episodes=2"):
         assert label in table
@@ -53,7 +53,7 @@ def test_agent_kwargs_are_separate_rows_in_one_setting():
     assert rows[0].setting == rows[1].setting  # the same contest: best marked across both
 
 
-def test_report_names_every_skipped_file_and_why(tmp_path, capsys):
+def test_tables_names_every_skipped_file_and_why(tmp_path, capsys):
     """Regression: a corrupt record was left out of the report without a word."""
     record = run_cell(Cell("SineTarget-v0", "detections", "-", 0, steps=5))
     write_record(tmp_path, record)
@@ -61,7 +61,7 @@ def test_report_names_every_skipped_file_and_why(tmp_path, capsys):
     (tmp_path / "foreign.json").write_text('{"name": "not a record"}')
     (tmp_path / "future.json").write_text(json.dumps({**record, "schema": 99}))
     (tmp_path / "edited.json").write_text(json.dumps({**record, "key": "0" * 16}))
-    assert main(["report", str(tmp_path)]) == 0
+    assert main(["tables", str(tmp_path)]) == 0
     captured = capsys.readouterr()
     warnings = [line for line in captured.err.splitlines() if "warning: skipped" in line]
     assert len(warnings) == 4

@@ -179,7 +179,7 @@ def test_help_is_complete(capsys):
         assert flag in out
     for flag in ("--sweep", "--agent-kwargs", "--workers", "--engine", "--address", "--out", "examples:"):
         assert flag in out
-    assert "track bench report" in out and "agent_kwargs" in out
+    assert "track bench tables" in out and "agent_kwargs" in out
 
 
 def test_list_names_everything(capsys):

@@ -1,4 +1,4 @@
-"""Records, atomic writes, resume, reports, local engine parity and a killed run."""
+"""Records, atomic writes, resume, tables, local engine parity and a killed run."""
 
 from __future__ import annotations
 
@@ -99,7 +99,7 @@ def test_local_pool_equals_in_process(tmp_path, small_cells):
     assert [r["cell"] for r in one] == [r["cell"] for r in two]
 
 
-def test_report_rebuilds_tables_and_plots(tmp_path, capsys):
+def test_tables_rebuilds_the_tables_and_plots(tmp_path, capsys):
     out = tmp_path / "sweep"
     args = ["run", "--envs", "SineTarget-v0", "--agents", "gnn,pf", "--predictors", "kf-cv", "--seeds", "2"]
     args += ["--steps", "25", "--sweep", "p_detect=0.9,0.6", "--workers", "1", "--out", str(out)]
@@ -110,7 +110,7 @@ def test_report_rebuilds_tables_and_plots(tmp_path, capsys):
         (out / name).unlink()
     for png in (out / "plots").iterdir():
         png.unlink()
-    assert main(["report", str(out)]) == 0
+    assert main(["tables", str(out)]) == 0
     assert "p_detect=0.6" in capsys.readouterr().out
     md = (out / "results.md").read_text()
     assert "## SineTarget-v0" in md and "**" in md and "gnn" in md
@@ -124,8 +124,8 @@ def test_report_rebuilds_tables_and_plots(tmp_path, capsys):
         assert image.shape[0] > 100 and image.shape[1] > 100 and image.std() > 0  # a drawn figure
 
 
-def test_report_of_an_empty_dir_fails(tmp_path, capsys):
-    assert main(["report", str(tmp_path)]) == 2
+def test_tables_of_an_empty_dir_fails(tmp_path, capsys):
+    assert main(["tables", str(tmp_path)]) == 2
     assert "no records" in capsys.readouterr().err
 
 

@@ -370,7 +370,7 @@ def test_ground_truth_is_checked_before_tracking(tmp_path, capsys):
     assert main([str(det), "--dt=0.01", f"--out={out}", f"--gt={gt}", "--metrics", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert f"track run: error: {gt}: row 2, column index 2 (bb_left) holds 1e+300" in err
-    assert "self-calibration" not in err and not out.exists()
+    assert "sensor model estimate" not in err and not out.exists()
 
 
 def test_repeated_detections_are_warned_about_and_tracked_once(tmp_path, capsys):
