@@ -67,7 +67,7 @@ PUBLIC: dict[str, list[str]] = {
         "suite_names",
         "terminal_table",
         "write_record",
-        "write_report",
+        "write_tables",
     ],
     "track_apps.bench.claims": [
         "available_claims",

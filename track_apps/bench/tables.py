@@ -14,7 +14,7 @@ Plot axes ([`axis_scale`][track_apps.bench.tables.axis_scale],
 than [`LOG_SPAN`][track_apps.bench.tables.LOG_SPAN] (two decades, e.g. 1.5 and 4,672 id switches), and its
 ±std bars and bands are clipped at 0 (on a log axis, at the bottom of the axis).
 
-Files written into the out dir by [`write_report`][track_apps.bench.write_report]:
+Files written into the out dir by [`write_tables`][track_apps.bench.write_tables]:
     ``results.md``: the headline tables; ``summary.csv``: long form, one row per
     (group, metric) with mean, std, n; ``records.csv``: one row per cell, every metric;
     ``plots/<env>_bars.png``: metric per agent/predictor (error bars: std over seeds);
@@ -369,7 +369,7 @@ def sorting_error_figure(env_rows: Sequence[Row]) -> Any | None:
     return fig
 
 
-def write_report(records: Sequence[dict[str, Any]], out_dir: str | os.PathLike[str]) -> list[Path]:
+def write_tables(records: Sequence[dict[str, Any]], out_dir: str | os.PathLike[str]) -> list[Path]:
     """Write ``results.md``, ``summary.csv``, ``records.csv`` and ``plots/*.png``; return their paths."""
     out = Path(out_dir)
     rows = aggregate(records)

@@ -158,7 +158,7 @@ def print_skipped(prog: str, skipped: Sequence[tuple[Any, str]]) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from track_apps.bench.runner import CellError, check_cells, is_finished, run_cells, scan_records
-    from track_apps.bench.tables import aggregate, terminal_table, write_report
+    from track_apps.bench.tables import aggregate, terminal_table, write_tables
 
     prog = f"{args.prog} run"
     try:
@@ -208,7 +208,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     scan = scan_records(args.out)
     print_skipped(prog, scan.skipped)
     records = [r for r in scan.records if r["key"] in keys]
-    write_report(records, args.out)
+    write_tables(records, args.out)
     print(terminal_table(aggregate(records)))
     print(f"\ntables and plots in {args.out}/ (results.md, summary.csv, records.csv, plots/)")
     return 0
@@ -216,7 +216,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_tables(args: argparse.Namespace) -> int:
     from track_apps.bench.runner import scan_records
-    from track_apps.bench.tables import aggregate, terminal_table, write_report
+    from track_apps.bench.tables import aggregate, terminal_table, write_tables
 
     prog = f"{args.prog} tables"
     if not os.path.isdir(args.dir):
@@ -229,7 +229,7 @@ def cmd_tables(args: argparse.Namespace) -> int:
         print(f"{prog}: error: no records in {args.dir!r}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    paths = write_report(records, args.dir)
+    paths = write_tables(records, args.dir)
     print(terminal_table(aggregate(records)))
     skipped = f", {len(scan.skipped)} files skipped (see the warnings)" if scan.skipped else ""
     print(f"\n{len(records)} records{skipped}; wrote {len(paths)} files in {time.perf_counter() - t0:.1f} s")

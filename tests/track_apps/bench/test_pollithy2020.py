@@ -10,7 +10,7 @@ import pytest
 from track_apps.bench import expand
 from track_apps.bench.cells import Cell, load_suite, override, packaged_suites, suite_names
 from track_apps.bench.runner import load_records, run_cell, write_record
-from track_apps.bench.tables import aggregate, write_report
+from track_apps.bench.tables import aggregate, write_tables
 from track_apps.cli.bench import main
 
 matplotlib.use("Agg")
@@ -93,7 +93,7 @@ def _png(path: Path) -> None:
 
 
 def test_report_draws_the_new_plot_kinds(tiny_records: Path, tmp_path: Path):
-    paths = write_report(load_records(tiny_records), tmp_path)
+    paths = write_tables(load_records(tiny_records), tmp_path)
     names = {p.name for p in paths}
     assert any(n.startswith("BeltSorter-v0_track_error_box") for n in names)
     assert {"BeltSorter-v0_reliability.png", "BeltSorter-v0_aleatoric_age.png"} <= names
