@@ -8,6 +8,7 @@ from typing import Any
 
 import pytest
 
+from track_apps.bench.claims import _pollithy2020_rows as data
 from track_apps.bench.claims import _pollithy2020_text as text
 from track_apps.bench.claims import pollithy2020 as p
 from track_apps.bench.rows import Row
@@ -92,14 +93,14 @@ PUBLISHED = """\
 
 def row(agent: str, predictor: str, env: dict[str, Any], kwargs: Any = (), **mean: float) -> Row:
     params = (*sorted(env.items()), *((f"agent.{k}", v) for k, v in kwargs))
-    return Row(p.ENV, tuple(params), agent, predictor, 2, dict(mean), {k: 0.0 for k in mean})
+    return Row(data.ENV, tuple(params), agent, predictor, 2, dict(mean), {k: 0.0 for k in mean})
 
 
 def rows_of(fig6=FIG6, default=DEFAULT, dense=DENSE, area=AREA, nll_r=1.85, cover=0.9955) -> list[Row]:
     """Rows with the figures' keys: Fig. 6 (all kinds), Fig. 7 (three belts), Table I, Figs. 3–4."""
     out = []
-    for kind in p.KINDS:
-        for label, predictor, kw in p.FIG6:
+    for kind in data.KINDS:
+        for label, predictor, kw in data.FIG6:
             if kind != "cylinder" and predictor not in ("lstm", "nll-lstm"):
                 continue
             median = fig6[label] * (1.0 if kind == "cylinder" else 1.1) * MM
@@ -126,11 +127,11 @@ def rows_of(fig6=FIG6, default=DEFAULT, dense=DENSE, area=AREA, nll_r=1.85, cove
         ("fig7_dense", {k: [(v, 0.0, 0.0) for v in vs] for k, vs in dense.items()}, (0.0, 2e-4, 5e-4)),
     )
     for variant, values, levels in panels:
-        for label, predictor, kw in p.FIG7:
+        for label, predictor, kw in data.FIG7:
             if label not in values:
                 continue
             for n, (e, e1, e2) in zip(levels, values[label], strict=True):
-                env = {"noise_std": n, **p.VARIANTS[variant][0]}
+                env = {"noise_std": n, **data.VARIANTS[variant][0]}
                 out.append(
                     row("gnn", predictor, env, (("predict_sorting", False), *kw), e_mean=e, e1=e1, e2=e2)
                 )
@@ -142,7 +143,7 @@ def page(rows: list[Row], monkeypatch: pytest.MonkeyPatch, r: float = -0.54) -> 
     monkeypatch.setattr(p, "age_series", lambda row, scale=1.0: {"r": r})
     claims = [
         *p.fig6_claims(rows, "fig"),
-        *p.fig7_claims(rows, {v: "fig" for v in p.VARIANTS}),
+        *p.fig7_claims(rows, {v: "fig" for v in data.VARIANTS}),
         *p.reliability_claims(rows, "fig"),
         *p.aleatoric_claims(rows, "fig"),
     ]

@@ -13,10 +13,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from track_apps.bench.claims._pollithy2020_rows import (
+    FIG6,
+    FIG7,
+    NO_ERRORS,
+    NOISE,
+    PAPER_TABLE1,
+    Claim,
+    fig6_row,
+    fig7_row,
+    table1_row,
+    track_error_median,
+)
 from track_apps.bench.figures import age_series
 
 if TYPE_CHECKING:
-    from track_apps.bench.claims.pollithy2020 import Claim
     from track_apps.bench.rows import Row
 
 
@@ -118,8 +129,6 @@ def _fig7(
     rows: Sequence[Row], variant: str, metric: str = "e_mean"
 ) -> tuple[list[float], dict[str, np.ndarray]]:
     """The noise levels with records of a Fig. 7 panel and each contestant's ``metric`` over them."""
-    from track_apps.bench.claims.pollithy2020 import FIG7, NOISE, fig7_row
-
     levels = [n for n in NOISE if any(fig7_row(rows, p, kw, n, variant) for _, p, kw in FIG7)]
     out = {}
     for label, p, kw in FIG7:
@@ -131,9 +140,7 @@ def _fig7(
 
 def _prediction(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Fig. 6: the Kalman filters against the learned models (claims 1, 3, 4)."""
-    from track_apps.bench.claims.pollithy2020 import FIG6, _median, fig6_row
-
-    med = {label: _median(fig6_row(rows, p, kw, "cylinder")) for label, p, kw in FIG6}
+    med = {label: track_error_median(fig6_row(rows, p, kw, "cylinder")) for label, p, kw in FIG6}
     kf = [v for k, v in med.items() if k.startswith("kf-") and math.isfinite(v)]
     learned = [v for k, v in med.items() if not k.startswith("kf-") and math.isfinite(v)]
     if not (kf and learned):
@@ -179,9 +186,12 @@ def _prediction(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
 def _dropout(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Fig. 6 and Fig. 4: the dropout LSTM over T, its raw covariance and r (claims 2, 15)."""
     from predictors import make_predictor
-    from track_apps.bench.claims.pollithy2020 import FIG6, _median, fig6_row
 
-    mc = [(label, _median(fig6_row(rows, p, kw, "cylinder"))) for label, p, kw in FIG6 if p == "mc-lstm"]
+    mc = [
+        (label, track_error_median(fig6_row(rows, p, kw, "cylinder")))
+        for label, p, kw in FIG6
+        if p == "mc-lstm"
+    ]
     mc = [(k, v) for k, v in mc if math.isfinite(v)]
     row = fig6_row(rows, "mc-lstm", (("samples", 250),), "cylinder")
     if len(mc) < 2 or row is None:
@@ -214,8 +224,6 @@ def _dropout(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
 
 def _association(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Fig. 7, the three belts: where association errors come from (claims 6–13)."""
-    from track_apps.bench.claims.pollithy2020 import NO_ERRORS
-
     levels, e = _fig7(rows, "fig7")
     if not e:
         return []
@@ -295,8 +303,6 @@ def _association(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
 
 def _nll_against_lstm(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Fig. 7, default belt: the NLL-LSTM against the line-searched LSTM, e1 and e2 (claims 6, 8)."""
-    from track_apps.bench.claims.pollithy2020 import NOISE, table1_row
-
     levels, e = _fig7(rows, "fig7")
     nll, lstm = e.get("nll-lstm"), e.get("lstm (line-searched s·I)")
     if nll is None or lstm is None:
@@ -387,8 +393,6 @@ def _nll_against_lstm(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]
 
 def _calibration(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
     """Figs. 3–4: the NLL-LSTM before and after the calibration factor (claims 14–16)."""
-    from track_apps.bench.claims.pollithy2020 import fig6_row
-
     row = fig6_row(rows, "nll-lstm", (), "cylinder")
     if row is None or "calibration_error_raw" not in row.mean:
         return []
@@ -422,8 +426,6 @@ def _calibration(rows: Sequence[Row], claims: Sequence[Claim]) -> list[str]:
 
 def _aleatoric(rows: Sequence[Row]) -> list[str]:
     """Fig. 8 and Table I against the paper's numbers."""
-    from track_apps.bench.claims.pollithy2020 import NOISE, PAPER_TABLE1, fig6_row, table1_row
-
     row = fig6_row(rows, "nll-lstm", (), "cylinder")
     table = [
         (n, t.mean["aleatoric_area_mean"] * 1e6) for n in NOISE if (t := table1_row(rows, n)) is not None

@@ -15,109 +15,32 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from track_apps.bench.claims._pollithy2020_rows import (
+    FIG6,
+    FIG7,
+    KINDS,
+    NAME,
+    NO_ERRORS,
+    NOISE,
+    PAPER_TABLE1,
+    VARIANTS,
+    Claim,
+    fig6_row,
+    fig7_row,
+    in_mm,
+    noise_series,
+    table1_row,
+    track_error_median,
+)
+from track_apps.bench.claims._pollithy2020_text import INTRO, discussion
 from track_apps.bench.figures import age_scatter_figure, age_series, box_figure, box_stats, reliability_figure
 from track_apps.bench.rows import Row, aggregate, save_figure
 from track_envs.infra.atomic import write_text
-
-NAME = "pollithy2020"
-ENV = "BeltSorter-v0"
-NOISE = (0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4)
-KINDS = ("cylinder", "sphere", "cuboid")
-#: Table I of the paper: mean aleatoric area (mm²) of the NLL-LSTM per added noise std (mm).
-PAPER_TABLE1 = {0.0: 0.1743, 0.1: 0.1843, 0.2: 0.2157, 0.3: 0.3073, 0.4: 0.5130, 0.5: 1.0424}
-#: Fig. 6 contestants: label → (predictor, agent kwargs).
-FIG6 = (
-    ("kf-cv", "kf-cv", ()),
-    ("kf-cv, q tuned", "kf-cv", (("q", 0.032),)),
-    ("kf-ca", "kf-ca", ()),
-    ("kf-ca, q tuned", "kf-ca", (("q", 3.2),)),
-    ("lstm", "lstm", ()),
-    ("nll-lstm", "nll-lstm", ()),
-    *((f"mc-lstm T={t}", "mc-lstm", (("samples", t),)) for t in (10, 100, 250, 1000)),
-)
-#: Fig. 7 contestants: label → (predictor, agent kwargs besides predict_sorting).
-FIG7 = (
-    ("kf-cv", "kf-cv", ()),
-    ("kf-ca", "kf-ca", ()),
-    ("lstm (line-searched s·I)", "lstm", ()),
-    ("nll-lstm", "nll-lstm", ()),
-    ("mc-lstm T=250", "mc-lstm", (("samples", 250),)),
-)
-
-
-#: Env kwargs that give room for dense frames without changing the scene (left out when matching).
-ROOM = frozenset({"steps", "max_detections", "max_tracks", "max_targets"})
-
-
-def _env(row: Row) -> dict[str, Any]:
-    return {k: v for k, v in row.setting if k not in ROOM}
-
-
-def _agent(row: Row) -> tuple[tuple[str, Any], ...]:
-    return tuple(sorted((k.removeprefix("agent."), v) for k, v in row.agent_params))
-
-
-def find(rows: Sequence[Row], agent: str, predictor: str, agent_kwargs: Any = (), **env: Any) -> Row | None:
-    """The row of ``agent``/``predictor`` with exactly these agent kwargs and env kwargs."""
-    want = tuple(sorted(agent_kwargs))
-    for r in rows:
-        same = r.env_id == ENV and r.agent == agent and r.predictor == predictor
-        if same and _agent(r) == want and _env(r) == env:
-            return r
-    return None
-
-
-def fig6_row(rows: Sequence[Row], predictor: str, kwargs: Any, kind: str) -> Row | None:
-    return find(rows, "one-step", predictor, kwargs, merge_touching=False, noise_std=1e-4, particle_kind=kind)
-
-
-#: The belts of Fig. 7: figure key → (env kwargs besides the noise, description, short name).
-VARIANTS: dict[str, tuple[dict[str, Any], str, str]] = {
-    "fig7": ({}, "default belt: touching particles seen as one blob", "default belt"),
-    "fig7_separate": (
-        {"merge_touching": False},
-        "every particle sensed on its own (merge_touching=False)",
-        "separate particles",
-    ),
-    "fig7_dense": (
-        {"merge_touching": False, "feed_rate": 390.0},
-        "twice the load, 390 particles/s, every particle sensed on its own",
-        "separate particles, twice the load",
-    ),
-}
-
-
-def fig7_row(rows: Sequence[Row], predictor: str, kwargs: Any, noise: float, variant: str) -> Row | None:
-    env: dict[str, Any] = {"noise_std": noise, **VARIANTS[variant][0]}
-    return find(rows, "gnn", predictor, (("predict_sorting", False), *kwargs), **env)
-
-
-def table1_row(rows: Sequence[Row], noise: float) -> Row | None:
-    row = find(
-        rows, "one-step", "nll-lstm", (), merge_touching=False, particle_kind="cylinder", noise_std=noise
-    )
-    return row
-
-
-def _series(values: np.ndarray) -> str:
-    """``0 mm 0.0875, 0.5 mm 0.1029``: the finite values by noise level."""
-    return ", ".join(
-        f"{n * 1e3:g} mm {v:.4f}" for n, v in zip(NOISE, values, strict=True) if math.isfinite(v)
-    )
-
-
-def _mm(v: float) -> str:
-    return "–" if math.isnan(v) else f"{v * 1e3:.3f}"
-
-
-def _median(row: Row | None) -> float:
-    return math.nan if row is None else row.mean.get("track_error_p50", math.nan)
 
 
 # -- figures -------------------------------------------------------------------------------------
@@ -195,16 +118,6 @@ def write_figures(rows: Sequence[Row], figdir: Path) -> dict[str, Path]:
 
 
 # -- claims --------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Claim:
-    """One row of the claims table."""
-
-    claim: str
-    paper: str
-    figure: str
-    ours: str
-    verdict: str
-    note: str
 
 
 def _count_verdict(wins: int, n: int) -> str:
@@ -234,12 +147,12 @@ def _dropout_note() -> str:
 
 
 def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
-    med = {label: _median(fig6_row(rows, p, kw, "cylinder")) for label, p, kw in FIG6}
+    med = {label: track_error_median(fig6_row(rows, p, kw, "cylinder")) for label, p, kw in FIG6}
     have = {k: v for k, v in med.items() if not math.isnan(v)}
     out = []
     if not have:
         return [Claim("Fig. 6 claims", "Fig. 6", fig, "no records", "no data", "")]
-    text = ", ".join(f"{k} {_mm(v)}" for k, v in have.items())
+    text = ", ".join(f"{k} {in_mm(v)}" for k, v in have.items())
     p95 = {
         label: (fig6_row(rows, p, kw, "cylinder") or Row("", (), "", "", 0, {}, {})).mean.get(
             "track_error_p95", math.nan
@@ -255,7 +168,7 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
             f"median per-track error (mm), cylinders: {text}",
             _verdict(below, any(v < 3e-4 for v in have.values())),
             "rule: every median below 0.3 mm. 95th percentiles (mm): "
-            + ", ".join(f"{k} {_mm(v)}" for k, v in p95.items() if not math.isnan(v)),
+            + ", ".join(f"{k} {in_mm(v)}" for k, v in p95.items() if not math.isnan(v)),
         )
     )
     mc = [(t, med.get(f"mc-lstm T={t}", math.nan)) for t in (10, 100, 250, 1000)]
@@ -268,7 +181,7 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
                 "errors fall with T = 10 … 1000",
                 fig,
                 "median (mm): "
-                + ", ".join(f"T={t} {_mm(v)}" for t, v in mc)
+                + ", ".join(f"T={t} {in_mm(v)}" for t, v in mc)
                 + f" ({100 * gain:+.2f}% from the first to the last T)",
                 _verdict(gain > 0.01, gain > 0.002),
                 "rule: median at the largest T at least 1% below the smallest T's (partly: 0.2–1%). "
@@ -282,7 +195,7 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
                 "Even T = 1000 samples predict worse than the constant-acceleration Kalman filter",
                 "mc-lstm (T=1000) > KF-CA",
                 fig,
-                f"mc-lstm T={mc[-1][0]} {_mm(mc[-1][1])} mm vs best kf-ca {_mm(kfca)} mm",
+                f"mc-lstm T={mc[-1][0]} {in_mm(mc[-1][1])} mm vs best kf-ca {in_mm(kfca)} mm",
                 _verdict(mc[-1][1] > kfca),
                 "rule: median of mc-lstm at the largest T above the better kf-ca (default or tuned q).",
             )
@@ -299,14 +212,17 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
                 "The LSTM and the NLL-LSTM do not predict better than the Kalman filters",
                 "LSTM, NLL-LSTM ≥ KF",
                 fig,
-                f"best LSTM median {_mm(learned)} mm vs best Kalman filter {_mm(kf)} mm",
+                f"best LSTM median {in_mm(learned)} mm vs best Kalman filter {in_mm(kf)} mm",
                 _verdict(learned >= kf),
                 "rule: the better LSTM's median not below the best Kalman filter's (default or tuned q).",
             )
         )
     per_kind = []
     for kind in KINDS:
-        a, b = _median(fig6_row(rows, "nll-lstm", (), kind)), _median(fig6_row(rows, "lstm", (), kind))
+        a, b = (
+            track_error_median(fig6_row(rows, "nll-lstm", (), kind)),
+            track_error_median(fig6_row(rows, "lstm", (), kind)),
+        )
         if not (math.isnan(a) or math.isnan(b)):
             per_kind.append((kind, a, b))
     if per_kind:
@@ -317,7 +233,7 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
                 "NLL-LSTM < LSTM",
                 fig,
                 "; ".join(
-                    f"{k}: nll-lstm {_mm(a)} vs lstm {_mm(b)} mm ({100 * g:+.1f}%)"
+                    f"{k}: nll-lstm {in_mm(a)} vs lstm {in_mm(b)} mm ({100 * g:+.1f}%)"
                     for (k, a, b), g in zip(per_kind, gaps, strict=True)
                 ),
                 _verdict(all(g >= 0.05 for g in gaps), all(g > 0 for g in gaps)),
@@ -328,8 +244,6 @@ def fig6_claims(rows: Sequence[Row], fig: str) -> list[Claim]:
     return out
 
 
-#: e_mean below this at a noise level counts as "no association errors" (a tie, not a win).
-NO_ERRORS = 1e-3
 TIE_NOTE = (
     f" Levels where both (or all) e_mean are below {NO_ERRORS:g} are ties and not counted; "
     "with none left the claim cannot be tested on this belt."
@@ -370,8 +284,8 @@ def fig7_claims(rows: Sequence[Row], links: dict[str, str]) -> list[Claim]:
                 f"The NLL-LSTM makes fewer association errors than the line-searched LSTM ({where})",
                 "e_mean NLL-LSTM < LSTM over 0–0.5 mm",
                 name,
-                f"lower at {wins} of {n} noise levels; e_mean nll-lstm: {_series(nll)}; "
-                f"lstm: {_series(lstm)}",
+                f"lower at {wins} of {n} noise levels; e_mean nll-lstm: {noise_series(nll)}; "
+                f"lstm: {noise_series(lstm)}",
                 _tested(wins, n),
                 "rule: lower at every noise level (partly: at half of them or more)." + TIE_NOTE,
             )
@@ -382,7 +296,7 @@ def fig7_claims(rows: Sequence[Row], links: dict[str, str]) -> list[Claim]:
                 f"Learned uncertainties improve association over the CV Kalman filter ({where})",
                 "NLL-LSTM below KF-CV (Fig. 7)",
                 name,
-                f"nll-lstm lower than kf-cv at {wins} of {n} noise levels; kf-cv: {_series(cv)}",
+                f"nll-lstm lower than kf-cv at {wins} of {n} noise levels; kf-cv: {noise_series(cv)}",
                 _tested(wins, n),
                 "rule: lower at every noise level (partly: at half of them or more)." + TIE_NOTE,
             )
@@ -398,7 +312,7 @@ def fig7_claims(rows: Sequence[Row], links: dict[str, str]) -> list[Claim]:
                 f"The dropout LSTM (T = 250) is inferior to the other methods ({where})",
                 "highest e_mean of all",
                 name,
-                f"highest e_mean at {worst} of {int(ok.sum())} noise levels; mc-lstm: {_series(mc)}",
+                f"highest e_mean at {worst} of {int(ok.sum())} noise levels; mc-lstm: {noise_series(mc)}",
                 _tested(worst, int(ok.sum())),
                 "rule: the highest e_mean at every noise level (partly: at half of them or more)." + TIE_NOTE,
             )
@@ -567,7 +481,6 @@ def write_claims(
         *reliability_claims(rows, rel("fig3_4")),
         *aleatoric_claims(rows, rel("fig8")),
     ]
-    from track_apps.bench.claims._pollithy2020_text import INTRO, discussion
 
     lines = [f"# Reproducing Pollithy et al. (2020) on BeltSorter-v0{label}", "", *INTRO, ""]
     lines += [
