@@ -123,7 +123,7 @@ def run_ours(name: str, stream: Any) -> tuple[list[Frame], list[np.ndarray], flo
     ids updated in it, the mean ms per frame of ``act()`` (after ``warm_up()``), and the agent."""
     from agents import make_agent
 
-    agent = make_agent(name, predictor="kf-cv")
+    agent: Any = make_agent(name, predictor="kf-cv")
     agent.reset(stream.spec, seed=0)
     agent.warm_up()
     agent.reset(stream.spec, seed=0)
@@ -177,17 +177,48 @@ def stonesoup_version() -> str | None:
     return str(stonesoup.__version__)
 
 
+def region_deleter(low: Sequence[float], high: Sequence[float]) -> Any:
+    """A Stone Soup deleter of the tracks that were not updated in the frame and whose predicted
+    position lies outside ``[low, high]``: our trackers' region deletion (``region_margin=0``)."""
+    from stonesoup.base import Property
+    from stonesoup.deleter.base import Deleter
+    from stonesoup.types.update import Update
+
+    class OutsideRegionDeleter(Deleter):
+        """Deletes a coasting track whose predicted position left the observed region."""
+
+        low: tuple[float, float] = Property(doc="The region's lower corner (x, y)")
+        high: tuple[float, float] = Property(doc="The region's upper corner (x, y)")
+
+        def check_for_deletion(self, track: Any, **kwargs: Any) -> bool:
+            if isinstance(track.state, Update):
+                return False
+            x = np.asarray(track.state.state_vector[[0, 2], 0], dtype=np.float64).ravel()
+            return bool(np.any(x < self.low) or np.any(x > self.high))
+
+    return OutsideRegionDeleter(tuple(low), tuple(high))
+
+
 def stonesoup_tracker(
-    kind: str, min_points: int, spec: Any, q: float, p_gate: float, prior: tuple[np.ndarray, np.ndarray]
+    kind: str,
+    min_points: int,
+    spec: Any,
+    q: float,
+    p_gate: float,
+    prior: tuple[np.ndarray, np.ndarray],
+    region: bool = False,
 ) -> tuple[Any, dict[str, Any]]:
     """Stone Soup's ``kind`` (``"GNN"`` or ``"JPDA"``) tracker with ``MultiMeasurementInitiator``
     (``min_points``) for the sensor ``spec``, and its settings in words.
 
     The state is Stone Soup's ``[x, vx, y, vy]``; ``q`` the white-noise acceleration intensity
-    (m²/s³) of each axis; ``prior`` the new tracks' velocity mean (2,) and covariance (2, 2).
+    (m²/s³) of each axis; ``prior`` the new tracks' velocity mean (2,) and covariance (2, 2);
+    ``region``: tracks (and holding tracks) are also deleted as ours are when they coast out of the
+    observed region.
     """
     from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
     from stonesoup.dataassociator.probability import JPDAwithEHM
+    from stonesoup.deleter.multi import CompositeDeleter
     from stonesoup.deleter.time import UpdateTimeStepsDeleter
     from stonesoup.hypothesiser.distance import DistanceHypothesiser
     from stonesoup.hypothesiser.probability import PDAHypothesiser
@@ -213,13 +244,20 @@ def stonesoup_tracker(
     gnn = GNNWith2DAssignment(
         DistanceHypothesiser(predictor, updater, measure=Mahalanobis(), missed_distance=gate)
     )
+
+    def deleter() -> Any:
+        misses = UpdateTimeStepsDeleter(DELETE_AFTER_MISSES)
+        if not region:
+            return misses
+        return CompositeDeleter([misses, region_deleter(spec.region_low, spec.region_high)], intersect=False)
+
     v_mean, v_cov = prior
     prior_mean = np.array([[0.0], [v_mean[0]], [0.0], [v_mean[1]]])
     prior_cov = np.zeros((4, 4))
     prior_cov[np.ix_([1, 3], [1, 3])] = v_cov
     initiator = MultiMeasurementInitiator(
         prior_state=GaussianState(prior_mean, prior_cov),
-        deleter=UpdateTimeStepsDeleter(DELETE_AFTER_MISSES),
+        deleter=deleter(),
         data_associator=gnn,
         updater=updater,
         measurement_model=measurement,
@@ -233,13 +271,18 @@ def stonesoup_tracker(
         "initiator": f"MultiMeasurementInitiator(min_points={min_points}), holding tracks by the GNN below",
         "prior velocity": f"mean ({v_mean[0]:.4f}, {v_mean[1]:.4f}) m/s, std "
         f"({math.sqrt(v_cov[0, 0]):.4f}, {math.sqrt(v_cov[1, 1]):.4f}) m/s",
-        "deleter": f"UpdateTimeStepsDeleter(time_steps_since_update={DELETE_AFTER_MISSES})",
+        "deleter": f"UpdateTimeStepsDeleter(time_steps_since_update={DELETE_AFTER_MISSES})"
+        + (
+            " or OutsideRegionDeleter (coasting out of the window), CompositeDeleter(intersect=False)"
+            if region
+            else ""
+        ),
         "gnn": f"GNNWith2DAssignment(DistanceHypothesiser(Mahalanobis, missed_distance={gate:.4f}))",
     }
     if kind == "GNN":
         tracker = MultiTargetTracker(
             initiator=initiator,
-            deleter=UpdateTimeStepsDeleter(DELETE_AFTER_MISSES),
+            deleter=deleter(),
             detector=None,
             data_associator=gnn,
             updater=updater,
@@ -255,7 +298,7 @@ def stonesoup_tracker(
         )
         tracker = MultiTargetMixtureTracker(
             initiator=initiator,
-            deleter=UpdateTimeStepsDeleter(DELETE_AFTER_MISSES),
+            deleter=deleter(),
             detector=None,
             data_associator=JPDAwithEHM(pda),
             updater=updater,
@@ -322,7 +365,8 @@ def run_condition(
     clutter: float,
     frames: int,
     seed: int,
-    peers: bool,
+    peers: Sequence[str],
+    region: bool,
     log: Callable[[str], None],
 ) -> list[dict[str, Any]]:
     """Every row of one sensor setting and seed."""
@@ -351,9 +395,11 @@ def run_condition(
         assert gnn_agent is not None
         prior = velocity_prior(gnn_agent)
         q = float(gnn_agent.predictor.q)
-        for kind in ("GNN", "JPDA"):
+        for kind in peers:
             for k in MIN_POINTS:
-                tracker, settings = stonesoup_tracker(kind, k, stream.spec, q, float(gnn_agent.p_gate), prior)
+                tracker, settings = stonesoup_tracker(
+                    kind, k, stream.spec, q, float(gnn_agent.p_gate), prior, region
+                )
                 if seed == 0:
                     log(
                         f"  Stone Soup {kind} min_points={k}: "
@@ -365,7 +411,7 @@ def run_condition(
                     records.append(
                         {
                             **base,
-                            "row": f"Stone Soup {kind} min_points={k} ({how})",
+                            "row": f"Stone Soup {kind}{' +region' if region else ''} min_points={k} ({how})",
                             "family": family,
                             "ms": ms,
                             **score(stream, got),
@@ -420,6 +466,19 @@ def main() -> None:
         default="stonesoup",
         help="run Stone Soup alongside (default; skipped when it is not installed) or none",
     )
+    parser.add_argument(
+        "--stonesoup",
+        nargs="+",
+        choices=("GNN", "JPDA"),
+        default=["GNN", "JPDA"],
+        help="Stone Soup's trackers to run (default GNN JPDA)",
+    )
+    parser.add_argument(
+        "--region-deleter",
+        action="store_true",
+        help="Stone Soup also deletes a track that coasts out of the window, as ours do "
+        "(default: the 3-miss deleter alone)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/existence"))
     args = parser.parse_args()
     if args.targets < 1 or args.frames < 1:
@@ -429,13 +488,13 @@ def main() -> None:
     import agents  # noqa: F401  (every BLAS is loaded before the one-thread limit)
 
     version = stonesoup_version() if args.peers == "stonesoup" else None
-    peers = version is not None
-    if args.peers == "stonesoup" and not peers:
+    peers = list(args.stonesoup) if version is not None else []
+    if args.peers == "stonesoup" and version is None:
         print("Stone Soup is not installed (pip install -e .[compare]): the project's rows only")
     records: list[dict[str, Any]] = []
     with threadpool_limits(limits=1):
         print(machine_note(), flush=True)
-        if peers:
+        if version is not None:
             print(f"Stone Soup {version}", flush=True)
         print(
             f"{args.targets} targets in view, {args.frames} frames, seeds {args.seeds}, match distance "
@@ -445,7 +504,14 @@ def main() -> None:
         for p_detect, clutter in CONDITIONS:
             for seed in args.seeds:
                 records += run_condition(
-                    args.targets, p_detect, clutter, args.frames, seed, peers, lambda s: print(s, flush=True)
+                    args.targets,
+                    p_detect,
+                    clutter,
+                    args.frames,
+                    seed,
+                    peers,
+                    args.region_deleter,
+                    lambda s: print(s, flush=True),
                 )
         print(machine_note(), flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
