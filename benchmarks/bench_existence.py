@@ -1,7 +1,8 @@
 """Track existence under clutter: the point trackers against Stone Soup's confirming trackers.
 
-    python benchmarks/bench_existence.py                            # 20 targets, seeds 0-2, Stone Soup too
-    python benchmarks/bench_existence.py --targets 100 --peers none # the project's trackers only
+    python benchmarks/bench_existence.py                                  # 20 targets, seeds 0-2
+    python benchmarks/bench_existence.py --stonesoup GNN --region-deleter # + our region deletion
+    python benchmarks/bench_existence.py --targets 100 --peers none       # the project's trackers only
 
 The scene is the synthetic constant-velocity stream (:mod:`track_envs.streams.constant_velocity`)
 at the default density of targets (``constant_density(N)``: ``N`` in view, targets ≈3 cm apart
@@ -25,7 +26,10 @@ Rows, on the same detections (identical positions, frame by frame):
   the exact JPDA marginals per cluster of tracks, where the plain ``JPDA`` enumerates the joint
   product over all tracks, ≈2²⁰ hypotheses a frame at 20 targets), each with
   ``MultiMeasurementInitiator(min_points=2 or 3)`` (its holding tracks associated by the same GNN)
-  and ``UpdateTimeStepsDeleter(3)`` (deleted at the third miss in a row, as our ``max_misses=2``).
+  and ``UpdateTimeStepsDeleter(3)`` (deleted at the third miss in a row, as our ``max_misses=2``);
+  with ``--region-deleter`` also deleted, as ours are, when a track that was not updated in the
+  frame is predicted outside the window (without it a target that leaves is followed by two
+  coasted rows outside the window, two false positives a target).
   The models are ours: constant velocity with white-noise acceleration ``q`` = kf-cv's (1 m²/s³;
   the stream's targets move without process noise), ``LinearGaussian`` measurement with the
   stream's σ, and new tracks start from the velocity prior our gnn learnt on the same stream
