@@ -55,6 +55,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_pose_smc.py --threads 2
 	$(PIP) install --quiet -e ".[compare]"
 	$(PY) benchmarks/bench_scale.py --figure results/scale/scale.png
+	$(PY) benchmarks/bench_existence.py
 
 # performance floors: the same-run ratios behind the headline figures against benchmarks/floors.toml
 # (a few minutes; not part of make test; run it before a change that touches a hot path)
