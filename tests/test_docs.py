@@ -203,7 +203,8 @@ PYTHON = [b for b in blocks() if b.lang == "python"]
 
 
 @pytest.fixture
-def workdir(tmp_path, monkeypatch):
+def workdir(tmp_path, monkeypatch, scoped_registries):
+    """The block's working folder; what a block registers stays out of the other tests' registries."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
     return tmp_path

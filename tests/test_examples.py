@@ -127,17 +127,6 @@ def test_extend_metric_coverage_closed_form():
 # -- the worked examples of docs/architecture.md#extending: a predictor, a learned predictor, an agent
 
 
-@pytest.fixture
-def scoped_registries(monkeypatch):
-    """The examples register a predictor or an agent; keep them out of the registries the other
-    tests iterate over."""
-    from agents.base import AGENTS
-    from predictors.registry import PREDICTORS
-
-    for registry in (AGENTS, PREDICTORS):
-        monkeypatch.setattr(registry, "_factories", dict(registry._factories))
-
-
 def sine_spec(**changes):
     import dataclasses
 
