@@ -39,33 +39,9 @@ from agents.tracking import (
     make_associator,
     register_associator,
 )
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "AGENTS",
-    "Agent",
-    "AgentCapability",
-    "AgentTraits",
-    "Association",
-    "Associator",
-    "AssociatorCapability",
-    "EpisodeResult",
-    "FrameContext",
-    "PointTracker",
-    "SensorModelEstimate",
-    "agent_applies_to",
-    "agent_capability",
-    "agent_traits",
-    "available_agents",
-    "available_associators",
-    "estimate_sensor_model",
-    "make_agent",
-    "make_associator",
-    "register_agent",
-    "register_associator",
-    "run_agent",
-    "run_episode",
-    "run_pose_agent",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
 
 
 def _register_builtin() -> None:
@@ -77,7 +53,6 @@ def _register_builtin() -> None:
     from agents.particle.agent import ParticleFilterAgent
     from agents.pose.smc import PoseSmcAgent
     from agents.pose.tracker import PoseBaselineAgent
-    from agents.tracking.associator import register_associator
     from agents.tracking.gated import GatedAssignment
     from agents.tracking.merges import SharedBlobs
 

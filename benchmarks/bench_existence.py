@@ -4,7 +4,8 @@
     python benchmarks/bench_existence.py --stonesoup GNN --region-deleter # + our region deletion
     python benchmarks/bench_existence.py --targets 100 --peers none       # the project's trackers only
 
-The scene is the synthetic constant-velocity stream (:mod:`track_envs.streams.constant_velocity`)
+The scene is the synthetic constant-velocity stream
+([`track_envs.streams.constant_velocity`][track_envs.streams.constant_velocity])
 at the default density of targets (``constant_density(N)``: ``N`` in view, targets ≈3 cm apart
 moving 1 cm a frame, σ = 0.1 mm), 300 frames, at three sensor settings ``(p_D, clutter)``:
 ``(0.9, 0)``, ``(0.75, 15)`` and ``(0.6, 40)`` clutter detections a frame at 100 targets, i.e. the
@@ -38,7 +39,7 @@ Rows, on the same detections (identical positions, frame by frame):
   **history**, online plus the held states before confirmation (post-hoc, like ours >= k).
 
 Scores: CLEAR MOT (MOTA, IDF1) and HOTA from the project's metrics at the stream's match distance,
-5 mm (the belt's GOSPA cut-off, as :func:`~track_envs.streams.constant_velocity.score_tracker`:
+5 mm (the belt's GOSPA cut-off, as [`score_tracker`][track_envs.streams.constant_velocity.score_tracker]:
 the stream is in metres); ``ids/targets``: distinct track ids reported over the stream per true
 target; ms per frame: the tracker's whole stream over its frames (ours after ``warm_up()``), ours
 and theirs timed in this run, in this process, on one BLAS thread; ``x ours``: the row's time per
@@ -101,7 +102,7 @@ def make_stream(n_targets: int, p_detect: float, clutter_at_100: float, frames: 
 
 
 def score(stream: Any, frames: Sequence[Frame]) -> dict[str, float]:
-    """MOTA, IDF1, HOTA at :data:`THRESHOLD` and the distinct ids per true target of ``frames``."""
+    """MOTA, IDF1, HOTA at `THRESHOLD` and the distinct ids per true target of ``frames``."""
     from track_envs.contracts.report import pack_report
     from track_envs.metrics.clear_mot import ClearMot
     from track_envs.metrics.hota_stream import Hota
@@ -161,7 +162,8 @@ def post_hoc(frames: Sequence[Frame], updated: Sequence[np.ndarray], k: int) -> 
 
 def velocity_prior(agent: Any) -> tuple[np.ndarray, np.ndarray]:
     """The velocity prior ``agent`` learnt: the mean ``v̄`` (2,) and the start covariance of a new
-    track's velocity, ``diag(4 s² + (0.1 |v̄|)²)`` (:mod:`agents.tracking.velocity_prior`)."""
+    track's velocity, ``diag(4 s² + (0.1 |v̄|)²)``
+    ([`agents.tracking.velocity_prior`][agents.tracking.velocity_prior])."""
     state = agent.velocity_prior_state
     if state.mean is None or state.variance is None:
         raise RuntimeError(f"the gnn learnt no velocity prior (source {state.source!r})")

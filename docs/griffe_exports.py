@@ -1,9 +1,9 @@
 """The API reference's public names of a package whose imports declare them.
 
 A package ``__init__`` that ends with ``__getattr__, __dir__, __all__ = lazy_exports(...)``
-(:mod:`track_envs.infra.lazy`) has no literal ``__all__`` for griffe to read; this extension gives
-griffe the same names, read from the same imports by the same function, so that the reference
-shows what ``from package import *`` gives.
+([`track_envs.infra.lazy`][track_envs.infra.lazy]) has no literal ``__all__`` for griffe to read; this
+extension gives griffe the same names, read from the same imports by the same function, so that
+the reference shows what ``from package import *`` gives.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def _calls_lazy_exports(tree: ast.Module) -> bool:
 
 
 class LazyExports(griffe.Extension):
-    """Sets a package's exports from its declaring imports (:func:`declared_exports`)."""
+    """Sets a package's exports from its declaring imports (`declared_exports`)."""
 
     def on_module_members(self, *, node: Any, mod: griffe.Module, **kwargs: Any) -> None:
         """After griffe has read a module's members: its exports, where ``lazy_exports`` makes them."""

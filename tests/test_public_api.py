@@ -1,4 +1,5 @@
-"""The public API of ``track_envs``, ``predictors`` and ``agents``: what each package exports, pinned.
+"""The public API of ``track_envs``, ``predictors``, ``agents`` and ``track_apps``: what each package
+exports, pinned.
 
 Every package (and the module ``track_envs.testing``) names its public names in ``__all__``; the
 lists below pin them, so that a rename or a removal is a deliberate change of this file. Every
@@ -6,9 +7,8 @@ name resolves (the heavy ones load on first access), importing the packages stay
 no numba), and the examples and the Python blocks of README.md and docs/ import only names a
 package exports (or from a module in `MODULE_IMPORTS_ALLOWED`, none today).
 
-To change a package's public names: edit its ``__init__.py`` (for ``track_envs`` and ``predictors``
-the import of the name, from which [`track_envs.infra.lazy`][track_envs.infra.lazy] derives ``__all__``; for
-``agents`` the import and ``__all__``), then its list in `PUBLIC`.
+To change a package's public names: edit the import of the name in its ``__init__.py``, from which
+[`track_envs.infra.lazy`][track_envs.infra.lazy] derives ``__all__``, then its list in `PUBLIC` (the pin).
 """
 
 from __future__ import annotations

@@ -14,5 +14,6 @@ tracker;
 from agents.files.kinds import check_file_agent, file_agents
 from agents.files.points import run_agent
 from agents.files.poses import run_pose_agent
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = ["check_file_agent", "file_agents", "run_agent", "run_pose_agent"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

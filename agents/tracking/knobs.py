@@ -56,5 +56,5 @@ RECOVERY_INFLATION = LiveKnob(
 #: Factor on the sensor's declared noise std that the tracker assumes.
 NOISE_SCALE = LiveKnob("noise_scale", 1.0, "a finite number > 0", lambda v: 0.0 < v < math.inf)
 
-#: Every live knob by name, in the order of the gate tuning's action.
+#: Every setting a running point tracker takes between frames, by name.
 LIVE_KNOBS: dict[str, LiveKnob] = {k.name: k for k in (P_GATE, RECOVERY_INFLATION, NOISE_SCALE)}

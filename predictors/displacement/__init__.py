@@ -27,19 +27,6 @@ from predictors.displacement.registry import (
     make_displacement_model,
     motion_models,
 )
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "DISPLACEMENT_DECLARATIONS",
-    "DISPLACEMENT_MODELS",
-    "LEARNED_MODELS",
-    "STEP",
-    "Brownian",
-    "CommonDisplacementModel",
-    "ConstantVelocityDisplacement",
-    "DisplacementCapability",
-    "DisplacementModel",
-    "check_sigma",
-    "displacement_capability",
-    "make_displacement_model",
-    "motion_models",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -23,14 +23,6 @@ from predictors.pose.base import (
 )
 from predictors.pose.constant_velocity import ConstantVelocityPose
 from predictors.pose.registry import POSE_MOTIONS, motion_models
+from track_envs.infra.lazy import lazy_exports
 
-__all__ = [
-    "POSE_MOTIONS",
-    "POSE_MOTION_DECLARATIONS",
-    "ConstantVelocityPose",
-    "PoseMotion",
-    "PoseMotionCapability",
-    "centroid_fill",
-    "motion_models",
-    "pose_motion_capability",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)

@@ -102,8 +102,8 @@ class GateTuningEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     - ``render_mode``: ``"rgb_array"`` (the base env's frame with the tracks) or None.
 
     ## Version History
-    - v0: the first version (not yet released). Its streams (which also pin the GNN tracker it
-      runs) changed once under v0 before the first release, and are pinned since 2026-12-02: on
+    - v0: the first version. Its streams (which also pin the GNN tracker it
+      runs) changed once under v0 before the digests pinned them, and are pinned since 2026-12-02: on
       2026-12-02 the action's ranges were widened to contain the best fixed setting (``p_gate``
       from 0.5, noise scale up to 64), so the zero action is another setting, and the
       BeltSorter-v0 base env got 512 truth rows. Added without changing them: 512 report rows for

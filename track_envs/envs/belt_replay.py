@@ -96,8 +96,8 @@ class BeltReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: the first version (not yet released). Its streams changed once under v0 before the
-      first release, and are pinned since 2026-12-02: on 2026-11-22 a certain detection
+    - v0: the first version. Its streams changed once under v0 before the
+      digests pinned them, and are pinned since 2026-12-02: on 2026-11-22 a certain detection
       (``p_detect=1``, the default) stopped drawing a uniform number, so the detections' shuffled
       order changed. Added without changing the streams: ``measurement_noise_std``, ``drift``
       (default None), ``nozzle_offset`` (default None: no nozzle bar).

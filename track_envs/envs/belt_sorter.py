@@ -174,8 +174,8 @@ class BeltSorterEnv(TrackingEnv):
     numba or pymunk or on another kind of CPU. A world alone refuses to be pickled.
 
     ## Version History
-    - v0: the first version (not yet released). Its streams changed four times under v0 before
-      the first release, and are pinned since 2026-12-02: on 2026-11-22 the belt was simulated in
+    - v0: the first version. Its streams changed four times under v0 before
+      the digests pinned them, and are pinned since 2026-12-02: on 2026-11-22 the belt was simulated in
       its rest frame (other floating-point bits), then a certain detection (``p_detect=1``, the
       default) stopped drawing a uniform number (the noise draws shifted); on 2026-12-01 touching
       particles became one detection (``merge_touching``, on by default; off gives the streams

@@ -84,7 +84,7 @@ class DetectionReplayEnv(TrackingEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"``.
 
     ## Version History
-    - v0: the first version (not yet released); its streams are those it had when added
+    - v0: the first version; its streams are those it had when added
       (2026-12-01), pinned since 2026-12-02. Added without changing them: ``nozzle_offset``
       (default None) sets ``sensor_spec.sorting_line``.
     """

@@ -117,7 +117,7 @@ class KeypointWalkersEnv(TrackingEnv):
     keypoint of a person 200 px tall, ``clutter_rate`` in poses per frame, units ``"px"``.
 
     ## Version History
-    - v0: the first version (not yet released); its streams are those it had when added
+    - v0: the first version; its streams are those it had when added
       (2026-11-22), pinned since 2026-12-02.
     """
 

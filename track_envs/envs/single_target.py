@@ -355,7 +355,7 @@ class SineTargetEnv(SingleTargetEnv):
     - ``render_mode``: ``"rgb_array"`` or ``"human"`` (a 16 × 10 window following the target).
 
     ## Version History
-    - v0: the first version (not yet released); its streams are those it had when added
+    - v0: the first version; its streams are those it had when added
       (2026-11-22), pinned since 2026-12-02. Added without changing them: ``drift`` (default
       None).
     """
@@ -397,7 +397,7 @@ class PiecewiseTargetEnv(SingleTargetEnv):
     - ``max_heading_deg``: largest heading from the x-axis (default 60, below 90).
 
     ## Version History
-    - v0: the first version (not yet released); its streams are those it had when added
+    - v0: the first version; its streams are those it had when added
       (2026-11-22), pinned since 2026-12-02. Added without changing them: ``drift`` (default
       None).
     """

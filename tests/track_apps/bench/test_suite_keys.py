@@ -1,7 +1,7 @@
 """The shipped suites are TOML files whose cells are those of the Python definitions they replaced.
 
-The keys below were computed from the Python suites (``SUITES`` in ``track_apps/bench/cells.py``)
-before they became ``track_apps/bench/suites/{quick,full,sorting}.toml``: the quick suite key by key
+The keys below were computed from the Python suites (``SUITES`` of the bench's ``cells.py``) before
+they became ``track_apps/bench/suites/{quick,full,sorting}.toml``: the quick suite key by key
 and in order (``make demo`` runs it; its record files keep their names), the full and sorting
 suites as a digest of their ordered keys.
 """
