@@ -8,7 +8,7 @@ clutter density (`agents.sensor_model.detection`) and jpda's merge extent
 (`agents.sensor_model.merging`) from its own confident tracks (what
 ``track run`` does when no noise is declared, ``run_agent(..., estimate_sensor_model=True)``);
 `agents.sensor_model.diagnostics` names the figures of a run that looks
-wrong and `agents.sensor_model.summary` prints and writes the estimate.
+wrong; `track run` prints and writes the estimate.
 
 Words: *calibration* in this project is a learned model's stated uncertainty made to match its
 errors (`predictors.training.calibration`); estimating the sensor from a

@@ -50,7 +50,6 @@ MODULE_LAYERS = {
     "agents.sensor_model": "sensor_model",
     "agents.files": "files",
     "agents.sorting": "files",
-    "agents.pose.diagnostics": "files",
 }
 
 

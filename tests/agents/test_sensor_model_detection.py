@@ -20,8 +20,8 @@ from agents.sensor_model.detection import (
     truncated_geometric_p,
 )
 from agents.sensor_model.merging import box_size, closest_approaches, merge_extent
-from agents.sensor_model.summary import summary_lines, write_sidecar
 from track_apps.cli import main as track_main
+from track_apps.cli.sensor_model_summary import summary_lines, write_sidecar
 from track_envs.infra.atomic import FileWriteError
 from track_envs.io.detections import write_wide_detections
 from track_envs.streams.constant_velocity import constant_velocity_stream

@@ -250,7 +250,7 @@ def _read_options(args: argparse.Namespace, fmt: str) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     """Read, track, write, score (the body of [`main`][track_apps.cli.run.main])."""
     from agents.sensor_model.diagnostics import count_distinct, run_figures, run_warnings
-    from agents.sensor_model.summary import write_sidecar
+    from track_apps.cli.sensor_model_summary import write_sidecar
     from track_envs.io.poses import is_pose_file
     from track_envs.io.tracks import write_tracks
 
@@ -353,7 +353,7 @@ def _agent_settings(
     """The spec and agent keywords of the run: with its sensor model estimated (printed; with the
     estimate and the seconds it took) or as the flags give them."""
     from agents.sensor_model.estimate import live_track_bound
-    from agents.sensor_model.summary import summary_lines
+    from track_apps.cli.sensor_model_summary import summary_lines
 
     spec, agent_kwargs = sensor_model.declared(args, spec, dict(args.agent_kwargs))
     estimate = None

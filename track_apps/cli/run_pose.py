@@ -14,7 +14,8 @@ file and the ground truth read whole (with ``--metrics`` every ground-truth pose
 keypoints agree. ``pose-baseline`` sizes its OKS gate (``area_factor``) from how far the file's poses move
 a frame ([`agents.pose.gate`][agents.pose.gate]; ``--agent-kwargs area_factor=A`` sets it), printed; a run
 whose ids look wrong (most poses start a track, most tracks 1-2 frames long) is warned about
-([`agents.pose.diagnostics`][agents.pose.diagnostics]). The results file is written atomically.
+([`track_apps.cli.pose_diagnostics`][track_apps.cli.pose_diagnostics]). The results file is written
+atomically.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def add_pose_arguments(p: argparse.ArgumentParser) -> None:
 def run_poses(args: argparse.Namespace) -> int:
     """Read a pose file, track it with a pose agent, write PoseTrack results, score against --gt."""
     from agents.files.poses import run_pose_agent
-    from agents.pose.diagnostics import pose_run_warnings
+    from track_apps.cli.pose_diagnostics import pose_run_warnings
     from track_apps.cli.run_shared import build_agent, format_metrics
     from track_envs.infra.atomic import check_writable
     from track_envs.io.poses import write_posetrack

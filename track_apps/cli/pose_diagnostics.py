@@ -40,7 +40,8 @@ def pose_run_figures(tracks: PoseStream, detections: PoseStream) -> dict[str, fl
 
 def pose_run_warnings(tracks: PoseStream, detections: PoseStream) -> list[str]:
     """The warnings of a pose run whose figures
-    ([`pose_run_figures`][agents.pose.diagnostics.pose_run_figures]) look wrong, each naming its figure."""
+    ([`pose_run_figures`][track_apps.cli.pose_diagnostics.pose_run_figures]) look wrong, each naming its
+    figure."""
     f = pose_run_figures(tracks, detections)
     out = []
     if f["ids_per_pose"] > MAX_ID_RATIO:

@@ -83,7 +83,7 @@ def summary_lines(cal: SensorModelEstimate) -> list[str]:
 
 def sidecar_path(out: str | os.PathLike[str]) -> str:
     """The sidecar of a track file: its path plus
-    [`SIDECAR_SUFFIX`][agents.sensor_model.summary.SIDECAR_SUFFIX]."""
+    [`SIDECAR_SUFFIX`][track_apps.cli.sensor_model_summary.SIDECAR_SUFFIX]."""
     return os.fspath(out) + SIDECAR_SUFFIX
 
 
