@@ -9,10 +9,10 @@ inside functions.
 
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
 import pytest
+from import_scan import file_imports
 
 import track_envs
 
@@ -35,22 +35,8 @@ def layer_of(module: str) -> str:
 
 
 def imports(path: Path) -> list[tuple[int, str]]:
-    """(line, module) of every absolute import in ``path``; ``from pkg import sub`` names ``pkg.sub``
-    where ``sub`` is a module file."""
-    found = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.Import):
-            found += [(node.lineno, alias.name) for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, f"{path}:{node.lineno}: relative import"
-            module = node.module or ""
-            found.append((node.lineno, module))
-            base = Path(*module.split("."))
-            for alias in node.names:
-                sub = ROOT.parent / base / alias.name
-                if sub.with_suffix(".py").is_file() or (sub / "__init__.py").is_file():
-                    found.append((node.lineno, f"{module}.{alias.name}"))
-    return found
+    """(line, module) of every absolute import in ``path`` (``import_scan.file_imports``)."""
+    return file_imports(path, ROOT)
 
 
 MODULES = sorted(ROOT.rglob("*.py"))
