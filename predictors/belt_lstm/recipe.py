@@ -41,8 +41,8 @@ def train_command(settings: TrainingSettings) -> Path:
     that runs a tracker: ``track train lstm`` runs it on the written file.)
 
     Raises:
-        ValueError: ``--dropout`` or ``--dropout-grid`` for a kind other than ``mc-lstm``, bad
-            ``--dropout-grid`` rates, too little data.
+        ValueError: ``dropout`` or ``dropout_grid`` for a kind other than ``mc-lstm``, bad
+            ``dropout_grid`` rates, too little data.
     """
     from predictors.belt_lstm.model_stats import model_statistics
     from predictors.training.command import load_data, print_split, train_config, training_record, with_meta
@@ -60,7 +60,7 @@ def train_command(settings: TrainingSettings) -> Path:
     grid = None
     if settings.dropout_grid is not None:
         if settings.kind != "mc-lstm":
-            raise ValueError(f"--dropout-grid is for mc-lstm, not {settings.kind}")
+            raise ValueError(f"dropout_grid is for mc-lstm, not {settings.kind}")
         dropout, grid = _grid_search(settings, split, config)
     net, features, history = train_belt_model(
         settings.kind,
@@ -97,17 +97,13 @@ def train_command(settings: TrainingSettings) -> Path:
 def _grid_search(
     settings: TrainingSettings, split: TrackSplit, config: TrainConfig
 ) -> tuple[float, list[dict[str, float]]]:
-    """``--dropout-grid``: short runs per rate, printed; the rate of the best validation
+    """``dropout_grid``: short runs per rate, printed; the rate of the best validation
     predictive log-likelihood and the grid."""
     from predictors.belt_lstm.model_stats import dropout_grid
 
-    text = settings.dropout_grid
-    try:
-        rates = [float(r) for r in str(text).split(",") if r.strip()]
-    except ValueError:
-        raise ValueError(f"--dropout-grid must be comma-separated rates, got {text!r}") from None
+    rates = [float(r) for r in settings.dropout_grid or ()]
     if not rates or not all(0 < r < 1 for r in rates):
-        raise ValueError(f"--dropout-grid rates must be in (0, 1), got {text!r}")
+        raise ValueError(f"dropout_grid must hold rates in (0, 1), got {settings.dropout_grid!r}")
     epochs = settings.grid_epochs
     short = dataclasses.replace(config, epochs=epochs, decay_every=max(1, epochs // 5))
     grid = dropout_grid(split, rates, short, noise_std=settings.data.added_noise_std, seed=settings.seed)

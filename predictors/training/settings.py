@@ -98,7 +98,7 @@ class TrainingSettings:
         batch_size: Tracks per step (``None``: all).
         dropout: The kind's dropout rate (``None``: the kind's default; see each recipe).
         hidden: Hidden units of the displacement LSTM.
-        dropout_grid: ``mc-lstm``: comma-separated dropout rates to search (``None``: no search).
+        dropout_grid: ``mc-lstm``: the dropout rates to search (``None``: no search).
         grid_epochs: Epochs of each run of the dropout grid.
         min_window: ``pose-lstm``: shortest window length a training batch is cut to.
         seed: Seed of the split, the initialisation, the shuffling and the masks.
@@ -118,7 +118,7 @@ class TrainingSettings:
     batch_size: int | None = None
     dropout: float | None = None
     hidden: int = 25
-    dropout_grid: str | None = None
+    dropout_grid: tuple[float, ...] | None = None
     grid_epochs: int = 100
     min_window: int = 3
     seed: int = 0

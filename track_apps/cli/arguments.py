@@ -231,6 +231,17 @@ def parse_noise(text: str) -> float | tuple[float, float]:
         raise argparse.ArgumentTypeError(f"expected a number or LOW:HIGH, got {text!r}") from None
 
 
+def parse_rates(text: str) -> tuple[float, ...]:
+    """Comma-separated numbers: ``"0.001,0.002"`` → ``(0.001, 0.002)``."""
+    try:
+        rates = tuple(float(r) for r in text.split(",") if r.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated rates, got {text!r}") from None
+    if not rates:
+        raise argparse.ArgumentTypeError(f"expected comma-separated rates, got {text!r}")
+    return rates
+
+
 # ------------------------------------------------------------------------------------- shared flags
 
 

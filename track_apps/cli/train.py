@@ -139,6 +139,7 @@ def _training_parser() -> argparse.ArgumentParser:
     p.add_argument("--hidden", type=int, default=25, help="displacement-lstm hidden units (default 25)")
     p.add_argument(
         "--dropout-grid",
+        type=arguments.parse_rates,
         default=None,
         metavar="R1,R2,...",
         help="mc-lstm: train once per rate for --grid-epochs, keep the rate of the best validation "
