@@ -7,6 +7,7 @@ this package and reads its shared flags from `track_apps.cli.arguments`.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Sequence
 
@@ -97,6 +98,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``track`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in COMMANDS:
-        return int(COMMANDS[argv[0]][0](argv[1:]))
+        try:
+            return int(COMMANDS[argv[0]][0](argv[1:]))
+        except BrokenPipeError:  # the reader of a pipe closed it (``track list | head``): not an error
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+            return 0
     build_parser().parse_args(argv)  # prints the usage (or help) and exits
     return 2

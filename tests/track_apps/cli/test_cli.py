@@ -280,3 +280,17 @@ def test_a_predictor_not_meant_for_the_env_is_reported(capsys, tmp_path):
     argv = ["bench", "run", "--envs", "SineTarget-v0", "--agents", "gnn", "--predictors", "lstm"]
     assert main([*argv, "--out", str(tmp_path)]) == 2
     assert "SineTarget-v0 × gnn/lstm: the predictor is not meant for this env" in capsys.readouterr().err
+
+
+def test_a_reader_that_closes_the_pipe_early_is_not_an_error(monkeypatch):
+    """``track list | head -1``: when the reader has closed the pipe the command stops quietly (0)."""
+    import os
+
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone: every write raises BrokenPipeError
+    stdout = os.fdopen(write, "w", buffering=1)
+    monkeypatch.setattr("sys.stdout", stdout)
+    try:
+        assert main(["list"]) == 0
+    finally:
+        stdout.close()
